@@ -1,0 +1,115 @@
+"""The `mlct` command: parse, call the library, print. No logic lives here."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from mlct.errors import MlctError
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports usage errors in one line (exit 2), without the usage dump."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(2, f"mlct: error: {message}\n")
+
+
+def _cmd_data_synth(args: argparse.Namespace) -> int:
+    from mlct.data.synth.build import synthesize_dataset
+
+    summary = synthesize_dataset(args.out, num=args.num, seed=args.seed, skeleton=args.skeleton,
+                                 progress=not args.quiet)
+    print(f"wrote {summary['motions']} motions ({summary['frames']} frames, "
+          f"skating ratio {summary['skating_ratio']:.4f}) to {args.out}")
+    return 0
+
+
+def _cmd_data_stats(args: argparse.Namespace) -> int:
+    from mlct.data.stats import dataset_statistics, format_statistics
+
+    stats = dataset_statistics(args.dir, skeleton=args.skeleton, write_mean_std=not args.no_write)
+    print(format_statistics(stats))
+    return 0
+
+
+def _cmd_data_check(args: argparse.Namespace) -> int:
+    from mlct.data.check import check_dataset
+
+    problems = check_dataset(args.dir, skeleton=args.skeleton)
+    for problem in problems:
+        print(problem)
+    if problems:
+        print(f"{len(problems)} problem(s) found in {args.dir}")
+        return 1
+    print(f"{args.dir}: no problems found")
+    return 0
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    from mlct.motion.render import render_file
+
+    out = render_file(args.file, args.out, skeleton=args.skeleton, caption=args.caption,
+                      fps=args.fps)
+    print(out)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="mlct", description="Real-time text-to-motion generation (MLCT).")
+    parser.add_argument("--version", action="version", version=_version())
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    data = commands.add_parser("data", help="make, check and describe datasets")
+    data_commands = data.add_subparsers(dest="data_command", required=True, parser_class=_Parser)
+
+    synth = data_commands.add_parser("synth", help="write a procedural text-motion benchmark")
+    synth.add_argument("--out", required=True, type=Path, help="dataset directory to create")
+    synth.add_argument("--num", type=int, default=1000, help="number of motions (default 1000)")
+    synth.add_argument("--seed", type=int, default=0)
+    synth.add_argument("--skeleton", default="humanml3d", choices=["humanml3d", "kit"])
+    synth.add_argument("--quiet", action="store_true", help="no progress bar")
+    synth.set_defaults(func=_cmd_data_synth)
+
+    stats = data_commands.add_parser("stats", help="write Mean/Std and print dataset statistics")
+    stats.add_argument("dir", type=Path)
+    stats.add_argument("--skeleton", default=None, help="humanml3d or kit (default: from width)")
+    stats.add_argument("--no-write", action="store_true", help="print only; keep Mean/Std")
+    stats.set_defaults(func=_cmd_data_stats)
+
+    check = data_commands.add_parser("check", help="validate a dataset; exit 1 if problems")
+    check.add_argument("dir", type=Path)
+    check.add_argument("--skeleton", default=None, help="humanml3d or kit (default: from width)")
+    check.set_defaults(func=_cmd_data_check)
+
+    render = commands.add_parser("render", help="draw a motion file as GIF, MP4 or PNG filmstrip")
+    render.add_argument("file", type=Path, help="features (T x 263/251) or joints (T x J x 3) .npy")
+    render.add_argument("--out", required=True, type=Path, help="OUT.gif, OUT.mp4 or OUT.png")
+    render.add_argument("--skeleton", default=None, help="humanml3d or kit (default: from shape)")
+    render.add_argument("--caption", default=None, help="title (default: from the dataset texts)")
+    render.add_argument("--fps", type=float, default=None, help="default: the skeleton's fps")
+    render.set_defaults(func=_cmd_render)
+    return parser
+
+
+def _version() -> str:
+    from mlct import __version__
+
+    return f"mlct {__version__}"
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except MlctError as error:
+        print(f"mlct: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("mlct: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
