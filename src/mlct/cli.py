@@ -20,7 +20,8 @@ def _cmd_data_synth(args: argparse.Namespace) -> int:
     from mlct.data.synth.build import synthesize_dataset
 
     summary = synthesize_dataset(args.out, num=args.num, seed=args.seed, skeleton=args.skeleton,
-                                 progress=not args.quiet)
+                                 workers=args.workers, progress=not args.quiet,
+                                 overwrite=args.overwrite)
     print(f"wrote {summary['motions']} motions ({summary['frames']} frames, "
           f"skating ratio {summary['skating_ratio']:.4f}) to {args.out}")
     return 0
@@ -69,6 +70,8 @@ def build_parser() -> argparse.ArgumentParser:
     synth.add_argument("--num", type=int, default=1000, help="number of motions (default 1000)")
     synth.add_argument("--seed", type=int, default=0)
     synth.add_argument("--skeleton", default="humanml3d", choices=["humanml3d", "kit"])
+    synth.add_argument("--workers", type=int, default=1, help="processes (default 1)")
+    synth.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
     synth.add_argument("--quiet", action="store_true", help="no progress bar")
     synth.set_defaults(func=_cmd_data_synth)
 

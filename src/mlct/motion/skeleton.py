@@ -117,6 +117,23 @@ _T2M_LENGTHS = np.array(
     dtype=np.float64,
 )
 
+def _unit(rows: list[list[float]]) -> np.ndarray:
+    vectors = np.array(rows, dtype=np.float64)
+    norms = np.linalg.norm(vectors, axis=1, keepdims=True)
+    return np.divide(vectors, norms, out=np.zeros_like(vectors), where=norms > 0)
+
+
+# A standing pose facing +Z, left on +x, arms hanging: bone directions read off the SMPL
+# template's joint layout (spine leaning slightly back then forward, collars up and out,
+# feet pointing forward and down to the ball of the foot).
+_T2M_REST = _unit([
+    [0, 0, 0], [0.58, -0.81, 0.0], [-0.58, -0.81, 0.0], [0.0, 0.97, -0.24], [0.05, -1.0, 0.0],
+    [-0.05, -1.0, 0.0], [0.0, 1.0, 0.05], [0.0, -1.0, -0.08], [0.0, -1.0, -0.08], [0.0, 0.9, 0.44],
+    [0.12, -0.35, 0.93], [-0.12, -0.35, 0.93], [0.0, 0.99, -0.13], [0.53, 0.83, -0.15],
+    [-0.53, 0.83, -0.15], [0.0, 0.8, 0.6], [0.93, 0.35, -0.08], [-0.93, 0.35, -0.08],
+    [0.12, -0.99, 0.0], [-0.12, -0.99, 0.0], [0.05, -1.0, 0.1], [-0.05, -1.0, 0.1],
+])
+
 HUMANML3D = Skeleton(
     name="humanml3d",
     joint_names=(
@@ -131,8 +148,7 @@ HUMANML3D = Skeleton(
     ),
     raw_offsets=_T2M_RAW,
     bone_lengths=_T2M_LENGTHS,
-    # SMPL's rest pose already faces +Z with the left side on +x; arms hang down.
-    rest_directions=_T2M_RAW,
+    rest_directions=_T2M_REST,
     fps=20.0,
     foot_left=(7, 10),
     foot_right=(8, 11),
@@ -171,8 +187,14 @@ KIT = Skeleton(
                      (3, 5, 6, 7), (3, 8, 9, 10)),
     raw_offsets=_KIT_RAW,
     bone_lengths=_KIT_LENGTHS,
-    # KIT's raw offsets put the right side on +x; mirror x for a rest pose facing +Z.
-    rest_directions=_KIT_RAW * np.array([-1.0, 1.0, 1.0]),
+    # KIT's raw offsets put the right side on +x; mirror x for a rest pose facing +Z, and
+    # point the feet forward and down from the ankle as a standing body's do.
+    rest_directions=_unit([
+        [0, 0, 0], [0, 1, 0], [0, 1, 0.05], [0, 1, 0], [0, 1, 0.1], [-1, 0, 0], [-0.1, -1, 0],
+        [0, -1, 0.1], [1, 0, 0], [0.1, -1, 0], [0, -1, 0.1], [-1, -0.2, 0], [0, -1, 0],
+        [0, -1, -0.05], [0, -0.55, 0.84], [0, -0.15, 1], [1, -0.2, 0], [0, -1, 0], [0, -1, -0.05],
+        [0, -0.55, 0.84], [0, -0.15, 1],
+    ]),
     fps=12.5,
     foot_left=(19, 20),
     foot_right=(14, 15),

@@ -1,0 +1,98 @@
+"""The action vocabulary of the procedural benchmark and the sampling of scripts.
+
+A script is what one motion shows: 1-3 actions in sequence, or a locomotion action with an
+upper-body action performed at the same time ("walks forward while waving"). The parameter
+values here are the ground truth written to labels.jsonl and described by the captions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+# Each family: its parameters and their possible values.
+FAMILY_PARAMS: dict[str, dict[str, tuple[Any, ...]]] = {
+    "walk": {"speed": ("slow", "normal", "fast"), "direction": ("forward",)},
+    "jog": {"direction": ("forward",)},
+    "run": {"direction": ("forward",)},
+    "walk_backward": {"speed": ("slow", "normal", "fast")},
+    "side_step": {"side": ("left", "right"), "steps": (2, 3, 4)},
+    "turn": {"side": ("left", "right"), "angle": (45, 90, 135, 180)},
+    "circle": {"side": ("left", "right")},
+    "jump": {"mode": ("in_place", "forward"), "count": (1, 2, 3)},
+    "hop": {"leg": ("left", "right"), "count": (2, 3, 4, 5)},
+    "squat": {"count": (1, 2, 3)},
+    "sit_stand": {},
+    "wave": {"hand": ("left", "right", "both"), "count": (2, 3, 4)},
+    "raise_arms": {"hand": ("left", "right", "both")},
+    "clap": {"count": (2, 3, 4, 5)},
+    "punch": {"hand": ("left", "right"), "count": (1, 2, 3)},
+    "kick": {"leg": ("left", "right"), "count": (1, 2)},
+    "bow": {},
+    "stretch": {},
+    "spin": {"side": ("left", "right")},
+    "kneel": {"leg": ("left", "right")},
+    "stand": {},
+}
+FAMILIES: tuple[str, ...] = tuple(FAMILY_PARAMS)
+
+LOCOMOTION = ("walk", "walk_backward", "circle", "jog")
+UPPER_BODY = ("wave", "raise_arms", "clap", "punch")
+
+
+@dataclass(frozen=True)
+class Action:
+    """One action of a script: a family and its parameter values."""
+
+    family: str
+    params: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.family not in FAMILY_PARAMS:
+            raise ValueError(f"unknown action family {self.family!r}")
+        spec = FAMILY_PARAMS[self.family]
+        for key, value in self.params.items():
+            if key not in spec or value not in spec[key]:
+                raise ValueError(f"bad parameter {key}={value!r} for {self.family}")
+
+    def to_json(self) -> dict[str, Any]:
+        return {"family": self.family, "params": dict(self.params)}
+
+
+@dataclass(frozen=True)
+class Script:
+    """What one motion shows: actions in time order, and an optional concurrent upper-body one."""
+
+    actions: tuple[Action, ...]
+    concurrent: Action | None = None
+
+
+def sample_action(rng: np.random.Generator, family: str | None = None) -> Action:
+    """A random action (of `family` if given) with uniformly drawn parameters."""
+    if family is None:
+        family = FAMILIES[rng.integers(len(FAMILIES))]
+    spec = FAMILY_PARAMS[family]
+    params = {key: values[rng.integers(len(values))] for key, values in spec.items()}
+    return Action(family, params)
+
+
+def sample_script(rng: np.random.Generator) -> Script:
+    """A random script: mostly single actions, some sequences of 2-3, some 'while' pairs."""
+    roll = rng.random()
+    if roll < 0.12:
+        base = sample_action(rng, LOCOMOTION[rng.integers(len(LOCOMOTION))])
+        upper = sample_action(rng, UPPER_BODY[rng.integers(len(UPPER_BODY))])
+        return Script((base,), concurrent=upper)
+    count = 1 if roll < 0.55 else 2 if roll < 0.87 else 3
+    actions: list[Action] = []
+    while len(actions) < count:
+        action = sample_action(rng)
+        # Standing still is only worth saying on its own or between two actions.
+        if action.family == "stand" and count > 1 and len(actions) in (0, count - 1):
+            continue
+        if actions and actions[-1].family == action.family:
+            continue
+        actions.append(action)
+    return Script(tuple(actions))

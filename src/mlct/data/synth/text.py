@@ -1,0 +1,592 @@
+"""Captions for procedural motions: HumanML3D-style paraphrases and their word/POS tokens.
+
+The language side of the synthetic benchmark. `describe` turns a sequence of actions (each with
+`.family: str` and `.params: dict`) into distinct paraphrases such as "a man walks forward
+quickly, then turns 90 degrees to the left."; `pos_tag` and `format_text_line` store them the
+way HumanML3D's texts/*.txt do. Captions are always truthful: a phrase may leave a parameter
+out, but never states a wrong side, count, angle, speed or order.
+
+Tokens follow HumanML3D's text_process.py (spaCy en_core_web_sm): hyphens removed, tokens that
+are not purely alphabetic dropped (so "90" and "2" vanish from the tokens, as they do there),
+only NOUN and VERB tokens lemmatized, and "left" never lemmatized. Our vocabulary is closed, so
+a lexicon plus three context rules replaces spaCy.
+"""
+
+from __future__ import annotations
+
+import numbers
+import re
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+# ---------------------------------------------------------------------------------------------
+# The action spec, as captions see it. Only these keys are read; other params (style noise,
+# tempo) are ignored, since no caption can state them.
+# ---------------------------------------------------------------------------------------------
+
+SIDES = ("left", "right")
+SPEEDS = ("slow", "normal", "fast")
+HANDS = ("left", "right", "both")
+
+ACTION_PARAMS: dict[str, dict[str, tuple]] = {
+    "walk": {"speed": SPEEDS, "direction": ("forward",)},
+    "jog": {"direction": ("forward",), "speed": SPEEDS},
+    "run": {"direction": ("forward",), "speed": SPEEDS},
+    "walk_backward": {"speed": SPEEDS},
+    "side_step": {"side": SIDES, "steps": (2, 3, 4)},
+    "turn": {"side": SIDES, "angle": (45, 90, 135, 180)},
+    "circle": {"side": SIDES, "speed": SPEEDS},
+    "jump": {"mode": ("in_place", "forward"), "count": (1, 2, 3)},
+    "hop": {"leg": SIDES, "count": (2, 3, 4, 5)},
+    "squat": {"count": (1, 2, 3)},
+    "sit_stand": {},
+    "wave": {"hand": HANDS, "count": (2, 3, 4)},
+    "raise_arms": {"hand": HANDS},
+    "clap": {"count": (2, 3, 4, 5)},
+    "punch": {"hand": SIDES, "count": (1, 2, 3)},
+    "kick": {"leg": SIDES, "count": (1, 2)},
+    "bow": {},
+    "stretch": {},
+    "spin": {"side": SIDES},
+    "kneel": {"leg": SIDES},
+    "stand": {},
+}
+FAMILIES: tuple[str, ...] = tuple(ACTION_PARAMS)
+# Params a family may carry but need not (the motion side adds speed to any locomotion).
+OPTIONAL_PARAMS: dict[str, frozenset[str]] = {
+    f: frozenset({"speed"}) for f in ("jog", "run", "circle")
+}
+LOCOMOTION = frozenset({"walk", "jog", "run", "walk_backward", "circle"})
+UPPER_BODY = frozenset({"wave", "raise_arms", "clap", "punch"})  # may run "while" walking
+
+
+def _checked(action: Any) -> tuple[str, dict[str, Any]]:
+    """(family, params restricted to the spec's keys), or ValueError naming what is wrong."""
+    family = action.family
+    if family not in ACTION_PARAMS:
+        raise ValueError(f"unknown action family {family!r}; expected one of {', '.join(FAMILIES)}")
+    params: dict[str, Any] = {}
+    for key, allowed in ACTION_PARAMS[family].items():
+        if key not in action.params:
+            if key in OPTIONAL_PARAMS.get(family, ()):
+                continue
+            raise ValueError(f"action {family!r} lacks parameter {key!r}")
+        value = action.params[key]
+        # numpy scalars from the sampler (rng.choice gives np.str_ / np.int64) become plain.
+        if isinstance(value, str):
+            value = str(value)
+        elif isinstance(value, numbers.Integral) and not isinstance(value, bool):
+            value = int(value)
+        if type(value) is not type(allowed[0]) or value not in allowed:  # True is not 1
+            raise ValueError(f"action {family!r}: {key}={value!r} is not one of {allowed}")
+        params[key] = value
+    return family, params
+
+
+# ---------------------------------------------------------------------------------------------
+# Verbs. Templates mark each verb as <lemma>; rendering makes it "walks" or "walking".
+# ---------------------------------------------------------------------------------------------
+
+_VERBS = (
+    "walk stroll pace move hurry jog run dash back step sidestep shuffle take turn rotate pivot "
+    "make circle jump leap do hop balance squat crouch bend stand sit get rise wave raise lift "
+    "put clap punch throw jab kick bow give straighten stretch lean reach spin kneel go drop "
+    "stay wait pause"
+).split()
+_DOUBLE_FINAL = frozenset("jog run step sidestep hop squat sit get put clap spin drop jab".split())
+
+
+def _third_person(lemma: str) -> str:
+    if lemma.endswith(("s", "sh", "ch", "x", "z", "o")):
+        return lemma + "es"
+    if lemma.endswith("y") and lemma[-2] not in "aeiou":
+        return lemma[:-1] + "ies"
+    return lemma + "s"
+
+
+def _gerund(lemma: str) -> str:
+    if lemma in _DOUBLE_FINAL:
+        return lemma + lemma[-1] + "ing"
+    if lemma.endswith("e") and not lemma.endswith("ee"):
+        return lemma[:-1] + "ing"
+    return lemma + "ing"
+
+
+_FORMS = {v: (_third_person(v), _gerund(v)) for v in _VERBS}
+_MARK = re.compile(r"<([a-z]+)>")
+
+
+def _render(template: str, gerund: bool) -> str:
+    """Conjugate every <verb> in `template`: third person singular, or -ing when `gerund`."""
+    return _MARK.sub(lambda m: _FORMS[m.group(1)][gerund], template)
+
+
+# ---------------------------------------------------------------------------------------------
+# Phrases per family. Each returns one verb phrase with <verb> marks and HIS for the subject's
+# possessive (his / her / their / the), chosen once per caption so pronouns agree.
+# ---------------------------------------------------------------------------------------------
+
+_NUM = ("zero", "one", "two", "three", "four", "five")
+_ROTATION = {"left": "counterclockwise", "right": "clockwise"}  # seen from above, y up
+_DEGREES = {
+    45: ("45 degrees", "forty five degrees"),
+    90: ("90 degrees", "ninety degrees"),
+    135: ("135 degrees", "a hundred and thirty five degrees"),
+    180: ("180 degrees", "a hundred and eighty degrees"),
+}
+_WALK_VERBS = {  # "stroll" implies an easy pace, "hurry" a quick one
+    "slow": ("walk", "walk", "stroll"),
+    "normal": ("walk", "walk", "pace", "move"),
+    "fast": ("walk", "walk", "pace", "hurry"),
+}
+_WALK_SPEED = {
+    "slow": ("slowly", "slowly", "at a slow pace", "at a leisurely pace"),
+    "normal": ("", "", "", "at a normal pace", "at a steady pace"),
+    "fast": ("quickly", "briskly", "fast", "rapidly", "at a fast pace", "at a brisk pace"),
+}
+_RUN_SPEED = {
+    "slow": ("slowly", "at a slow pace"),
+    "normal": ("",),
+    "fast": ("quickly", "fast", "at a fast pace"),
+}
+
+Rng = np.random.Generator
+
+
+def _pick(rng: Rng, options: Sequence[str]) -> str:
+    return options[int(rng.integers(len(options)))]
+
+
+def _num(n: int, rng: Rng) -> str:
+    return _pick(rng, (_NUM[n], _NUM[n], str(n)))
+
+
+def _times(n: int, rng: Rng) -> str:
+    """A count adverb; a count of one may go unsaid, larger counts never do."""
+    if n == 1:
+        return _pick(rng, ("once", "", ""))
+    return _pick(rng, ("twice", "twice", "two times", "2 times") if n == 2
+                 else (f"{_NUM[n]} times", f"{n} times"))
+
+
+def _n_of(n: int, singular: str, plural: str, rng: Rng) -> str:
+    if n == 1:
+        return _pick(rng, (f"a {singular}", f"a single {singular}", f"one {singular}"))
+    return f"{_num(n, rng)} {plural}"
+
+
+def _with_speed(phrase: str, speed: str, words: dict[str, tuple[str, ...]], rng: Rng) -> str:
+    options = words[speed]
+    if " at a " in phrase:  # "moves forward at a jog", so no second "at a ... pace"
+        options = tuple(w for w in options if not w.startswith("at ")) or ("",)
+    adverb = _pick(rng, options)
+    if adverb.endswith("ly") and rng.random() < 0.5:
+        return f"{adverb} {phrase}"  # "slowly walks forward"
+    return f"{phrase} {adverb}"
+
+
+def _hand(hand: str, rng: Rng, limb: str = "hand") -> str:
+    if hand == "both":
+        return _pick(rng, (f"both {limb}s", "both hands", "both arms", f"both HIS {limb}s"))
+    return _pick(rng, (f"HIS {hand} {limb}", f"HIS {hand} {limb}", f"the {hand} hand"))
+
+
+def _walk(p: dict, rng: Rng) -> str:
+    way = _pick(rng, ("forward", "forward", "straight ahead", "ahead",
+                      "forward in a straight line"))
+    verb = _pick(rng, _WALK_VERBS[p["speed"]])
+    words = _WALK_SPEED
+    if verb == "pace":  # not "paces ahead at a steady pace"
+        words = {k: tuple(w for w in ws if "pace" not in w) for k, ws in words.items()}
+    return _with_speed(f"<{verb}> {way}", p["speed"], words, rng)
+
+
+def _jog(p: dict, rng: Rng) -> str:
+    speed = p.get("speed", "normal")
+    steady = ("<jog> forward at a steady pace",) if speed == "normal" else ()
+    phrase = _pick(rng, ("<jog> forward", "<jog> forward", "<jog> straight ahead", "<jog> ahead",
+                         "<move> forward at a jog", "<jog> forward in a straight line") + steady)
+    return _with_speed(phrase, speed, _RUN_SPEED, rng)
+
+
+def _run(p: dict, rng: Rng) -> str:
+    phrase = _pick(rng, ("<run> forward", "<run> forward", "<run> straight ahead", "<run> ahead",
+                         "<dash> forward", "<run> forward in a straight line"))
+    return _with_speed(phrase, p.get("speed", "normal"), _RUN_SPEED, rng)
+
+
+def _walk_backward(p: dict, rng: Rng) -> str:
+    phrase = _pick(rng, ("<walk> backward", "<walk> backwards", "<back> up", "<step> backward",
+                         "<move> backwards", "<walk> in reverse"))
+    return _with_speed(phrase, p["speed"], _WALK_SPEED, rng)
+
+
+def _side_step(p: dict, rng: Rng) -> str:
+    s, n = p["side"], p["steps"]
+    return _pick(rng, (
+        f"<take> {_num(n, rng)} steps to the {s}", f"<step> sideways to the {s} {_times(n, rng)}",
+        f"<sidestep> to the {s} {_times(n, rng)}", f"<shuffle> {_num(n, rng)} steps to the {s}",
+        f"<step> to the {s} {_times(n, rng)}", f"<move> {_num(n, rng)} steps sideways to HIS {s}",
+    ))
+
+
+def _turn(p: dict, rng: Rng) -> str:
+    s, angle = p["side"], p["angle"]
+    d = _pick(rng, _DEGREES[angle])
+    general = (f"<turn> {d} to the {s}", f"<turn> {s} by {d}", f"<turn> {d} to HIS {s}",
+               f"<rotate> {d} {_ROTATION[s]}", f"<pivot> {d} to the {s}")
+    special = {  # everyday words, each true of that angle only
+        45: (f"<turn> slightly to the {s}", f"<make> a slight {s} turn", f"<turn> slightly {s}"),
+        90: (f"<turn> {s}", f"<turn> to the {s}", f"<make> a quarter turn to the {s}",
+             f"<make> a {s} turn"),
+        135: (f"<make> a sharp {s} turn", f"<turn> sharply to the {s}"),
+        180: ("<turn> around", f"<turn> around to the {s}", f"<make> a half turn to the {s}",
+              f"<turn> around over HIS {s} shoulder"),
+    }[angle]
+    return _pick(rng, general + special + special)  # everyday words twice as often
+
+
+def _circle(p: dict, rng: Rng) -> str:
+    s, rot = p["side"], _ROTATION[p["side"]]
+    phrase = _pick(rng, (f"<walk> in a circle to the {s}", f"<walk> in a {rot} circle",
+                         f"<walk> {rot} in a circle", f"<walk> around in a circle to the {s}",
+                         f"<circle> around to the {s}", "<walk> in a circle"))
+    return _with_speed(phrase, p.get("speed", "normal"), _WALK_SPEED, rng)
+
+
+def _jump(p: dict, rng: Rng) -> str:
+    n = p["count"]
+    if p["mode"] == "in_place":
+        # "up and down" suggests several jumps, so a single one never gets it.
+        where = _pick(rng, ("in place", "on the spot", "up", "straight up")
+                      + (("up and down",) if n > 1 else ()))
+        return _pick(rng, (f"<jump> {where} {_times(n, rng)}", f"<jump> {_times(n, rng)} {where}",
+                           f"<do> {_n_of(n, 'jump', 'jumps', rng)} in place"))
+    where = _pick(rng, ("forward", "forward", "ahead"))
+    return _pick(rng, (f"<jump> {where} {_times(n, rng)}", f"<leap> {where} {_times(n, rng)}",
+                       f"<do> {_n_of(n, 'jump', 'jumps', rng)} forward"))
+
+
+def _hop(p: dict, rng: Rng) -> str:
+    s, n = p["leg"], p["count"]
+    return _pick(rng, (
+        f"<hop> on HIS {s} leg {_times(n, rng)}",
+        f"<hop> on the {s} foot {_times(n, rng)}",
+        f"<hop> {_times(n, rng)} on HIS {s} leg",
+        f"<balance> on HIS {s} leg and <hop> {_times(n, rng)}",
+        f"<do> {_n_of(n, 'hop', 'hops', rng)} on HIS {s} foot",
+    ))
+
+
+def _squat(p: dict, rng: Rng) -> str:
+    n = p["count"]
+    return _pick(rng, (
+        f"<squat> {_times(n, rng)}",
+        f"<squat> down {_times(n, rng)}",
+        f"<do> {_n_of(n, 'squat', 'squats', rng)}",
+        f"<squat> down and <stand> back up {_times(n, rng)}",
+        f"<bend> HIS knees into a squat {_times(n, rng)}",
+        f"<crouch> down {_times(n, rng)}",
+    ))
+
+
+def _sit_stand(p: dict, rng: Rng) -> str:
+    return _pick(rng, ("<sit> down on an invisible chair and <stand> back up",
+                       "<sit> down and <get> back up",
+                       "<sit> on an imaginary chair and <stand> up again",
+                       "<sit> down briefly and <stand> up",
+                       "<take> a seat on an invisible chair and <get> back up"))
+
+
+def _wave(p: dict, rng: Rng) -> str:
+    hand, t = _hand(p["hand"], rng), _times(p["count"], rng)
+    return _pick(rng, (f"<wave> {hand} {t}", f"<wave> with {hand} {t}", f"<wave> {t} with {hand}",
+                       f"<raise> {hand} and <wave> {t}", f"<wave> {hand} back and forth {t}"))
+
+
+def _raise_arms(p: dict, rng: Rng) -> str:
+    arm = _hand(p["hand"], rng, limb="arm")
+    return _pick(rng, (f"<raise> {arm}", f"<raise> {arm} up", f"<lift> {arm} up",
+                       f"<raise> {arm} above HIS head", f"<put> {arm} up in the air",
+                       f"<raise> {arm} into the air", f"<lift> {arm} overhead"))
+
+
+def _clap(p: dict, rng: Rng) -> str:
+    t = _times(p["count"], rng)
+    return _pick(rng, (f"<clap> {t}", f"<clap> HIS hands {t}", f"<clap> HIS hands together {t}",
+                       f"<clap> {t} in front of HIS chest"))
+
+
+def _punch(p: dict, rng: Rng) -> str:
+    s, n = p["hand"], p["count"]
+    return _pick(rng, (
+        f"<punch> with HIS {s} hand {_times(n, rng)}",
+        f"<punch> forward with HIS {s} fist {_times(n, rng)}",
+        f"<throw> {_n_of(n, f'{s} punch', f'{s} punches', rng)}",
+        f"<throw> {_n_of(n, 'punch', 'punches', rng)} with HIS {s} hand",
+        f"<jab> with HIS {s} arm {_times(n, rng)}",
+    ))
+
+
+def _kick(p: dict, rng: Rng) -> str:
+    s, n = p["leg"], p["count"]
+    return _pick(rng, (
+        f"<kick> with HIS {s} leg {_times(n, rng)}", f"<kick> HIS {s} leg forward {_times(n, rng)}",
+        f"<kick> {_times(n, rng)} with the {s} foot", f"<kick> out with HIS {s} foot "
+        f"{_times(n, rng)}", f"<do> {_n_of(n, f'{s} kick', f'{s} kicks', rng)}",
+        f"<kick> forward with HIS {s} leg {_times(n, rng)}",
+    ))
+
+
+def _bow(p: dict, rng: Rng) -> str:
+    return _pick(rng, ("<bow>", "<bow> forward", "<take> a bow", "<bow> down", "<give> a deep bow",
+                       "<bend> forward at the waist and <straighten> up", "<bow> politely"))
+
+
+def _stretch(p: dict, rng: Rng) -> str:
+    return _pick(rng, ("<stretch> HIS arms overhead and <lean> to the side",
+                       "<raise> HIS arms above HIS head and <bend> to one side",
+                       "<stretch> HIS arms up and <bend> sideways",
+                       "<reach> up high and <lean> to one side"))
+
+
+def _spin(p: dict, rng: Rng) -> str:
+    s, rot = p["side"], _ROTATION[p["side"]]
+    return _pick(rng, (
+        f"<spin> around to the {s}", f"<spin> in a full circle to the {s}",
+        f"<do> a full spin to the {s}", f"<turn> a full circle to the {s}", f"<spin> {rot}",
+        f"<turn> all the way around to the {s}", f"<turn> 360 degrees to the {s}",
+        f"<turn> three hundred and sixty degrees {rot}", f"<make> a full turn to the {s}",
+        f"<spin> around once {rot}",
+    ))
+
+
+def _kneel(p: dict, rng: Rng) -> str:
+    s = p["leg"]
+    return _pick(rng, (f"<kneel> on HIS {s} knee and <get> back up",
+                       f"<kneel> down on the {s} knee and <stand> up again",
+                       f"<go> down on HIS {s} knee and <rise> again",
+                       f"<drop> to HIS {s} knee and <stand> back up"))
+
+
+def _stand(p: dict, rng: Rng) -> str:
+    return _pick(rng, ("<stand> still", "<stand> in place", "<stay> still", "<stand> there",
+                       "<stand> idle", "<wait> in place", "<stand> motionless",
+                       "<stand> still for a moment", "<pause> for a moment", "<stand> quietly"))
+
+
+_PHRASES: dict[str, Callable[[dict, Rng], str]] = {
+    "walk": _walk, "jog": _jog, "run": _run, "walk_backward": _walk_backward,
+    "side_step": _side_step, "turn": _turn, "circle": _circle, "jump": _jump, "hop": _hop,
+    "squat": _squat, "sit_stand": _sit_stand, "wave": _wave, "raise_arms": _raise_arms,
+    "clap": _clap, "punch": _punch, "kick": _kick, "bow": _bow, "stretch": _stretch,
+    "spin": _spin, "kneel": _kneel, "stand": _stand,
+}
+assert set(_PHRASES) == set(FAMILIES)
+
+# ---------------------------------------------------------------------------------------------
+# Sentences: a subject, then the phrases joined in time order (or reordered by before/after).
+# ---------------------------------------------------------------------------------------------
+
+_SUBJECTS = (("a person", "their"), ("a person", "their"), ("the person", "their"),
+             ("a man", "his"), ("the man", "his"), ("a woman", "her"), ("the woman", "her"),
+             ("someone", "their"), ("a figure", "their"), ("the figure", "their"),
+             ("a human", "their"))
+_JOINS = (" then ", " and then ", " and ", ", then ", ", and then ", " and after that ",
+          ", after that ")
+
+
+def _concurrent_phrase(loco: str, upper: str, rng: Rng) -> str:
+    """One phrase for two simultaneous actions; the upper-body one is said with 'while'."""
+    kind = int(rng.integers(4))
+    if kind <= 1:
+        return f"{loco} while {_render(upper, gerund=True)}"
+    if kind == 2:
+        return f"{upper} while {_render(loco, gerund=True)}"
+    return f"{loco} and {upper} at the same time"
+
+
+def _sentence(subject: str, phrases: list[str], rng: Rng) -> str:
+    """Join phrases (already in time order) into one sentence about `subject`."""
+    fin = [_render(p, gerund=False) for p in phrases]
+    ing = [_render(p, gerund=True) for p in phrases]
+    n, u = len(phrases), rng.random()
+    if n == 1:
+        return f"{subject} is {ing[0]}" if u < 0.15 else f"{subject} {fin[0]}"
+    if u < 0.1:  # progressive throughout: "a man is walking forward and then turning left"
+        joins = [_pick(rng, _JOINS) for _ in range(n - 1)]
+        return f"{subject} is " + "".join(j + p for j, p in zip([""] + joins, ing))
+    if u < 0.2:  # "a man walks forward before turning left": order kept
+        return f"{subject} " + _chain(fin[:-1], rng) + f" before {ing[-1]}"
+    if u < 0.27 and n == 2:  # "before turning left, a man walks forward": reversed in text
+        return f"before {ing[1]}, {subject} {fin[0]}"
+    if u < 0.34 and n == 2:  # "a man turns left after walking forward": reversed in text
+        return f"{subject} {fin[1]} after {ing[0]}"
+    if u < 0.41:  # "after walking forward, a man turns left"
+        return f"after {ing[0]}, {subject} " + _chain(fin[1:], rng)
+    if u < 0.5:
+        tail = f", and finally {fin[2]}" if n == 3 else ""
+        return f"{subject} first {fin[0]}, then {fin[1]}{tail}"
+    return f"{subject} " + _chain(fin, rng)
+
+
+def _chain(parts: list[str], rng: Rng) -> str:
+    """Phrases in order; a list of three may open with a bare comma ("walks, turns and ...")."""
+    out = parts[0]
+    for i, part in enumerate(parts[1:], start=1):
+        first_of_three = len(parts) == 3 and i == 1
+        out += _pick(rng, _JOINS + ((", ",) if first_of_three else ())) + part
+    return out
+
+
+_SPACES = re.compile(r"\s+")
+
+
+def _concurrent_index(families: list[str], concurrent: Any, concurrent_with: int | None) -> int:
+    """Which action the concurrent one accompanies: the given index, else the first locomotion."""
+    family, _ = _checked(concurrent)
+    if family not in UPPER_BODY:
+        raise ValueError(f"{family!r} cannot be done while walking; "
+                         f"use one of {sorted(UPPER_BODY)}")
+    if concurrent_with is None:
+        at = next((i for i, f in enumerate(families) if f in LOCOMOTION), None)
+        if at is None:
+            raise ValueError(f"concurrent {family!r} needs a locomotion action, got {families}")
+        return at
+    if not 0 <= concurrent_with < len(families) or families[concurrent_with] not in LOCOMOTION:
+        raise ValueError(f"concurrent_with={concurrent_with} is not a locomotion action "
+                         f"of {families}")
+    return concurrent_with
+
+
+def describe(actions: Sequence[Any], rng: Rng, n_captions: int = 3, concurrent: Any = None,
+             concurrent_with: int | None = None) -> list[str]:
+    """`n_captions` distinct truthful captions of `actions` (in time order); `concurrent` is an
+    upper-body action done while `actions[concurrent_with]` (default: the first locomotion)."""
+    if not actions:
+        raise ValueError("describe needs at least one action")
+    checked = [_checked(a) for a in actions]
+    at = -1 if concurrent is None else _concurrent_index([f for f, _ in checked], concurrent,
+                                                         concurrent_with)
+    captions: list[str] = []
+    for _ in range(50 * n_captions):  # templates x subjects give hundreds of variants; retry dups
+        subject, possessive = _pick(rng, _SUBJECTS)
+        if rng.random() < 0.25:
+            possessive = "the"  # "kicks with the left leg"
+        phrases = [_PHRASES[f](p, rng) for f, p in checked]
+        if at >= 0:
+            f, p = _checked(concurrent)
+            phrases[at] = _concurrent_phrase(phrases[at], _PHRASES[f](p, rng), rng)
+        text = _sentence(subject, phrases, rng).replace("HIS", possessive)
+        text = _SPACES.sub(" ", text).replace(" ,", ",").strip() + "."
+        if text not in captions:
+            captions.append(text)
+            if len(captions) == n_captions:
+                return captions
+    raise ValueError(f"could not find {n_captions} distinct captions for {checked}")
+
+
+def canonical_label(actions: Sequence[Any], concurrent: Any = None,
+                    concurrent_with: int | None = None) -> str:
+    """Short exact label of what captions can state, e.g.
+    'walk(direction=forward,speed=fast) + wave(count=2,hand=right) > turn(angle=90,side=left)'."""
+
+    def one(action: Any) -> str:
+        family, params = _checked(action)
+        args = ",".join(f"{k}={v}" for k, v in sorted(params.items()))
+        return f"{family}({args})" if args else family
+
+    parts = [one(a) for a in actions]
+    if concurrent is not None:
+        at = _concurrent_index([_checked(a)[0] for a in actions], concurrent, concurrent_with)
+        parts[at] += " + " + one(concurrent)
+    return " > ".join(parts)
+
+
+# ---------------------------------------------------------------------------------------------
+# Tokens as HumanML3D stores them: word -> (lemma, Universal POS) plus three context rules.
+# ---------------------------------------------------------------------------------------------
+
+_POS_WORDS = {
+    "DET": "a an the both all his her their",
+    "PRON": "someone that",
+    "NOUN": "person man woman figure human hand arm leg foot knee fist shoulder head chest waist "
+            "side place spot air pace line reverse chair seat moment degree time way front quarter",
+    "ADJ": "slow normal steady leisurely brisk invisible imaginary single slight sharp deep "
+           "full half same idle motionless",
+    "ADV": "forward backward backwards straight fast ahead sideways around back forth together "
+           "again briefly politely high upward overhead there still quietly slightly sharply once "
+           "twice then first finally slowly quickly briskly rapidly counterclockwise clockwise "
+           "left right",
+    "NUM": "one two three four five forty ninety hundred thirty eighty sixty",
+    "ADP": "up down out on in with to by into at of for over above before after",
+    "CCONJ": "and",
+    "SCONJ": "while",
+    "AUX": "is",
+}
+_PLURALS = {"hands": "hand", "arms": "arm", "legs": "leg", "feet": "foot", "knees": "knee",
+            "times": "time", "degrees": "degree"}
+# Words spaCy reads as a noun after a determiner, number or adjective ("does two squats",
+# "a quarter turn") and as a verb elsewhere ("squats twice").
+_NOUN_OR_VERB = frozenset(
+    "turn kick punch jump squat bow wave step hop circle spin clap jog".split())
+# Adjective right before a noun ("his left hand", "a fast pace"), noun after a determiner
+# ("to the left"), otherwise the listed tag ("turns left", "walks fast").
+_MODIFIERS = frozenset("left right forward straight fast counterclockwise clockwise".split())
+
+_LEXICON: dict[str, tuple[str, str]] = {
+    w: (w, pos) for pos, ws in _POS_WORDS.items() for w in ws.split()}
+_LEXICON.update({w: (lemma, "NOUN") for w, lemma in _PLURALS.items()})
+for _v, (_s, _g) in _FORMS.items():
+    _LEXICON[_s] = _LEXICON[_g] = (_v, "VERB")
+for _v in _NOUN_OR_VERB:
+    _LEXICON[_v] = (_v, "NOUN")
+_NOUN_LIKE = frozenset(w for w, (_, pos) in _LEXICON.items() if pos == "NOUN") | {
+    _FORMS[v][0] for v in _NOUN_OR_VERB}
+_AMBIGUOUS_NV = _NOUN_OR_VERB | {_FORMS[v][0] for v in _NOUN_OR_VERB}
+_TOKEN = re.compile(r"[a-z0-9]+|[^\sa-z0-9]")
+POS_TAGS = ("NOUN", "VERB", "ADJ", "ADV", "ADP", "DET", "NUM", "PRON", "CCONJ", "SCONJ", "PART",
+            "AUX", "PROPN")
+
+
+def pos_tag(caption: str) -> list[tuple[str, str]]:
+    """(token, POS) pairs as in HumanML3D texts: NOUN/VERB lemmatized, punctuation and numerals
+    dropped; ValueError for a word outside the closed vocabulary."""
+    words = _TOKEN.findall(caption.lower().replace("-", ""))
+    tags: list[str] = []
+    for i, w in enumerate(words):
+        if w.isdigit():
+            tags.append("NUM")  # kept for context, dropped below as HumanML3D drops non-alpha
+            continue
+        if not w.isalpha():
+            tags.append("PUNCT")
+            continue
+        if w not in _LEXICON:
+            raise ValueError(f"word {w!r} in {caption!r} is not in the caption lexicon")
+        pos = _LEXICON[w][1]
+        prev = tags[-1] if tags else ""
+        if w in _MODIFIERS:
+            if i + 1 < len(words) and words[i + 1] in _NOUN_LIKE:
+                pos = "ADJ"
+            elif prev == "DET" and w in SIDES:
+                pos = "NOUN"
+        elif w in _AMBIGUOUS_NV:
+            noun = prev in ("DET", "NUM", "ADJ") or (i > 0 and words[i - 1] == "quarter")
+            pos = "NOUN" if noun else "VERB"
+        tags.append(pos)
+    return [(_LEXICON[w][0] if pos in ("NOUN", "VERB") else w, pos)
+            for w, pos in zip(words, tags) if w.isalpha()]
+
+
+def format_text_line(caption: str, tags: Sequence[tuple[str, str]], start: float = 0.0,
+                     end: float = 0.0) -> str:
+    """One line of a HumanML3D texts/*.txt file: caption#word/POS ...#start#end."""
+    if "#" in caption or "\n" in caption:
+        raise ValueError(f"caption may not contain '#' or a newline: {caption!r}")
+    for word, pos in tags:
+        if not word.isalpha() or pos not in POS_TAGS:
+            raise ValueError(f"bad token {word!r}/{pos!r}")
+    tokens = " ".join(f"{w}/{p}" for w, p in tags)
+    return f"{caption}#{tokens}#{float(start)}#{float(end)}"
