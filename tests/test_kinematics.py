@@ -44,7 +44,8 @@ def test_fk_identity_and_root_rotation_closed_form(skeleton):
     turned[0] = yaw(math.pi / 2)
     out = forward_kinematics(turned, root, skeleton.target_offsets, skeleton) - root
     rel = expected - root.numpy()
-    np.testing.assert_allclose(out.numpy(), np.stack([rel[:, 2], rel[:, 1], -rel[:, 0]], -1), atol=1e-9)
+    expected = np.stack([rel[:, 2], rel[:, 1], -rel[:, 0]], -1)
+    np.testing.assert_allclose(out.numpy(), expected, atol=1e-9)
 
 
 @pytest.mark.parametrize("skeleton", SKELETONS, ids=lambda s: s.name)
@@ -56,7 +57,8 @@ def test_fk_keeps_bone_lengths_and_cont6d_agrees(skeleton):
     np.testing.assert_allclose(bone_lengths(joints, skeleton).numpy(),
                                np.broadcast_to(skeleton.bone_lengths, (3, 10, skeleton.n_joints)),
                                rtol=1e-12, atol=1e-9)
-    via6d = forward_kinematics_cont6d(quat_to_cont6d(local), root, skeleton.target_offsets, skeleton)
+    via6d = forward_kinematics_cont6d(quat_to_cont6d(local), root, skeleton.target_offsets,
+                                      skeleton)
     torch.testing.assert_close(via6d, joints)
 
 
@@ -67,7 +69,8 @@ def test_fk_of_ik_reproduces_positions(skeleton, smooth):
     root = torch.randn(2, 30, 3, dtype=F64)
     joints = forward_kinematics(local, root, skeleton.target_offsets, skeleton)  # (2, 30, J, 3)
     quats = inverse_kinematics(joints, skeleton, smooth_forward=smooth)
-    torch.testing.assert_close(quats[..., 0, 0, :],  # the reference forces frame 0's root to identity
+    # The reference forces frame 0's root to the identity.
+    torch.testing.assert_close(quats[..., 0, 0, :],
                                torch.tensor([1.0, 0, 0, 0], dtype=F64).expand(2, 4))
     torch.testing.assert_close(quats.norm(dim=-1), torch.ones(quats.shape[:-1], dtype=F64))
     again = forward_kinematics(quats, joints[..., 0, :], skeleton.target_offsets, skeleton)
@@ -131,5 +134,6 @@ def test_fk_is_differentiable():
     forward_kinematics(local, root, offsets, skeleton).square().sum().backward()
     for t in (local, offsets, root):
         assert t.grad is not None and torch.isfinite(t.grad).all()
-    assert forward_kinematics(local.detach().float(), root.detach().float(), skeleton.target_offsets,
-                              skeleton).dtype == torch.float32
+    out = forward_kinematics(local.detach().float(), root.detach().float(),
+                             skeleton.target_offsets, skeleton)
+    assert out.dtype == torch.float32

@@ -62,13 +62,15 @@ def test_qrot_matches_matrix_and_broadcasts():
 def test_qbetween_known_cases_and_random():
     x, y, z = torch.eye(3, dtype=F64)
     h = math.sqrt(0.5)
-    torch.testing.assert_close(qbetween(x, y), torch.tensor([h, 0, 0, h], dtype=F64))  # 90 deg about z
+    # x to y: 90 degrees about z.
+    torch.testing.assert_close(qbetween(x, y), torch.tensor([h, 0, 0, h], dtype=F64))
     torch.testing.assert_close(qbetween(3 * z, z), torch.tensor([1.0, 0, 0, 0], dtype=F64))
     u, v = torch.randn(100, 3, dtype=F64), torch.randn(100, 3, dtype=F64)
     q = qbetween(u, v)
     assert (q[:, 0] >= 0).all()
     torch.testing.assert_close(q.norm(dim=-1), torch.ones(100, dtype=F64))
-    torch.testing.assert_close(qrot(q, u / u.norm(dim=-1, keepdim=True)), v / v.norm(dim=-1, keepdim=True))
+    unit_u, unit_v = u / u.norm(dim=-1, keepdim=True), v / v.norm(dim=-1, keepdim=True)
+    torch.testing.assert_close(qrot(q, unit_u), unit_v)
     # Opposite directions: a finite 180 degree turn (the reference gives NaN here).
     for a in (z, -y, torch.tensor([1.0, 2.0, -0.5], dtype=F64)):
         q = qbetween(-a, a)
@@ -123,14 +125,15 @@ def test_qfix_restores_sign_continuity():
     signs[0] = 1.0
     torch.testing.assert_close(qfix(smooth * signs), smooth)
     # Time on another axis.
-    torch.testing.assert_close(qfix((smooth * signs).transpose(0, 1), dim=1), smooth.transpose(0, 1))
+    flipped = (smooth * signs).transpose(0, 1)
+    torch.testing.assert_close(qfix(flipped, dim=1), smooth.transpose(0, 1))
 
 
 def test_dtype_preserved_and_gradients_finite():
     q = random_quats(8).float()
     v = torch.randn(8, 3)
-    for out in (qmul(q, q), qrot(q, v), qbetween(v, -v), quat_to_cont6d(q), matrix_to_quat(quat_to_matrix(q)),
-                qslerp(q, q.flip(0), 0.3)):
+    for out in (qmul(q, q), qrot(q, v), qbetween(v, -v), quat_to_cont6d(q),
+                matrix_to_quat(quat_to_matrix(q)), qslerp(q, q.flip(0), 0.3)):
         assert out.dtype == torch.float32
     u = torch.randn(6, 3, dtype=F64, requires_grad=True)
     w = torch.randn(6, 3, dtype=F64, requires_grad=True)

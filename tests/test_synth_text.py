@@ -148,6 +148,9 @@ def tag_string(caption: str) -> str:
     ("the figure is hopping on her left foot three times before sitting down.",
      "the/DET figure/NOUN is/AUX hop/VERB on/ADP her/DET left/ADJ foot/NOUN three/NUM time/NOUN "
      "before/ADP sit/VERB down/ADP"),
+    ("someone hurries forward, then does two squats and is hopping before rising.",
+     "someone/PRON hurry/VERB forward/ADV then/ADV do/VERB two/NUM squat/NOUN and/CCONJ is/AUX "
+     "hop/VERB before/ADP rise/VERB"),
     ("A man walks at a fast pace, then walks fast.",
      "a/DET man/NOUN walk/VERB at/ADP a/DET fast/ADJ pace/NOUN then/ADV walk/VERB fast/ADV"),
 ])
@@ -231,3 +234,20 @@ def test_canonical_label_and_bad_input() -> None:
         describe([act("turn", side="up", angle=90)], np.random.default_rng(0))
     with pytest.raises(ValueError, match="count"):
         describe([act("squat")], np.random.default_rng(0))
+
+
+def test_captions_cover_the_motion_vocabulary() -> None:
+    """The motion side's families and values are all ones captions can state (guards drift)."""
+    motion = pytest.importorskip("mlct.data.synth.actions")
+    assert set(motion.FAMILIES) == set(FAMILIES)
+    for family, spec in motion.FAMILY_PARAMS.items():
+        required = set(ACTION_PARAMS[family]) - OPTIONAL_PARAMS.get(family, frozenset())
+        assert required <= set(spec) <= set(ACTION_PARAMS[family]), family
+        for key, values in spec.items():
+            assert set(values) <= set(ACTION_PARAMS[family][key]), (family, key)
+    assert set(motion.LOCOMOTION) <= LOCOMOTION and set(motion.UPPER_BODY) <= UPPER_BODY
+    rng = np.random.default_rng(0)
+    for _ in range(300):
+        script = motion.sample_script(rng)
+        for caption in describe(list(script.actions), rng, concurrent=script.concurrent):
+            pos_tag(caption)

@@ -57,6 +57,22 @@ def _cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from mlct.data.synth.build import synthesize_dataset
+    from mlct.motion.render import render_file
+
+    data = args.out / "data"
+    synthesize_dataset(data, num=args.num, seed=args.seed, progress=False, overwrite=True)
+    name = f"{args.index:06d}"
+    if args.index >= args.num:
+        raise MlctError(f"--index {args.index} is beyond the {args.num} motions made")
+    caption = (data / "texts" / f"{name}.txt").read_text(encoding="utf-8").split("#", 1)[0]
+    gif = render_file(data / "new_joint_vecs" / f"{name}.npy", args.out / f"{name}.gif")
+    print(f"{caption}")
+    print(gif)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="mlct", description="Real-time text-to-motion generation (MLCT).")
     parser.add_argument("--version", action="version", version=_version())
@@ -85,6 +101,13 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("dir", type=Path)
     check.add_argument("--skeleton", default=None, help="humanml3d or kit (default: from width)")
     check.set_defaults(func=_cmd_data_check)
+
+    demo = commands.add_parser("demo", help="make a small procedural dataset, render one motion")
+    demo.add_argument("--out", type=Path, default=Path("mlct-demo"), help="default ./mlct-demo")
+    demo.add_argument("--num", type=int, default=8, help="motions to make (default 8)")
+    demo.add_argument("--seed", type=int, default=0)
+    demo.add_argument("--index", type=int, default=0, help="which motion to render")
+    demo.set_defaults(func=_cmd_demo)
 
     render = commands.add_parser("render", help="draw a motion file as GIF, MP4 or PNG filmstrip")
     render.add_argument("file", type=Path, help="features (T x 263/251) or joints (T x J x 3) .npy")

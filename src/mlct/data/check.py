@@ -79,9 +79,11 @@ class _Checker:
         self.feature_frames: dict[str, int] = {}  # name -> T of the well-formed feature files
 
     def add(self, path: Path, message: str, kind: str, line: int | None = None) -> None:
+        """Record a problem."""
         self.problems.append(Problem(path, message, kind, line))
 
     def run(self) -> None:
+        """Apply every rule."""
         layout = self.layout
         for directory in (layout.features_dir, layout.joints_dir, layout.texts_dir):
             if not directory.is_dir():
@@ -119,6 +121,7 @@ class _Checker:
         return width
 
     def check_features(self, names: list[str]) -> None:
+        """Readability, shape, width, finiteness and length of the feature files."""
         # One array in memory at a time: keep shapes, then judge widths against the majority.
         shapes: dict[str, tuple[int, ...]] = {}
         for name in names:
@@ -143,6 +146,7 @@ class _Checker:
                 self.add(path, f"{shape[0]} frames: {self.range_text()}", "length")
 
     def check_joints(self, names: list[str], features: set[str]) -> None:
+        """Orphans, readability, shape, finiteness and frame count of the joint files."""
         n_joints = self.skeleton.n_joints if self.skeleton else None
         for name in names:
             path = self.layout.joints_path(name)
@@ -160,6 +164,7 @@ class _Checker:
                          "frames_mismatch")
 
     def check_texts(self, names: list[str], features: set[str]) -> None:
+        """Orphans, readability and every caption line of the text files."""
         for name in names:
             path = self.layout.text_path(name)
             if self.layout.features_dir.is_dir() and name not in features:
@@ -182,6 +187,7 @@ class _Checker:
 
     def check_subclip(self, path: Path, number: int, record: TextRecord,
                       frames: int | None) -> None:
+        """A sub-clip caption must lie within its motion and pass the length filter."""
         if self.skeleton is None or frames is None:
             return
         span = record.frame_span(self.skeleton.fps)
@@ -196,6 +202,7 @@ class _Checker:
                      number)
 
     def check_splits(self, features: set[str], texts: set[str]) -> None:
+        """Split files present; entries unique and with their files."""
         layout = self.layout
         for split in SPLITS:
             if not layout.split_path(split).is_file():
@@ -217,14 +224,17 @@ class _Checker:
                              "duplicate", number)
                     continue
                 first_line[name] = number
-                missing = [str(p) for p, have in ((layout.features_path(name), name in features),
-                                                  (layout.text_path(name), name in texts))
-                           if not have]
+                # A missing directory is reported once; its files are not listed per entry.
+                missing = [str(path_) for path_, have, directory in (
+                    (layout.features_path(name), name in features, layout.features_dir),
+                    (layout.text_path(name), name in texts, layout.texts_dir))
+                    if directory.is_dir() and not have]
                 if missing:
                     self.add(path, f"{name!r} has no {' and no '.join(missing)}", "split_entry",
                              number)
 
     def check_mean_std(self) -> None:
+        """Mean.npy and Std.npy present, of the feature width, finite, std > 0."""
         width = self.skeleton.feature_dim if self.skeleton else None
         for path, is_std in ((self.layout.mean_path, False), (self.layout.std_path, True)):
             if not path.is_file():
@@ -246,10 +256,12 @@ class _Checker:
         return None
 
     def in_range(self, frames: int) -> bool:
+        """The skeleton's length filter: min_frames <= frames < max_frames."""
         assert self.skeleton is not None
         return self.skeleton.min_frames <= frames < self.skeleton.max_frames
 
     def range_text(self) -> str:
+        """The length filter, in words."""
         assert self.skeleton is not None
         return (f"outside the {self.skeleton.name} length filter "
                 f"{self.skeleton.min_frames}..{self.skeleton.max_frames - 1} frames "

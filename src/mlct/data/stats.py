@@ -245,7 +245,7 @@ def format_statistics(stats: dict[str, Any]) -> str:
     peak = max(b["count"] for b in stats["histogram"]) or 1
     for b in stats["histogram"]:
         bar = "#" * round(40 * b["count"] / peak)
-        lines.append(f"  {b['lo']:>4}-{b['hi'] - 1:<4} {b['count']:>7,} {bar}")
+        lines.append(f"  {b['lo']:>4}-{b['hi'] - 1:<4} {b['count']:>7,} {bar}".rstrip())
     if stats["notes"]:
         lines.append(f"notes ({len(stats['notes'])}; `mlct data check` lists every problem):")
         shown = stats["notes"][:20]

@@ -6,11 +6,12 @@ computed in float64: uniform skeleton, floor, first root at the xz origin, facin
 contacts, 6D rotations from smoothed IK, root angular / linear velocity, root height,
 root-relative positions, local velocities. T frames in, T-1 feature frames out.
 
-One deliberate deviation: the root angular velocity is arcsin of the y component of the relative
-root quaternion r[t+1] * r[t]^-1, and the reference takes it without fixing the quaternion's sign.
-Its root quaternions have w >= 0, so where the heading crosses +-180 degrees the relative
-quaternion comes out with w < 0 and the reference's angular velocity has the wrong sign (-d/2
-for a turn of d). We make w >= 0 before the arcsin; every other frame is identical.
+One deliberate deviation (docs/motion_representation.md): the root angular velocity is arcsin of
+the y component of the relative root quaternion r[t+1] * r[t]^-1, and the reference takes it
+without fixing the quaternion's sign. Its root quaternions have w >= 0, so where the heading
+crosses +-180 degrees the relative quaternion comes out with w < 0 and the reference's angular
+velocity has the wrong sign (-d/2 for a turn of d). We make w >= 0 before the arcsin; every other
+frame is identical.
 
 `recover_from_ric` inverts the root and ric groups: batched torch, differentiable, on the device
 and dtype of its input (the joint loss J of the autoencoder).
@@ -35,7 +36,9 @@ class MotionFeatures:
     """The result of `joints_to_features`."""
 
     features: np.ndarray  # (T-1, D) the standard feature vectors
-    joints: np.ndarray  # (T, J, 3) normalized global positions (target skeleton, floor, +Z)
+    # (T, J, 3) normalized global positions (target skeleton, on the floor, facing +Z). The
+    # standard new_joints files hold recover_from_ric(features) instead: the first T-1 of these.
+    joints: np.ndarray
 
 
 def n_joints_for_dim(feature_dim: int) -> int:
@@ -45,10 +48,12 @@ def n_joints_for_dim(feature_dim: int) -> int:
     return (feature_dim + 1) // 12
 
 
-def split_features(features: Tensor | np.ndarray, layout: FeatureLayout) -> dict[str, Tensor | np.ndarray]:
+def split_features(features: Tensor | np.ndarray,
+                   layout: FeatureLayout) -> dict[str, Tensor | np.ndarray]:
     """The named feature groups of `layout.groups` as views of (..., D) features."""
     if features.shape[-1] != layout.dim:
-        raise MlctError(f"features have {features.shape[-1]} values per frame, expected {layout.dim}")
+        raise MlctError(f"features have {features.shape[-1]} values per frame, "
+                        f"expected {layout.dim}")
     return {name: features[..., s] for name, s in layout.groups.items()}
 
 
@@ -90,6 +95,8 @@ def _features(pos: Tensor, skeleton: Skeleton) -> Tensor:
 
     quats = inverse_kinematics(pos, skeleton, smooth_forward=True)  # (T, J, 4)
     rot6d = quat_to_cont6d(quats[:, 1:])  # (T, J-1, 6)
+    # Root rotations; r_rot[0] is the identity (the reference forces it), so the first angular
+    # velocity also holds the small angle between the IK's facing and the normalization's.
     r_rot = quats[:, 0]  # (T, 4)
 
     # Root velocity in the frame of the later root rotation (reference: qrot(r_rot[1:], ...)).
@@ -138,6 +145,9 @@ def joints_to_features(joints: np.ndarray, skeleton: Skeleton,
     pos = uniform_skeleton(pos, skeleton, target)
     pos = place_on_floor_facing_z(pos, skeleton)
     features = _features(pos, skeleton)
+    if not torch.isfinite(features).all():
+        raise MlctError("the motion has a degenerate first frame (zero-length legs or coincident "
+                        "joints): its features are not finite")
     return MotionFeatures(features=features.numpy().astype(dtype), joints=pos.numpy().astype(dtype))
 
 

@@ -3,8 +3,8 @@
 Local rotations are indexed by the child joint of a bone: the rotation stored at joint j turns the
 bone (parent(j) -> j). Along every kinematic chain the global rotation starts from the root
 quaternion and accumulates down the chain; a chain that starts at a non-root joint (the arms start
-at the spine) starts again from the root quaternion, as in the reference Skeleton. Loops run over
-chains; everything is vectorized over time and batch.
+at the spine) starts again from the root quaternion, as in the reference Skeleton. FK loops over
+the chains, IK treats all bones at once; both are vectorized over time and batch.
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ def bone_lengths(joints: Tensor, skeleton: Skeleton) -> Tensor:
 
 
 def offsets_from_joints(joints: Tensor, skeleton: Skeleton) -> Tensor:
-    """(..., J, 3) -> (..., J, 3): the IK rest-pose offsets (raw direction * measured bone length)."""
+    """(..., J, 3) -> (..., J, 3) IK rest-pose offsets: raw direction * measured bone length."""
     raw = _like(skeleton.raw_offsets, joints)
     return raw * bone_lengths(joints, skeleton)[..., None]
 
@@ -101,9 +101,10 @@ def inverse_kinematics(joints: Tensor, skeleton: Skeleton, smooth_forward: bool 
     """
     r_hip, l_hip, r_shoulder, l_shoulder = skeleton.face_joints
     # The reference unpacks face_joint_idx as (l_hip, r_hip, sdr_r, sdr_l), so its hip vector
-    # points from the right hip to the LEFT one while its shoulder vector points to the right.
-    # Shoulders are wider than hips on both skeletons, so the sum still points right. We keep the
-    # quirk: the distributed features (6D rotations, root rotation) were computed with it.
+    # points from the right hip to the LEFT one while its shoulder vector points to the right:
+    # shoulder vector minus hip vector. Shoulders are wider than hips on both skeletons, so this
+    # still points right. We keep the quirk: the distributed features (6D rotations, root
+    # rotation) were computed with it.
     across = (joints[..., l_hip, :] - joints[..., r_hip, :]) + (
         joints[..., r_shoulder, :] - joints[..., l_shoulder, :])  # (..., T, 3)
     root = facing_quaternion(across, smooth=smooth_forward)  # (..., T, 4)
@@ -125,7 +126,7 @@ def inverse_kinematics(joints: Tensor, skeleton: Skeleton, smooth_forward: bool 
 
 def uniform_skeleton(positions: Tensor, skeleton: Skeleton,
                      target_joints: Tensor | np.ndarray | None = None) -> Tensor:
-    """Retarget (T, J, 3) positions to the target skeleton's bone lengths (reference uniform_skeleton).
+    """Retarget (T, J, 3) positions to the target bone lengths (reference uniform_skeleton).
 
     The root trajectory is scaled by the ratio of the lower-leg lengths (skeleton.leg_joints) of
     target and source first frame; the pose is carried over by IK (unsmoothed) and FK with the

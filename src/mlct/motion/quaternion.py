@@ -137,7 +137,7 @@ def quat_to_cont6d(q: Tensor) -> Tensor:
 
 
 def cont6d_to_matrix(d6: Tensor) -> Tensor:
-    """(..., 6) -> (..., 3, 3) by Gram-Schmidt: columns x = a1/|a1|, z = x cross a2 normalized, y = z x x."""
+    """(..., 6) -> (..., 3, 3) columns by Gram-Schmidt: unit(a1), z cross x, unit(x cross a2)."""
     tiny = torch.finfo(d6.dtype).tiny
     a1, a2 = d6[..., :3], d6[..., 3:]
     x = a1 / a1.norm(dim=-1, keepdim=True).clamp_min(tiny)

@@ -443,8 +443,8 @@ def _render_animation(scene: _Scene, out: Path, title: str | None, fps: float,
 
 def _blit_frames(fig: Figure, figure: _StickFigure,
                  n_frames: int) -> tuple[np.ndarray, Iterator[np.ndarray]]:
-    """The static scene (floor, path, title) drawn once, and a (H, W, 3) uint8 image per frame
-    in which only the moving artists were drawn on a copy of it."""
+    """The static scene (floor, path, title) drawn once, then each frame: the moving artists
+    drawn on a copy of it. Images are (H, W) uint32, one RGBA pixel per number."""
     fig.set_dpi(DPI)
     canvas = fig.canvas
     assert isinstance(canvas, FigureCanvasAgg)
@@ -452,7 +452,9 @@ def _blit_frames(fig: Figure, figure: _StickFigure,
         artist.set_animated(True)  # left out of full draws, so that one draws the scene only
     canvas.draw()
     background = canvas.copy_from_bbox(fig.bbox)
-    scene = np.asarray(canvas.buffer_rgba())[..., :3].copy()
+
+    def pixels() -> np.ndarray:
+        return np.asarray(canvas.buffer_rgba()).view(np.uint32)[..., 0].copy()
 
     def frames() -> Iterator[np.ndarray]:
         for frame in range(n_frames):
@@ -460,14 +462,14 @@ def _blit_frames(fig: Figure, figure: _StickFigure,
             canvas.restore_region(background)
             for artist in figure.moving:
                 figure.ax.draw_artist(artist)  # with the camera of the full draw (ax.M)
-            yield np.asarray(canvas.buffer_rgba())[..., :3].copy()
+            yield pixels()
 
-    return scene, frames()
+    return pixels(), frames()
 
 
 def _write_gif(path: Path, scene: np.ndarray, frames: Iterator[np.ndarray], n_frames: int,
                fps: float) -> None:
-    """An animated GIF with one exact palette for all frames.
+    """An animated GIF of (H, W) uint32 RGBA frames, with one exact palette for all of them.
 
     Pillow would quantize every frame on its own (median cut), which costs more than drawing
     it, and its palette lookup rounds colours (white comes out light grey). The scene has few
@@ -475,44 +477,55 @@ def _write_gif(path: Path, scene: np.ndarray, frames: Iterator[np.ndarray], n_fr
     one has the whole travelled path): their 256 most frequent colours are the palette. Only
     the pixels where a frame differs from the scene need looking up.
     """
-    rgb = list(frames)  # (H, W, 3) uint8 each
-    picks = [scene] + [rgb[i] for i in sorted({0, n_frames // 2, n_frames - 1})]
-    colours, counts = np.unique(_pack(np.concatenate(picks)), return_counts=True)
-    palette = np.sort(colours[np.argsort(-counts, kind="stable")[:256]])  # packed, sorted
-    palette_bytes = _unpack(palette).astype(np.uint8).tobytes()
-    scene_index = _palette_index(_pack(scene), palette)
+    images = list(frames)
+    picks = [scene] + [images[i] for i in sorted({0, n_frames // 2, n_frames - 1})]
+    colours, counts = np.unique(np.concatenate(picks), return_counts=True)
+    palette = _Palette(colours[np.argsort(-counts, kind="stable")[:256]])
+    scene_index = palette.index(scene)
     indexed = []
-    for frame in rgb:
+    for image in images:
         index = scene_index.copy()
-        moved = (frame != scene).any(axis=-1)
-        index[moved] = _palette_index(_pack(frame[moved]), palette)
-        image = Image.fromarray(index, mode="P")
-        image.putpalette(palette_bytes)
-        indexed.append(image)
+        moved = image != scene
+        index[moved] = palette.index(image[moved])
+        gif_frame = Image.fromarray(index, mode="P")
+        gif_frame.putpalette(palette.rgb_bytes)
+        indexed.append(gif_frame)
     # GIF delays are in 1/100 s: 20 fps -> 50 ms, 12.5 fps -> 80 ms are exact.
     indexed[0].save(path, format="GIF", save_all=True, append_images=indexed[1:],
                     duration=max(10, round(1000 / fps)), loop=0)
 
 
-def _pack(rgb: np.ndarray) -> np.ndarray:
-    """(..., 3) uint8 colours -> (...) int64 0xRRGGBB, so colours compare as single numbers."""
-    rgb = rgb.astype(np.int64)
-    return (rgb[..., 0] << 16) | (rgb[..., 1] << 8) | rgb[..., 2]
+def _rgb(pixels: np.ndarray) -> np.ndarray:
+    """(...) uint32 RGBA pixels (R in the low byte) -> (..., 3) int64 RGB."""
+    pixels = pixels.astype(np.int64)
+    return np.stack([pixels & 255, (pixels >> 8) & 255, (pixels >> 16) & 255], axis=-1)
 
 
-def _unpack(packed: np.ndarray) -> np.ndarray:
-    return np.stack([packed >> 16, (packed >> 8) & 255, packed & 255], axis=-1)
+class _Palette:
+    """Up to 256 colours, and a growing memo of which entry every colour seen maps to."""
 
+    def __init__(self, colours: np.ndarray) -> None:
+        self.colours = colours  # (N,) uint32 RGBA
+        self.rgb_bytes = _rgb(colours).astype(np.uint8).tobytes()
+        order = np.argsort(colours)
+        self.known, self.known_index = colours[order], order.astype(np.uint8)
 
-def _palette_index(packed: np.ndarray, palette: np.ndarray) -> np.ndarray:
-    """uint8 index of each packed colour in the sorted palette; the nearest entry if absent."""
-    shades, inverse = np.unique(packed, return_inverse=True)
-    index = np.minimum(np.searchsorted(palette, shades), len(palette) - 1)
-    miss = palette[index] != shades
-    if miss.any():
-        distance = ((_unpack(shades[miss])[:, None, :] - _unpack(palette)[None]) ** 2).sum(-1)
-        index[miss] = distance.argmin(axis=1)
-    return index.astype(np.uint8)[inverse.reshape(packed.shape)]
+    def index(self, pixels: np.ndarray) -> np.ndarray:
+        """uint8 palette index of each pixel's colour: its own entry, else the nearest one."""
+        shades, inverse = np.unique(pixels, return_inverse=True)
+        slot = np.minimum(np.searchsorted(self.known, shades), len(self.known) - 1)
+        new = self.known[slot] != shades
+        if new.any():
+            # Anti-aliasing shades not met before: nearest entry, remembered for later frames.
+            fresh = shades[new]
+            distance = ((_rgb(fresh)[:, None, :] - _rgb(self.colours)[None]) ** 2).sum(-1)
+            known = np.concatenate([self.known, fresh])
+            order = np.argsort(known, kind="stable")
+            self.known = known[order]
+            self.known_index = np.concatenate(
+                [self.known_index, distance.argmin(axis=1).astype(np.uint8)])[order]
+            slot = np.searchsorted(self.known, shades)
+        return self.known_index[slot][inverse.reshape(pixels.shape)]
 
 
 def _render_filmstrip(scene: _Scene, out: Path, title: str | None, fps: float) -> None:

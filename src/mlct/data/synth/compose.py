@@ -97,12 +97,14 @@ def place_on_ground(rig: Rig, body: np.ndarray, clip: Clip) -> np.ndarray:
             guess = root[t - 1, [0, 2]] + velocity if t else np.zeros(2)
             anchor, anchor_xz = lowest, guess + points[t, lowest, [0, 2]]
         elif heights[t, lowest] < heights[t, anchor] - margin:
-            # Weight moves onto a new point: keep the root continuous, re-anchor there.
-            here = anchor_xz - points[t, anchor, [0, 2]]
-            anchor, anchor_xz = lowest, here + points[t, lowest, [0, 2]]
+            # Weight moved onto a new point: it has been planted since the previous frame, so
+            # it holds the place it had then (the old point may already be lifting off).
+            anchor, anchor_xz = lowest, root[t - 1, [0, 2]] + points[t - 1, lowest, [0, 2]]
         root[t, [0, 2]] = anchor_xz - points[t, anchor, [0, 2]]
         if t:
-            velocity = root[t, [0, 2]] - root[t - 1, [0, 2]]
+            # Take-off velocity: the mean over the last frames of stance, not the final push.
+            first = max(0, t - 3)
+            velocity = (root[t, [0, 2]] - root[first, [0, 2]]) / (t - first)
     return body + root[:, None, :]
 
 

@@ -105,8 +105,8 @@ _GAITS = {  # stride Hz, hip amplitude, swing knee, stance knee, lean, duty fact
     "slow": (0.72, 0.24, 0.95, 0.10, 0.03, 0.62, 0.0),
     "normal": (0.88, 0.30, 1.05, 0.12, 0.05, 0.60, 0.0),
     "fast": (1.00, 0.36, 1.15, 0.14, 0.08, 0.58, 0.0),
-    "jog": (1.30, 0.42, 1.5, 0.25, 0.12, 0.40, 0.04),
-    "run": (1.45, 0.50, 1.8, 0.30, 0.18, 0.34, 0.07),
+    "jog": (1.25, 0.34, 1.5, 0.25, 0.12, 0.40, 0.04),
+    "run": (1.40, 0.42, 1.8, 0.30, 0.18, 0.34, 0.07),
     "step": (0.95, 0.06, 0.9, 0.05, 0.0, 0.50, 0.0),  # stepping in place while turning
 }
 
@@ -244,7 +244,8 @@ def jump(fps: float, style: Style, mode: str, count: int) -> Clip:
     for side, sign in (("left", 1.0), ("right", -1.0)):
         back = np.array([0.08 * sign, -0.85 * style.arm_length, -0.25])
         up = np.array([0.1 * sign, 0.25, 0.35])
-        wrist = np.where((arms_up > 0)[:, None], up, back)
+        a = np.clip(arms_up, 0, 1)[:, None]
+        wrist = (1 - a) * back + a * up
         _arm(clip, side, wrist, np.clip(np.maximum(crouch, arms_up), 0, 1))
     return clip
 

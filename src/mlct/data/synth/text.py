@@ -333,9 +333,11 @@ def _punch(p: dict, rng: Rng) -> str:
 def _kick(p: dict, rng: Rng) -> str:
     s, n = p["leg"], p["count"]
     return _pick(rng, (
-        f"<kick> with HIS {s} leg {_times(n, rng)}", f"<kick> HIS {s} leg forward {_times(n, rng)}",
-        f"<kick> {_times(n, rng)} with the {s} foot", f"<kick> out with HIS {s} foot "
-        f"{_times(n, rng)}", f"<do> {_n_of(n, f'{s} kick', f'{s} kicks', rng)}",
+        f"<kick> with HIS {s} leg {_times(n, rng)}",
+        f"<kick> HIS {s} leg forward {_times(n, rng)}",
+        f"<kick> {_times(n, rng)} with the {s} foot",
+        f"<kick> out with HIS {s} foot {_times(n, rng)}",
+        f"<do> {_n_of(n, f'{s} kick', f'{s} kicks', rng)}",
         f"<kick> forward with HIS {s} leg {_times(n, rng)}",
     ))
 
@@ -394,6 +396,7 @@ _SUBJECTS = (("a person", "their"), ("a person", "their"), ("the person", "their
              ("a man", "his"), ("the man", "his"), ("a woman", "her"), ("the woman", "her"),
              ("someone", "their"), ("a figure", "their"), ("the figure", "their"),
              ("a human", "their"))
+_SPACES = re.compile(r"\s+")
 _JOINS = (" then ", " and then ", " and ", ", then ", ", and then ", " and after that ",
           ", after that ")
 
@@ -412,23 +415,25 @@ def _sentence(subject: str, phrases: list[str], rng: Rng) -> str:
     """Join phrases (already in time order) into one sentence about `subject`."""
     fin = [_render(p, gerund=False) for p in phrases]
     ing = [_render(p, gerund=True) for p in phrases]
-    n, u = len(phrases), rng.random()
-    if n == 1:
-        return f"{subject} is {ing[0]}" if u < 0.15 else f"{subject} {fin[0]}"
-    if u < 0.1:  # progressive throughout: "a man is walking forward and then turning left"
-        joins = [_pick(rng, _JOINS) for _ in range(n - 1)]
-        return f"{subject} is " + "".join(j + p for j, p in zip([""] + joins, ing))
-    if u < 0.2:  # "a man walks forward before turning left": order kept
-        return f"{subject} " + _chain(fin[:-1], rng) + f" before {ing[-1]}"
-    if u < 0.27 and n == 2:  # "before turning left, a man walks forward": reversed in text
-        return f"before {ing[1]}, {subject} {fin[0]}"
-    if u < 0.34 and n == 2:  # "a man turns left after walking forward": reversed in text
-        return f"{subject} {fin[1]} after {ing[0]}"
-    if u < 0.41:  # "after walking forward, a man turns left"
-        return f"after {ing[0]}, {subject} " + _chain(fin[1:], rng)
-    if u < 0.5:
-        tail = f", and finally {fin[2]}" if n == 3 else ""
+    if len(phrases) == 1:
+        return f"{subject} is {ing[0]}" if rng.random() < 0.15 else f"{subject} {fin[0]}"
+    forms = ["chain"] * 5 + ["first", "progressive", "before", "after_first"]
+    if len(phrases) == 2:  # with three, these would leave the middle action's place unclear
+        forms += ["before_first", "after"]
+    form = _pick(rng, forms)
+    if form == "progressive":  # "a man is walking forward and then turning left"
+        return f"{subject} is " + _chain(ing, rng)
+    if form == "first":  # "a man first walks forward, then turns left(, and finally ...)"
+        tail = "".join(f", and finally {p}" for p in fin[2:])
         return f"{subject} first {fin[0]}, then {fin[1]}{tail}"
+    if form == "before":  # "a man walks forward before turning left": order kept
+        return f"{subject} " + _chain(fin[:-1], rng) + f" before {ing[-1]}"
+    if form == "after_first":  # "after walking forward, a man turns left": order kept
+        return f"after {ing[0]}, {subject} " + _chain(fin[1:], rng)
+    if form == "before_first":  # "before turning left, a man walks forward": reversed in text
+        return f"before {ing[1]}, {subject} {fin[0]}"
+    if form == "after":  # "a man turns left after walking forward": reversed in text
+        return f"{subject} {fin[1]} after {ing[0]}"
     return f"{subject} " + _chain(fin, rng)
 
 
@@ -439,9 +444,6 @@ def _chain(parts: list[str], rng: Rng) -> str:
         first_of_three = len(parts) == 3 and i == 1
         out += _pick(rng, _JOINS + ((", ",) if first_of_three else ())) + part
     return out
-
-
-_SPACES = re.compile(r"\s+")
 
 
 def _concurrent_index(families: list[str], concurrent: Any, concurrent_with: int | None) -> int:
@@ -470,15 +472,16 @@ def describe(actions: Sequence[Any], rng: Rng, n_captions: int = 3, concurrent: 
     checked = [_checked(a) for a in actions]
     at = -1 if concurrent is None else _concurrent_index([f for f, _ in checked], concurrent,
                                                          concurrent_with)
+    with_ = None if concurrent is None else _checked(concurrent)
     captions: list[str] = []
     for _ in range(50 * n_captions):  # templates x subjects give hundreds of variants; retry dups
         subject, possessive = _pick(rng, _SUBJECTS)
         if rng.random() < 0.25:
             possessive = "the"  # "kicks with the left leg"
         phrases = [_PHRASES[f](p, rng) for f, p in checked]
-        if at >= 0:
-            f, p = _checked(concurrent)
-            phrases[at] = _concurrent_phrase(phrases[at], _PHRASES[f](p, rng), rng)
+        if with_ is not None:
+            upper = _PHRASES[with_[0]](with_[1], rng)
+            phrases[at] = _concurrent_phrase(phrases[at], upper, rng)
         text = _sentence(subject, phrases, rng).replace("HIS", possessive)
         text = _SPACES.sub(" ", text).replace(" ,", ",").strip() + "."
         if text not in captions:
