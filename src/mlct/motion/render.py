@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 import textwrap
 from pathlib import Path
-from typing import Iterator
+from typing import Callable, Iterator, TypeVar
 
 import numpy as np
 from PIL import Image
@@ -23,9 +23,11 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from mlct.errors import MlctError
 from mlct.io import atomic_path
-from mlct.motion.skeleton import Skeleton, get_skeleton, skeleton_for_dim, skeleton_for_joints
+from mlct.motion.skeleton import (SKELETONS, Skeleton, get_skeleton, skeleton_for_dim,
+                                  skeleton_for_joints)
 
 FORMATS = (".gif", ".mp4", ".png")
+T = TypeVar("T")
 
 # Animation frame: small enough that a 196-frame GIF renders in seconds on 2 cores.
 FRAME_INCHES = 4.0
@@ -91,21 +93,22 @@ def render_file(path: str | os.PathLike, out: str | os.PathLike,
     path, out = Path(path), Path(out)
     _output_kind(out)  # fail on a bad --out before loading anything
     array = _load_npy(path)
-    if array.ndim == 2 and array.shape[1] in (263, 251):
-        is_features = True
-        inferred = _call(skeleton_for_dim, array.shape[1])
-    elif array.ndim == 3 and array.shape[2] == 3:
-        is_features = False
-        inferred = None if skeleton is not None else _call(skeleton_for_joints, array.shape[1])
-    else:
-        raise MlctError(f"{path} has shape {array.shape}: expected features (T, 263) or "
-                        f"(T, 251), or joints (T, J, 3)")
+    feature_dims = sorted(s.feature_dim for s in SKELETONS.values())
+    is_features = array.ndim == 2 and array.shape[1] in feature_dims
+    if not is_features and not (array.ndim == 3 and array.shape[2] == 3):
+        widths = " or ".join(f"(T, {d})" for d in feature_dims)
+        raise MlctError(f"{path} has shape {array.shape}: expected features {widths}, "
+                        f"or joints (T, J, 3)")
     if len(array) == 0:
         raise MlctError(f"{path} has no frames (shape {array.shape})")
     _check_finite(array, str(path))
 
-    skel = _resolve_skeleton(skeleton) if skeleton is not None else inferred
-    assert skel is not None
+    if skeleton is not None:
+        skel = _resolve_skeleton(skeleton)
+    elif is_features:
+        skel = _call(skeleton_for_dim, array.shape[1])
+    else:
+        skel = _call(skeleton_for_joints, array.shape[1])
     if is_features:
         if skel.feature_dim != array.shape[1]:
             raise MlctError(f"{path} has {array.shape[1]}-d features but the {skel.name} "
@@ -190,10 +193,10 @@ def _resolve_skeleton(skeleton: Skeleton | str) -> Skeleton:
     return _call(get_skeleton, skeleton)
 
 
-def _call(fn, arg):  # type: ignore[no-untyped-def]
+def _call(lookup: Callable[[T], Skeleton], arg: T) -> Skeleton:
     """Turn the skeleton look-ups' ValueError into the user's one-line error."""
     try:
-        return fn(arg)
+        return lookup(arg)
     except ValueError as error:
         raise MlctError(str(error)) from None
 
