@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from mlct.data.synth.actions import FAMILY_PARAMS
+
 # ---------------------------------------------------------------------------------------------
 # The action spec, as captions see it. Only these keys are read; other params (style noise,
 # tempo) are ignored, since no caption can state them.
@@ -30,34 +32,16 @@ SIDES = ("left", "right")
 SPEEDS = ("slow", "normal", "fast")
 HANDS = ("left", "right", "both")
 
-ACTION_PARAMS: dict[str, dict[str, tuple]] = {
-    "walk": {"speed": SPEEDS, "direction": ("forward",)},
-    "jog": {"direction": ("forward",), "speed": SPEEDS},
-    "run": {"direction": ("forward",), "speed": SPEEDS},
-    "walk_backward": {"speed": SPEEDS},
-    "side_step": {"side": SIDES, "steps": (2, 3, 4)},
-    "turn": {"side": SIDES, "angle": (45, 90, 135, 180)},
-    "circle": {"side": SIDES, "speed": SPEEDS},
-    "jump": {"mode": ("in_place", "forward"), "count": (1, 2, 3)},
-    "hop": {"leg": SIDES, "count": (2, 3, 4, 5)},
-    "squat": {"count": (1, 2, 3)},
-    "sit_stand": {},
-    "wave": {"hand": HANDS, "count": (2, 3, 4)},
-    "raise_arms": {"hand": HANDS},
-    "clap": {"count": (2, 3, 4, 5)},
-    "punch": {"hand": SIDES, "count": (1, 2, 3)},
-    "kick": {"leg": SIDES, "count": (1, 2)},
-    "bow": {},
-    "stretch": {},
-    "spin": {"side": SIDES},
-    "kneel": {"leg": SIDES},
-    "stand": {},
-}
-FAMILIES: tuple[str, ...] = tuple(ACTION_PARAMS)
-# Params a family may carry but need not (the motion side adds speed to any locomotion).
+# Params a family may carry but need not (the motion side may add speed to any locomotion).
 OPTIONAL_PARAMS: dict[str, frozenset[str]] = {
     f: frozenset({"speed"}) for f in ("jog", "run", "circle")
 }
+# One table of actions (actions.FAMILY_PARAMS), plus the optional params captions can state.
+ACTION_PARAMS: dict[str, dict[str, tuple]] = {
+    family: {**params, **({"speed": SPEEDS} if family in OPTIONAL_PARAMS else {})}
+    for family, params in FAMILY_PARAMS.items()
+}
+FAMILIES: tuple[str, ...] = tuple(ACTION_PARAMS)
 LOCOMOTION = frozenset({"walk", "jog", "run", "walk_backward", "circle"})
 UPPER_BODY = frozenset({"wave", "raise_arms", "clap", "punch"})  # may run "while" walking
 
