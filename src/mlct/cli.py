@@ -132,6 +132,11 @@ def main(argv: list[str] | None = None) -> int:
     except MlctError as error:
         print(f"mlct: error: {error}", file=sys.stderr)
         return 2
+    except OSError as error:
+        # A file the user named cannot be read or written: say which, in one line.
+        where = f": {error.filename}" if error.filename else ""
+        print(f"mlct: error: {error.strerror or error}{where}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("mlct: interrupted", file=sys.stderr)
         return 130

@@ -1,0 +1,49 @@
+"""The command line as a user calls it: one-line errors with exit 2, never a traceback."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from mlct.cli import main
+
+
+def _run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "mlct.cli", *args], capture_output=True,
+                          text=True, timeout=120)
+
+
+def test_unwritable_output_is_one_line_exit_2(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    result = _run("data", "synth", "--out", str(blocker / "sub" / "data"), "--num", "1")
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("mlct: error:")
+
+
+@pytest.mark.parametrize("argv", [
+    ["data", "check", "/no/such/dir"],
+    ["data", "stats", "/no/such/dir"],
+    ["render", "/no/such/file.npy", "--out", "x.gif"],
+    ["data", "synth", "--out", "x", "--num", "0"],
+    ["data", "synth", "--out", "x", "--skeleton", "smpl"],
+    ["frobnicate"],
+])
+def test_bad_usage_exits_2_with_one_line(argv, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        code = main(argv)
+        raise SystemExit(code)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("mlct: error:")
+
+
+def test_demo_prints_a_caption_and_a_gif(tmp_path, capsys):
+    assert main(["demo", "--out", str(tmp_path / "demo"), "--num", "2"]) == 0
+    caption, path = capsys.readouterr().out.strip().splitlines()
+    assert caption.endswith(".") and path.endswith(".gif")
+    assert (tmp_path / "demo" / "000000.gif").stat().st_size > 1000
