@@ -371,13 +371,15 @@ def turn(fps: float, style: Style, side: str, angle: int) -> Clip:
 
 # ---------------------------------------------------------------------------- upper body
 
+def _gesture(fps: float, style: Style, seconds: float, n: int | None) -> tuple[int, np.ndarray, Clip]:
+    """Frames, times and a neutral clip for a gesture of its own length, or stretched to n."""
+    n = n or _frames(seconds, fps)[0]
+    return n, np.arange(n) / fps, neutral(n, style)
+
+
 def wave(fps: float, style: Style, hand: str, count: int, n: int | None = None) -> Clip:
     """Raises a hand beside the head and waves it side to side `count` times."""
-    cycle = 0.55 / style.tempo
-    n_own, _ = _frames(0.6 + count * cycle + 0.6, fps)
-    n = n or n_own
-    t = np.arange(n) / fps
-    clip = neutral(n, style)
+    n, t, clip = _gesture(fps, style, 1.2 + count * 0.55 / style.tempo, n)
     active = max(n / fps - 1.2, 0.2)
     cycle = active / count  # exactly `count` waves, also when stretched over a walk
     raised = hold(t, 0.55, active, 0.55)
@@ -391,10 +393,7 @@ def wave(fps: float, style: Style, hand: str, count: int, n: int | None = None) 
 
 def raise_arms(fps: float, style: Style, hand: str, n: int | None = None) -> Clip:
     """Lifts one or both arms straight overhead, holds, lowers."""
-    n_own, _ = _frames(2.8 / style.tempo, fps)
-    n = n or n_own
-    t = np.arange(n) / fps
-    clip = neutral(n, style)
+    n, t, clip = _gesture(fps, style, 2.8 / style.tempo, n)
     up = hold(t, 0.8 / style.tempo, max(n / fps - 1.6 / style.tempo, 0.3), 0.8 / style.tempo)
     for side in SIDES if hand == "both" else (hand,):
         sign = 1.0 if side == "left" else -1.0
@@ -405,11 +404,7 @@ def raise_arms(fps: float, style: Style, hand: str, n: int | None = None) -> Cli
 
 def clap(fps: float, style: Style, count: int, n: int | None = None) -> Clip:
     """Brings the hands together in front of the chest `count` times."""
-    cycle = 0.5 / style.tempo
-    n_own, _ = _frames(0.6 + count * cycle + 0.6, fps)
-    n = n or n_own
-    t = np.arange(n) / fps
-    clip = neutral(n, style)
+    n, t, clip = _gesture(fps, style, 1.2 + count * 0.5 / style.tempo, n)
     active = max(n / fps - 1.2, 0.2)
     cycle = active / count  # exactly `count` claps, also when stretched over a walk
     raised = hold(t, 0.55, active, 0.55)
@@ -425,11 +420,7 @@ def clap(fps: float, style: Style, count: int, n: int | None = None) -> Clip:
 
 def punch(fps: float, style: Style, hand: str, count: int, n: int | None = None) -> Clip:
     """Fists up in guard, then `count` straight punches forward with one hand."""
-    period = 0.7 / style.tempo
-    n_own, _ = _frames(0.6 + count * period + 0.5, fps)
-    n = n or n_own
-    t = np.arange(n) / fps
-    clip = neutral(n, style)
+    n, t, clip = _gesture(fps, style, 1.1 + count * 0.7 / style.tempo, n)
     guard = hold(t, 0.45, n / fps - 0.9, 0.45)
     period = max(n / fps - 1.1, 0.3) / count
     strike = pulses(t, [0.6 + k * period for k in range(count)], 0.15, 0.05, 0.3)
@@ -518,11 +509,9 @@ def action_clip(action: Action, rig: Rig, style: Style, fps: float) -> Clip:
 def overlay_upper(base: Clip, action: Action, style: Style, fps: float) -> Clip:
     """`base` (locomotion) with the arms (and torso twist) of an upper-body action on top."""
     upper = _UPPER[action.family](fps, style, **action.params, n=base.n)
-    hands = ("left", "right") if action.family == "clap" else (
-        ("left", "right") if action.params.get("hand") == "both" else (action.params["hand"],))
-    if action.family == "punch":
-        hands = ("left", "right")
-    for side in hands:
+    # Clapping and the punching guard use both arms; waving / raising one or both.
+    both = action.family in ("clap", "punch") or action.params.get("hand") == "both"
+    for side in SIDES if both else (action.params["hand"],):
         s = side[0]
         base.channels[f"wrist_{s}"] = upper.channels[f"wrist_{s}"]
         base.channels[f"pole_{s}"] = upper.channels[f"pole_{s}"]

@@ -1,0 +1,1 @@
+"""Diffusion process of the latent consistency model: schedule, parameterization, solver."""

@@ -1,0 +1,1 @@
+"""Neural networks of mlct (no schedules, no datasets)."""
