@@ -8,7 +8,9 @@ from torch import Tensor
 from mlct.diffusion.schedule import VPSchedule, append_dims
 
 
-def dpm_solver_1_step(x_t: Tensor, x0: Tensor, t: Tensor, s: Tensor, schedule: VPSchedule) -> Tensor:
+def dpm_solver_1_step(
+    x_t: Tensor, x0: Tensor, t: Tensor, s: Tensor, schedule: VPSchedule
+) -> Tensor:
     """First-order DPM-Solver++ step from t to s < t (Eq. 12); t, s are (B,) or scalars."""
     nd = x_t.ndim
     alpha_s = append_dims(schedule.alpha(s), nd)  # (B, 1, 1)
