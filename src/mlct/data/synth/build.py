@@ -24,7 +24,7 @@ from mlct.data.stats import standard_mean_std
 from mlct.data.synth.actions import Script, sample_script
 from mlct.data.synth.compose import compose
 from mlct.data.synth.motions import Style
-from mlct.data.synth.rig import Rig, make_rig, pose_positions
+from mlct.data.synth.rig import Rig, make_rig
 from mlct.data.synth.text import canonical_label, describe, format_text_line, pos_tag
 from mlct.errors import MlctError
 from mlct.io import save_npy, write_text
@@ -48,18 +48,9 @@ class SynthMotion:
 
 
 def _style(rig: Rig, rng: np.random.Generator) -> Style:
-    sk = rig.skeleton
-    arm = (sk.bone_lengths[rig.elbow["left"]] + sk.bone_lengths[rig.wrist["left"]]) / rig.scale
-    neutral = pose_positions(rig, _rest_channels())
-    shoulder_x = abs(neutral[0, rig.shoulder["left"], 0]) / rig.scale
+    """This motion's natural variation, with the rig's body measurements."""
     return Style(amplitude=float(rng.uniform(0.85, 1.15)), tempo=float(rng.uniform(0.85, 1.15)),
-                 arm_length=float(arm), shoulder_x=float(shoulder_x))
-
-
-def _rest_channels() -> dict[str, np.ndarray]:
-    from mlct.data.synth.motions import neutral
-
-    return neutral(1, Style()).channels
+                 arm_length=rig.arm_length, shoulder_x=rig.shoulder_x)
 
 
 def _random_placement(positions: np.ndarray, rng: np.random.Generator, scale: float) -> np.ndarray:

@@ -36,6 +36,21 @@ class Rig:
     scale: float  # skeleton units per metre
 
     @property
+    def arm_length(self) -> float:
+        """Shoulder to wrist, in metres."""
+        lengths = self.skeleton.bone_lengths
+        return float(lengths[self.elbow["left"]] + lengths[self.wrist["left"]]) / self.scale
+
+    @property
+    def shoulder_x(self) -> float:
+        """Distance of a shoulder from the midline in the rest pose, in metres."""
+        sk, joint, x = self.skeleton, self.shoulder["left"], 0.0
+        while joint > 0:  # sum the rest offsets up to the root
+            x += sk.rest_offsets[joint][0]
+            joint = sk.parents[joint]
+        return abs(x) / self.scale
+
+    @property
     def contact_points(self) -> tuple[int, ...]:
         """Joints that may touch the ground: ankles, feet, knees."""
         points: list[int] = []
