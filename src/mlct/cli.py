@@ -73,6 +73,52 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_train(args: argparse.Namespace) -> int:
+    from mlct.config import load_config
+    from mlct.train.loop import train
+
+    if args.resume and args.config is not None:
+        raise MlctError("--resume continues the run's saved config; drop --config")
+    config = None if args.resume else load_config(args.config or "small", args.overrides)
+    summary = train(args.stage, args.data, args.out, config=config,
+                    overrides=args.overrides if args.resume else [], resume=args.resume,
+                    ae_path=args.ae, device=args.device, progress=not args.quiet)
+    if summary.get("is_main", True):
+        last = ", ".join(f"{k} {v:.4g}" for k, v in summary["last"].items())
+        print(f"{args.stage}: step {summary['step']}, {last}; "
+              f"{summary['samples_per_s']:.1f} samples/s; {summary['checkpoint']}")
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from mlct.bundle import export_run
+
+    print(export_run(args.run, args.out, stage=args.stage, half=args.half))
+    return 0
+
+
+def _cmd_generate(args: argparse.Namespace) -> int:
+    import mlct
+    from mlct.io import save_npy
+    from mlct.motion.render import render_motion
+
+    suffix = args.out.suffix.lower()
+    if suffix not in (".npy", ".gif", ".mp4", ".png"):
+        raise MlctError(f"--out must end in .npy, .gif, .mp4 or .png, not '{args.out.name}'")
+    if not args.text.strip():
+        raise MlctError("the text is empty; describe a motion, e.g. 'a person walks forward'")
+    generator = mlct.load(args.model, device=args.device)
+    motion = generator.generate([args.text], lengths=args.length, seconds=args.seconds,
+                                nfe=args.nfe, seed=args.seed)[0]
+    if suffix == ".npy":
+        save_npy(args.out, motion.joints if args.joints else motion.features)
+    else:
+        render_motion(motion.joints, args.out, skeleton=generator.skeleton, title=args.text,
+                      fps=motion.fps)
+    print(args.out)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="mlct", description="Real-time text-to-motion generation (MLCT).")
     parser.add_argument("--version", action="version", version=_version())
@@ -108,6 +154,43 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--seed", type=int, default=0)
     demo.add_argument("--index", type=int, default=0, help="which motion to render")
     demo.set_defaults(func=_cmd_demo)
+
+    train = commands.add_parser("train", help="train a stage: ae, then cm (or diffusion)")
+    train.add_argument("stage", choices=["ae", "cm", "diffusion"])
+    train.add_argument("--data", required=True, type=Path, help="dataset directory")
+    train.add_argument("--out", required=True, type=Path, help="run directory (all stages)")
+    train.add_argument("--config", default=None,
+                       help="preset (humanml3d, kit, small, tiny) or YAML file; default small")
+    train.add_argument("overrides", nargs="*", metavar="key=value",
+                       help="config overrides, e.g. train.cm.max_steps=2000 consistency.guidance=2")
+    train.add_argument("--resume", action="store_true", help="continue from the latest checkpoint")
+    train.add_argument("--ae", default=None, help="AE checkpoint for cm/diffusion "
+                       "(default: RUN/ae's latest)")
+    train.add_argument("--device", default=None, help="cpu or cuda (default: cuda if available)")
+    train.add_argument("--quiet", action="store_true", help="no progress bar")
+    train.set_defaults(func=_cmd_train)
+
+    export = commands.add_parser("export", help="write an inference bundle from a training run")
+    export.add_argument("run", type=Path)
+    export.add_argument("--out", required=True, type=Path, help="model directory to write")
+    export.add_argument("--stage", default=None, choices=["cm", "diffusion"],
+                        help="which stage-2 model (default cm)")
+    export.add_argument("--half", action="store_true", help="store weights in float16")
+    export.set_defaults(func=_cmd_export)
+
+    generate = commands.add_parser("generate", help="text to motion")
+    generate.add_argument("text")
+    generate.add_argument("--model", required=True, type=Path, help="model directory")
+    length = generate.add_mutually_exclusive_group()
+    length.add_argument("--seconds", type=float, default=None)
+    length.add_argument("--length", type=int, default=None, help="frames")
+    generate.add_argument("--nfe", type=int, default=None, help="sampling steps (default 5)")
+    generate.add_argument("--seed", type=int, default=None)
+    generate.add_argument("--device", default=None)
+    generate.add_argument("--joints", action="store_true",
+                          help=".npy holds joints (T x J x 3) instead of features")
+    generate.add_argument("--out", required=True, type=Path, help="FILE.npy, .gif, .mp4 or .png")
+    generate.set_defaults(func=_cmd_generate)
 
     render = commands.add_parser("render", help="draw a motion file as GIF, MP4 or PNG filmstrip")
     render.add_argument("file", type=Path, help="features (T x 263/251) or joints (T x J x 3) .npy")

@@ -178,25 +178,26 @@ class Text2MotionDataset(Dataset):
             self._worker_rng = (info.seed, generator)
         return self._worker_rng[1]
 
-    def _randint(self, low: int, high: int) -> int:
-        """Uniform integer in [low, high] from the dataset's generator."""
-        return int(torch.randint(low, high + 1, (1,), generator=self._rng()).item())
+    def _randint(self, low: int, high: int, rng: torch.Generator | None = None) -> int:
+        """Uniform integer in [low, high] from `rng`, else the dataset's generator."""
+        return int(torch.randint(low, high + 1, (1,), generator=rng or self._rng()).item())
 
-    def crop_length(self, frames: int) -> int:
+    def crop_length(self, frames: int, rng: torch.Generator | None = None) -> int:
         """The random crop length: a multiple of unit_length, one unit shorter 1/3 of the time."""
         units = frames // self.unit_length
         # The reference: coin in ['single', 'single', 'double'] when unit_length < 10.
-        if self.unit_length < 10 and self._randint(0, 2) == 2:
+        if self.unit_length < 10 and self._randint(0, 2, rng) == 2:
             units -= 1
         units = min(units, self.max_motion_length // self.unit_length)
         return max(units, 1) * self.unit_length
 
-    def _sample(self, index: int) -> tuple[TextRecord, torch.Tensor, int]:
+    def _sample(self, index: int, rng: torch.Generator | None = None
+                ) -> tuple[TextRecord, torch.Tensor, int]:
         """A random caption of item `index` and a random crop, padded: (record, motion, length)."""
         item = self.items[index]
-        record = item.captions[self._randint(0, len(item.captions) - 1)]
-        length = min(self.crop_length(len(item.motion)), len(item.motion))
-        start = self._randint(0, len(item.motion) - length)
+        record = item.captions[self._randint(0, len(item.captions) - 1, rng)]
+        length = min(self.crop_length(len(item.motion), rng), len(item.motion))
+        start = self._randint(0, len(item.motion) - length, rng)
         motion = torch.zeros(self.max_motion_length, item.motion.shape[1], dtype=torch.float32)
         motion[:length] = torch.from_numpy(item.motion[start:start + length])
         return record, motion, length
@@ -204,6 +205,16 @@ class Text2MotionDataset(Dataset):
     def __getitem__(self, index: int) -> Sample:
         record, motion, length = self._sample(index)
         return Sample(record.caption, list(record.tokens), motion, length)
+
+    def sample(self, index: int, generator: torch.Generator) -> Sample:
+        """Item `index` with its caption and crop drawn from `generator`: the same generator
+        state gives the same sample in any process (the trainer's exact resume relies on it)."""
+        record, motion, length = self._sample(index, generator)
+        return Sample(record.caption, list(record.tokens), motion, length)
+
+    def captions(self) -> list[str]:
+        """Every caption of the split, each once, in a stable order (for text-embedding caches)."""
+        return sorted({record.caption for item in self.items for record in item.captions})
 
     def denormalize(self, motion: torch.Tensor | np.ndarray) -> torch.Tensor | np.ndarray:
         """Undo the Mean/Std normalization (the reference's inv_transform)."""

@@ -30,11 +30,19 @@ def consistency_output(
     return skip * x_t + out * model_out  # (B, n, d)
 
 
-def pseudo_huber(a: Tensor, b: Tensor, c: float = 0.001) -> Tensor:
-    """Mean of the elementwise pseudo-Huber distance sqrt((a - b)^2 + c^2) - c (Eq. 15)."""
-    return (((a - b) ** 2 + c**2).sqrt() - c).mean()
+def pseudo_huber(a: Tensor, b: Tensor, c: float = 0.001, per_sample: bool = False) -> Tensor:
+    """Pseudo-Huber distance sqrt((a - b)^2 + c^2) - c (Eq. 15), averaged elementwise.
+
+    per_sample=True averages over all but the batch dim, giving (B,), for per-sample weights.
+    """
+    d = ((a - b) ** 2 + c**2).sqrt() - c
+    return d.flatten(1).mean(1) if per_sample else d.mean()
 
 
-def guided_target(x0: Tensor, u: Tensor, w: float | Tensor) -> Tensor:
-    """Guided clean estimate clamp((1 + w) x0 - w u, -1, 1) (Eq. 14); detach u beforehand."""
-    return ((1 + w) * x0 - w * u).clamp(-1.0, 1.0)
+def guided_target(x0: Tensor, u: Tensor, w: float | Tensor, clamp: float | None = 1.0) -> Tensor:
+    """Guided clean estimate clamp((1 + w) x0 - w u, -1, 1) (Eq. 14); detach u beforehand.
+
+    clamp=None leaves it unbounded, for the latent ablations (vae, plain) that have no bound.
+    """
+    guided = (1 + w) * x0 - w * u
+    return guided if clamp is None else guided.clamp(-clamp, clamp)

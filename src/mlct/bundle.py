@@ -1,0 +1,108 @@
+"""Inference bundles: `mlct export RUN --out MODEL_DIR` writes one, `mlct.load` reads it.
+
+A bundle is a directory:
+- model.safetensors: the AE decoder ("decoder.*"), the sampling denoiser ("denoiser.*": the EMA
+  weights), the normalization ("norm.mean", "norm.std");
+- config.json: the full run config, the sampler kind, feature width, skeleton, text encoder;
+- Mean.npy, Std.npy: the dataset statistics, in the standard layout's names.
+It holds no optimizer state, no encoder half of the AE and no text-encoder weights (the encoder
+is named and loaded from its own package or directory).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from safetensors.torch import load_file, save_file
+
+from mlct.errors import MlctError
+
+BUNDLE_FORMAT = "mlct-model"
+BUNDLE_VERSION = 1
+SAMPLERS = {"cm": "consistency", "diffusion": "ddim"}
+ENCODER_PREFIXES = ("enc_in.", "enc_tokens", "enc_pos", "encoder.")
+
+
+def _strip(tensors: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:
+    head = prefix + "."
+    return {k[len(head):]: v for k, v in tensors.items() if k.startswith(head)}
+
+
+def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None = None,
+               half: bool = False) -> Path:
+    """Write the inference bundle of RUN's latest `cm` (default) or `diffusion` checkpoint."""
+    from mlct.train.checkpoint import latest_checkpoint, load_checkpoint
+
+    run, out = Path(run), Path(out)
+    if stage is None:
+        stage = "cm" if (run / "cm").is_dir() or not (run / "diffusion").is_dir() else "diffusion"
+    if stage not in SAMPLERS:
+        raise MlctError(f"cannot export stage '{stage}'; choose cm or diffusion")
+    found = latest_checkpoint(run / stage / "checkpoints")
+    if found is None:
+        raise MlctError(f"{run / stage}: no checkpoint to export (train it first)")
+    ckpt = load_checkpoint(found, with_state=False)
+    ae = _strip(ckpt.tensors, "ae")
+    decoder = {k: v for k, v in ae.items() if not k.startswith(ENCODER_PREFIXES)}
+    target = _strip(ckpt.tensors, "target")
+    if stage == "cm":
+        denoiser = _strip(target, "module.net") if target else _strip(ckpt.tensors, "denoiser")
+    else:
+        denoiser = _strip(target, "module")
+    tensors = {**{f"decoder.{k}": v for k, v in decoder.items()},
+               **{f"denoiser.{k}": v for k, v in denoiser.items()},
+               "norm.mean": ckpt.tensors["norm.mean"], "norm.std": ckpt.tensors["norm.std"]}
+    if half:  # float16 storage halves the file; loading casts back to float32
+        tensors = {k: (v.half() if v.is_floating_point() and not k.startswith("norm.") else v)
+                   for k, v in tensors.items()}
+    meta = {"format": BUNDLE_FORMAT, "version": BUNDLE_VERSION, "sampler": SAMPLERS[stage],
+            "step": ckpt.meta["step"], "config": ckpt.meta["config"],
+            "feature_dim": ckpt.meta["feature_dim"], "skeleton": ckpt.meta["skeleton"],
+            "text_encoder": ckpt.meta["text_encoder"], "text_dim": ckpt.meta["text_dim"]}
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        save_file({k: v.contiguous() for k, v in tensors.items()}, str(tmp / "model.safetensors"),
+                  metadata={"format": BUNDLE_FORMAT})
+        (tmp / "config.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+        np.save(tmp / "Mean.npy", ckpt.tensors["norm.mean"].numpy())
+        np.save(tmp / "Std.npy", ckpt.tensors["norm.std"].numpy())
+        tmp.chmod(0o755)  # mkdtemp makes it private; a model directory is meant to be shared
+        if out.exists():
+            shutil.rmtree(out)
+        os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out
+
+
+def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
+    """config.json and the tensors of a bundle; one-line MlctError when it is not one."""
+    path = Path(path)
+    if not path.is_dir():
+        raise MlctError(f"{path}: no such model directory")
+    config_path, weights = path / "config.json", path / "model.safetensors"
+    if not config_path.is_file() or not weights.is_file():
+        raise MlctError(f"{path}: not an mlct model (needs config.json and model.safetensors; "
+                        f"make one with `mlct export RUN --out {path}`)")
+    try:
+        meta = json.loads(config_path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as err:
+        raise MlctError(f"{config_path}: unreadable ({err})") from None
+    if not isinstance(meta, dict) or meta.get("format") != BUNDLE_FORMAT:
+        raise MlctError(f"{config_path}: not an mlct model config")
+    if meta.get("version") != BUNDLE_VERSION:
+        raise MlctError(f"{path}: model format version {meta.get('version')} is not supported")
+    try:
+        tensors = load_file(str(weights))
+    except Exception as err:  # safetensors raises several kinds on a damaged file
+        raise MlctError(f"{weights}: unreadable weights ({str(err).splitlines()[0]})") from None
+    return meta, {k: (v.float() if v.dtype == torch.float16 else v) for k, v in tensors.items()}

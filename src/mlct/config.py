@@ -1,0 +1,236 @@
+"""Typed configuration: YAML presets, key=value overrides, one validated tree.
+
+Every setting of a run lives here with its default and the paper's reason; a run saves the full
+tree next to its weights, so the checkpoint alone rebuilds the model. Validation is pydantic's:
+an unknown key or a value of the wrong type is one clear line, never a silent default.
+"""
+
+from __future__ import annotations
+
+import copy
+from importlib import resources
+from pathlib import Path
+from typing import Any, Literal, Sequence
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from mlct.errors import MlctError
+
+PRESETS = ("humanml3d", "kit", "small", "tiny")
+STAGES = ("ae", "cm", "diffusion")
+
+
+class _Section(BaseModel):
+    # Strict about names (a typo is an error), lenient about "1" vs 1 only where YAML is.
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False)
+
+
+class DataConfig(_Section):
+    """How the dataset is read (the standard Text2MotionDatasetV2 protocol)."""
+
+    max_motion_length: int = Field(196, ge=4)  # frames after padding
+    unit_length: int = Field(4, ge=1)  # crops are multiples of this
+    num_workers: int = Field(0, ge=0)  # DataLoader workers
+    on_bad_file: Literal["strict", "skip"] = "strict"
+
+
+class TextConfig(_Section):
+    """Frozen text encoder (Sec. 5: CLIP ViT-L/14; our default, the bundled MiniLM)."""
+
+    encoder: str = "minilm"  # "minilm" | "clip:DIR" | "st:DIR" | DIR
+    cache_dir: str | None = None  # embedding cache; None = $MLCT_CACHE or ~/.cache/mlct
+
+
+class AutoencoderConfig(_Section):
+    """Stage 1: skip-transformer motion autoencoder (Sec. 4.1, Eq. 7-9)."""
+
+    latent_type: Literal["quantized", "vae", "plain"] = "quantized"
+    n_tokens: int = Field(3, ge=1)  # n learnable latent tokens
+    latent_dim: int = Field(256, ge=1)  # d
+    levels: int = Field(1000, ge=1)  # l: 2l + 1 levels per dimension (Eq. 8)
+    layers: int = Field(7, ge=1)  # odd: in blocks, middle, out blocks
+    heads: int = Field(8, ge=1)
+    ff_dim: int = Field(1024, ge=1)
+    dropout: float = Field(0.1, ge=0.0, lt=1.0)
+    joint_weight: float = Field(1e-3, ge=0.0)  # lambda_j (Eq. 9)
+    kl_weight: float = Field(1e-4, ge=0.0)  # for latent_type = vae (MLD's value)
+
+
+class DenoiserConfig(_Section):
+    """Stage 2 network F: skip transformer, text + time added at every block (Sec. 4.2)."""
+
+    width: int = Field(512, ge=1)
+    layers: int = Field(11, ge=1)
+    heads: int = Field(8, ge=1)
+    ff_dim: int = Field(2048, ge=1)
+    dropout: float = Field(0.1, ge=0.0, lt=1.0)
+
+
+class ScheduleConfig(_Section):
+    """VP schedule (Eq. 10), Karras time grid (App. B), consistency parameterization (Eq. 11)."""
+
+    beta_min: float = Field(0.1, ge=0.0)  # b0: authors' code; the paper prints 0.002
+    beta_max: float = Field(20.0, gt=0.0)  # b1: authors' code; the paper prints 1
+    num_steps: int = Field(50, ge=2)  # N points of the time grid
+    eps: float = Field(0.002, gt=0.0)  # first grid time
+    t_max: float = Field(1.0, gt=0.0)  # T
+    rho: float = Field(2.0, gt=0.0)
+    eta: float = Field(0.5, gt=0.0)  # sigma_data-like constant of c_skip / c_out
+    time_scale: float = Field(10.0, gt=0.0)  # the 10 in c_skip = eta^2 / ((10 t)^2 + eta^2)
+
+
+class ConsistencyConfig(_Section):
+    """Conditionally guided consistency training (Eq. 13-15, Algorithm 1) and its sampler."""
+
+    guidance: float = Field(1.0, ge=0.0)  # w: 1 for HumanML3D, 2 for KIT; 0 = vanilla CT
+    uncond_weight: float = Field(1.0, ge=0.0)  # lambda_c
+    huber_c: float = Field(0.001, gt=0.0)  # gamma of the pseudo-Huber metric
+    target: Literal["ema", "online"] = "ema"  # EMA target network or online stop-gradient
+    target_decay: float = Field(0.995, ge=0.0, lt=1.0)  # EMA rate of the target network
+    nfe: int = Field(5, ge=1)  # default sampling steps (Algorithm 2)
+
+
+class DiffusionConfig(_Section):
+    """The MLD-style latent diffusion baseline: x0 prediction, condition dropout, DDIM + CFG."""
+
+    cond_dropout: float = Field(0.1, ge=0.0, le=1.0)
+    sample_steps: int = Field(50, ge=1)
+    guidance: float = Field(7.5, ge=0.0)  # classifier-free guidance scale (two passes per step)
+    ema_decay: float = Field(0.999, ge=0.0, lt=1.0)  # averaged weights exported for sampling
+
+
+class TrainConfig(_Section):
+    """Optimization of one stage."""
+
+    batch_size: int = Field(64, ge=1)  # global batch; split across DDP ranks
+    lr: float = Field(1e-4, gt=0.0)  # AdamW (Sec. 5)
+    lr_min: float = Field(1e-6, ge=0.0)  # cosine schedule floor
+    weight_decay: float = Field(0.0, ge=0.0)
+    max_steps: int = Field(1000, ge=1)
+    grad_clip: float = Field(10.0, gt=0.0)  # gradient-norm clip (authors' code)
+    log_every: int = Field(50, ge=1)
+    val_every: int = Field(500, ge=1)
+    val_batches: int = Field(8, ge=1)  # validation loss over this many fixed batches
+    ckpt_every: int = Field(500, ge=1)
+    seed: int = 0
+    precision: Literal["auto", "fp32", "bf16"] = "auto"  # auto: bf16 autocast on CUDA only
+
+
+class StageTrainConfigs(_Section):
+    ae: TrainConfig = TrainConfig()
+    cm: TrainConfig = TrainConfig()
+    diffusion: TrainConfig = TrainConfig()
+
+
+class Config(_Section):
+    """Everything a run needs, from data to sampling."""
+
+    preset: str = "custom"
+    data: DataConfig = DataConfig()
+    text: TextConfig = TextConfig()
+    ae: AutoencoderConfig = AutoencoderConfig()
+    denoiser: DenoiserConfig = DenoiserConfig()
+    schedule: ScheduleConfig = ScheduleConfig()
+    consistency: ConsistencyConfig = ConsistencyConfig()
+    diffusion: DiffusionConfig = DiffusionConfig()
+    train: StageTrainConfigs = StageTrainConfigs()
+
+    def to_dict(self) -> dict[str, Any]:
+        return self.model_dump(mode="json")
+
+
+def _format_error(err: ValidationError, source: str) -> str:
+    first = err.errors()[0]
+    where = ".".join(str(p) for p in first["loc"])
+    kind = first["type"]
+    if kind == "extra_forbidden":
+        return f"{source}: unknown config key '{where}'"
+    value = first.get("input")
+    return f"{source}: bad value for '{where}': {first['msg']} (got {value!r})"
+
+
+def config_from_dict(data: dict[str, Any], source: str = "config") -> Config:
+    """Validate a nested dict into a Config; one-line MlctError on unknown keys or bad types."""
+    if not isinstance(data, dict):
+        raise MlctError(f"{source}: expected a mapping at the top level, got {type(data).__name__}")
+    try:
+        return Config.model_validate(data)
+    except ValidationError as err:
+        raise MlctError(_format_error(err, source)) from None
+
+
+def preset_path(name: str) -> Path:
+    if name not in PRESETS:
+        raise MlctError(f"unknown preset '{name}'; choose one of {', '.join(PRESETS)}")
+    return Path(str(resources.files("mlct") / "configs" / f"{name}.yaml"))
+
+
+def _read_yaml(path: Path) -> dict[str, Any]:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as err:
+        raise MlctError(f"cannot read config {path}: {err.strerror}") from None
+    try:
+        data = yaml.safe_load(text) or {}
+    except yaml.YAMLError as err:
+        raise MlctError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
+    if not isinstance(data, dict):
+        raise MlctError(f"{path}: expected a mapping at the top level")
+    return data
+
+
+def _merge(base: dict[str, Any], update: dict[str, Any]) -> dict[str, Any]:
+    out = copy.deepcopy(base)
+    for key, value in update.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = _merge(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def parse_override(item: str) -> tuple[list[str], Any]:
+    """'a.b.c=value' -> (['a', 'b', 'c'], value parsed as YAML, so 1e-4, true, [1, 2] work)."""
+    key, sep, raw = item.partition("=")
+    if not sep or not key.strip():
+        raise MlctError(f"override '{item}' is not of the form key=value")
+    try:
+        value = yaml.safe_load(raw) if raw.strip() else ""
+    except yaml.YAMLError:
+        value = raw
+    return key.strip().split("."), value
+
+
+def apply_overrides(data: dict[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
+    out = copy.deepcopy(data)
+    for item in overrides:
+        path, value = parse_override(item)
+        node = out
+        for part in path[:-1]:
+            child = node.setdefault(part, {})
+            if not isinstance(child, dict):
+                raise MlctError(f"override '{item}': '{part}' is a value, not a section")
+            node = child
+        node[path[-1]] = value
+    return out
+
+
+def load_config(preset_or_file: str | Path | None = None,
+                overrides: Sequence[str] = ()) -> Config:
+    """A preset name or YAML file (which may name a `base` preset), then key=value overrides."""
+    data: dict[str, Any] = {}
+    source = "config"
+    if preset_or_file is not None:
+        name = str(preset_or_file)
+        path = preset_path(name) if name in PRESETS else Path(name)
+        if name not in PRESETS and not path.exists():
+            raise MlctError(f"config '{name}' is neither a preset ({', '.join(PRESETS)}) "
+                            f"nor an existing file")
+        data = _read_yaml(path)
+        source = str(path)
+        base = data.pop("base", None)
+        if base is not None:
+            data = _merge(_read_yaml(preset_path(str(base))), data)
+    data = apply_overrides(data, overrides)
+    return config_from_dict(data, source if not overrides else f"{source} + overrides")

@@ -1,0 +1,28 @@
+"""Build the networks from a Config: the one place that maps config sections to modules."""
+
+from __future__ import annotations
+
+from mlct.config import Config
+from mlct.nn.autoencoder import MotionAutoencoder
+from mlct.nn.denoiser import Denoiser
+
+
+def build_autoencoder(config: Config, feature_dim: int) -> MotionAutoencoder:
+    ae = config.ae
+    return MotionAutoencoder(
+        feature_dim, latent_type=ae.latent_type, n_tokens=ae.n_tokens,
+        latent_dim=ae.latent_dim, levels=ae.levels, layers=ae.layers, heads=ae.heads,
+        ff_dim=ae.ff_dim, dropout=ae.dropout, max_len=config.data.max_motion_length)
+
+
+def build_denoiser(config: Config, text_dim: int) -> Denoiser:
+    d = config.denoiser
+    return Denoiser(latent_dim=config.ae.latent_dim, n_tokens=config.ae.n_tokens,
+                    text_dim=text_dim, width=d.width, layers=d.layers, heads=d.heads,
+                    ff_dim=d.ff_dim, dropout=d.dropout)
+
+
+def latent_clamp(config: Config) -> float | None:
+    """Clamp bound of the latent: 1 for the quantized latent (tanh-bounded, Eq. 8), none for
+    the vae / plain ablations, whose latents are unbounded."""
+    return 1.0 if config.ae.latent_type == "quantized" else None

@@ -1,0 +1,198 @@
+"""Text -> latent -> motion: the one path that the CLI, the Python API and evaluation share.
+
+    gen = mlct.load("MODEL_DIR")
+    motions = gen.generate(["a person walks forward"], seconds=4, nfe=5, seed=0)
+    motions[0].joints  # (T, J, 3)
+
+Built from an inference bundle (bundle.py); needs no training code.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from mlct.bundle import read_bundle
+from mlct.config import config_from_dict
+from mlct.diffusion.parameterization import ConsistencyFunction, x0_from_eps
+from mlct.diffusion.samplers import ddim_times, sample_consistency, sample_ddim
+from mlct.diffusion.schedule import VPSchedule, karras_time_grid, sampling_times
+from mlct.errors import MlctError
+from mlct.models import build_autoencoder, build_denoiser, latent_clamp
+from mlct.motion.features import recover_from_ric
+from mlct.motion.skeleton import get_skeleton
+
+
+@dataclass
+class GeneratedMotion:
+    """One generated motion in real units: features (T, D), joints (T, J, 3)."""
+
+    text: str
+    features: np.ndarray
+    joints: np.ndarray
+    fps: float
+    skeleton: str
+
+    @property
+    def seconds(self) -> float:
+        return len(self.joints) / self.fps
+
+
+class MotionGenerator:
+    """A loaded model: text encoder (lazy), denoiser, AE decoder, schedule and sampler."""
+
+    def __init__(self, meta: dict, tensors: dict[str, Tensor],
+                 device: torch.device | str | None = None) -> None:
+        self.meta = meta
+        self.config = config_from_dict(meta["config"], "model config")
+        self.device = torch.device(device or "cpu")
+        self.skeleton = get_skeleton(meta["skeleton"])
+        self.sampler = meta["sampler"]
+        self.ae = build_autoencoder(self.config, meta["feature_dim"])
+        missing, unexpected = self.ae.load_state_dict(_strip(tensors, "decoder"), strict=False)
+        if unexpected or any(not k.startswith(("enc_in.", "enc_tokens", "enc_pos", "encoder."))
+                             for k in missing):
+            raise MlctError("model weights do not match its config (decoder)")
+        self.denoiser = build_denoiser(self.config, meta["text_dim"])
+        try:
+            self.denoiser.load_state_dict(_strip(tensors, "denoiser"))
+        except RuntimeError:
+            raise MlctError("model weights do not match its config (denoiser)") from None
+        self.mean = tensors["norm.mean"].float()
+        self.std = tensors["norm.std"].float()
+        self.ae.to(self.device).eval().requires_grad_(False)
+        self.denoiser.to(self.device).eval().requires_grad_(False)
+        s = self.config.schedule
+        self.schedule = VPSchedule(s.beta_min, s.beta_max)
+        self.consistency = ConsistencyFunction(self.denoiser, s.eta, s.time_scale)
+        self.grid = karras_time_grid(s.num_steps, s.eps, s.t_max, s.rho, device=self.device)
+        self.clamp = latent_clamp(self.config)
+        self._text_encoder = None
+        self._text_memo: dict[str, Tensor] = {}
+
+    @classmethod
+    def load(cls, path: str | os.PathLike, device: torch.device | str | None = None
+             ) -> MotionGenerator:
+        meta, tensors = read_bundle(path)
+        return cls(meta, tensors, device)
+
+    @property
+    def max_frames(self) -> int:
+        return self.config.data.max_motion_length
+
+    @property
+    def default_nfe(self) -> int:
+        return self.config.consistency.nfe if self.sampler == "consistency" \
+            else self.config.diffusion.sample_steps
+
+    def encode_text(self, texts: Sequence[str]) -> Tensor:
+        """(B, c) frozen text embeddings; each distinct text is encoded once per generator."""
+        missing = sorted({t for t in texts if t not in self._text_memo})
+        if missing:
+            if self._text_encoder is None:
+                from mlct.text import load_text_encoder
+
+                self._text_encoder = load_text_encoder(self.meta["text_encoder"])
+            for text, row in zip(missing, self._text_encoder.encode(missing)):
+                self._text_memo[text] = row.float()
+        return torch.stack([self._text_memo[t] for t in texts]).to(self.device)
+
+    def frames_for(self, seconds: float) -> int:
+        return int(round(seconds * self.skeleton.fps))
+
+    def _lengths(self, count: int, lengths: int | Sequence[int] | None,
+                 seconds: float | Sequence[float] | None) -> list[int]:
+        if lengths is not None and seconds is not None:
+            raise MlctError("give lengths (frames) or seconds, not both")
+        if seconds is not None:
+            secs = [seconds] * count if np.isscalar(seconds) else list(seconds)  # type: ignore
+            lengths = [self.frames_for(float(s)) for s in secs]
+        if lengths is None:
+            lengths = [min(self.max_frames, self.frames_for(5.0))] * count
+        elif isinstance(lengths, (int, np.integer)):
+            lengths = [int(lengths)] * count
+        out = [int(n) for n in lengths]  # type: ignore[union-attr]
+        if len(out) != count:
+            raise MlctError(f"{len(out)} lengths for {count} texts")
+        for n in out:
+            if not 1 <= n <= self.max_frames:
+                raise MlctError(f"length {n} frames is outside 1..{self.max_frames} "
+                                f"({self.max_frames / self.skeleton.fps:.2f} s at "
+                                f"{self.skeleton.fps:g} fps)")
+        return out
+
+    @torch.no_grad()
+    def sample_latents(self, cond: Tensor, nfe: int | None = None, seed: int | None = None,
+                       guidance: float | None = None) -> Tensor:
+        """(B, n, d) latents for text embeddings cond (B, c). NFE = denoiser evaluations."""
+        batch = cond.shape[0]
+        shape = (batch, *self.ae.latent_shape)
+        generator = torch.Generator()
+        if seed is None:
+            generator.seed()
+        else:
+            generator.manual_seed(int(seed))
+        steps = self.default_nfe if nfe is None else int(nfe)
+        if self.sampler == "consistency":
+            if not 1 <= steps <= len(self.grid):
+                raise MlctError(f"nfe must be within 1..{len(self.grid)}, got {steps}")
+            times = sampling_times(self.grid, steps)
+
+            def model(x: Tensor, t: Tensor) -> Tensor:
+                return self.consistency(x, t, cond)  # guidance is baked in (one pass)
+
+            return sample_consistency(model, shape, times, self.schedule, generator, self.clamp)
+        if steps < 1:
+            raise MlctError(f"steps must be >= 1, got {steps}")
+        scale = self.config.diffusion.guidance if guidance is None else float(guidance)
+        null = self.encode_text([""]).expand_as(cond)
+
+        def guided(x: Tensor, t: Tensor) -> Tensor:
+            # Classifier-free guidance: two passes (one batch of 2B) per step.
+            eps_c, eps_u = self.denoiser(torch.cat([x, x]), torch.cat([t, t]),
+                                         torch.cat([cond, null])).chunk(2)
+            return x0_from_eps(x, eps_u + scale * (eps_c - eps_u), t, self.schedule)
+
+        times = ddim_times(steps, device=self.device)
+        return sample_ddim(guided, shape, times, self.schedule, generator, self.clamp)
+
+    @torch.no_grad()
+    def decode(self, z: Tensor, lengths: Sequence[int]) -> list[np.ndarray]:
+        """Latents -> denormalized features, one (T_i, D) array per item."""
+        lens = torch.tensor(list(lengths), device=self.device)
+        feats = self.ae.decode(z, lens, max(lengths))  # (B, T, D) normalized
+        feats = feats.float().cpu() * self.std + self.mean
+        return [feats[i, :n].numpy() for i, n in enumerate(lengths)]
+
+    def generate(self, texts: str | Sequence[str], lengths: int | Sequence[int] | None = None,
+                 seconds: float | Sequence[float] | None = None, nfe: int | None = None,
+                 seed: int | None = None, guidance: float | None = None
+                 ) -> list[GeneratedMotion]:
+        """Motions for texts: one per text, each of its own length. Seeded: same seed, same motion."""
+        if isinstance(texts, str):
+            texts = [texts]
+        texts = list(texts)
+        if not texts:
+            return []
+        frames = self._lengths(len(texts), lengths, seconds)
+        z = self.sample_latents(self.encode_text(texts), nfe, seed, guidance)
+        out = []
+        for text, feats in zip(texts, self.decode(z, frames)):
+            joints = recover_from_ric(torch.from_numpy(feats)).numpy()
+            out.append(GeneratedMotion(text, feats, joints, self.skeleton.fps, self.skeleton.name))
+        return out
+
+
+def _strip(tensors: dict[str, Tensor], prefix: str) -> dict[str, Tensor]:
+    head = prefix + "."
+    return {k[len(head):]: v for k, v in tensors.items() if k.startswith(head)}
+
+
+def load(path: str | os.PathLike, device: torch.device | str | None = None) -> MotionGenerator:
+    """Load an inference bundle written by `mlct export` (or the bundled model)."""
+    return MotionGenerator.load(path, device)

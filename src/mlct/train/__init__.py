@@ -1,0 +1,1 @@
+"""Training engine: one readable loop, resumable atomic checkpoints, EMA, DDP."""

@@ -1,0 +1,294 @@
+"""One training loop for every stage: read it top to bottom.
+
+    mlct train ae|cm|diffusion --data DIR --out RUN [--config F] [key=value ...] [--resume]
+
+RUN/<stage>/ holds config.yaml, log.jsonl, tb/ (TensorBoard) and checkpoints/. The same command
+runs alone or under torchrun (DDP); only rank 0 writes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any, Iterator
+
+import torch
+import yaml
+from torch.nn.parallel import DistributedDataParallel
+
+from mlct.config import Config, TrainConfig, apply_overrides, config_from_dict
+from mlct.data.dataset import Text2MotionDataset
+from mlct.errors import MlctError
+from mlct.io import write_text
+from mlct.train import distributed
+from mlct.train.batches import fixed_batches, step_loader
+from mlct.train.checkpoint import latest_checkpoint, load_checkpoint, save_checkpoint
+from mlct.train.stages import (AutoencoderStage, ConsistencyStage, DiffusionStage, Stage,
+                               TextTable, find_autoencoder)
+
+STAGE_NAMES = ("ae", "cm", "diffusion")
+
+
+class JsonlLog:
+    """Append-only JSON lines; on resume, lines past the resumed step are dropped first."""
+
+    def __init__(self, path: Path, resume_step: int | None) -> None:
+        self.path = path
+        if resume_step is not None and path.exists():
+            kept = [line for line in path.read_text(encoding="utf-8").splitlines()
+                    if line.strip() and json.loads(line).get("step", 0) <= resume_step]
+            write_text(path, "".join(line + "\n" for line in kept))
+        elif resume_step is None and path.exists():
+            path.unlink()
+
+    def write(self, record: dict[str, Any]) -> None:
+        with self.path.open("a", encoding="utf-8") as handle:
+            handle.write(json.dumps(record) + "\n")
+
+
+def _autocast(device: torch.device, precision: str) -> contextlib.AbstractContextManager:
+    use_bf16 = precision == "bf16" or (precision == "auto" and device.type == "cuda")
+    if not use_bf16:
+        return contextlib.nullcontext()
+    return torch.autocast(device_type=device.type, dtype=torch.bfloat16)
+
+
+def _rng_state(device: torch.device) -> dict[str, Any]:
+    state = {"torch": torch.get_rng_state()}
+    if device.type == "cuda":
+        state["cuda"] = torch.cuda.get_rng_state(device)
+    return state
+
+
+def _set_rng_state(state: dict[str, Any], device: torch.device) -> None:
+    torch.set_rng_state(state["torch"])
+    if device.type == "cuda" and "cuda" in state:
+        torch.cuda.set_rng_state(state["cuda"], device)
+
+
+def _resume_config(saved: dict[str, Any], overrides: list[str], stage: str) -> Config:
+    """The saved config, plus overrides that may only touch this stage's train section
+    (e.g. a larger max_steps); anything else would make the resumed run a different run."""
+    for item in overrides:
+        if not item.startswith(f"train.{stage}."):
+            raise MlctError(f"--resume continues the saved config; only train.{stage}.* may be "
+                            f"overridden, not '{item.split('=')[0]}'")
+    return config_from_dict(apply_overrides(saved, overrides), "resumed config")
+
+
+def _build_stage(stage: str, config: Config, run: Path, data: Text2MotionDataset,
+                 val: Text2MotionDataset | None, info: distributed.DistInfo,
+                 ae_path: str | Path | None) -> Stage:
+    if stage == "ae":
+        return AutoencoderStage(config, info.device, torch.from_numpy(data.mean),
+                                torch.from_numpy(data.std), data.skeleton.name)
+    from mlct.text import CachedTextEncoder, EmbeddingCache, default_cache_dir, load_text_encoder
+
+    captions = data.captions() + (val.captions() if val is not None else [])
+    cache_dir = Path(config.text.cache_dir) if config.text.cache_dir else default_cache_dir()
+    # Rank 0 fills the disk cache first; the others then read it instead of encoding again.
+    encoder = None
+    for turn in ("main", "rest"):
+        if (turn == "main") == info.is_main:
+            encoder = CachedTextEncoder(load_text_encoder(config.text.encoder),
+                                        EmbeddingCache(cache_dir / "text_embeddings.sqlite"))
+            table = TextTable(encoder, captions, info.device)
+        distributed.barrier(info)
+    path = find_autoencoder(run, ae_path)
+    cls = ConsistencyStage if stage == "cm" else DiffusionStage
+    built = cls(config, info.device, path, table)
+    if built.ae_meta["feature_dim"] != data.skeleton.feature_dim:
+        raise MlctError(f"the autoencoder {path} reads {built.ae_meta['feature_dim']}-d motion, "
+                        f"the data has {data.skeleton.feature_dim}-d features")
+    return built
+
+
+def _validate(stage: Stage, batches: list[dict], seed: int, device: torch.device,
+              precision: str) -> dict[str, float]:
+    """Mean loss terms over fixed batches, with a fixed generator: comparable across steps."""
+    stage.train(False)
+    generator = torch.Generator(device=device)
+    generator.manual_seed(seed)
+    sums: dict[str, float] = {}
+    with torch.no_grad(), _autocast(device, precision):
+        for batch in batches:
+            for key, value in stage.loss(stage.trainable, batch, generator).items():
+                sums[key] = sums.get(key, 0.0) + float(value)
+    stage.train(True)
+    return {f"val_{k}": v / len(batches) for k, v in sums.items()}
+
+
+def _progress(total: int, start: int, enabled: bool, desc: str) -> Any:
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, initial=start, disable=not enabled, desc=desc, dynamic_ncols=True,
+                unit="it")
+
+
+def train(stage: str, data_dir: str | Path, out: str | Path, config: Config | None = None,
+          overrides: list[str] | None = None, resume: bool = False,
+          ae_path: str | Path | None = None, device: str | None = None,
+          progress: bool = True) -> dict[str, Any]:
+    """Train one stage; returns a summary (final step, last losses, throughput, paths)."""
+    if stage not in STAGE_NAMES:
+        raise MlctError(f"unknown stage '{stage}'; choose one of {', '.join(STAGE_NAMES)}")
+    run = Path(out)
+    stage_dir = run / stage
+    ckpt_dir = stage_dir / "checkpoints"
+    overrides = list(overrides or [])
+    info = distributed.setup(device)
+    try:
+        found = latest_checkpoint(ckpt_dir)
+        checkpoint = None
+        if resume:
+            if found is None:
+                raise MlctError(f"{ckpt_dir}: no checkpoint to resume from")
+            checkpoint = load_checkpoint(found)
+            if checkpoint.meta.get("stage") != stage:
+                raise MlctError(f"{found}: a '{checkpoint.meta.get('stage')}' checkpoint, "
+                                f"not '{stage}'")
+            config = _resume_config(checkpoint.meta["config"], overrides, stage)
+        else:
+            if found is not None:
+                raise MlctError(f"{stage_dir} already holds a run; pass --resume to continue it "
+                                f"or choose another --out")
+            base = config.to_dict() if config is not None else Config().to_dict()
+            config = config_from_dict(apply_overrides(base, overrides), "config + overrides")
+        return _train(stage, Path(data_dir), run, config, checkpoint, info, ae_path, progress)
+    finally:
+        distributed.teardown(info)
+
+
+def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoint: Any,
+           info: distributed.DistInfo, ae_path: str | Path | None,
+           progress: bool) -> dict[str, Any]:
+    tc: TrainConfig = getattr(config.train, stage_name)
+    stage_dir = run / stage_name
+    torch.manual_seed(tc.seed * 1000 + info.rank)  # noise and dropout; data has its own seeds
+
+    dc = config.data
+    data = Text2MotionDataset(data_dir, "train", max_motion_length=dc.max_motion_length,
+                              unit_length=dc.unit_length, on_bad_file=dc.on_bad_file, seed=tc.seed)
+    val = None
+    if (data.layout.root / "val.txt").is_file():
+        try:
+            val = Text2MotionDataset(data_dir, "val", mean=data.mean, std=data.std,
+                                     max_motion_length=dc.max_motion_length,
+                                     unit_length=dc.unit_length, on_bad_file=dc.on_bad_file,
+                                     seed=tc.seed)
+        except MlctError:
+            val = None  # an empty val split: no validation, training goes on
+    stage = _build_stage(stage_name, config, run, data, val, info, ae_path)
+    if stage_name == "ae" and checkpoint is not None:
+        if checkpoint.meta.get("feature_dim") != data.skeleton.feature_dim:
+            raise MlctError(f"{checkpoint.path} was trained on "
+                            f"{checkpoint.meta.get('feature_dim')}-d motion, the data is "
+                            f"{data.skeleton.feature_dim}-d")
+    config = stage.config
+    model = stage.trainable
+    optimizer = torch.optim.AdamW(model.parameters(), lr=tc.lr, weight_decay=tc.weight_decay)
+    scheduler = torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, T_max=tc.max_steps,
+                                                           eta_min=tc.lr_min)
+    step = 0
+    if checkpoint is not None:
+        stage.load(checkpoint)
+        optimizer.load_state_dict(checkpoint.state["optimizer"])
+        scheduler.load_state_dict(checkpoint.state["scheduler"])
+        _set_rng_state(checkpoint.state["rng"][min(info.rank, len(checkpoint.state["rng"]) - 1)],
+                       info.device)
+        step = int(checkpoint.meta["step"])
+    wrapped = DistributedDataParallel(model) if info.enabled else model
+
+    if info.is_main:
+        stage_dir.mkdir(parents=True, exist_ok=True)
+        write_text(stage_dir / "config.yaml", yaml.safe_dump(config.to_dict(), sort_keys=False))
+    log = JsonlLog(stage_dir / "log.jsonl", step if checkpoint is not None else None) \
+        if info.is_main else None
+    writer = _tensorboard(stage_dir / "tb") if info.is_main else None
+    val_batches = fixed_batches(val, tc.batch_size, tc.val_batches) if val is not None else []
+    loader = step_loader(data, tc.batch_size, tc.seed, step, tc.max_steps, info.rank,
+                         info.world, dc.num_workers)
+
+    bar = _progress(tc.max_steps, step, progress and info.is_main, f"train {stage_name}")
+    last: dict[str, float] = {}
+    samples, started = 0, time.perf_counter()
+    model.train()
+    for batch in loader:
+        with _autocast(info.device, tc.precision):
+            terms = stage.loss(wrapped, batch)
+        loss = terms["loss"]
+        reduced = distributed.mean_over_ranks(loss.detach().float(), info)
+        if not math.isfinite(float(reduced)):
+            latest = latest_checkpoint(stage_dir / "checkpoints")
+            raise MlctError(f"loss is {float(reduced)} at step {step + 1}; training stopped. "
+                            f"The last good checkpoint is {latest or 'none (none was saved)'}")
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        grad_norm = torch.nn.utils.clip_grad_norm_(model.parameters(), tc.grad_clip)
+        optimizer.step()
+        scheduler.step()
+        stage.after_step()
+        step += 1
+        samples += len(batch["caption"]) * info.world
+        bar.update(1)
+
+        if step % tc.log_every == 0 or step == tc.max_steps:
+            last = {k: float(distributed.mean_over_ranks(v.detach().float(), info))
+                    for k, v in terms.items()}
+            elapsed = time.perf_counter() - started
+            record = {"step": step, **last, "grad_norm": float(grad_norm),
+                      "lr": scheduler.get_last_lr()[0], "samples_per_s": samples / elapsed}
+            bar.set_postfix(loss=f"{last['loss']:.4g}")
+            if log is not None:
+                log.write(record)
+                _tb_write(writer, record, step)
+        if val_batches and (step % tc.val_every == 0 or step == tc.max_steps):
+            record = {"step": step, **_validate(stage, val_batches, tc.seed, info.device,
+                                                tc.precision)}
+            if log is not None:
+                log.write(record)
+                _tb_write(writer, record, step)
+        if step % tc.ckpt_every == 0 or step == tc.max_steps:
+            rng = _gather_rng(info)
+            if info.is_main:
+                state = {"optimizer": optimizer.state_dict(), "scheduler": scheduler.state_dict(),
+                         "rng": rng}
+                save_checkpoint(stage_dir / "checkpoints", step, stage.tensors(), stage.meta(),
+                                state)
+            distributed.barrier(info)
+    bar.close()
+    if writer is not None:
+        writer.close()
+    elapsed = time.perf_counter() - started
+    return {"stage": stage_name, "step": step, "last": last, "seconds": elapsed,
+            "samples_per_s": samples / elapsed if elapsed > 0 else 0.0,
+            "checkpoint": str(latest_checkpoint(stage_dir / "checkpoints"))}
+
+
+def _gather_rng(info: distributed.DistInfo) -> list[dict[str, Any]]:
+    """Every rank's RNG state, in rank order (rank 0 saves them all)."""
+    mine = _rng_state(info.device)
+    if not info.enabled:
+        return [mine]
+    gathered: list[Any] = [None] * info.world
+    torch.distributed.all_gather_object(gathered, mine)
+    return gathered
+
+
+def _tensorboard(path: Path) -> Any:
+    try:
+        from torch.utils.tensorboard import SummaryWriter
+    except ImportError:  # tensorboard is a dependency, but a broken install should not stop us
+        return None
+    return SummaryWriter(str(path))
+
+
+def _tb_write(writer: Any, record: dict[str, Any], step: int) -> None:
+    if writer is None:
+        return
+    for key, value in record.items():
+        if key != "step" and isinstance(value, (int, float)):
+            writer.add_scalar(key, value, step)

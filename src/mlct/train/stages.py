@@ -1,0 +1,306 @@
+"""The three trainable stages: what each builds, its loss on a batch, what it saves.
+
+- `ae`: the motion autoencoder (Sec. 4.1, Eq. 9).
+- `cm`: the denoiser by guided consistency training on frozen AE latents (Algorithm 1).
+- `diffusion`: the same denoiser as a noise-predicting latent diffusion model (the baseline).
+The loop (train/loop.py) is the same for all three.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
+
+from mlct.config import Config
+from mlct.diffusion.losses import consistency_training_loss, diffusion_training_loss
+from mlct.diffusion.parameterization import ConsistencyFunction
+from mlct.diffusion.schedule import VPSchedule, karras_time_grid
+from mlct.errors import MlctError
+from mlct.models import build_autoencoder, build_denoiser, latent_clamp
+from mlct.motion.features import recover_from_ric
+from mlct.nn.autoencoder import MotionAutoencoder
+from mlct.nn.masks import lengths_to_mask
+from mlct.train.checkpoint import Checkpoint, latest_checkpoint, load_checkpoint, prefixed
+
+
+def schedule_of(config: Config) -> VPSchedule:
+    return VPSchedule(beta_min=config.schedule.beta_min, beta_max=config.schedule.beta_max)
+
+
+def _masked_smooth_l1(a: Tensor, b: Tensor, mask: Tensor) -> Tensor:
+    """Smooth-L1 averaged over the valid frames only. a, b (B, T, ...), mask (B, T)."""
+    per = F.smooth_l1_loss(a, b, reduction="none").flatten(2).mean(2)  # (B, T)
+    return (per * mask).sum() / mask.sum().clamp(min=1)
+
+
+class Normalizer(nn.Module):
+    """Dataset Mean/Std as buffers: they travel with the checkpoint and the model bundle."""
+
+    def __init__(self, mean: Tensor, std: Tensor) -> None:
+        super().__init__()
+        self.register_buffer("mean", mean.float().clone())
+        self.register_buffer("std", std.float().clone())
+
+    def denormalize(self, x: Tensor) -> Tensor:
+        return x * self.std.to(x) + self.mean.to(x)
+
+
+class Stage:
+    """Base: a trainable module, a loss, the tensors and metadata a checkpoint holds."""
+
+    name = ""
+
+    def __init__(self, config: Config, device: torch.device) -> None:
+        self.config = config
+        self.device = device
+
+    @property
+    def trainable(self) -> nn.Module:  # the module the optimizer trains and DDP wraps
+        raise NotImplementedError
+
+    def loss(self, model: nn.Module, batch: dict[str, Any],
+             generator: torch.Generator | None = None) -> dict[str, Tensor]:
+        raise NotImplementedError
+
+    def after_step(self) -> None:
+        """Called after each optimizer step (EMA updates)."""
+
+    def tensors(self) -> dict[str, Tensor]:
+        raise NotImplementedError
+
+    def meta(self) -> dict[str, Any]:
+        raise NotImplementedError
+
+    def load(self, checkpoint: Checkpoint) -> None:
+        raise NotImplementedError
+
+    def train(self, mode: bool = True) -> None:
+        self.trainable.train(mode)
+
+
+class AutoencoderStage(Stage):
+    name = "ae"
+
+    def __init__(self, config: Config, device: torch.device, mean: Tensor, std: Tensor,
+                 skeleton: str) -> None:
+        super().__init__(config, device)
+        self.skeleton = skeleton
+        self.feature_dim = int(mean.shape[0])
+        self.model = build_autoencoder(config, self.feature_dim).to(device)
+        self.norm = Normalizer(mean, std).to(device)
+
+    @property
+    def trainable(self) -> nn.Module:
+        return self.model
+
+    def loss(self, model: nn.Module, batch: dict[str, Any],
+             generator: torch.Generator | None = None) -> dict[str, Tensor]:
+        x = batch["motion"].to(self.device)  # (B, L, D) normalized, zero-padded
+        lengths = batch["length"].to(self.device)
+        frames = int(lengths.max())
+        x = x[:, :frames]
+        recon, latent = model(x, lengths)  # (B, frames, D)
+        mask = lengths_to_mask(lengths, frames).to(x.dtype)  # (B, frames)
+        feature = _masked_smooth_l1(recon, x, mask)  # Eq. 9, first term
+        # Eq. 9, second term: joint positions through recover_from_ric, on real units.
+        joints_hat = recover_from_ric(self.norm.denormalize(recon).float())
+        joints = recover_from_ric(self.norm.denormalize(x).float())
+        joint = _masked_smooth_l1(joints_hat, joints, mask)
+        total = feature + self.config.ae.joint_weight * joint
+        out = {"feature": feature.detach(), "joint": joint.detach()}
+        if latent.kl is not None:
+            total = total + self.config.ae.kl_weight * latent.kl
+            out["kl"] = latent.kl.detach()
+        out["loss"] = total
+        return out
+
+    def tensors(self) -> dict[str, Tensor]:
+        return {**prefixed("ae", self.model.state_dict()), **prefixed("norm", self.norm.state_dict())}
+
+    def meta(self) -> dict[str, Any]:
+        return {"stage": self.name, "config": self.config.to_dict(),
+                "feature_dim": self.feature_dim, "skeleton": self.skeleton}
+
+    def load(self, checkpoint: Checkpoint) -> None:
+        self.model.load_state_dict(checkpoint.module_state("ae"))
+        self.norm.load_state_dict(checkpoint.module_state("norm"))
+
+
+def find_autoencoder(run: Path, ae_path: str | Path | None) -> Path:
+    """The AE checkpoint a stage-2 run builds on: --ae PATH, else RUN/ae's latest."""
+    if ae_path is not None:
+        return Path(ae_path)
+    found = latest_checkpoint(run / "ae" / "checkpoints")
+    if found is None:
+        raise MlctError(f"{run / 'ae'}: no trained autoencoder; run `mlct train ae` with this "
+                        f"--out first, or pass --ae CHECKPOINT")
+    return found
+
+
+def load_frozen_autoencoder(path: Path, device: torch.device
+                            ) -> tuple[MotionAutoencoder, Normalizer, dict[str, Any]]:
+    """A trained AE in eval mode with its Mean/Std, gradients off, and its checkpoint metadata."""
+    checkpoint = load_checkpoint(path, with_state=False)
+    if "feature_dim" not in checkpoint.meta or "ae.enc_in.weight" not in checkpoint.tensors:
+        raise MlctError(f"{path}: not an autoencoder checkpoint")
+    from mlct.config import config_from_dict
+
+    ae_config = config_from_dict(checkpoint.meta["config"], str(path))
+    model = build_autoencoder(ae_config, checkpoint.meta["feature_dim"])
+    model.load_state_dict(checkpoint.module_state("ae"))
+    state = checkpoint.module_state("norm")
+    norm = Normalizer(state["mean"], state["std"])
+    model.to(device).eval().requires_grad_(False)
+    return model, norm.to(device), checkpoint.meta
+
+
+class TextTable:
+    """Frozen text embeddings of every caption a run sees, encoded once (through the disk cache)."""
+
+    def __init__(self, encoder: Any, captions: list[str], device: torch.device) -> None:
+        self.name, self.dim = encoder.name, encoder.dim
+        unique = sorted(set(captions))
+        embeddings = encoder.encode(unique) if unique else torch.zeros(0, encoder.dim)
+        self.index = {caption: row for row, caption in enumerate(unique)}
+        self.table = embeddings.float().to(device)  # (N, c)
+        self.null = encoder.null_embedding().float().to(device)  # (c,) the embedding of ""
+
+    def __call__(self, captions: list[str]) -> Tensor:
+        try:
+            rows = [self.index[c] for c in captions]
+        except KeyError as err:
+            raise MlctError(f"caption {err} was not embedded at start-up") from None
+        return self.table[torch.tensor(rows, device=self.table.device)]  # (B, c)
+
+
+class LatentStage(Stage):
+    """Shared by cm and diffusion: frozen AE latents, text table, denoiser + its EMA copy."""
+
+    ema_decay = 0.0
+
+    def __init__(self, config: Config, device: torch.device, ae_path: Path, text: TextTable
+                 ) -> None:
+        self.ae, self.norm, ae_meta = load_frozen_autoencoder(ae_path, device)
+        # The AE's own config section is authoritative: the latent shape comes from it.
+        merged = config.to_dict()
+        merged["ae"] = ae_meta["config"]["ae"]
+        merged["data"] = ae_meta["config"]["data"]
+        from mlct.config import config_from_dict
+
+        super().__init__(config_from_dict(merged), device)
+        self.ae_meta = ae_meta
+        self.text = text
+        self.schedule = schedule_of(self.config)
+        self.denoiser = build_denoiser(self.config, text.dim).to(device)
+        self.clamp = latent_clamp(self.config)
+
+    def latents(self, batch: dict[str, Any]) -> Tensor:
+        x = batch["motion"].to(self.device)
+        lengths = batch["length"].to(self.device)
+        with torch.no_grad():
+            return self.ae.encode(x[:, : int(lengths.max())], lengths).z.float()  # (B, n, d)
+
+    def _ema(self, module: nn.Module) -> AveragedModel:
+        ema = AveragedModel(module, multi_avg_fn=get_ema_multi_avg_fn(self.ema_decay),
+                            use_buffers=True)
+        return ema.eval().requires_grad_(False)
+
+    def meta(self) -> dict[str, Any]:
+        return {"stage": self.name, "config": self.config.to_dict(),
+                "feature_dim": self.ae_meta["feature_dim"], "skeleton": self.ae_meta["skeleton"],
+                "text_encoder": self.text.name, "text_dim": self.text.dim}
+
+    def _check_compatible(self, checkpoint: Checkpoint) -> None:
+        if checkpoint.meta.get("text_encoder") != self.text.name:
+            raise MlctError(f"{checkpoint.path}: trained with text encoder "
+                            f"{checkpoint.meta.get('text_encoder')!r}, not {self.text.name!r}")
+
+
+class ConsistencyStage(LatentStage):
+    name = "cm"
+
+    def __init__(self, config: Config, device: torch.device, ae_path: Path, text: TextTable
+                 ) -> None:
+        super().__init__(config, device, ae_path, text)
+        s, c = self.config.schedule, self.config.consistency
+        self.ema_decay = c.target_decay
+        self.online = ConsistencyFunction(self.denoiser, s.eta, s.time_scale)
+        # Target network S_psi: the EMA of the online network (Eq. 15), or the online network
+        # itself under stop-gradient (the loss calls it inside no_grad).
+        self.target = self._ema(self.online) if c.target == "ema" else None
+        self.grid = karras_time_grid(s.num_steps, s.eps, s.t_max, s.rho, device=device)
+
+    @property
+    def trainable(self) -> nn.Module:
+        return self.online
+
+    def loss(self, model: nn.Module, batch: dict[str, Any],
+             generator: torch.Generator | None = None) -> dict[str, Tensor]:
+        c = self.config.consistency
+        target = self.target.module if self.target is not None else self.online
+        return consistency_training_loss(
+            model, target, self.latents(batch), self.text(batch["caption"]), self.text.null,
+            self.schedule, self.grid, guidance=c.guidance, uncond_weight=c.uncond_weight,
+            huber_c=c.huber_c, clamp=self.clamp, generator=generator)
+
+    def after_step(self) -> None:
+        if self.target is not None:
+            self.target.update_parameters(self.online)
+
+    def sampling_denoiser(self) -> nn.Module:
+        """The weights generation uses: the EMA target network, else the online one."""
+        return self.target.module.net if self.target is not None else self.denoiser
+
+    def tensors(self) -> dict[str, Tensor]:
+        out = {**prefixed("ae", self.ae.state_dict()), **prefixed("norm", self.norm.state_dict()),
+               **prefixed("denoiser", self.denoiser.state_dict())}
+        if self.target is not None:
+            out.update(prefixed("target", self.target.state_dict()))
+        return out
+
+    def load(self, checkpoint: Checkpoint) -> None:
+        self._check_compatible(checkpoint)
+        self.denoiser.load_state_dict(checkpoint.module_state("denoiser"))
+        if self.target is not None:
+            self.target.load_state_dict(checkpoint.module_state("target"))
+
+
+class DiffusionStage(LatentStage):
+    name = "diffusion"
+
+    def __init__(self, config: Config, device: torch.device, ae_path: Path, text: TextTable
+                 ) -> None:
+        super().__init__(config, device, ae_path, text)
+        self.ema_decay = self.config.diffusion.ema_decay
+        self.ema = self._ema(self.denoiser)
+
+    @property
+    def trainable(self) -> nn.Module:
+        return self.denoiser
+
+    def loss(self, model: nn.Module, batch: dict[str, Any],
+             generator: torch.Generator | None = None) -> dict[str, Tensor]:
+        return diffusion_training_loss(
+            model, self.latents(batch), self.text(batch["caption"]), self.text.null,
+            self.schedule, cond_dropout=self.config.diffusion.cond_dropout, generator=generator)
+
+    def after_step(self) -> None:
+        self.ema.update_parameters(self.denoiser)
+
+    def sampling_denoiser(self) -> nn.Module:
+        return self.ema.module
+
+    def tensors(self) -> dict[str, Tensor]:
+        return {**prefixed("ae", self.ae.state_dict()), **prefixed("norm", self.norm.state_dict()),
+                **prefixed("denoiser", self.denoiser.state_dict()),
+                **prefixed("target", self.ema.state_dict())}
+
+    def load(self, checkpoint: Checkpoint) -> None:
+        self._check_compatible(checkpoint)
+        self.denoiser.load_state_dict(checkpoint.module_state("denoiser"))
+        self.ema.load_state_dict(checkpoint.module_state("target"))
