@@ -1,0 +1,137 @@
+"""Motion autoencoder of stage 1 (Sec. 4.1, Eq. 7-8): frames -> n latent tokens -> frames.
+
+Facts from the MLCT authors' code (``mae_net.py``, ``block.py``), kept here:
+- encoder: per-frame Linear to d, n learnable tokens in front (2n for the VAE: means then
+  log-variances, as MLD), a learned positional embedding over tokens + frames (a free
+  ``nn.Parameter`` initialized N(0, 1)), the skip transformer, the n token outputs = z_e;
+- decoder: the queries are the decoder's own learned positional embedding (zeros + position), the
+  latent tokens are added to its first n positions ("all_encoder" layout of MLD), the skip
+  transformer, then a head Linear(d -> D), ReLU, Linear(D -> D) on the frame positions.
+Deviations: the decoder gets the padding mask (the authors build it and do not pass it), its
+padded output frames are set to 0, and it only runs over the frames requested, not always 196.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import torch
+from torch import Tensor, nn
+
+from mlct.nn.masks import lengths_to_mask
+from mlct.nn.quantize import quantize
+from mlct.nn.skip_transformer import SkipTransformer
+
+LATENT_TYPES = ("quantized", "vae", "plain")
+
+
+class Latent(NamedTuple):
+    """Encoder output: ``z`` the latent stage 2 uses, ``z_e`` before quantization / sampling
+    (the VAE mean), ``kl`` the mean KL(N(mu, sigma) || N(0, I)) per element (VAE only)."""
+
+    z: Tensor  # (B, n, d)
+    z_e: Tensor  # (B, n, d)
+    kl: Tensor | None  # scalar
+
+
+class MotionAutoencoder(nn.Module):
+    """Transformer autoencoder E, D with a quantized (Eq. 8), VAE or plain latent of n x d."""
+
+    def __init__(
+        self,
+        feature_dim: int,
+        latent_type: str = "quantized",
+        n_tokens: int = 3,
+        latent_dim: int = 256,
+        levels: int = 1000,
+        layers: int = 7,
+        heads: int = 8,
+        ff_dim: int = 1024,
+        dropout: float = 0.1,
+        max_len: int = 196,
+    ) -> None:
+        super().__init__()
+        if latent_type not in LATENT_TYPES:
+            raise ValueError(f"latent_type must be one of {LATENT_TYPES}, got {latent_type!r}")
+        if n_tokens < 1 or max_len < 1:
+            raise ValueError("n_tokens and max_len must be >= 1")
+        self.feature_dim = feature_dim
+        self.latent_type = latent_type
+        self.n_tokens = n_tokens
+        self.latent_dim = latent_dim
+        self.levels = levels
+        self.max_len = max_len
+        n_enc = 2 * n_tokens if latent_type == "vae" else n_tokens  # VAE: mean and log-variance
+
+        # encoder E
+        self.enc_in = nn.Linear(feature_dim, latent_dim)
+        self.enc_tokens = nn.Parameter(torch.randn(1, n_enc, latent_dim))
+        self.enc_pos = nn.Parameter(torch.randn(1, n_enc + max_len, latent_dim))
+        self.encoder = SkipTransformer(latent_dim, layers, heads, ff_dim, dropout, "gelu")
+
+        # decoder D
+        self.dec_pos = nn.Parameter(torch.randn(1, n_tokens + max_len, latent_dim))
+        self.decoder = SkipTransformer(latent_dim, layers, heads, ff_dim, dropout, "gelu")
+        self.head = nn.Sequential(
+            nn.Linear(latent_dim, feature_dim), nn.ReLU(), nn.Linear(feature_dim, feature_dim)
+        )
+
+    @property
+    def latent_shape(self) -> tuple[int, int]:
+        """(n, d) of the latent z."""
+        return (self.n_tokens, self.latent_dim)
+
+    def _check_lengths(self, lengths: Tensor, frames: int) -> None:
+        if lengths.ndim != 1:
+            raise ValueError(f"lengths must be (B,), got shape {tuple(lengths.shape)}")
+        if frames > self.max_len:
+            raise ValueError(f"{frames} frames exceed max_len {self.max_len}")
+        if lengths.numel() and (int(lengths.min()) < 1 or int(lengths.max()) > frames):
+            raise ValueError(f"lengths must lie in [1, {frames}]")
+
+    def encode(self, x: Tensor, lengths: Tensor) -> Latent:
+        """E: x (B, T, D) normalized features, lengths (B,) -> Latent with z (B, n, d)."""
+        if x.ndim != 3 or x.shape[-1] != self.feature_dim:
+            raise ValueError(f"x must be (B, T, {self.feature_dim}), got {tuple(x.shape)}")
+        b, t, _ = x.shape
+        self._check_lengths(lengths, t)
+        n_enc = self.enc_tokens.shape[1]
+        valid = lengths_to_mask(lengths.to(x.device), t)  # (B, T)
+        pad = torch.cat([valid.new_zeros(b, n_enc), ~valid], dim=1)  # (B, n_enc + T), tokens kept
+        h = torch.cat([self.enc_tokens.expand(b, -1, -1), self.enc_in(x)], dim=1)  # (B, n_enc+T, d)
+        h = h + self.enc_pos[:, : n_enc + t]
+        tokens = self.encoder(h, key_padding_mask=pad)[:, :n_enc]  # (B, n_enc, d)
+
+        if self.latent_type == "quantized":
+            return Latent(quantize(tokens, self.levels), tokens, None)  # Eq. 8
+        if self.latent_type == "plain":
+            return Latent(tokens, tokens, None)
+        mu, logvar = tokens[:, : self.n_tokens], tokens[:, self.n_tokens :]  # (B, n, d) each
+        kl = 0.5 * (mu.pow(2) + logvar.exp() - 1.0 - logvar).mean()  # KL to N(0, I), per element
+        if self.training:
+            z = mu + torch.exp(0.5 * logvar) * torch.randn_like(mu)  # reparameterization
+        else:
+            z = mu
+        return Latent(z, mu, kl)
+
+    def decode(self, z: Tensor, lengths: Tensor, max_len: int | None = None) -> Tensor:
+        """D: z (B, n, d), lengths (B,) -> (B, T, D), T = max_len or max(lengths); pads are 0."""
+        if z.ndim != 3 or tuple(z.shape[1:]) != self.latent_shape:
+            raise ValueError(
+                f"z must be (B, {self.n_tokens}, {self.latent_dim}), got {tuple(z.shape)}"
+            )
+        b, n = z.shape[0], self.n_tokens
+        t = int(lengths.max()) if max_len is None else max_len
+        self._check_lengths(lengths, t)
+        valid = lengths_to_mask(lengths.to(z.device), t)  # (B, T)
+        pad = torch.cat([valid.new_zeros(b, n), ~valid], dim=1)  # (B, n + T)
+        pos = self.dec_pos[:, : n + t].expand(b, -1, -1)  # (B, n + T, d): queries = 0 + position
+        h = pos + torch.cat([z, z.new_zeros(b, t, self.latent_dim)], dim=1)  # tokens in front
+        h = self.decoder(h, key_padding_mask=pad)[:, n:]  # (B, T, d)
+        out = self.head(h)  # (B, T, D)
+        return out.masked_fill(~valid.unsqueeze(-1), 0.0)  # padded frames exactly 0
+
+    def forward(self, x: Tensor, lengths: Tensor) -> tuple[Tensor, Latent]:
+        """Reconstruct x (B, T, D) through z: returns (D(z) (B, T, D), Latent)."""
+        latent = self.encode(x, lengths)
+        return self.decode(latent.z, lengths, max_len=x.shape[1]), latent

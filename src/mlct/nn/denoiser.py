@@ -1,0 +1,93 @@
+"""Consistency network F(x_t, t, c) of Eq. 11 (Sec. 4.2, Fig. 2): latent tokens -> latent tokens.
+
+S = c_skip x_t + c_out F lives in ``mlct.diffusion.consistency``; this module is F alone.
+Facts from the MLCT authors' code (``denoiser_net.py``), kept here:
+- sequence = [condition token, n latent tokens projected d -> width] + a learned positional
+  embedding (``nn.Parameter`` initialized N(0, 1)); the condition token starts at zero;
+- time: the continuous t in [0, 1] goes into the sinusoid unscaled (``time_embed_scale = 1``),
+  ``time_embed_dim = 256`` channels, cos first (flip_sin_to_cos), frequency shift 0, period 10^4;
+- before every block i: cond_i = W_t,i sinusoid(t) + W_c,i text (separate Linear layers per block,
+  no shared MLP), added to the condition token only;
+- head: Linear(width -> d), GELU, Linear(d -> d), default (not zero) initialization.
+The skip transformer uses Xavier-uniform initialization (the authors' denoiser keeps PyTorch's
+default there; their autoencoder and MLD use Xavier).
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from mlct.nn.skip_transformer import SkipTransformer
+
+
+def timestep_embedding(t: Tensor, dim: int, max_period: float = 10000.0) -> Tensor:
+    """Sinusoid [cos(t f_k), sin(t f_k)], f_k = max_period^(-2k / dim): (B,) -> (B, dim) fp32."""
+    half = dim // 2
+    k = torch.arange(half, device=t.device, dtype=torch.float32)
+    freqs = torch.exp(-math.log(max_period) * k / half)  # (half,)
+    args = t.float()[:, None] * freqs[None, :]  # (B, half)
+    emb = torch.cat([torch.cos(args), torch.sin(args)], dim=-1)  # (B, 2 half)
+    if dim % 2:
+        emb = F.pad(emb, (0, 1))
+    return emb  # (B, dim), float32
+
+
+class Denoiser(nn.Module):
+    """F(x_t, t, c): skip transformer over [condition token, latent tokens] (Eq. 11)."""
+
+    def __init__(
+        self,
+        latent_dim: int = 256,
+        n_tokens: int = 3,
+        text_dim: int = 384,
+        width: int = 512,
+        layers: int = 11,
+        heads: int = 8,
+        ff_dim: int = 2048,
+        dropout: float = 0.1,
+        time_embed_dim: int = 256,
+        time_embed_scale: float = 1.0,
+    ) -> None:
+        super().__init__()
+        self.latent_dim = latent_dim
+        self.n_tokens = n_tokens
+        self.text_dim = text_dim
+        self.width = width
+        self.time_embed_dim = time_embed_dim
+        self.time_embed_scale = time_embed_scale
+        self.in_proj = nn.Linear(latent_dim, width)
+        self.pos = nn.Parameter(torch.randn(1, 1 + n_tokens, width))
+        self.time_proj = nn.ModuleList(nn.Linear(time_embed_dim, width) for _ in range(layers))
+        self.text_proj = nn.ModuleList(nn.Linear(text_dim, width) for _ in range(layers))
+        self.backbone = SkipTransformer(width, layers, heads, ff_dim, dropout, "gelu")
+        self.head = nn.Sequential(
+            nn.Linear(width, latent_dim), nn.GELU(), nn.Linear(latent_dim, latent_dim)
+        )
+
+    def forward(self, x_t: Tensor, t: Tensor, text_emb: Tensor) -> Tensor:
+        """x_t (B, n, d), t (B,) or scalar in [0, 1], text_emb (B, text_dim) -> F (B, n, d)."""
+        if x_t.ndim != 3 or tuple(x_t.shape[1:]) != (self.n_tokens, self.latent_dim):
+            raise ValueError(
+                f"x_t must be (B, {self.n_tokens}, {self.latent_dim}), got {tuple(x_t.shape)}"
+            )
+        b = x_t.shape[0]
+        if text_emb.shape != (b, self.text_dim):
+            raise ValueError(
+                f"text_emb must be ({b}, {self.text_dim}), got {tuple(text_emb.shape)}"
+            )
+        t = torch.as_tensor(t, device=x_t.device).reshape(-1).expand(b)  # (B,)
+        t_emb = timestep_embedding(t * self.time_embed_scale, self.time_embed_dim)  # (B, 256)
+        t_emb = t_emb.to(x_t.dtype)
+        text_emb = text_emb.to(x_t.dtype)
+        # one condition per block, on the condition token only (position 0)
+        conds = [
+            F.pad((tp(t_emb) + cp(text_emb)).unsqueeze(1), (0, 0, 0, self.n_tokens))  # (B, 1+n, w)
+            for tp, cp in zip(self.time_proj, self.text_proj)
+        ]
+        h = torch.cat([x_t.new_zeros(b, 1, self.width), self.in_proj(x_t)], dim=1)  # (B, 1+n, w)
+        h = self.backbone(h + self.pos, cond=conds)  # (B, 1+n, w)
+        return self.head(h[:, 1:])  # (B, n, d)
