@@ -209,7 +209,18 @@ def _version() -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    # key=value overrides may come anywhere after `mlct train STAGE` (argparse would only take
+    # them right after the stage); anything else left over is an error, as parse_args makes it.
+    overrides = [item for item in extra if "=" in item and not item.startswith("-")]
+    unknown = [item for item in extra if item not in overrides]
+    if overrides and getattr(args, "command", None) != "train":
+        unknown = extra
+    if unknown:
+        parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    if overrides:
+        args.overrides = list(args.overrides) + overrides
     try:
         return args.func(args)
     except MlctError as error:

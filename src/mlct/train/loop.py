@@ -94,7 +94,7 @@ def _build_stage(stage: str, config: Config, run: Path, data: Text2MotionDataset
     for turn in ("main", "rest"):
         if (turn == "main") == info.is_main:
             encoder = CachedTextEncoder(load_text_encoder(config.text.encoder),
-                                        EmbeddingCache(cache_dir / "text_embeddings.sqlite"))
+                                        EmbeddingCache(cache_dir))
             table = TextTable(encoder, captions, info.device)
         distributed.barrier(info)
     path = find_autoencoder(run, ae_path)
