@@ -9,6 +9,7 @@ runs alone or under torchrun (DDP); only rank 0 writes.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import math
 import time
@@ -131,8 +132,12 @@ def _progress(total: int, start: int, enabled: bool, desc: str) -> Any:
 def train(stage: str, data_dir: str | Path, out: str | Path, config: Config | None = None,
           overrides: list[str] | None = None, resume: bool = False,
           ae_path: str | Path | None = None, device: str | None = None,
-          progress: bool = True) -> dict[str, Any]:
-    """Train one stage; returns a summary (final step, last losses, throughput, paths)."""
+          progress: bool = True, stop_at: int | None = None) -> dict[str, Any]:
+    """Train one stage; returns a summary (final step, last losses, throughput, paths).
+
+    stop_at: leave after this step (checkpointed) as if interrupted; `resume` continues it
+    exactly. For time-sliced jobs, and how the tests check exact resumption.
+    """
     if stage not in STAGE_NAMES:
         raise MlctError(f"unknown stage '{stage}'; choose one of {', '.join(STAGE_NAMES)}")
     run = Path(out)
@@ -157,14 +162,15 @@ def train(stage: str, data_dir: str | Path, out: str | Path, config: Config | No
                                 f"or choose another --out")
             base = config.to_dict() if config is not None else Config().to_dict()
             config = config_from_dict(apply_overrides(base, overrides), "config + overrides")
-        return _train(stage, Path(data_dir), run, config, checkpoint, info, ae_path, progress)
+        return _train(stage, Path(data_dir), run, config, checkpoint, info, ae_path, progress,
+                      stop_at)
     finally:
         distributed.teardown(info)
 
 
 def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoint: Any,
            info: distributed.DistInfo, ae_path: str | Path | None,
-           progress: bool) -> dict[str, Any]:
+           progress: bool, stop_at: int | None) -> dict[str, Any]:
     tc: TrainConfig = getattr(config.train, stage_name)
     stage_dir = run / stage_name
     torch.manual_seed(tc.seed * 1000 + info.rank)  # noise and dropout; data has its own seeds
@@ -209,8 +215,14 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
         if info.is_main else None
     writer = _tensorboard(stage_dir / "tb") if info.is_main else None
     val_batches = fixed_batches(val, tc.batch_size, tc.val_batches) if val is not None else []
-    loader = step_loader(data, tc.batch_size, tc.seed, step, tc.max_steps, info.rank,
-                         info.world, dc.num_workers)
+    stop = tc.max_steps if stop_at is None else min(stop_at, tc.max_steps)
+    loader = step_loader(data, tc.batch_size, tc.seed, step, stop, info.rank, info.world,
+                         dc.num_workers)
+    if val_batches and checkpoint is None:  # the starting point, for comparison
+        record = {"step": 0, **_validate(stage, val_batches, tc.seed, info.device, tc.precision)}
+        if log is not None:
+            log.write(record)
+            _tb_write(writer, record, 0)
 
     bar = _progress(tc.max_steps, step, progress and info.is_main, f"train {stage_name}")
     last: dict[str, float] = {}
@@ -251,7 +263,7 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
             if log is not None:
                 log.write(record)
                 _tb_write(writer, record, step)
-        if step % tc.ckpt_every == 0 or step == tc.max_steps:
+        if step % tc.ckpt_every == 0 or step in (tc.max_steps, stop):
             rng = _gather_rng(info)
             if info.is_main:
                 state = {"optimizer": optimizer.state_dict(), "scheduler": scheduler.state_dict(),
@@ -264,8 +276,18 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
         writer.close()
     elapsed = time.perf_counter() - started
     return {"stage": stage_name, "step": step, "last": last, "seconds": elapsed,
+            "weights_digest": _digest(model), "is_main": info.is_main,
             "samples_per_s": samples / elapsed if elapsed > 0 else 0.0,
             "checkpoint": str(latest_checkpoint(stage_dir / "checkpoints"))}
+
+
+def _digest(model: torch.nn.Module) -> str:
+    """SHA-256 of the trained weights: DDP ranks must end with the same one."""
+    sha = hashlib.sha256()
+    for name, tensor in sorted(model.state_dict().items()):
+        sha.update(name.encode())
+        sha.update(tensor.detach().to("cpu").contiguous().numpy().tobytes())
+    return sha.hexdigest()
 
 
 def _gather_rng(info: distributed.DistInfo) -> list[dict[str, Any]]:

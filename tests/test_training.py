@@ -1,0 +1,214 @@
+"""The training engine end to end on a tiny synthetic set: both stages learn, exact resume,
+NaN handling, export/load/generate, two-process DDP on gloo."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+import mlct
+from mlct.config import load_config
+from mlct.data.synth.build import synthesize_dataset
+from mlct.errors import MlctError
+from mlct.train.checkpoint import latest_checkpoint, load_checkpoint
+from mlct.train.loop import train
+
+
+def _log(run: Path, stage: str) -> list[dict]:
+    return [json.loads(line) for line in (run / stage / "log.jsonl").read_text().splitlines()]
+
+
+def _val(records: list[dict]) -> list[tuple[int, float]]:
+    return [(r["step"], r["val_loss"]) for r in records if "val_loss" in r]
+
+
+def _train_losses(records: list[dict]) -> dict[int, float]:
+    return {r["step"]: r["loss"] for r in records if "loss" in r}
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory) -> Path:
+    root = tmp_path_factory.mktemp("synth") / "data"
+    synthesize_dataset(root, num=48, seed=3, progress=False)
+    return root
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory) -> str:
+    return f"text.cache_dir={tmp_path_factory.mktemp('cache')}"
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    return load_config("tiny")
+
+
+@pytest.fixture(scope="module")
+def trained(data: Path, cache: str, tiny, tmp_path_factory) -> Path:
+    """A run with all three stages trained on the tiny preset (shared by several tests)."""
+    run = tmp_path_factory.mktemp("run")
+    steps = ["train.ae.max_steps=60", "train.ae.val_every=30", "train.ae.lr=2e-3"]
+    train("ae", data, run, tiny, overrides=[cache, *steps], progress=False)
+    for stage in ("cm", "diffusion"):
+        train(stage, data, run, tiny, overrides=[cache], progress=False)
+    return run
+
+
+def test_every_stage_learns(trained: Path) -> None:
+    for stage in ("ae", "cm", "diffusion"):
+        val = _val(_log(trained, stage))
+        assert val[0][0] == 0, "validation runs before the first step"
+        first, last = val[0][1], val[-1][1]
+        assert np.isfinite(last)
+        assert last < 0.95 * first, f"{stage}: validation loss {first:.4f} -> {last:.4f}"
+
+
+def test_checkpoint_is_self_describing(trained: Path) -> None:
+    ckpt = load_checkpoint(latest_checkpoint(trained / "cm" / "checkpoints"))
+    assert ckpt.meta["stage"] == "cm" and ckpt.meta["step"] == 30
+    assert ckpt.meta["config"]["preset"] == "tiny"
+    assert ckpt.meta["text_encoder"] == "minilm" and ckpt.meta["text_dim"] == 384
+    assert any(k.startswith("target.module.net.") for k in ckpt.tensors)  # the EMA target
+    assert set(ckpt.state) == {"optimizer", "scheduler", "rng"}
+    assert (trained / "cm" / "config.yaml").is_file()
+    assert any((trained / "cm" / "tb").iterdir())  # TensorBoard events
+
+
+def test_export_load_generate(trained: Path, tmp_path: Path) -> None:
+    from mlct.bundle import export_run
+
+    model_dir = export_run(trained, tmp_path / "model")
+    gen = mlct.load(model_dir)
+    assert gen.sampler == "consistency"
+    texts = ["a person walks forward", "someone jumps", "a person waves"]
+    out = gen.generate(texts, lengths=[7, 40, 64], nfe=3, seed=5)
+    assert [m.features.shape for m in out] == [(7, 263), (40, 263), (64, 263)]
+    assert [m.joints.shape for m in out] == [(7, 22, 3), (40, 22, 3), (64, 22, 3)]
+    assert all(np.isfinite(m.joints).all() for m in out)
+    again = gen.generate(texts, lengths=[7, 40, 64], nfe=3, seed=5)
+    other = gen.generate(texts, lengths=[7, 40, 64], nfe=3, seed=6)
+    assert all(np.array_equal(a.features, b.features) for a, b in zip(out, again))
+    assert not np.allclose(out[1].features, other[1].features)
+    # the bundle holds no encoder half of the AE and no optimizer state
+    from safetensors.torch import load_file
+
+    keys = load_file(str(model_dir / "model.safetensors")).keys()
+    assert not any(k.startswith("decoder.encoder.") for k in keys)
+    assert (model_dir / "Mean.npy").is_file() and (model_dir / "Std.npy").is_file()
+
+
+def test_diffusion_baseline_samples_with_ddim_cfg(trained: Path, tmp_path: Path) -> None:
+    from mlct.bundle import export_run
+
+    gen = mlct.load(export_run(trained, tmp_path / "ldm", stage="diffusion"))
+    assert gen.sampler == "ddim" and gen.default_nfe == 50
+    calls = []
+    forward = gen.denoiser.forward
+
+    def counting(x, t, c):
+        calls.append(x.shape[0])
+        return forward(x, t, c)
+
+    gen.denoiser.forward = counting
+    out = gen.generate(["a person walks forward"], lengths=40, nfe=10, seed=0)
+    assert np.isfinite(out[0].joints).all()
+    assert calls == [2] * 10  # ten steps, each one batch of cond + uncond (CFG)
+
+
+def test_exact_resume(data: Path, cache: str, tiny, tmp_path: Path) -> None:
+    common = [cache, "train.ae.max_steps=12", "train.ae.ckpt_every=4", "train.ae.log_every=1",
+              "train.ae.val_every=6"]
+    whole = train("ae", data, tmp_path / "whole", tiny, overrides=common, progress=False)
+    train("ae", data, tmp_path / "split", tiny, overrides=common, progress=False, stop_at=5)
+    resumed = train("ae", data, tmp_path / "split", resume=True, progress=False)
+    assert resumed["step"] == whole["step"] == 12
+    a, b = _log(tmp_path / "whole", "ae"), _log(tmp_path / "split", "ae")
+    assert _train_losses(a) == _train_losses(b)  # every step's loss, bit for bit
+    assert _val(a) == _val(b)
+    assert resumed["weights_digest"] == whole["weights_digest"]
+
+
+def test_nan_loss_stops_and_keeps_last_checkpoint(data: Path, cache: str, tiny, tmp_path: Path,
+                                                  monkeypatch) -> None:
+    from mlct.train.stages import AutoencoderStage
+
+    real = AutoencoderStage.loss
+    count = {"n": 0}
+
+    def poisoned(self, model, batch, generator=None):
+        out = real(self, model, batch, generator)
+        if generator is None:  # training batches only
+            count["n"] += 1
+            if count["n"] == 7:
+                out["loss"] = out["loss"] * float("nan")
+        return out
+
+    monkeypatch.setattr(AutoencoderStage, "loss", poisoned)
+    with pytest.raises(MlctError, match=r"loss is nan at step 7.*step-00000004"):
+        train("ae", data, tmp_path, tiny, progress=False,
+              overrides=[cache, "train.ae.ckpt_every=4", "train.ae.max_steps=20"])
+    ckpt = load_checkpoint(latest_checkpoint(tmp_path / "ae" / "checkpoints"))
+    assert ckpt.meta["step"] == 4
+    assert all(torch.isfinite(t).all() for t in ckpt.tensors.values() if t.is_floating_point())
+
+
+def test_bad_inputs(data: Path, cache: str, tiny, trained: Path, tmp_path: Path) -> None:
+    with pytest.raises(MlctError, match="already holds a run"):
+        train("ae", data, trained, tiny, overrides=[cache], progress=False)
+    with pytest.raises(MlctError, match="no checkpoint to resume"):
+        train("ae", data, tmp_path / "fresh", resume=True, progress=False)
+    with pytest.raises(MlctError, match="no trained autoencoder"):
+        train("cm", data, tmp_path / "noae", tiny, overrides=[cache], progress=False)
+    with pytest.raises(MlctError, match="only train.ae"):
+        train("ae", data, trained, resume=True, overrides=["ae.layers=5"], progress=False)
+    # KIT-width data against a HumanML3D autoencoder
+    kit = tmp_path / "kit"
+    synthesize_dataset(kit, num=30, seed=0, skeleton="kit", progress=False)
+    with pytest.raises(MlctError, match="reads 263-d motion, the data has 251-d"):
+        train("cm", kit, tmp_path / "kitrun", tiny, overrides=[cache], progress=False,
+              ae_path=latest_checkpoint(trained / "ae" / "checkpoints"))
+    # a foreign and a corrupted checkpoint
+    from safetensors.torch import save_file
+
+    foreign = tmp_path / "foreign.safetensors"
+    save_file({"w": torch.zeros(2)}, str(foreign))
+    with pytest.raises(MlctError, match="not an mlct checkpoint"):
+        load_checkpoint(foreign, with_state=False)
+    broken = tmp_path / "broken.safetensors"
+    broken.write_bytes(b"\x00" * 64)
+    with pytest.raises(MlctError, match="not a readable safetensors file"):
+        load_checkpoint(broken, with_state=False)
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def _ddp_worker(rank: int, world: int, port: int, data: str, out: str, overrides: list[str],
+                results: str) -> None:
+    os.environ.update(MASTER_ADDR="127.0.0.1", MASTER_PORT=str(port), RANK=str(rank),
+                      WORLD_SIZE=str(world), LOCAL_RANK=str(rank))
+    torch.set_num_threads(1)
+    summary = train("ae", data, out, load_config("tiny"), overrides=overrides, device="cpu",
+                    progress=False)
+    Path(results, f"rank{rank}.json").write_text(json.dumps(summary))
+
+
+def test_ddp_two_processes_gloo(data: Path, cache: str, tmp_path: Path) -> None:
+    overrides = [cache, "train.ae.max_steps=6", "train.ae.batch_size=8"]
+    torch.multiprocessing.spawn(_ddp_worker, args=(2, _free_port(), str(data),
+                                                   str(tmp_path / "run"), overrides,
+                                                   str(tmp_path)), nprocs=2, join=True)
+    ranks = [json.loads((tmp_path / f"rank{r}.json").read_text()) for r in (0, 1)]
+    assert ranks[0]["step"] == ranks[1]["step"] == 6
+    assert ranks[0]["weights_digest"] == ranks[1]["weights_digest"]  # identical weights
+    ckpt = load_checkpoint(latest_checkpoint(tmp_path / "run" / "ae" / "checkpoints"))
+    assert len(ckpt.state["rng"]) == 2  # every rank's RNG state, for exact resumption
