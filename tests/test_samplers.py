@@ -1,0 +1,147 @@
+"""Samplers (Algorithm 2, DDIM) and stage-2 objectives (Algorithm 1) against closed forms."""
+
+from __future__ import annotations
+
+import torch
+
+from mlct.diffusion.consistency import pseudo_huber
+from mlct.diffusion.losses import consistency_training_loss, diffusion_training_loss
+from mlct.diffusion.samplers import ddim_times, sample_consistency, sample_ddim
+from mlct.diffusion.schedule import VPSchedule, append_dims, karras_time_grid, sampling_times
+
+SCHEDULE = VPSchedule()
+GRID = karras_time_grid(50, dtype=torch.float64)
+
+
+def _oracle(x0: torch.Tensor, calls: list):
+    def model(x: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+        calls.append(float(t[0]))
+        return x0.expand_as(x)
+    return model
+
+
+def test_consistency_sampler_one_pass_per_step_and_exact_with_oracle() -> None:
+    x0 = torch.rand(2, 3, 4, dtype=torch.float64) * 2 - 1
+    for k in (1, 2, 5, 10):
+        calls: list = []
+        times = sampling_times(GRID, k)
+        gen = torch.Generator().manual_seed(0)
+        out = sample_consistency(_oracle(x0, calls), x0.shape, times, SCHEDULE, gen)
+        assert torch.equal(out, x0)
+        assert len(calls) == k and calls[0] == 1.0 and calls == sorted(calls, reverse=True)
+
+
+def test_consistency_sampler_clamps_and_renoises_with_fresh_noise() -> None:
+    seen: list[torch.Tensor] = []
+
+    def model(x: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+        seen.append(x.clone())
+        return torch.full_like(x, 3.0)  # out of range: must be clamped to 1
+
+    times = sampling_times(GRID, 3)
+    out = sample_consistency(model, (1, 2, 2), times, SCHEDULE, torch.Generator().manual_seed(1))
+    assert torch.equal(out, torch.ones(1, 2, 2, dtype=out.dtype))
+    # Between steps: x = alpha_s * clamp(x0) + sigma_s * z with a fresh z each time.
+    z1 = (seen[1] - SCHEDULE.alpha(times[1])) / SCHEDULE.sigma(times[1])
+    z2 = (seen[2] - SCHEDULE.alpha(times[2])) / SCHEDULE.sigma(times[2])
+    assert not torch.allclose(z1, z2)
+    assert not torch.allclose(seen[0], z1)
+
+
+def test_same_seed_same_sample() -> None:
+    model = lambda x, t: torch.tanh(x * t[:, None, None])  # noqa: E731
+    times = sampling_times(GRID, 4)
+    a = sample_consistency(model, (2, 3, 4), times, SCHEDULE, torch.Generator().manual_seed(7))
+    b = sample_consistency(model, (2, 3, 4), times, SCHEDULE, torch.Generator().manual_seed(7))
+    c = sample_consistency(model, (2, 3, 4), times, SCHEDULE, torch.Generator().manual_seed(8))
+    assert torch.equal(a, b) and not torch.equal(a, c)
+
+
+def test_ddim_sampler_exact_with_oracle_and_lands_on_x0() -> None:
+    x0 = torch.rand(2, 3, 4) * 2 - 1
+    calls: list = []
+    times = ddim_times(50)
+    assert times.shape == (51,) and times[0] == 1.0 and times[-1] == 0.0
+    out = sample_ddim(_oracle(x0, calls), x0.shape, times, SCHEDULE,
+                      torch.Generator().manual_seed(0))
+    assert len(calls) == 50
+    assert torch.equal(out, x0)
+
+
+def _recorder(value: torch.Tensor | None = None):
+    record: dict = {}
+
+    def fn(x: torch.Tensor, t: torch.Tensor, c: torch.Tensor) -> torch.Tensor:
+        record.setdefault("x", []).append(x.clone())
+        record.setdefault("t", []).append(t.clone())
+        return torch.zeros_like(x) if value is None else value.expand_as(x)
+    return fn, record
+
+
+def test_consistency_loss_weights_and_trajectory() -> None:
+    batch, c = 64, 0.001
+    x0 = torch.rand(batch, 3, 4, dtype=torch.float64) * 1.6 - 0.8
+    cond, null = torch.randn(batch, 5, dtype=torch.float64), torch.zeros(5, dtype=torch.float64)
+    online, on_rec = _recorder()  # S_online == 0
+    target, tg_rec = _recorder(torch.ones((), dtype=torch.float64))  # S_target == 1
+    gen = torch.Generator().manual_seed(3)
+    out = consistency_training_loss(online, target, x0, cond, null, SCHEDULE, GRID, guidance=0.0,
+                                    huber_c=c, generator=gen)
+    # Replay the generator: the time index, then the noise.
+    replay = torch.Generator().manual_seed(3)
+    index = torch.randint(1, 50, (batch,), generator=replay)
+    z = torch.randn(x0.shape, generator=replay, dtype=x0.dtype)
+    t_i, t_prev = GRID[index], GRID[index - 1]
+    # Eq. 15: 1/(t_i - t_{i-1}) * d(0, 1), averaged over the batch; d(0, x0) unconditional.
+    per = (1 + c**2) ** 0.5 - c
+    assert torch.allclose(out["consistency"], (1 / (t_i - t_prev)).mean() * per)
+    assert torch.allclose(out["unconditional"], pseudo_huber(torch.zeros_like(x0), x0, c))
+    assert torch.allclose(out["loss"], out["consistency"] + out["unconditional"])
+    # The online network saw x_t = alpha x0 + sigma z, conditional and null in one batch.
+    x_t = append_dims(SCHEDULE.alpha(t_i), 3) * x0 + append_dims(SCHEDULE.sigma(t_i), 3) * z
+    assert torch.allclose(on_rec["x"][0], torch.cat([x_t, x_t]))
+    # With w = 0 the guided target is x0 and the DPM-Solver step is exact: x_prev lies on the
+    # same noising trajectory at t_{i-1} (Eq. 12 with a known x0).
+    x_prev = append_dims(SCHEDULE.alpha(t_prev), 3) * x0 + \
+        append_dims(SCHEDULE.sigma(t_prev), 3) * z
+    assert torch.allclose(tg_rec["x"][0], x_prev, atol=1e-10)
+    assert torch.equal(tg_rec["t"][0], t_prev)
+
+
+def test_guidance_moves_the_target_away_from_the_unconditional_estimate() -> None:
+    x0 = torch.full((4, 2, 2), 0.2, dtype=torch.float64)
+    cond, null = torch.randn(4, 3, dtype=torch.float64), torch.zeros(3, dtype=torch.float64)
+    online, _ = _recorder()  # u = S(x_t, t, null) = 0
+    target, rec = _recorder()
+    gen = torch.Generator().manual_seed(0)
+    consistency_training_loss(online, target, x0, cond, null, SCHEDULE, GRID, guidance=2.0,
+                              generator=gen)
+    replay = torch.Generator().manual_seed(0)
+    index = torch.randint(1, 50, (4,), generator=replay)
+    z = torch.randn(x0.shape, generator=replay, dtype=x0.dtype)
+    t_prev = GRID[index - 1]
+    # x_phi = clamp((1 + w) x0 - w u) = 0.6: the step lands on alpha x_phi + sigma z-hat.
+    x_t = append_dims(SCHEDULE.alpha(GRID[index]), 3) * x0 + \
+        append_dims(SCHEDULE.sigma(GRID[index]), 3) * z
+    eps_hat = (x_t - append_dims(SCHEDULE.alpha(GRID[index]), 3) * 0.6) / \
+        append_dims(SCHEDULE.sigma(GRID[index]), 3)
+    expected = append_dims(SCHEDULE.alpha(t_prev), 3) * 0.6 + \
+        append_dims(SCHEDULE.sigma(t_prev), 3) * eps_hat
+    assert torch.allclose(rec["x"][0], expected, atol=1e-10)
+
+
+def test_diffusion_loss_drops_the_condition_at_the_given_rate() -> None:
+    seen: dict = {}
+
+    def net(x, t, c):
+        seen["c"], seen["t"] = c, t
+        return torch.zeros_like(x)
+
+    x0 = torch.zeros(4000, 1, 1)
+    cond, null = torch.ones(4000, 2), torch.zeros(2)
+    out = diffusion_training_loss(net, x0, cond, null, SCHEDULE, cond_dropout=0.1,
+                                  generator=torch.Generator().manual_seed(0))
+    dropped = (seen["c"] == 0).all(1).float().mean().item()
+    assert 0.08 < dropped < 0.12
+    assert seen["t"].min() >= 1e-3 and seen["t"].max() <= 1
+    assert abs(out["mse"].item() - 1.0) < 0.1  # predicting 0 for unit Gaussian noise
