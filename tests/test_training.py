@@ -212,3 +212,41 @@ def test_ddp_two_processes_gloo(data: Path, cache: str, tmp_path: Path) -> None:
     assert ranks[0]["weights_digest"] == ranks[1]["weights_digest"]  # identical weights
     ckpt = load_checkpoint(latest_checkpoint(tmp_path / "run" / "ae" / "checkpoints"))
     assert len(ckpt.state["rng"]) == 2  # every rank's RNG state, for exact resumption
+
+
+def test_cli_export_generate_and_errors(trained: Path, data: Path, tmp_path: Path,
+                                        capsys) -> None:
+    from mlct.cli import main
+
+    model = tmp_path / "model"
+    assert main(["export", str(trained), "--out", str(model)]) == 0
+    out = tmp_path / "walk.npy"
+    assert main(["generate", "a person walks forward", "--model", str(model), "--seconds", "2",
+                 "--nfe", "2", "--seed", "0", "--out", str(out)]) == 0
+    features = np.load(out)
+    assert features.shape == (40, 263) and np.isfinite(features).all()  # 2 s at 20 fps
+    gif = tmp_path / "walk.gif"
+    assert main(["generate", "a person walks forward", "--model", str(model), "--length", "24",
+                 "--out", str(gif)]) == 0
+    assert gif.stat().st_size > 1000
+    capsys.readouterr()
+    bad = [
+        (["generate", "walk", "--model", str(model), "--nfe", "0", "--out", str(out)], "nfe"),
+        (["generate", "walk", "--model", str(model), "--seconds", "60", "--out", str(out)],
+         "outside 1..64"),
+        (["generate", "walk", "--model", str(model), "--out", str(tmp_path / "x.txt")],
+         ".npy, .gif"),
+        (["generate", "  ", "--model", str(model), "--out", str(out)], "text is empty"),
+        (["generate", "walk", "--model", str(tmp_path / "none"), "--out", str(out)],
+         "no such model directory"),
+        (["train", "ae", "--data", str(data), "--out", str(tmp_path / "r"), "--config", "tiny",
+          "ae.nope=1"], "unknown config key 'ae.nope'"),
+        (["train", "ae", "--data", str(tmp_path / "nodata"), "--out", str(tmp_path / "r2"),
+          "--config", "tiny"], "no such directory"),
+        (["export", str(tmp_path / "norun"), "--out", str(tmp_path / "m2")], "no checkpoint"),
+    ]
+    for argv, message in bad:
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip()
+        assert message in err and len(err.splitlines()) == 1, err
+    assert np.load(out).shape == (40, 263)  # the failed calls left the earlier output intact

@@ -126,6 +126,13 @@ class MotionGenerator:
                                 f"{self.skeleton.fps:g} fps)")
         return out
 
+    def _check_nfe(self, nfe: int | None) -> int:
+        steps = self.default_nfe if nfe is None else int(nfe)
+        top = len(self.grid) if self.sampler == "consistency" else 1000
+        if not 1 <= steps <= top:
+            raise MlctError(f"nfe must be within 1..{top}, got {steps}")
+        return steps
+
     @torch.no_grad()
     def sample_latents(self, cond: Tensor, nfe: int | None = None, seed: int | None = None,
                        guidance: float | None = None) -> Tensor:
@@ -137,18 +144,14 @@ class MotionGenerator:
             generator.seed()
         else:
             generator.manual_seed(int(seed))
-        steps = self.default_nfe if nfe is None else int(nfe)
+        steps = self._check_nfe(nfe)
         if self.sampler == "consistency":
-            if not 1 <= steps <= len(self.grid):
-                raise MlctError(f"nfe must be within 1..{len(self.grid)}, got {steps}")
             times = sampling_times(self.grid, steps)
 
             def model(x: Tensor, t: Tensor) -> Tensor:
                 return self.consistency(x, t, cond)  # guidance is baked in (one pass)
 
             return sample_consistency(model, shape, times, self.schedule, generator, self.clamp)
-        if steps < 1:
-            raise MlctError(f"steps must be >= 1, got {steps}")
         scale = self.config.diffusion.guidance if guidance is None else float(guidance)
         null = self.encode_text([""]).expand_as(cond)
 
@@ -180,6 +183,7 @@ class MotionGenerator:
         if not texts:
             return []
         frames = self._lengths(len(texts), lengths, seconds)
+        self._check_nfe(nfe)  # before the (slow) text encoder loads
         z = self.sample_latents(self.encode_text(texts), nfe, seed, guidance)
         out = []
         for text, feats in zip(texts, self.decode(z, frames)):

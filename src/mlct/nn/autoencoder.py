@@ -103,7 +103,8 @@ class MotionAutoencoder(nn.Module):
         tokens = self.encoder(h, key_padding_mask=pad)[:, :n_enc]  # (B, n_enc, d)
 
         if self.latent_type == "quantized":
-            return Latent(quantize(tokens, self.levels), tokens, None)  # Eq. 8
+            # fp32: under bf16 autocast the l = 1000 grid would not survive the cast back.
+            return Latent(quantize(tokens.float(), self.levels), tokens, None)  # Eq. 8
         if self.latent_type == "plain":
             return Latent(tokens, tokens, None)
         mu, logvar = tokens[:, : self.n_tokens], tokens[:, self.n_tokens :]  # (B, n, d) each
