@@ -250,3 +250,21 @@ def test_cli_export_generate_and_errors(trained: Path, data: Path, tmp_path: Pat
         err = capsys.readouterr().err.strip()
         assert message in err and len(err.splitlines()) == 1, err
     assert np.load(out).shape == (40, 263)  # the failed calls left the earlier output intact
+
+
+def test_torchrun_runs_the_same_command(data: Path, cache: str, tmp_path: Path) -> None:
+    """`torchrun --nproc_per_node 2 -m mlct.cli train ...`: the CLI command, under DDP (gloo)."""
+    import subprocess
+    import sys
+
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    out = subprocess.run(
+        [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2",
+         "--master_port", str(_free_port()), "-m", "mlct.cli", "train", "ae", "--data",
+         str(data), "--out", str(tmp_path / "run"), "--config", "tiny", "--device", "cpu",
+         "--quiet", cache, "train.ae.max_steps=4", "train.ae.batch_size=4"],
+        capture_output=True, text=True, env=env, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.count("ae: step 4") == 1  # only rank 0 reports
+    ckpt = load_checkpoint(latest_checkpoint(tmp_path / "run" / "ae" / "checkpoints"))
+    assert ckpt.meta["step"] == 4 and len(ckpt.state["rng"]) == 2

@@ -1,0 +1,42 @@
+"""Evaluation: the standard text-motion matching evaluator (Guo et al. 2022) and the metrics."""
+
+from mlct.eval.evaluator import EMBEDDING_DIM, UNIT_LENGTH, Evaluator, build_networks
+from mlct.eval.metrics import (
+    activation_statistics,
+    confidence_interval,
+    diversity,
+    euclidean_distance_matrix,
+    fid,
+    frechet_distance,
+    matching_score,
+    multimodality,
+    r_precision,
+    r_precision_batched,
+    top_k_matches,
+)
+from mlct.eval.networks import MotionEncoderBiGRUCo, MovementConvEncoder, TextEncoderBiGRUCo
+from mlct.eval.word_vectors import POS_ENUMERATOR, VIP_WORDS, WordVectorizer
+
+__all__ = [
+    "EMBEDDING_DIM",
+    "POS_ENUMERATOR",
+    "UNIT_LENGTH",
+    "VIP_WORDS",
+    "Evaluator",
+    "MotionEncoderBiGRUCo",
+    "MovementConvEncoder",
+    "TextEncoderBiGRUCo",
+    "WordVectorizer",
+    "activation_statistics",
+    "build_networks",
+    "confidence_interval",
+    "diversity",
+    "euclidean_distance_matrix",
+    "fid",
+    "frechet_distance",
+    "matching_score",
+    "multimodality",
+    "r_precision",
+    "r_precision_batched",
+    "top_k_matches",
+]
