@@ -1,6 +1,8 @@
 """Evaluation: the standard text-motion matching evaluator (Guo et al. 2022) and the metrics."""
 
 from mlct.eval.evaluator import EMBEDDING_DIM, UNIT_LENGTH, Evaluator, build_networks
+from mlct.eval.evaluator_dir import EvaluatorSizes, load_evaluator_dir, write_evaluator_dir
+from mlct.eval.learned_words import LearnedWordVectors
 from mlct.eval.metrics import (
     activation_statistics,
     confidence_interval,
@@ -15,6 +17,7 @@ from mlct.eval.metrics import (
     top_k_matches,
 )
 from mlct.eval.networks import MotionEncoderBiGRUCo, MovementConvEncoder, TextEncoderBiGRUCo
+from mlct.eval.train_evaluator import EvaluatorTrainConfig, train_evaluator
 from mlct.eval.word_vectors import POS_ENUMERATOR, VIP_WORDS, WordVectorizer
 
 __all__ = [
@@ -23,6 +26,9 @@ __all__ = [
     "UNIT_LENGTH",
     "VIP_WORDS",
     "Evaluator",
+    "EvaluatorSizes",
+    "EvaluatorTrainConfig",
+    "LearnedWordVectors",
     "MotionEncoderBiGRUCo",
     "MovementConvEncoder",
     "TextEncoderBiGRUCo",
@@ -34,9 +40,12 @@ __all__ = [
     "euclidean_distance_matrix",
     "fid",
     "frechet_distance",
+    "load_evaluator_dir",
     "matching_score",
     "multimodality",
     "r_precision",
     "r_precision_batched",
     "top_k_matches",
+    "train_evaluator",
+    "write_evaluator_dir",
 ]

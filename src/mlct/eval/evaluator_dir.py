@@ -1,0 +1,192 @@
+"""A self-contained evaluator directory, as `train_evaluator` writes it and anyone reloads it.
+
+    DIR/finest.tar           the three state dicts in the official key layout (Evaluator.save:
+                             'text_encoder', 'movement_encoder', 'motion_encoder', 'epoch', plus
+                             mean/std), so Evaluator.load_official reads it too at official sizes
+    DIR/Mean.npy, Std.npy    the evaluator's own normalization statistics
+    DIR/learned_words.npz    learned word vectors (vocabulary "learned"), or
+    DIR/glove/our_vab_*      a copy of the GloVe files it was trained with (vocabulary "glove")
+    DIR/meta.json            format, version, feature_dim, network sizes, vocabulary, and what
+                             the writer adds (training run, normalization rule)
+
+The directory is built beside its final name and renamed into place: a reader never sees a
+half-written one.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+import torch
+from torch import nn
+
+from mlct.data.layout import load_npy
+from mlct.errors import MlctError
+from mlct.eval.evaluator import (
+    EMBEDDING_DIM,
+    FOOT_CONTACT_DIMS,
+    MOTION_HIDDEN,
+    MOVEMENT_HIDDEN,
+    MOVEMENT_LATENT,
+    NETWORK_KEYS,
+    TEXT_HIDDEN,
+    UNIT_LENGTH,
+    Evaluator,
+    _load_state,
+)
+from mlct.eval.learned_words import LearnedWordVectors
+from mlct.eval.networks import MotionEncoderBiGRUCo, MovementConvEncoder, TextEncoderBiGRUCo
+from mlct.eval.word_vectors import POS_ENUMERATOR, UNKNOWN_WORD, WORD_DIM, WordVectorizer
+from mlct.io import save_npy, write_text
+
+FORMAT = "mlct-evaluator-dir"
+VERSION = 1
+META_FILE = "meta.json"
+CHECKPOINT_FILE = "finest.tar"
+WORDS_FILE = "learned_words.npz"
+GLOVE_DIR = "glove"
+GLOVE_PREFIX = "our_vab"
+GLOVE_FILES = tuple(f"{GLOVE_PREFIX}_{kind}" for kind in ("data.npy", "words.pkl", "idx.pkl"))
+
+
+@dataclass(frozen=True)
+class EvaluatorSizes:
+    """Network widths; the defaults are the official evaluator's (checkpoints load strictly)."""
+
+    word: int = WORD_DIM  # word vectors: GloVe's 300; a learned table may be narrower
+    movement_hidden: int = MOVEMENT_HIDDEN
+    movement_latent: int = MOVEMENT_LATENT
+    text_hidden: int = TEXT_HIDDEN
+    motion_hidden: int = MOTION_HIDDEN
+    embedding: int = EMBEDDING_DIM  # dim_coemb_hidden
+
+
+def build_evaluator_networks(feature_dim: int, sizes: EvaluatorSizes) -> dict[str, nn.Module]:
+    """Fresh evaluator networks of these sizes (official sizes: as evaluator.build_networks)."""
+    if feature_dim <= FOOT_CONTACT_DIMS:
+        raise MlctError(f"feature_dim must exceed {FOOT_CONTACT_DIMS}, got {feature_dim}")
+    return {
+        "text_encoder": TextEncoderBiGRUCo(sizes.word, len(POS_ENUMERATOR), sizes.text_hidden,
+                                           sizes.embedding),
+        "movement_encoder": MovementConvEncoder(feature_dim - FOOT_CONTACT_DIMS,
+                                                sizes.movement_hidden, sizes.movement_latent),
+        "motion_encoder": MotionEncoderBiGRUCo(sizes.movement_latent, sizes.motion_hidden,
+                                               sizes.embedding),
+    }
+
+
+def prepare_target(out: Path, overwrite: bool) -> None:
+    """Fail early (one line) when `out` cannot become the evaluator directory."""
+    if out.exists() and not out.is_dir():
+        raise MlctError(f"{out} exists and is not a directory")
+    if out.is_dir() and any(out.iterdir()) and not overwrite:
+        raise MlctError(f"{out} exists and is not empty: choose a new directory or pass "
+                        f"overwrite=True")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if not os.access(out.parent, os.W_OK):
+        raise MlctError(f"cannot write to {out.parent}")
+
+
+def write_evaluator_dir(out: str | os.PathLike, evaluator: Evaluator, sizes: EvaluatorSizes, *,
+                        glove_dir: str | os.PathLike | None = None,
+                        states: Mapping[str, Mapping[str, Any]] | None = None,
+                        meta: Mapping[str, Any] | None = None) -> None:
+    """Write `evaluator` as DIR (replacing an old one only at the end).
+
+    A LearnedWordVectors vectorizer is saved; a GloVe one is copied from `glove_dir`. `states`
+    are extra torch files (name -> dict); `meta` entries are added to meta.json.
+    """
+    out = Path(out)
+    vectorizer = evaluator.vectorizer
+    if vectorizer is None:
+        raise MlctError("an evaluator directory needs the evaluator's word vectors")
+    learned = isinstance(vectorizer, LearnedWordVectors)
+    if not learned and glove_dir is None:
+        raise MlctError("a GloVe evaluator needs glove_dir, to copy its vectors")
+    work = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent))
+    try:
+        evaluator.save(work / CHECKPOINT_FILE)
+        for name, state in (states or {}).items():
+            torch.save(dict(state), work / name)
+        save_npy(work / "Mean.npy", evaluator.mean.cpu().numpy())
+        save_npy(work / "Std.npy", evaluator.std.cpu().numpy())
+        if isinstance(vectorizer, LearnedWordVectors):
+            vectorizer.save(work / WORDS_FILE)
+        else:
+            assert glove_dir is not None
+            (work / GLOVE_DIR).mkdir()
+            for name in GLOVE_FILES:
+                shutil.copyfile(Path(glove_dir) / name, work / GLOVE_DIR / name)
+        core = {"format": FORMAT, "version": VERSION, "feature_dim": evaluator.feature_dim,
+                "unit_length": UNIT_LENGTH, "sizes": asdict(sizes),
+                "vocabulary": "learned" if learned else "glove",
+                "word_vectors": WORDS_FILE if learned else f"{GLOVE_DIR}/{GLOVE_PREFIX}_*",
+                "mean": "Mean.npy", "std": "Std.npy"}
+        write_text(work / META_FILE, json.dumps(core | dict(meta or {}), indent=2) + "\n")
+        if out.exists():  # an old directory is removed only now
+            trash = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
+            os.replace(out, trash / out.name)
+            shutil.rmtree(trash)
+        os.replace(work, out)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+
+
+def _read_meta(root: Path) -> dict[str, Any]:
+    path = root / META_FILE
+    if not path.is_file():
+        raise MlctError(f"{root}: no {META_FILE} (not an evaluator directory of train_evaluator)")
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as error:
+        raise MlctError(f"{path}: not valid JSON ({error})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise MlctError(f"{path}: format is not {FORMAT!r}")
+    if meta.get("version") != VERSION:
+        raise MlctError(f"{path}: version {meta.get('version')!r}, this mlct reads {VERSION}")
+    return meta
+
+
+def load_evaluator_dir(directory: str | os.PathLike) -> Evaluator:
+    """The Evaluator of an evaluator directory: networks, its Mean/Std, its word vectors."""
+    root = Path(directory)
+    meta = _read_meta(root)
+    try:
+        sizes = EvaluatorSizes(**meta["sizes"])
+        feature_dim = int(meta["feature_dim"])
+        vocabulary = meta["vocabulary"]
+    except (KeyError, TypeError, ValueError) as error:
+        raise MlctError(f"{root / META_FILE}: bad or missing entry ({error!r})") from None
+    mean, std = (load_npy(root / name) for name in ("Mean.npy", "Std.npy"))
+    source = root / CHECKPOINT_FILE
+    try:
+        state = torch.load(source, map_location="cpu", weights_only=True)
+    except Exception as error:  # noqa: BLE001 - any unreadable file gets the same one line
+        first = (str(error).strip().splitlines() or [""])[0]
+        raise MlctError(f"{source}: not a readable weights-only torch checkpoint "
+                        f"({type(error).__name__}: {first})") from None
+    if not isinstance(state, dict):
+        raise MlctError(f"{source}: expected a dict with {', '.join(NETWORK_KEYS)}")
+    networks = build_evaluator_networks(feature_dim, sizes)
+    for key in NETWORK_KEYS:
+        if key not in state:
+            raise MlctError(f"{source}: key {key!r} is missing")
+        _load_state(networks[key], state[key], key, source)
+    if vocabulary == "learned":
+        vectorizer: WordVectorizer = LearnedWordVectors.load(root / WORDS_FILE)
+    elif vocabulary == "glove":
+        vectorizer = WordVectorizer(root / GLOVE_DIR, GLOVE_PREFIX)
+    else:
+        raise MlctError(f"{root / META_FILE}: unknown vocabulary {vocabulary!r} (learned, glove)")
+    dim = vectorizer[f"{UNKNOWN_WORD}/OTHER"][0].shape[0]
+    if dim != sizes.word:
+        raise MlctError(f"{root}: {dim}-d word vectors, the text encoder reads {sizes.word}")
+    epoch = state.get("epoch", 0)
+    return Evaluator(networks, mean, std, vectorizer, epoch=epoch if isinstance(epoch, int) else 0)
