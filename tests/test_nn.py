@@ -234,10 +234,10 @@ def test_paper_size_parameter_counts() -> None:
     den = Denoiser(text_dim=768)  # CLIP ViT-L/14 pooled, 11 layers, width 512
     w, L = 512, 11
     expected_den = (
-        (d * w + w) + (1 + n) * w + L * (256 * w + w) + L * (768 * w + w)
+        (d * w + w) + (1 + n) * w + L * (256 * w + w) + 2 * 768 + L * (768 * w + w)
         + _skip_params(w, 2048, L) + (w * d + d) + (d * d + d)
-    )
-    assert _n_params(den) == expected_den == 43_410_432
+    )  # 2 * 768: the LayerNorm on the text embedding
+    assert _n_params(den) == expected_den == 43_411_968
 
 
 def test_seeded_construction_is_deterministic() -> None:

@@ -62,6 +62,11 @@ class Denoiser(nn.Module):
         self.in_proj = nn.Linear(latent_dim, width)
         self.pos = nn.Parameter(torch.randn(1, 1 + n_tokens, width))
         self.time_proj = nn.ModuleList(nn.Linear(time_embed_dim, width) for _ in range(layers))
+        # Text encoders differ in scale (MiniLM is unit-norm, ~0.05 per component; CLIP's pooled
+        # features are ~10x larger): a LayerNorm makes the condition as loud as the time
+        # embedding whatever the encoder. Without it a MiniLM-conditioned model learned the text
+        # so slowly that its samples ignored it. (Not in the authors' code, which uses CLIP.)
+        self.text_norm = nn.LayerNorm(text_dim)
         self.text_proj = nn.ModuleList(nn.Linear(text_dim, width) for _ in range(layers))
         self.backbone = SkipTransformer(width, layers, heads, ff_dim, dropout, "gelu")
         self.head = nn.Sequential(
@@ -82,7 +87,7 @@ class Denoiser(nn.Module):
         t = torch.as_tensor(t, device=x_t.device).reshape(-1).expand(b)  # (B,)
         t_emb = timestep_embedding(t * self.time_embed_scale, self.time_embed_dim)  # (B, 256)
         t_emb = t_emb.to(x_t.dtype)
-        text_emb = text_emb.to(x_t.dtype)
+        text_emb = self.text_norm(text_emb.to(x_t.dtype))
         # one condition per block, on the condition token only (position 0)
         conds = [
             F.pad((tp(t_emb) + cp(text_emb)).unsqueeze(1), (0, 0, 0, self.n_tokens))  # (B, 1+n, w)
