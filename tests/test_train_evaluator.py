@@ -15,7 +15,7 @@ from mlct.data.dataset import Text2MotionEvalDataset, collate
 from mlct.data.synth.build import synthesize_dataset
 from mlct.errors import MlctError
 from mlct.eval import Evaluator, euclidean_distance_matrix, r_precision_batched
-from mlct.eval.evaluator_dir import EvaluatorSizes, build_evaluator_networks, load_evaluator_dir
+from mlct.eval.evaluator_dir import EvaluatorSizes, build_networks, load_evaluator_dir
 from mlct.eval.learned_words import LearnedWordVectors, build_vocabulary
 from mlct.eval.train_evaluator import (
     EvaluatorTrainConfig,
@@ -277,7 +277,7 @@ def test_matching_loss_is_the_reference_contrastive_loss():
 def test_decoder_and_statistics():
     decoder = MovementConvDecoder(16, 32, 263)
     assert decoder(torch.zeros(2, 10, 16)).shape == (2, 40, 263)
-    nets = build_evaluator_networks(263, TINY.sizes)
+    nets = build_networks(263, TINY.sizes)
     assert nets["movement_encoder"](torch.zeros(2, 40, 259)).shape == (2, 10, 64)
     mean, std = np.zeros(263), np.full(263, 2.0)
     _, scaled = evaluator_mean_std(mean, std, HUMANML3D, feat_bias=5.0)

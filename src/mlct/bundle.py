@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +21,8 @@ import torch
 from safetensors.torch import load_file, save_file
 
 from mlct.errors import MlctError
+from mlct.io import atomic_dir
+from mlct.train.checkpoint import strip_prefix
 
 BUNDLE_FORMAT = "mlct-model"
 BUNDLE_VERSION = 1
@@ -30,15 +30,10 @@ SAMPLERS = {"cm": "consistency", "diffusion": "ddim"}
 ENCODER_PREFIXES = ("enc_in.", "enc_tokens", "enc_pos", "encoder.")
 
 
-def _strip(tensors: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:
-    head = prefix + "."
-    return {k[len(head):]: v for k, v in tensors.items() if k.startswith(head)}
-
-
 def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None = None,
                half: bool = False) -> Path:
     """Write the inference bundle of RUN's latest `cm` (default) or `diffusion` checkpoint."""
-    from mlct.train.checkpoint import latest_checkpoint, load_checkpoint
+    from mlct.train.checkpoint import latest_checkpoint, load_checkpoint  # only for export
 
     run, out = Path(run), Path(out)
     if stage is None:
@@ -49,13 +44,15 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
     if found is None:
         raise MlctError(f"{run / stage}: no checkpoint to export (train it first)")
     ckpt = load_checkpoint(found, with_state=False)
-    ae = _strip(ckpt.tensors, "ae")
+    ae = strip_prefix(ckpt.tensors, "ae")
     decoder = {k: v for k, v in ae.items() if not k.startswith(ENCODER_PREFIXES)}
-    target = _strip(ckpt.tensors, "target")
+    target = strip_prefix(ckpt.tensors, "target")
     if stage == "cm":
-        denoiser = _strip(target, "module.net") if target else _strip(ckpt.tensors, "denoiser")
+        # the EMA target network when trained with one, else the online weights
+        denoiser = (strip_prefix(target, "module.net") if target
+                    else strip_prefix(ckpt.tensors, "denoiser"))
     else:
-        denoiser = _strip(target, "module")
+        denoiser = strip_prefix(target, "module")
     tensors = {**{f"decoder.{k}": v for k, v in decoder.items()},
                **{f"denoiser.{k}": v for k, v in denoiser.items()},
                "norm.mean": ckpt.tensors["norm.mean"], "norm.std": ckpt.tensors["norm.std"]}
@@ -66,21 +63,12 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
             "step": ckpt.meta["step"], "config": ckpt.meta["config"],
             "feature_dim": ckpt.meta["feature_dim"], "skeleton": ckpt.meta["skeleton"],
             "text_encoder": ckpt.meta["text_encoder"], "text_dim": ckpt.meta["text_dim"]}
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
+    with atomic_dir(out) as tmp:
         save_file({k: v.contiguous() for k, v in tensors.items()}, str(tmp / "model.safetensors"),
                   metadata={"format": BUNDLE_FORMAT})
         (tmp / "config.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
         np.save(tmp / "Mean.npy", ckpt.tensors["norm.mean"].numpy())
         np.save(tmp / "Std.npy", ckpt.tensors["norm.std"].numpy())
-        tmp.chmod(0o755)  # mkdtemp makes it private; a model directory is meant to be shared
-        if out.exists():
-            shutil.rmtree(out)
-        os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out
 
 

@@ -17,7 +17,8 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from mlct.bundle import read_bundle
+from mlct.bundle import ENCODER_PREFIXES, read_bundle
+from mlct.train.checkpoint import strip_prefix
 from mlct.config import config_from_dict
 from mlct.diffusion.parameterization import ConsistencyFunction, x0_from_eps
 from mlct.diffusion.samplers import ddim_times, sample_consistency, sample_ddim
@@ -54,13 +55,13 @@ class MotionGenerator:
         self.skeleton = get_skeleton(meta["skeleton"])
         self.sampler = meta["sampler"]
         self.ae = build_autoencoder(self.config, meta["feature_dim"])
-        missing, unexpected = self.ae.load_state_dict(_strip(tensors, "decoder"), strict=False)
-        if unexpected or any(not k.startswith(("enc_in.", "enc_tokens", "enc_pos", "encoder."))
-                             for k in missing):
+        missing, unexpected = self.ae.load_state_dict(strip_prefix(tensors, "decoder"),
+                                                      strict=False)
+        if unexpected or any(not k.startswith(ENCODER_PREFIXES) for k in missing):
             raise MlctError("model weights do not match its config (decoder)")
         self.denoiser = build_denoiser(self.config, meta["text_dim"])
         try:
-            self.denoiser.load_state_dict(_strip(tensors, "denoiser"))
+            self.denoiser.load_state_dict(strip_prefix(tensors, "denoiser"))
         except RuntimeError:
             raise MlctError("model weights do not match its config (denoiser)") from None
         self.mean = tensors["norm.mean"].float()
@@ -190,11 +191,6 @@ class MotionGenerator:
             joints = recover_from_ric(torch.from_numpy(feats)).numpy()
             out.append(GeneratedMotion(text, feats, joints, self.skeleton.fps, self.skeleton.name))
         return out
-
-
-def _strip(tensors: dict[str, Tensor], prefix: str) -> dict[str, Tensor]:
-    head = prefix + "."
-    return {k[len(head):]: v for k, v in tensors.items() if k.startswith(head)}
 
 
 def load(path: str | os.PathLike, device: torch.device | str | None = None) -> MotionGenerator:

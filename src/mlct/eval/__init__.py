@@ -1,7 +1,8 @@
 """Evaluation: the standard text-motion matching evaluator (Guo et al. 2022) and the metrics."""
 
-from mlct.eval.evaluator import EMBEDDING_DIM, UNIT_LENGTH, Evaluator, build_networks
-from mlct.eval.evaluator_dir import EvaluatorSizes, load_evaluator_dir, write_evaluator_dir
+from mlct.eval.evaluator import (EMBEDDING_DIM, UNIT_LENGTH, Evaluator, EvaluatorSizes,
+                                 build_networks)
+from mlct.eval.evaluator_dir import load_evaluator_dir, write_evaluator_dir
 from mlct.eval.learned_words import LearnedWordVectors
 from mlct.eval.metrics import (
     activation_statistics,

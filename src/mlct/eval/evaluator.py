@@ -23,6 +23,8 @@ reference's MultiModality loader passes unpadded motions; its last step differs 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import os
 from pathlib import Path
 from typing import Any, Mapping, Sequence, cast
@@ -51,16 +53,30 @@ PAD_TOKEN = "unk/OTHER"  # the reference pads token lists with it
 FORMAT = "mlct-evaluator"
 
 
-def build_networks(feature_dim: int) -> dict[str, nn.Module]:
+@dataclass(frozen=True)
+class EvaluatorSizes:
+    """Network widths; the defaults are the official evaluator's (checkpoints load strictly)."""
+
+    word: int = WORD_DIM  # word vectors: GloVe's 300; a learned table may be narrower
+    movement_hidden: int = MOVEMENT_HIDDEN
+    movement_latent: int = MOVEMENT_LATENT
+    text_hidden: int = TEXT_HIDDEN
+    motion_hidden: int = MOTION_HIDDEN
+    embedding: int = EMBEDDING_DIM  # dim_coemb_hidden
+
+
+def build_networks(feature_dim: int, sizes: EvaluatorSizes = EvaluatorSizes()
+                   ) -> dict[str, nn.Module]:
     """Fresh (randomly initialized) evaluator networks for `feature_dim`-d motion features."""
     if feature_dim <= FOOT_CONTACT_DIMS:
         raise MlctError(f"feature_dim must exceed {FOOT_CONTACT_DIMS}, got {feature_dim}")
     return {
-        "text_encoder": TextEncoderBiGRUCo(WORD_DIM, len(POS_ENUMERATOR), TEXT_HIDDEN,
-                                           EMBEDDING_DIM),
+        "text_encoder": TextEncoderBiGRUCo(sizes.word, len(POS_ENUMERATOR), sizes.text_hidden,
+                                           sizes.embedding),
         "movement_encoder": MovementConvEncoder(feature_dim - FOOT_CONTACT_DIMS,
-                                                MOVEMENT_HIDDEN, MOVEMENT_LATENT),
-        "motion_encoder": MotionEncoderBiGRUCo(MOVEMENT_LATENT, MOTION_HIDDEN, EMBEDDING_DIM),
+                                                sizes.movement_hidden, sizes.movement_latent),
+        "motion_encoder": MotionEncoderBiGRUCo(sizes.movement_latent, sizes.motion_hidden,
+                                               sizes.embedding),
     }
 
 
@@ -90,7 +106,7 @@ def _resolve_checkpoint(path: str | os.PathLike) -> Path:
                     f"{', '.join(CHECKPOINT_NAMES)})")
 
 
-def _load_state(module: nn.Module, state: Any, name: str, source: Path) -> None:
+def load_state_checked(module: nn.Module, state: Any, name: str, source: Path) -> None:
     """load_state_dict(strict=True) after checking every key and shape, failing in one line."""
     if not isinstance(state, Mapping):
         raise MlctError(f"{source}: '{name}' is not a state dict")
@@ -184,7 +200,7 @@ class Evaluator:
             feature_dim = len(mean)
         networks = build_networks(feature_dim)
         for key, module in networks.items():
-            _load_state(module, state[key], key, source)
+            load_state_checked(module, state[key], key, source)
         vectorizer = None if glove_dir is None else WordVectorizer(glove_dir)
         epoch = state.get("epoch", 0)
         return cls(networks, mean, std, vectorizer, epoch=epoch if isinstance(epoch, int) else 0)

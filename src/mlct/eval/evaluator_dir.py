@@ -18,32 +18,25 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import tempfile
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any, Mapping
 
 import torch
-from torch import nn
 
 from mlct.data.layout import load_npy
 from mlct.errors import MlctError
 from mlct.eval.evaluator import (
-    EMBEDDING_DIM,
-    FOOT_CONTACT_DIMS,
-    MOTION_HIDDEN,
-    MOVEMENT_HIDDEN,
-    MOVEMENT_LATENT,
     NETWORK_KEYS,
-    TEXT_HIDDEN,
     UNIT_LENGTH,
     Evaluator,
-    _load_state,
+    EvaluatorSizes,
+    build_networks,
+    load_state_checked,
 )
 from mlct.eval.learned_words import LearnedWordVectors
-from mlct.eval.networks import MotionEncoderBiGRUCo, MovementConvEncoder, TextEncoderBiGRUCo
-from mlct.eval.word_vectors import POS_ENUMERATOR, UNKNOWN_WORD, WORD_DIM, WordVectorizer
-from mlct.io import save_npy, write_text
+from mlct.eval.word_vectors import UNKNOWN_WORD, WordVectorizer
+from mlct.io import atomic_dir, save_npy, write_text
 
 FORMAT = "mlct-evaluator-dir"
 VERSION = 1
@@ -53,32 +46,6 @@ WORDS_FILE = "learned_words.npz"
 GLOVE_DIR = "glove"
 GLOVE_PREFIX = "our_vab"
 GLOVE_FILES = tuple(f"{GLOVE_PREFIX}_{kind}" for kind in ("data.npy", "words.pkl", "idx.pkl"))
-
-
-@dataclass(frozen=True)
-class EvaluatorSizes:
-    """Network widths; the defaults are the official evaluator's (checkpoints load strictly)."""
-
-    word: int = WORD_DIM  # word vectors: GloVe's 300; a learned table may be narrower
-    movement_hidden: int = MOVEMENT_HIDDEN
-    movement_latent: int = MOVEMENT_LATENT
-    text_hidden: int = TEXT_HIDDEN
-    motion_hidden: int = MOTION_HIDDEN
-    embedding: int = EMBEDDING_DIM  # dim_coemb_hidden
-
-
-def build_evaluator_networks(feature_dim: int, sizes: EvaluatorSizes) -> dict[str, nn.Module]:
-    """Fresh evaluator networks of these sizes (official sizes: as evaluator.build_networks)."""
-    if feature_dim <= FOOT_CONTACT_DIMS:
-        raise MlctError(f"feature_dim must exceed {FOOT_CONTACT_DIMS}, got {feature_dim}")
-    return {
-        "text_encoder": TextEncoderBiGRUCo(sizes.word, len(POS_ENUMERATOR), sizes.text_hidden,
-                                           sizes.embedding),
-        "movement_encoder": MovementConvEncoder(feature_dim - FOOT_CONTACT_DIMS,
-                                                sizes.movement_hidden, sizes.movement_latent),
-        "motion_encoder": MotionEncoderBiGRUCo(sizes.movement_latent, sizes.motion_hidden,
-                                               sizes.embedding),
-    }
 
 
 def prepare_target(out: Path, overwrite: bool) -> None:
@@ -109,8 +76,7 @@ def write_evaluator_dir(out: str | os.PathLike, evaluator: Evaluator, sizes: Eva
     learned = isinstance(vectorizer, LearnedWordVectors)
     if not learned and glove_dir is None:
         raise MlctError("a GloVe evaluator needs glove_dir, to copy its vectors")
-    work = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent))
-    try:
+    with atomic_dir(out) as work:  # an old directory is replaced only at the end
         evaluator.save(work / CHECKPOINT_FILE)
         for name, state in (states or {}).items():
             torch.save(dict(state), work / name)
@@ -129,14 +95,6 @@ def write_evaluator_dir(out: str | os.PathLike, evaluator: Evaluator, sizes: Eva
                 "word_vectors": WORDS_FILE if learned else f"{GLOVE_DIR}/{GLOVE_PREFIX}_*",
                 "mean": "Mean.npy", "std": "Std.npy"}
         write_text(work / META_FILE, json.dumps(core | dict(meta or {}), indent=2) + "\n")
-        if out.exists():  # an old directory is removed only now
-            trash = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
-            os.replace(out, trash / out.name)
-            shutil.rmtree(trash)
-        os.replace(work, out)
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        raise
 
 
 def _read_meta(root: Path) -> dict[str, Any]:
@@ -174,11 +132,11 @@ def load_evaluator_dir(directory: str | os.PathLike) -> Evaluator:
                         f"({type(error).__name__}: {first})") from None
     if not isinstance(state, dict):
         raise MlctError(f"{source}: expected a dict with {', '.join(NETWORK_KEYS)}")
-    networks = build_evaluator_networks(feature_dim, sizes)
+    networks = build_networks(feature_dim, sizes)
     for key in NETWORK_KEYS:
         if key not in state:
             raise MlctError(f"{source}: key {key!r} is missing")
-        _load_state(networks[key], state[key], key, source)
+        load_state_checked(networks[key], state[key], key, source)
     if vocabulary == "learned":
         vectorizer: WordVectorizer = LearnedWordVectors.load(root / WORDS_FILE)
     elif vocabulary == "glove":

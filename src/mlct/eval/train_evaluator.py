@@ -49,7 +49,7 @@ from mlct.eval.evaluator import FOOT_CONTACT_DIMS, UNIT_LENGTH, Evaluator
 from mlct.eval.evaluator_dir import (
     GLOVE_PREFIX,
     EvaluatorSizes,
-    build_evaluator_networks,
+    build_networks,
     load_evaluator_dir,
     prepare_target,
     write_evaluator_dir,
@@ -392,7 +392,7 @@ def train_evaluator(data_dir: str | os.PathLike, out_dir: str | os.PathLike, *,
         dev.index if dev.index is not None else torch.cuda.current_device()]
     with torch.random.fork_rng(devices=devices):  # init and dropout; the caller's RNG is kept
         torch.manual_seed(seed)
-        nets = {k: m.to(dev) for k, m in build_evaluator_networks(skel.feature_dim,
+        nets = {k: m.to(dev) for k, m in build_networks(skel.feature_dim,
                                                                   config.sizes).items()}
         decoder = MovementConvDecoder(config.sizes.movement_latent, config.sizes.movement_hidden,
                                       skel.feature_dim).to(dev)

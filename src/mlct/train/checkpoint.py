@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,7 +20,7 @@ from safetensors import SafetensorError
 from safetensors.torch import load_file, safe_open, save_file
 
 from mlct.errors import MlctError
-from mlct.io import write_text
+from mlct.io import atomic_dir, write_text
 
 FORMAT = "mlct-checkpoint"
 VERSION = "1"
@@ -40,15 +39,21 @@ class Checkpoint:
 
     def module_state(self, prefix: str) -> dict[str, torch.Tensor]:
         """The tensors under `prefix.` with the prefix removed (a module's state_dict)."""
-        head = prefix + "."
-        found = {k[len(head):]: v for k, v in self.tensors.items() if k.startswith(head)}
+        found = strip_prefix(self.tensors, prefix)
         if not found:
             raise MlctError(f"{self.path}: holds no '{prefix}' weights")
         return found
 
 
 def prefixed(prefix: str, state: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+    """A module's state_dict under `prefix.` (the inverse of strip_prefix)."""
     return {f"{prefix}.{k}": v for k, v in state.items()}
+
+
+def strip_prefix(tensors: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:
+    """The tensors under `prefix.`, with the prefix removed (a module's state_dict)."""
+    head = prefix + "."
+    return {k[len(head):]: v for k, v in tensors.items() if k.startswith(head)}
 
 
 def save_weights(path: Path, tensors: dict[str, torch.Tensor], meta: dict[str, Any]) -> None:
@@ -88,16 +93,9 @@ def save_checkpoint(directory: str | os.PathLike, step: int,
     directory.mkdir(parents=True, exist_ok=True)
     name = f"step-{step:08d}"
     final = directory / name
-    tmp = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=directory))
-    try:
+    with atomic_dir(final) as tmp:  # re-saving a step (e.g. the last one) replaces it
         save_weights(tmp / WEIGHTS, tensors, {**meta, "step": step})
         torch.save(state, tmp / STATE)
-        if final.exists():  # re-saving the same step (e.g. the last one): replace it
-            shutil.rmtree(final)
-        os.replace(tmp, final)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     write_text(directory / "latest", name + "\n")
     kept = sorted(p for p in directory.glob("step-*") if p.is_dir())
     for old in kept[:-keep] if keep > 0 else []:

@@ -16,7 +16,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
 
-from mlct.config import Config
+from mlct.config import Config, config_from_dict
 from mlct.diffusion.losses import consistency_training_loss, diffusion_training_loss
 from mlct.diffusion.parameterization import ConsistencyFunction
 from mlct.diffusion.schedule import VPSchedule, karras_time_grid
@@ -148,8 +148,6 @@ def load_frozen_autoencoder(path: Path, device: torch.device
     checkpoint = load_checkpoint(path, with_state=False)
     if "feature_dim" not in checkpoint.meta or "ae.enc_in.weight" not in checkpoint.tensors:
         raise MlctError(f"{path}: not an autoencoder checkpoint")
-    from mlct.config import config_from_dict
-
     ae_config = config_from_dict(checkpoint.meta["config"], str(path))
     model = build_autoencoder(ae_config, checkpoint.meta["feature_dim"])
     model.load_state_dict(checkpoint.module_state("ae"))
@@ -190,8 +188,6 @@ class LatentStage(Stage):
         merged = config.to_dict()
         merged["ae"] = ae_meta["config"]["ae"]
         merged["data"] = ae_meta["config"]["data"]
-        from mlct.config import config_from_dict
-
         super().__init__(config_from_dict(merged), device)
         self.ae_meta = ae_meta
         self.text = text
@@ -209,6 +205,11 @@ class LatentStage(Stage):
         ema = AveragedModel(module, multi_avg_fn=get_ema_multi_avg_fn(self.ema_decay),
                             use_buffers=True)
         return ema.eval().requires_grad_(False)
+
+    def _frozen_and_online(self) -> dict[str, Tensor]:
+        """The frozen AE, its normalization and the online denoiser, for the checkpoint."""
+        return {**prefixed("ae", self.ae.state_dict()), **prefixed("norm", self.norm.state_dict()),
+                **prefixed("denoiser", self.denoiser.state_dict())}
 
     def meta(self) -> dict[str, Any]:
         return {"stage": self.name, "config": self.config.to_dict(),
@@ -257,8 +258,7 @@ class ConsistencyStage(LatentStage):
         return self.target.module.net if self.target is not None else self.denoiser
 
     def tensors(self) -> dict[str, Tensor]:
-        out = {**prefixed("ae", self.ae.state_dict()), **prefixed("norm", self.norm.state_dict()),
-               **prefixed("denoiser", self.denoiser.state_dict())}
+        out = self._frozen_and_online()
         if self.target is not None:
             out.update(prefixed("target", self.target.state_dict()))
         return out
@@ -296,9 +296,7 @@ class DiffusionStage(LatentStage):
         return self.ema.module
 
     def tensors(self) -> dict[str, Tensor]:
-        return {**prefixed("ae", self.ae.state_dict()), **prefixed("norm", self.norm.state_dict()),
-                **prefixed("denoiser", self.denoiser.state_dict()),
-                **prefixed("target", self.ema.state_dict())}
+        return {**self._frozen_and_online(), **prefixed("target", self.ema.state_dict())}
 
     def load(self, checkpoint: Checkpoint) -> None:
         self._check_compatible(checkpoint)

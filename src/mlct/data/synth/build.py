@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator
@@ -21,13 +19,13 @@ import torch
 from tqdm import tqdm
 
 from mlct.data.stats import standard_mean_std
-from mlct.data.synth.actions import Script, sample_script
+from mlct.data.synth.actions import sample_script
 from mlct.data.synth.compose import compose
 from mlct.data.synth.motions import Style
 from mlct.data.synth.rig import Rig, make_rig
 from mlct.data.synth.text import canonical_label, describe, format_text_line, pos_tag
 from mlct.errors import MlctError
-from mlct.io import save_npy, write_text
+from mlct.io import atomic_dir, save_npy, write_text
 from mlct.motion.features import joints_to_features, recover_from_ric
 from mlct.motion.physics import foot_skating_ratio
 from mlct.motion.skeleton import Skeleton, get_skeleton
@@ -165,8 +163,7 @@ def synthesize_dataset(out: str | os.PathLike, num: int, seed: int = 0,
 
 def _synthesize(out: Path, num: int, seed: int, skeleton: Skeleton, workers: int,
                 progress: bool) -> dict[str, Any]:
-    work = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent))
-    try:
+    with atomic_dir(out) as work:  # the finished dataset replaces an old one only at the end
         for sub in ("new_joint_vecs", "new_joints", "texts"):
             (work / sub).mkdir()
         names, labels, features, skating, frames = [], [], [], [], 0
@@ -194,14 +191,5 @@ def _synthesize(out: Path, num: int, seed: int, skeleton: Skeleton, workers: int
         info = {"generator": "mlct procedural benchmark", "skeleton": skeleton.name, "seed": seed,
                 "num": num, "fps": skeleton.fps, "splits": {k: len(v) for k, v in splits.items()}}
         write_text(work / "synth.json", json.dumps(info, indent=2) + "\n")
-        # Swap the finished dataset into place (an old one is removed only now).
-        if out.exists():
-            trash = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
-            os.replace(out, trash / out.name)
-            shutil.rmtree(trash)
-        os.replace(work, out)
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        raise
     return {"motions": num, "frames": frames, "skating_ratio": float(np.mean(skating)),
             "splits": {k: len(v) for k, v in splits.items()}, "path": str(out)}
