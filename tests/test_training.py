@@ -268,3 +268,12 @@ def test_torchrun_runs_the_same_command(data: Path, cache: str, tmp_path: Path) 
     assert out.stdout.count("ae: step 4") == 1  # only rank 0 reports
     ckpt = load_checkpoint(latest_checkpoint(tmp_path / "run" / "ae" / "checkpoints"))
     assert ckpt.meta["step"] == 4 and len(ckpt.state["rng"]) == 2
+
+
+def test_ae_path_may_name_a_run_a_stage_or_a_checkpoint(trained: Path) -> None:
+    from mlct.train.stages import find_autoencoder
+
+    latest = latest_checkpoint(trained / "ae" / "checkpoints")
+    for given in (trained, trained / "ae", latest):
+        assert find_autoencoder(Path("/elsewhere"), given) == latest
+    assert find_autoencoder(trained, None) == latest

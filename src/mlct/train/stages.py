@@ -132,9 +132,16 @@ class AutoencoderStage(Stage):
 
 
 def find_autoencoder(run: Path, ae_path: str | Path | None) -> Path:
-    """The AE checkpoint a stage-2 run builds on: --ae PATH, else RUN/ae's latest."""
+    """The AE checkpoint a stage-2 run builds on: --ae PATH, else RUN/ae's latest.
+
+    PATH may be a checkpoint directory, an AE stage directory (RUN/ae) or a whole run (RUN):
+    the latter two resolve to their latest checkpoint."""
     if ae_path is not None:
-        return Path(ae_path)
+        path = Path(ae_path)
+        for checkpoints in (path / "checkpoints", path / "ae" / "checkpoints"):
+            if checkpoints.is_dir() and (found := latest_checkpoint(checkpoints)) is not None:
+                return found
+        return path
     found = latest_checkpoint(run / "ae" / "checkpoints")
     if found is None:
         raise MlctError(f"{run / 'ae'}: no trained autoencoder; run `mlct train ae` with this "
