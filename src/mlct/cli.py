@@ -90,6 +90,65 @@ def _cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_train_evaluator(args: argparse.Namespace) -> int:
+    from mlct.eval.train_evaluator import train_evaluator
+
+    device = args.device
+    if device is None:
+        import torch
+
+        device = "cuda" if torch.cuda.is_available() else "cpu"
+    summary = train_evaluator(args.data, args.out, glove_dir=args.glove,
+                              steps_decomp=args.steps_decomp, steps_match=args.steps_match,
+                              batch_size=args.batch_size, seed=args.seed, device=device,
+                              progress=not args.quiet, overwrite=args.overwrite)
+    print(f"evaluator: {summary['vocabulary']} word vectors ({summary['vocabulary_size']}), "
+          f"{summary['train_items']} train items, best step {summary['best_step']}; "
+          f"{summary['path']}")
+    return 0
+
+
+def _int_list(text: str) -> list[int]:
+    try:
+        return [int(item) for item in text.split(",") if item.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected integers like 1,3,5, got {text!r}") from None
+
+
+def _float_list(text: str) -> list[float]:
+    try:
+        return [float(item) for item in text.split(",") if item.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected numbers like 0,1,2.5, got {text!r}") from None
+
+
+def _cmd_eval(args: argparse.Namespace) -> int:
+    import shlex
+
+    from mlct.eval.protocol import ProtocolConfig
+    from mlct.eval.report import check_report_dir, results_table, write_report
+    from mlct.eval.run import run_evaluation
+
+    config = ProtocolConfig(reps=args.reps, seed=args.seed, batch_size=args.batch_size,
+                            diversity_times=args.diversity_times, mm=args.mm,
+                            aits_runs=args.aits_runs)
+    check_report_dir(args.out)
+
+    def log(message: str) -> None:
+        print(message, file=sys.stderr, flush=True)
+
+    report = run_evaluation(args.model, args.data, args.evaluator, nfe=args.nfe,
+                            ddim_steps=args.ddim_steps, guidance=args.guidance,
+                            split=args.split, config=config, device=args.device,
+                            log=None if args.quiet else log,
+                            command=shlex.join(["mlct", *args.argv]))
+    written = write_report(args.out, report)
+    print(results_table(report))
+    if not args.quiet:
+        log("wrote " + ", ".join(str(path) for path in written))
+    return 0
+
+
 def _cmd_export(args: argparse.Namespace) -> int:
     from mlct.bundle import export_run
 
@@ -155,20 +214,79 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--index", type=int, default=0, help="which motion to render")
     demo.set_defaults(func=_cmd_demo)
 
-    train = commands.add_parser("train", help="train a stage: ae, then cm (or diffusion)")
-    train.add_argument("stage", choices=["ae", "cm", "diffusion"])
-    train.add_argument("--data", required=True, type=Path, help="dataset directory")
-    train.add_argument("--out", required=True, type=Path, help="run directory (all stages)")
-    train.add_argument("--config", default=None,
-                       help="preset (humanml3d, kit, small, tiny) or YAML file; default small")
-    train.add_argument("overrides", nargs="*", metavar="key=value",
-                       help="config overrides, e.g. train.cm.max_steps=2000 consistency.guidance=2")
-    train.add_argument("--resume", action="store_true", help="continue from the latest checkpoint")
-    train.add_argument("--ae", default=None, help="AE checkpoint for cm/diffusion "
-                       "(default: RUN/ae's latest)")
-    train.add_argument("--device", default=None, help="cpu or cuda (default: cuda if available)")
-    train.add_argument("--quiet", action="store_true", help="no progress bar")
-    train.set_defaults(func=_cmd_train)
+    train = commands.add_parser("train", help="train a stage: ae, then cm (or diffusion); "
+                                "or the evaluator")
+    stages = train.add_subparsers(dest="stage", required=True, parser_class=_Parser,
+                                  metavar="{ae,cm,diffusion,evaluator}")
+    for stage, help_text in (("ae", "stage 1: the motion autoencoder"),
+                             ("cm", "stage 2: latent consistency training (MLCT)"),
+                             ("diffusion", "stage 2 baseline: latent diffusion (DDIM + CFG)")):
+        parser_ = stages.add_parser(stage, help=help_text)
+        parser_.add_argument("--data", required=True, type=Path, help="dataset directory")
+        parser_.add_argument("--out", required=True, type=Path,
+                             help="run directory (all stages)")
+        parser_.add_argument("--config", default=None, help="preset (humanml3d, kit, small, "
+                             "tiny) or YAML file; default small")
+        parser_.add_argument("overrides", nargs="*", metavar="key=value",
+                             help="config overrides, e.g. train.cm.max_steps=2000 "
+                             "consistency.guidance=2")
+        parser_.add_argument("--resume", action="store_true",
+                             help="continue from the latest checkpoint")
+        parser_.add_argument("--ae", default=None, help="AE checkpoint for cm/diffusion "
+                             "(default: RUN/ae's latest)")
+        parser_.add_argument("--device", default=None,
+                             help="cpu or cuda (default: cuda if available)")
+        parser_.add_argument("--quiet", action="store_true", help="no progress bar")
+        parser_.set_defaults(func=_cmd_train)
+
+    evaluator = stages.add_parser("evaluator", help="the text-motion matching evaluator of "
+                                  "the standard metrics (Guo et al. 2022)")
+    evaluator.add_argument("--data", required=True, type=Path, help="dataset directory")
+    evaluator.add_argument("--out", required=True, type=Path, help="evaluator directory to write")
+    evaluator.add_argument("--glove", default=None, type=Path,
+                           help="GloVe directory (our_vab_*); default: learn word vectors")
+    evaluator.add_argument("--steps-decomp", type=int, default=5000,
+                           help="movement autoencoder steps (default 5000)")
+    evaluator.add_argument("--steps-match", type=int, default=15000,
+                           help="text-motion co-embedding steps (default 15000)")
+    evaluator.add_argument("--batch-size", type=int, default=32)
+    evaluator.add_argument("--seed", type=int, default=0)
+    evaluator.add_argument("--device", default=None,
+                           help="cpu or cuda (default: cuda if available)")
+    evaluator.add_argument("--overwrite", action="store_true",
+                           help="replace an existing evaluator directory")
+    evaluator.add_argument("--quiet", action="store_true", help="no progress bar")
+    evaluator.set_defaults(func=_cmd_train_evaluator)
+
+    evaluate = commands.add_parser("eval", help="the standard metrics of models on a test split")
+    evaluate.add_argument("--model", required=True, type=Path, action="append",
+                          help="model directory (repeat for several)")
+    evaluate.add_argument("--data", required=True, type=Path, help="dataset directory")
+    evaluate.add_argument("--evaluator", required=True, type=Path,
+                          help="evaluator directory (`mlct train evaluator`)")
+    evaluate.add_argument("--out", required=True, type=Path, help="report directory")
+    evaluate.add_argument("--nfe", type=_int_list, default=None,
+                          help="consistency models' steps, e.g. 1,3,5,10 (default: the model's)")
+    evaluate.add_argument("--ddim-steps", type=_int_list, default=None,
+                          help="DDIM models' steps = their NFE (default: the model's, 50)")
+    evaluate.add_argument("--guidance", type=_float_list, default=None,
+                          help="DDIM models' CFG scales, e.g. 0,1,2 (default: the model's); "
+                          "a consistency model's w is fixed at training")
+    evaluate.add_argument("--reps", type=int, default=20, help="replications (default 20)")
+    evaluate.add_argument("--mm", action="store_true",
+                          help="also MultiModality (100 texts x 30 generations a replication)")
+    evaluate.add_argument("--split", default="test")
+    evaluate.add_argument("--batch-size", type=int, default=32,
+                          help="R-precision group and generation batch (default 32)")
+    evaluate.add_argument("--seed", type=int, default=0, help="replication r uses seed + r")
+    evaluate.add_argument("--diversity-times", type=int, default=None,
+                          help="diversity pairs (default 300, fewer on a small split)")
+    evaluate.add_argument("--aits-runs", type=int, default=10,
+                          help="timed batch-1 runs per configuration (0: no AITS)")
+    evaluate.add_argument("--device", default=None, help="cpu or cuda (default: cuda if "
+                          "available)")
+    evaluate.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    evaluate.set_defaults(func=_cmd_eval)
 
     export = commands.add_parser("export", help="write an inference bundle from a training run")
     export.add_argument("run", type=Path)
@@ -215,12 +333,13 @@ def main(argv: list[str] | None = None) -> int:
     # them right after the stage); anything else left over is an error, as parse_args makes it.
     overrides = [item for item in extra if "=" in item and not item.startswith("-")]
     unknown = [item for item in extra if item not in overrides]
-    if overrides and getattr(args, "command", None) != "train":
+    if overrides and not hasattr(args, "overrides"):  # only `mlct train ae|cm|diffusion`
         unknown = extra
     if unknown:
         parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     if overrides:
         args.overrides = list(args.overrides) + overrides
+    args.argv = list(sys.argv[1:] if argv is None else argv)  # reports record the command
     try:
         return args.func(args)
     except MlctError as error:

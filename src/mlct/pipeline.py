@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 import torch
@@ -27,6 +27,9 @@ from mlct.errors import MlctError
 from mlct.models import build_autoencoder, build_denoiser, latent_clamp
 from mlct.motion.features import recover_from_ric
 from mlct.motion.skeleton import get_skeleton
+
+if TYPE_CHECKING:
+    from mlct.text import TextEncoder
 
 
 @dataclass
@@ -73,7 +76,7 @@ class MotionGenerator:
         self.consistency = ConsistencyFunction(self.denoiser, s.eta, s.time_scale)
         self.grid = karras_time_grid(s.num_steps, s.eps, s.t_max, s.rho, device=self.device)
         self.clamp = latent_clamp(self.config)
-        self._text_encoder = None
+        self._text_encoder: TextEncoder | None = None
         self._text_memo: dict[str, Tensor] = {}
 
     @classmethod
@@ -91,15 +94,20 @@ class MotionGenerator:
         return self.config.consistency.nfe if self.sampler == "consistency" \
             else self.config.diffusion.sample_steps
 
+    @property
+    def text_encoder(self) -> TextEncoder:
+        """The frozen text encoder, loaded on first use (it is named in the bundle, not stored)."""
+        if self._text_encoder is None:
+            from mlct.text import load_text_encoder
+
+            self._text_encoder = load_text_encoder(self.meta["text_encoder"])
+        return self._text_encoder
+
     def encode_text(self, texts: Sequence[str]) -> Tensor:
         """(B, c) frozen text embeddings; each distinct text is encoded once per generator."""
         missing = sorted({t for t in texts if t not in self._text_memo})
         if missing:
-            if self._text_encoder is None:
-                from mlct.text import load_text_encoder
-
-                self._text_encoder = load_text_encoder(self.meta["text_encoder"])
-            for text, row in zip(missing, self._text_encoder.encode(missing)):
+            for text, row in zip(missing, self.text_encoder.encode(missing)):
                 self._text_memo[text] = row.float()
         return torch.stack([self._text_memo[t] for t in texts]).to(self.device)
 
@@ -127,7 +135,8 @@ class MotionGenerator:
                                 f"{self.skeleton.fps:g} fps)")
         return out
 
-    def _check_nfe(self, nfe: int | None) -> int:
+    def check_nfe(self, nfe: int | None) -> int:
+        """The step count to sample with (the default for None); MlctError when out of range."""
         steps = self.default_nfe if nfe is None else int(nfe)
         top = len(self.grid) if self.sampler == "consistency" else 1000
         if not 1 <= steps <= top:
@@ -145,7 +154,7 @@ class MotionGenerator:
             generator.seed()
         else:
             generator.manual_seed(int(seed))
-        steps = self._check_nfe(nfe)
+        steps = self.check_nfe(nfe)
         if self.sampler == "consistency":
             times = sampling_times(self.grid, steps)
 
@@ -184,7 +193,7 @@ class MotionGenerator:
         if not texts:
             return []
         frames = self._lengths(len(texts), lengths, seconds)
-        self._check_nfe(nfe)  # before the (slow) text encoder loads
+        self.check_nfe(nfe)  # before the (slow) text encoder loads
         z = self.sample_latents(self.encode_text(texts), nfe, seed, guidance)
         out = []
         for text, feats in zip(texts, self.decode(z, frames)):

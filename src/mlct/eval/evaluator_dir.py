@@ -97,7 +97,9 @@ def write_evaluator_dir(out: str | os.PathLike, evaluator: Evaluator, sizes: Eva
         write_text(work / META_FILE, json.dumps(core | dict(meta or {}), indent=2) + "\n")
 
 
-def _read_meta(root: Path) -> dict[str, Any]:
+def read_evaluator_meta(directory: str | os.PathLike) -> dict[str, Any]:
+    """meta.json of an evaluator directory, checked (format, version); MlctError otherwise."""
+    root = Path(directory)
     path = root / META_FILE
     if not path.is_file():
         raise MlctError(f"{root}: no {META_FILE} (not an evaluator directory of train_evaluator)")
@@ -115,7 +117,7 @@ def _read_meta(root: Path) -> dict[str, Any]:
 def load_evaluator_dir(directory: str | os.PathLike) -> Evaluator:
     """The Evaluator of an evaluator directory: networks, its Mean/Std, its word vectors."""
     root = Path(directory)
-    meta = _read_meta(root)
+    meta = read_evaluator_meta(root)
     try:
         sizes = EvaluatorSizes(**meta["sizes"])
         feature_dim = int(meta["feature_dim"])

@@ -1,0 +1,189 @@
+"""Evaluation reports: REPORT_DIR/results.json, results.md (laid out as MLCT's Table 1), plots.
+
+    results.json   every number (per-replication values too), the config, timings, command line
+    results.md     Methods | R@1 | R@2 | R@3 | FID | MM-Dist | Diversity | MModality | NFE | AITS,
+                   values as mean±1.96·std/√reps; then the AITS split and the protocol's choices
+    nfe.png        FID and R@3 against NFE, one line per (model, guidance)
+    guidance.png   FID and R@3 against the guidance scale, when several were evaluated
+
+Every file is written atomically. Plots use matplotlib's object API on an Agg canvas.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+from mlct.errors import MlctError
+from mlct.io import atomic_path, write_text
+
+COLUMNS = [("R@1 ↑", "r_precision_top1"), ("R@2 ↑", "r_precision_top2"),
+           ("R@3 ↑", "r_precision_top3"), ("FID ↓", "fid"), ("MM-Dist ↓", "mm_dist"),
+           ("Diversity →", "diversity"), ("MModality ↑", "multimodality")]
+DASH = "-"
+
+
+def check_report_dir(out: str | os.PathLike) -> Path:
+    """Fail in one line, before any work, when REPORT_DIR cannot be written (creates nothing)."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise MlctError(f"{out} exists and is not a directory")
+    existing = out
+    while not existing.exists():  # the nearest existing ancestor must be a writable directory
+        existing = existing.parent
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise MlctError(f"cannot write to {out} ({existing} is not a writable directory)")
+    return out
+
+
+def format_value(metric: dict[str, Any] | None, digits: int = 3) -> str:
+    """{mean, ci} -> '0.775±0.003'; a missing metric -> '-'."""
+    if not metric:
+        return DASH
+    # FID of identical sets comes out as -1e-12 or so: print 0.000, not -0.000.
+    mean, ci = (0.0 if round(v, digits) == 0 else v for v in (metric["mean"], metric["ci"]))
+    return f"{mean:.{digits}f}±{ci:.{digits}f}"
+
+
+def format_nfe(row: dict[str, Any]) -> str:
+    if row.get("nfe") is None:
+        return DASH
+    if row["network_passes"] != row["nfe"]:
+        return f"{row['nfe']} (×2 CFG)"
+    return str(row["nfe"])
+
+
+def _aits(row: dict[str, Any]) -> str:
+    timing = row.get("timing")
+    return f"{timing['aits_ms']:.1f}" if timing else DASH
+
+
+def _table(header: list[str], lines: list[list[str]]) -> str:
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join(["---"] * len(header)) + "|"]
+    out += ["| " + " | ".join(line) + " |" for line in lines]
+    return "\n".join(out)
+
+
+def results_table(report: dict[str, Any]) -> str:
+    """The Table 1 layout: Real first, then every configuration."""
+    rows = [report["real"], *report["rows"]]
+    header = ["Methods", *(name for name, _ in COLUMNS), "NFE", "AITS (ms)"]
+    lines = [[row["method"], *(format_value(row["metrics"].get(key)) for _, key in COLUMNS),
+              format_nfe(row), _aits(row)] for row in rows]
+    return _table(header, lines)
+
+
+def format_markdown(report: dict[str, Any]) -> str:
+    """results.md: a header naming data, split and evaluator, the table, timings, choices."""
+    cfg = report["config"]
+    protocol = cfg["protocol"]
+    reps = protocol["reps"]
+    text = [
+        "# Evaluation",
+        "",
+        f"Data `{cfg['data']}` ({cfg['skeleton']}), split `{cfg['split']}`: {cfg['items']} "
+        f"items, {cfg['kept_per_replication']} kept per replication (groups of "
+        f"{protocol['batch_size']}). Evaluator `{cfg['evaluator']}`. Device {cfg['device']}.",
+        f"{reps} replications (seeds {protocol['seed']}..{protocol['seed'] + reps - 1}); "
+        f"values are mean±1.96·std/√{reps}. Diversity over {protocol['diversity_times']} pairs"
+        + (f"; MultiModality over {protocol['mm_texts']} texts × {protocol['mm_generations']} "
+           f"generations, {protocol['mm_times']} pairs." if protocol["mm"] else "."),
+        "",
+        results_table(report),
+        "",
+    ]
+    timed = [row for row in report["rows"] if row.get("timing")]
+    if timed:
+        first = timed[0]["timing"]
+        text += [
+            "## Inference time (AITS)",
+            "",
+            f"Batch {first['batch']}, {first['frames']} frames, mean of {first['runs']} runs "
+            f"after {first['warmup']} warm-up runs, loading excluded, device {first['device']}.",
+            "",
+            _table(["Methods", "NFE", "network passes", "text (ms)", "sampling (ms)",
+                    "decoding (ms)", "AITS (ms)"],
+                   [[row["method"], str(row["nfe"]), str(row["network_passes"]),
+                     f"{row['timing']['text_ms']:.1f}", f"{row['timing']['sampling_ms']:.1f}",
+                     f"{row['timing']['decoding_ms']:.1f}", f"{row['timing']['aits_ms']:.1f}"]
+                    for row in timed]),
+            "",
+        ]
+    text += ["## Protocol choices", "", *(f"- {choice}" for choice in cfg["choices"]), "",
+             f"Command: `{report['command']}`", ""]
+    return "\n".join(text)
+
+
+def _series(rows: list[dict[str, Any]], key: str, x: str) -> dict[str, list[dict[str, Any]]]:
+    groups: dict[str, list[dict[str, Any]]] = defaultdict(list)
+    for row in rows:
+        groups[row[key]].append(row)
+    return {name: sorted(members, key=lambda r: r[x]) for name, members in groups.items()}
+
+
+def _plot(path: Path, rows: list[dict[str, Any]], real: dict[str, Any], x: str, key: str,
+          xlabel: str, log_x: bool) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.ticker import NullLocator
+
+    fig = Figure(figsize=(10, 4), layout="constrained")
+    FigureCanvasAgg(fig)
+    for ax, metric, title in zip(fig.subplots(1, 2), ("fid", "r_precision_top3"),
+                                 ("FID ↓", "R-precision top-3 ↑")):
+        for name, members in _series(rows, key, x).items():
+            ax.errorbar([r[x] for r in members], [r["metrics"][metric]["mean"] for r in members],
+                        yerr=[r["metrics"][metric]["ci"] for r in members], marker="o",
+                        capsize=3, label=name)
+        if metric in real["metrics"]:
+            ax.axhline(real["metrics"][metric]["mean"], color="gray", linestyle="--",
+                       label="Real")
+        values = sorted({r[x] for r in rows})
+        if log_x and len(values) > 1 and values[0] > 0:
+            ax.set_xscale("log")
+        ax.set_xticks(values, [f"{v:g}" for v in values])
+        ax.xaxis.set_minor_locator(NullLocator())  # only the evaluated values are labelled
+        ax.set_xlabel(xlabel)
+        ax.set_title(title)
+        ax.grid(alpha=0.3)
+    fig.axes[0].legend(fontsize="small")
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=100)
+
+
+def _series_names(report: dict[str, Any]) -> list[dict[str, Any]]:
+    """Rows with the names of their lines: by model and guidance, and by sampler and NFE."""
+    out = []
+    for row in report["rows"]:
+        label = row["method"]
+        kind = "MLCT" if row["kind"] == "consistency" else "DDIM"
+        steps = f"{row['nfe']} NFE" if row["kind"] == "consistency" else f"{row['nfe']} steps"
+        out.append(row | {"by_model": label, "by_nfe": f"{kind} {steps}"})
+    return out
+
+
+def write_plots(out: Path, report: dict[str, Any]) -> list[Path]:
+    """nfe.png always (when a model was evaluated); guidance.png for several guidance values."""
+    rows = _series_names(report)
+    written = []
+    if rows:
+        _plot(out / "nfe.png", rows, report["real"], "nfe", "by_model", "NFE (sampling steps)",
+              log_x=True)
+        written.append(out / "nfe.png")
+    if len({row["guidance"] for row in rows}) > 1:
+        _plot(out / "guidance.png", rows, report["real"], "guidance", "by_nfe",
+              "guidance scale (MLCT: trained w; DDIM: CFG scale)", log_x=False)
+        written.append(out / "guidance.png")
+    return written
+
+
+def write_report(out: str | os.PathLike, report: dict[str, Any]) -> list[Path]:
+    """Write results.json, results.md and the plots into REPORT_DIR; return their paths."""
+    out = check_report_dir(out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_text(out / "results.json", json.dumps(report, indent=2) + "\n")
+    write_text(out / "results.md", format_markdown(report))
+    return [out / "results.json", out / "results.md", *write_plots(out, report)]

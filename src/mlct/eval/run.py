@@ -1,0 +1,138 @@
+"""`mlct eval`: models x (NFE, guidance) configurations under the standard protocol, one report.
+
+Which numbers a configuration takes:
+- a consistency (MLCT) model samples with each of `nfe` (default: its own, 5); its guidance w
+  was trained in (one network pass per step), so `guidance` does not apply to it;
+- a DDIM (diffusion baseline) model samples with each of `ddim_steps` (default: its own, 50)
+  and each classifier-free guidance scale of `guidance` (default: its own, 7.5); its NFE is the
+  step count, each step running the denoiser on cond and uncond (2 x steps network passes).
+An axis given for a kind of model that is not among the models is an error, not a no-op.
+"""
+
+from __future__ import annotations
+
+import platform
+import sys
+import time
+from dataclasses import asdict
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Sequence
+
+import torch
+
+from mlct.bundle import read_bundle
+from mlct.errors import MlctError
+from mlct.eval.protocol import Log, ProtocolConfig, check_model, open_protocol, tensor_device
+from mlct.pipeline import MotionGenerator
+
+REPORT_FORMAT = "mlct-eval-report"
+REPORT_VERSION = 1
+CHOICES = [
+    "The real side (one seeded caption and crop per test item) is embedded once and reused by "
+    "every replication and configuration; replication r reshuffles the groups with seed + r.",
+    "Generated and Real rows share the items' text embeddings; FID compares with the real "
+    "embeddings of the same kept items, so Real's FID is 0 up to rounding.",
+    "Each generation takes its item's caption and ground-truth (cropped) length; batch b of "
+    "replication r samples with a seed derived from (seed + r, b).",
+    "Generated and real features are normalized by the evaluator's own Mean/Std.",
+    "Diversity takes 300 pairs, or kept - 1 on a split that keeps 300 items or fewer.",
+    "NFE counts denoiser evaluations (sampling steps); DDIM with CFG runs two network passes "
+    "per step. AITS: batch 1, text encoding + sampling + decoding, after warm-up, loading "
+    "excluded.",
+]
+
+
+def _labels(models: Sequence[Path]) -> list[str]:
+    """Short row names: the directory names, the full paths where two names collide."""
+    names = [m.name or str(m) for m in models]
+    return [name if names.count(name) == 1 else str(m) for name, m in zip(names, models)]
+
+
+def _grid(gen: MotionGenerator, nfe: Sequence[int] | None, ddim_steps: Sequence[int] | None,
+          guidance: Sequence[float] | None) -> list[tuple[int | None, float | None]]:
+    """The (steps, guidance) configurations of one model; None means the model's default."""
+    if gen.sampler == "consistency":
+        return [(n, None) for n in (nfe or [None])]
+    if gen.sampler == "ddim":
+        return [(s, g) for s in (ddim_steps or [None]) for g in (guidance or [None])]
+    raise MlctError(f"unknown sampler {gen.sampler!r} (consistency, ddim)")
+
+
+def _method(label: str, gen: MotionGenerator, guidance: float | None) -> str:
+    if gen.sampler == "ddim":
+        scale = gen.config.diffusion.guidance if guidance is None else guidance
+        return f"{label} (DDIM, CFG {scale:g})"
+    return f"{label} (MLCT, w={gen.config.consistency.guidance:g})"
+
+
+def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
+                   evaluator_dir: str | Path, *, nfe: Sequence[int] | None = None,
+                   ddim_steps: Sequence[int] | None = None,
+                   guidance: Sequence[float] | None = None, split: str = "test",
+                   config: ProtocolConfig = ProtocolConfig(),
+                   device: str | torch.device | None = None, log: Log | None = None,
+                   command: str | None = None) -> dict[str, Any]:
+    """Evaluate every configuration of every model and the Real row; the report as a dict.
+
+    Every input is checked (files, widths, skeletons, lengths, step counts) before the real
+    side is embedded or anything is generated.
+    """
+    log = log or (lambda message: None)
+    started = time.perf_counter()
+    dev = tensor_device(device)
+    paths = [Path(m) for m in models]
+    if not paths:
+        raise MlctError("no model to evaluate (pass --model MODEL_DIR)")
+    bundles = [read_bundle(p) for p in paths]
+    samplers = {meta.get("sampler") for meta, _ in bundles}
+    if nfe and "consistency" not in samplers:
+        raise MlctError("--nfe sets the steps of consistency (MLCT) models; none was given "
+                        "(a DDIM model's steps are --ddim-steps)")
+    for given, flag in ((ddim_steps, "--ddim-steps"), (guidance, "--guidance")):
+        if given and "ddim" not in samplers:
+            raise MlctError(f"{flag} applies to DDIM (diffusion) models only; a consistency "
+                            f"model's guidance w is set at training (consistency.guidance)")
+    protocol = open_protocol(data_dir, evaluator_dir, split, config, dev, log,
+                             models=[(p, meta) for p, (meta, _) in zip(paths, bundles)])
+    dataset = protocol.dataset
+    gens = [MotionGenerator(meta, tensors, dev) for meta, tensors in bundles]
+    grids = [_grid(g, nfe, ddim_steps, guidance) for g in gens]
+    for path, gen, grid in zip(paths, gens, grids):
+        check_model(protocol, gen, [steps for steps, _ in grid], path)
+
+    cfg = protocol.config
+    log(f"{len(dataset)} items in {split!r}, {protocol.kept} kept per replication, "
+        f"{cfg.reps} replications, device {dev}")
+    real = protocol.evaluate_real()
+    rows = []
+    total = sum(len(grid) for grid in grids)
+    for path, label, gen, grid in zip(paths, _labels(paths), gens, grids):
+        for steps, scale in grid:
+            method = _method(label, gen, scale)
+            log(f"[{len(rows) + 1}/{total}] {method}, NFE {gen.check_nfe(steps)}")
+            rows.append(protocol.evaluate(gen, steps, scale, method=method, model=str(path)))
+    return {
+        "format": REPORT_FORMAT, "version": REPORT_VERSION,
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "command": command if command is not None else " ".join(sys.argv),
+        "config": {
+            "data": str(Path(data_dir)), "split": split, "items": len(dataset),
+            "kept_per_replication": protocol.kept, "skeleton": dataset.skeleton.name,
+            "evaluator": str(Path(evaluator_dir)), "models": [str(p) for p in paths],
+            "nfe": list(nfe) if nfe else None,
+            "ddim_steps": list(ddim_steps) if ddim_steps else None,
+            "guidance": list(guidance) if guidance else None, "device": str(dev),
+            "protocol": asdict(cfg), "choices": CHOICES,
+            "versions": _versions(),
+        },
+        "real": real.to_dict(),
+        "rows": [row.to_dict() for row in rows],
+        "seconds": time.perf_counter() - started,
+    }
+
+
+def _versions() -> dict[str, str]:
+    from mlct import __version__
+
+    return {"mlct": __version__, "torch": torch.__version__, "python": platform.python_version()}
