@@ -158,3 +158,19 @@ def test_bad_inputs(trained, data_dir, tmp_path):
         train_action_classifier(plain, tmp_path / "out", steps=1, progress=False)
     with pytest.raises(MlctError, match="not an action classifier"):
         load_action_classifier(tmp_path)
+
+
+def test_cli_trains_a_classifier_and_rejects_unlabelled_data(data_dir, tmp_path, capsys):
+    from mlct.cli import main
+
+    out = tmp_path / "cls"
+    assert main(["train", "classifier", "--data", str(data_dir), "--out", str(out),
+                 "--steps", "3", "--quiet"]) == 0
+    assert "test exact-set accuracy" in capsys.readouterr().out
+    assert load_action_classifier(out).classes
+    plain = tmp_path / "plain"
+    shutil.copytree(data_dir, plain)
+    (plain / "labels.jsonl").unlink()
+    assert main(["train", "classifier", "--data", str(plain), "--out", str(tmp_path / "x"),
+                 "--quiet"]) == 2
+    assert "only procedural benchmarks" in capsys.readouterr().err

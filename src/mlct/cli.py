@@ -93,11 +93,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
 def _cmd_train_evaluator(args: argparse.Namespace) -> int:
     from mlct.eval.train_evaluator import train_evaluator
 
-    device = args.device
-    if device is None:
-        import torch
-
-        device = "cuda" if torch.cuda.is_available() else "cpu"
+    device = _default_device(args.device)
     summary = train_evaluator(args.data, args.out, glove_dir=args.glove,
                               steps_decomp=args.steps_decomp, steps_match=args.steps_match,
                               batch_size=args.batch_size, seed=args.seed, device=device,
@@ -106,6 +102,27 @@ def _cmd_train_evaluator(args: argparse.Namespace) -> int:
           f"{summary['train_items']} train items, best step {summary['best_step']}; "
           f"{summary['path']}")
     return 0
+
+
+def _cmd_train_classifier(args: argparse.Namespace) -> int:
+    from mlct.eval.action_classifier import train_action_classifier
+
+    summary = train_action_classifier(args.data, args.out, steps=args.steps,
+                                      batch_size=args.batch_size, seed=args.seed,
+                                      device=_default_device(args.device),
+                                      progress=not args.quiet, overwrite=args.overwrite)
+    test = summary["accuracy"]["test"]
+    print(f"action classifier: {len(summary['classes'])} classes; test exact-set accuracy "
+          f"{test['exact_set_accuracy']:.3f}, mean recall {test['mean_recall']:.3f}; {args.out}")
+    return 0
+
+
+def _default_device(device: str | None) -> str:
+    if device is not None:
+        return device
+    import torch
+
+    return "cuda" if torch.cuda.is_available() else "cpu"
 
 
 def _int_list(text: str) -> list[int]:
@@ -217,7 +234,7 @@ def build_parser() -> argparse.ArgumentParser:
     train = commands.add_parser("train", help="train a stage: ae, then cm (or diffusion); "
                                 "or the evaluator")
     stages = train.add_subparsers(dest="stage", required=True, parser_class=_Parser,
-                                  metavar="{ae,cm,diffusion,evaluator}")
+                                  metavar="{ae,cm,diffusion,evaluator,classifier}")
     for stage, help_text in (("ae", "stage 1: the motion autoencoder"),
                              ("cm", "stage 2: latent consistency training (MLCT)"),
                              ("diffusion", "stage 2 baseline: latent diffusion (DDIM + CFG)")):
@@ -257,6 +274,21 @@ def build_parser() -> argparse.ArgumentParser:
                            help="replace an existing evaluator directory")
     evaluator.add_argument("--quiet", action="store_true", help="no progress bar")
     evaluator.set_defaults(func=_cmd_train_evaluator)
+
+    classifier = stages.add_parser("classifier", help="the action classifier of the semantic "
+                                   "accuracy (procedural benchmarks: labels.jsonl)")
+    classifier.add_argument("--data", required=True, type=Path, help="dataset directory")
+    classifier.add_argument("--out", required=True, type=Path,
+                            help="classifier directory to write")
+    classifier.add_argument("--steps", type=int, default=1500, help="default 1500")
+    classifier.add_argument("--batch-size", type=int, default=64)
+    classifier.add_argument("--seed", type=int, default=0)
+    classifier.add_argument("--device", default=None,
+                            help="cpu or cuda (default: cuda if available)")
+    classifier.add_argument("--overwrite", action="store_true",
+                            help="replace an existing classifier directory")
+    classifier.add_argument("--quiet", action="store_true", help="no progress bar")
+    classifier.set_defaults(func=_cmd_train_classifier)
 
     evaluate = commands.add_parser("eval", help="the standard metrics of models on a test split")
     evaluate.add_argument("--model", required=True, type=Path, action="append",
