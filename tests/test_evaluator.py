@@ -304,3 +304,31 @@ def test_word_vectorizer_files_are_checked(glove_dir, tmp_path):
         pickle.dump(OrderedDict((w, i) for i, w in enumerate(WORDS)), f)
     with pytest.raises(MlctError, match="not a plain pickled"):
         WordVectorizer(tmp_path)
+
+
+def test_official_files_import_to_an_evaluator_dir_unchanged(official_dir, glove_dir, evaluator,
+                                                             tmp_path):
+    from mlct.cli import main
+    from mlct.eval.evaluator_dir import import_official_evaluator, load_evaluator_dir
+
+    mean, std = stats(HUMANML3D.feature_dim)
+    np.save(tmp_path / "mean.npy", mean)
+    np.save(tmp_path / "std.npy", std)
+    out = import_official_evaluator(official_dir, tmp_path / "mean.npy", tmp_path / "std.npy",
+                                    glove_dir, tmp_path / "ev")
+    loaded = load_evaluator_dir(out)
+    motions, lengths = motions_batch(HUMANML3D.feature_dim, [40, 64], 64)
+    assert torch.equal(loaded.embed_motion(motions, lengths),
+                       evaluator.embed_motion(motions, lengths))
+    assert np.array_equal(loaded.vectorizer["man/NOUN"][0], evaluator.vectorizer["man/NOUN"][0])
+    # the command line does the same, and a KIT-width mean is refused in one line
+    assert main(["import-evaluator", "--checkpoint", str(official_dir), "--mean",
+                 str(tmp_path / "mean.npy"), "--std", str(tmp_path / "std.npy"), "--glove",
+                 str(glove_dir), "--out", str(tmp_path / "ev2")]) == 0
+    kit_mean, kit_std = stats(KIT.feature_dim)
+    np.save(tmp_path / "kmean.npy", kit_mean)
+    np.save(tmp_path / "kstd.npy", kit_std)
+    assert main(["import-evaluator", "--checkpoint", str(official_dir), "--mean",
+                 str(tmp_path / "kmean.npy"), "--std", str(tmp_path / "kstd.npy"), "--glove",
+                 str(glove_dir), "--out", str(tmp_path / "ev3")]) == 2
+    assert not (tmp_path / "ev3").exists()

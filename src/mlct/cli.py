@@ -125,6 +125,15 @@ def _default_device(device: str | None) -> str:
     return "cuda" if torch.cuda.is_available() else "cpu"
 
 
+def _cmd_import_evaluator(args: argparse.Namespace) -> int:
+    from mlct.eval.evaluator_dir import import_official_evaluator
+
+    out = import_official_evaluator(args.checkpoint, args.mean, args.std, args.glove, args.out,
+                                    skeleton=args.skeleton, overwrite=args.overwrite)
+    print(f"evaluator directory: {out}")
+    return 0
+
+
 def _int_list(text: str) -> list[int]:
     try:
         return [int(item) for item in text.split(",") if item.strip()]
@@ -289,6 +298,20 @@ def build_parser() -> argparse.ArgumentParser:
                             help="replace an existing classifier directory")
     classifier.add_argument("--quiet", action="store_true", help="no progress bar")
     classifier.set_defaults(func=_cmd_train_classifier)
+
+    imported = commands.add_parser("import-evaluator", help="make an evaluator directory from "
+                                   "Guo et al.'s official files (weights unchanged)")
+    imported.add_argument("--checkpoint", required=True, type=Path,
+                          help="text_mot_match/model/finest.tar (or its directory)")
+    imported.add_argument("--mean", required=True, type=Path,
+                          help="the evaluator's mean.npy (Comp_v6_KLD01/meta/mean.npy)")
+    imported.add_argument("--std", required=True, type=Path, help="the evaluator's std.npy")
+    imported.add_argument("--glove", required=True, type=Path,
+                          help="GloVe directory: our_vab_data.npy, _words.pkl, _idx.pkl")
+    imported.add_argument("--out", required=True, type=Path, help="evaluator directory to write")
+    imported.add_argument("--skeleton", default=None, help="default: from the feature width")
+    imported.add_argument("--overwrite", action="store_true")
+    imported.set_defaults(func=_cmd_import_evaluator)
 
     evaluate = commands.add_parser("eval", help="the standard metrics of models on a test split")
     evaluate.add_argument("--model", required=True, type=Path, action="append",

@@ -150,3 +150,37 @@ def load_evaluator_dir(directory: str | os.PathLike) -> Evaluator:
         raise MlctError(f"{root}: {dim}-d word vectors, the text encoder reads {sizes.word}")
     epoch = state.get("epoch", 0)
     return Evaluator(networks, mean, std, vectorizer, epoch=epoch if isinstance(epoch, int) else 0)
+
+
+def import_official_evaluator(checkpoint: str | os.PathLike, mean: str | os.PathLike,
+                              std: str | os.PathLike, glove_dir: str | os.PathLike,
+                              out: str | os.PathLike, skeleton: str | None = None,
+                              overwrite: bool = False) -> Path:
+    """Turn Guo et al.'s files into an evaluator directory, weights and statistics unchanged.
+
+    checkpoint: text-to-motion's `checkpoints/<t2m|kit>/text_mot_match/model/finest.tar`;
+    mean/std: `checkpoints/<t2m|kit>/Comp_v6_KLD01/meta/{mean,std}.npy` (the evaluator's own,
+    not the dataset's); glove_dir: the `our_vab_{data.npy,words.pkl,idx.pkl}` directory.
+    The skeleton defaults to the one whose feature width the mean has (263 humanml3d, 251 kit).
+    """
+    from mlct.motion.skeleton import get_skeleton, skeleton_for_dim
+
+    out = Path(out)
+    prepare_target(out, overwrite)
+    for name in GLOVE_FILES:
+        if not (Path(glove_dir) / name).is_file():
+            raise MlctError(f"{glove_dir}: {name} is missing (GloVe files of text-to-motion)")
+    evaluator = Evaluator.load_official(checkpoint, glove_dir, mean=load_npy(mean),
+                                        std=load_npy(std))
+    try:
+        skel = (get_skeleton(skeleton) if skeleton is not None
+                else skeleton_for_dim(evaluator.feature_dim))
+    except ValueError as error:
+        raise MlctError(str(error)) from None
+    if skel.feature_dim != evaluator.feature_dim:
+        raise MlctError(f"the evaluator reads {evaluator.feature_dim}-d features, the "
+                        f"{skel.name} skeleton has {skel.feature_dim}")
+    write_evaluator_dir(out, evaluator, EvaluatorSizes(), glove_dir=glove_dir,
+                        meta={"skeleton": skel.name, "source": "official",
+                              "checkpoint": str(Path(checkpoint).resolve())})
+    return out
