@@ -26,13 +26,7 @@ from mlct.eval.action_classifier import (
 TINY = ClassifierSizes(hidden=32, blocks=3, kernel=5, dropout=0.0)
 
 
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    """One intra-op thread: small ops on a busy 2-core machine are far slower with two."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 @pytest.fixture(scope="module")

@@ -38,12 +38,7 @@ SIZES = EvaluatorSizes(word=16, movement_hidden=32, movement_latent=32, text_hid
 SMALL = ProtocolConfig(reps=3, seed=7, aits_runs=2, aits_warmup=1)
 
 
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 @pytest.fixture(scope="module")

@@ -36,13 +36,7 @@ STEPS = {"steps_decomp": 5, "steps_match": 60}
 POS_NAMES = {index: name for name, index in POS_ENUMERATOR.items()}
 
 
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    """One intra-op thread: small ops on a busy 2-core machine are far slower with two."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 @pytest.fixture(scope="module")

@@ -93,10 +93,9 @@ def _cmd_train(args: argparse.Namespace) -> int:
 def _cmd_train_evaluator(args: argparse.Namespace) -> int:
     from mlct.eval.train_evaluator import train_evaluator
 
-    device = _default_device(args.device)
     summary = train_evaluator(args.data, args.out, glove_dir=args.glove,
                               steps_decomp=args.steps_decomp, steps_match=args.steps_match,
-                              batch_size=args.batch_size, seed=args.seed, device=device,
+                              batch_size=args.batch_size, seed=args.seed, device=args.device,
                               progress=not args.quiet, overwrite=args.overwrite)
     print(f"evaluator: {summary['vocabulary']} word vectors ({summary['vocabulary_size']}), "
           f"{summary['train_items']} train items, best step {summary['best_step']}; "
@@ -109,20 +108,12 @@ def _cmd_train_classifier(args: argparse.Namespace) -> int:
 
     summary = train_action_classifier(args.data, args.out, steps=args.steps,
                                       batch_size=args.batch_size, seed=args.seed,
-                                      device=_default_device(args.device),
+                                      device=args.device,
                                       progress=not args.quiet, overwrite=args.overwrite)
     test = summary["accuracy"]["test"]
     print(f"action classifier: {len(summary['classes'])} classes; test exact-set accuracy "
           f"{test['exact_set_accuracy']:.3f}, mean recall {test['mean_recall']:.3f}; {args.out}")
     return 0
-
-
-def _default_device(device: str | None) -> str:
-    if device is not None:
-        return device
-    import torch
-
-    return "cuda" if torch.cuda.is_available() else "cpu"
 
 
 def _cmd_import_evaluator(args: argparse.Namespace) -> int:
@@ -132,6 +123,19 @@ def _cmd_import_evaluator(args: argparse.Namespace) -> int:
                                     skeleton=args.skeleton, overwrite=args.overwrite)
     print(f"evaluator directory: {out}")
     return 0
+
+
+def _trainer_options(parser: argparse.ArgumentParser, what: str, batch_size: int) -> None:
+    """The options the evaluator and the action classifier trainers share."""
+    parser.add_argument("--data", required=True, type=Path, help="dataset directory")
+    parser.add_argument("--out", required=True, type=Path, help=f"{what} directory to write")
+    parser.add_argument("--batch-size", type=int, default=batch_size)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--device", default=None,
+                        help="cpu or cuda (default: cuda if available)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help=f"replace an existing {what} directory")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def _int_list(text: str) -> list[int]:
@@ -267,36 +271,19 @@ def build_parser() -> argparse.ArgumentParser:
 
     evaluator = stages.add_parser("evaluator", help="the text-motion matching evaluator of "
                                   "the standard metrics (Guo et al. 2022)")
-    evaluator.add_argument("--data", required=True, type=Path, help="dataset directory")
-    evaluator.add_argument("--out", required=True, type=Path, help="evaluator directory to write")
+    _trainer_options(evaluator, "evaluator", batch_size=32)
     evaluator.add_argument("--glove", default=None, type=Path,
                            help="GloVe directory (our_vab_*); default: learn word vectors")
     evaluator.add_argument("--steps-decomp", type=int, default=5000,
                            help="movement autoencoder steps (default 5000)")
     evaluator.add_argument("--steps-match", type=int, default=15000,
                            help="text-motion co-embedding steps (default 15000)")
-    evaluator.add_argument("--batch-size", type=int, default=32)
-    evaluator.add_argument("--seed", type=int, default=0)
-    evaluator.add_argument("--device", default=None,
-                           help="cpu or cuda (default: cuda if available)")
-    evaluator.add_argument("--overwrite", action="store_true",
-                           help="replace an existing evaluator directory")
-    evaluator.add_argument("--quiet", action="store_true", help="no progress bar")
     evaluator.set_defaults(func=_cmd_train_evaluator)
 
     classifier = stages.add_parser("classifier", help="the action classifier of the semantic "
                                    "accuracy (procedural benchmarks: labels.jsonl)")
-    classifier.add_argument("--data", required=True, type=Path, help="dataset directory")
-    classifier.add_argument("--out", required=True, type=Path,
-                            help="classifier directory to write")
+    _trainer_options(classifier, "classifier", batch_size=64)
     classifier.add_argument("--steps", type=int, default=1500, help="default 1500")
-    classifier.add_argument("--batch-size", type=int, default=64)
-    classifier.add_argument("--seed", type=int, default=0)
-    classifier.add_argument("--device", default=None,
-                            help="cpu or cuda (default: cuda if available)")
-    classifier.add_argument("--overwrite", action="store_true",
-                            help="replace an existing classifier directory")
-    classifier.add_argument("--quiet", action="store_true", help="no progress bar")
     classifier.set_defaults(func=_cmd_train_classifier)
 
     imported = commands.add_parser("import-evaluator", help="make an evaluator directory from "

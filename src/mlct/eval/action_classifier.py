@@ -32,9 +32,9 @@ from safetensors.torch import load_file, save_file
 from torch import Tensor, nn
 
 from mlct.data.layout import DatasetLayout, load_npy, resolve_skeleton
+from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.eval.evaluator_dir import prepare_target
-from mlct.eval.train_evaluator import _device
 from mlct.io import atomic_dir, save_npy, write_text
 
 FORMAT = "mlct-action-classifier"
@@ -278,7 +278,7 @@ def _batch(motions: list[Tensor], targets: Tensor, rows: list[int], generator: t
 
 def train_action_classifier(data_dir: str | os.PathLike, out_dir: str | os.PathLike, *,
                             steps: int = 1500, batch_size: int = 64, lr: float = 2e-3,
-                            seed: int = 0, device: str | torch.device = "cpu",
+                            seed: int = 0, device: str | torch.device | None = "cpu",
                             progress: bool = True, sizes: ClassifierSizes | None = None,
                             skeleton: str | None = None, overwrite: bool = False
                             ) -> dict[str, Any]:
@@ -293,7 +293,7 @@ def train_action_classifier(data_dir: str | os.PathLike, out_dir: str | os.PathL
     if steps < 1 or batch_size < 1 or lr <= 0:
         raise MlctError(f"steps and batch_size must be >= 1 and lr > 0, got {steps}, "
                         f"{batch_size}, {lr}")
-    dev = _device(device)
+    dev = resolve_device(device)
     out = Path(out_dir)
     prepare_target(out, overwrite)
     layout = DatasetLayout(data_dir)

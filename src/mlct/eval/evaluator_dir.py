@@ -37,6 +37,7 @@ from mlct.eval.evaluator import (
 from mlct.eval.learned_words import LearnedWordVectors
 from mlct.eval.word_vectors import UNKNOWN_WORD, WordVectorizer
 from mlct.io import atomic_dir, save_npy, write_text
+from mlct.motion.skeleton import get_skeleton, skeleton_for_dim
 
 FORMAT = "mlct-evaluator-dir"
 VERSION = 1
@@ -163,8 +164,6 @@ def import_official_evaluator(checkpoint: str | os.PathLike, mean: str | os.Path
     not the dataset's); glove_dir: the `our_vab_{data.npy,words.pkl,idx.pkl}` directory.
     The skeleton defaults to the one whose feature width the mean has (263 humanml3d, 251 kit).
     """
-    from mlct.motion.skeleton import get_skeleton, skeleton_for_dim
-
     out = Path(out)
     prepare_target(out, overwrite)
     for name in GLOVE_FILES:

@@ -389,16 +389,3 @@ def check_model(protocol: Protocol, gen: MotionGenerator, steps: Sequence[int | 
         except MlctError as error:
             raise MlctError(f"model {path} ({gen.sampler}): {error}") from None
 
-
-def tensor_device(device: str | torch.device | None) -> torch.device:
-    """The device to evaluate on: cuda when available unless given; one line when unusable."""
-    if device is None:
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    try:
-        dev = torch.device(device)
-    except (RuntimeError, TypeError) as error:
-        raise MlctError(f"unknown device {device!r} ({error})") from None
-    if dev.type == "cuda" and not torch.cuda.is_available():
-        raise MlctError(f"device {device!r}: CUDA is not available")
-    return dev
-

@@ -22,8 +22,9 @@ from typing import Any, Sequence
 import torch
 
 from mlct.bundle import read_bundle
+from mlct.devices import resolve_device
 from mlct.errors import MlctError
-from mlct.eval.protocol import Log, ProtocolConfig, check_model, open_protocol, tensor_device
+from mlct.eval.protocol import Log, ProtocolConfig, check_model, open_protocol
 from mlct.pipeline import MotionGenerator
 
 REPORT_FORMAT = "mlct-eval-report"
@@ -80,7 +81,7 @@ def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
     """
     log = log or (lambda message: None)
     started = time.perf_counter()
-    dev = tensor_device(device)
+    dev = resolve_device(device)
     paths = [Path(m) for m in models]
     if not paths:
         raise MlctError("no model to evaluate (pass --model MODEL_DIR)")

@@ -44,6 +44,7 @@ from torch.nn import functional as F
 
 from mlct.data.dataset import Text2MotionEvalDataset, collate
 from mlct.data.layout import BadFileError, DatasetLayout, resolve_skeleton
+from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.eval.evaluator import FOOT_CONTACT_DIMS, UNIT_LENGTH, Evaluator
 from mlct.eval.evaluator_dir import (
@@ -323,20 +324,10 @@ def _train_motions(layout: DatasetLayout, skel: Skeleton, mean: np.ndarray,
     return motions
 
 
-def _device(device: str | torch.device) -> torch.device:
-    try:
-        dev = torch.device(device)
-    except (RuntimeError, TypeError) as error:
-        raise MlctError(f"unknown device {device!r} ({error})") from None
-    if dev.type == "cuda" and not torch.cuda.is_available():
-        raise MlctError(f"device {device!r}: CUDA is not available")
-    return dev
-
-
 def train_evaluator(data_dir: str | os.PathLike, out_dir: str | os.PathLike, *,
                     glove_dir: str | os.PathLike | None = None, steps_decomp: int = 5000,
                     steps_match: int = 15000, batch_size: int = 32, seed: int = 0,
-                    device: str | torch.device = "cpu", progress: bool = True,
+                    device: str | torch.device | None = "cpu", progress: bool = True,
                     config: EvaluatorTrainConfig | None = None, skeleton: str | None = None,
                     on_bad_file: Literal["strict", "skip"] = "strict",
                     overwrite: bool = False) -> dict[str, Any]:
@@ -358,7 +349,7 @@ def train_evaluator(data_dir: str | os.PathLike, out_dir: str | os.PathLike, *,
         raise MlctError("config: val_every >= 1, window_size >= 4 and feat_bias > 0 needed")
     if glove_dir is not None and config.sizes.word != WORD_DIM:
         raise MlctError(f"GloVe vectors are {WORD_DIM}-d; sizes.word is {config.sizes.word}")
-    dev = _device(device)
+    dev = resolve_device(device)
     out = Path(out_dir)
     prepare_target(out, overwrite)
 
