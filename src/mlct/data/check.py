@@ -40,7 +40,6 @@ from mlct.data.layout import (
     resolve_skeleton,
     width_problems,
 )
-from mlct.errors import MlctError
 from mlct.motion.skeleton import Skeleton, skeleton_for_dim
 
 
@@ -61,9 +60,7 @@ class Problem:
 def check_dataset(directory: str | os.PathLike,
                   skeleton: Skeleton | str | None = None) -> list[Problem]:
     """Every problem found in the dataset at `directory`, sorted by file (empty: clean)."""
-    layout = DatasetLayout(directory)
-    if not layout.root.is_dir():
-        raise MlctError(f"{layout.root}: no such directory")
+    layout = DatasetLayout.existing(directory)
     checker = _Checker(layout, resolve_skeleton(skeleton))
     checker.run()
     return sorted(checker.problems, key=lambda p: (str(p.path), p.line or 0))

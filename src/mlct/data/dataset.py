@@ -27,7 +27,7 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset, get_worker_info
 
-from mlct.data.layout import BadFileError, DatasetLayout, TextRecord, resolve_skeleton
+from mlct.data.layout import BadFileError, DatasetLayout, TextRecord
 from mlct.errors import MlctError
 from mlct.motion.skeleton import Skeleton
 
@@ -78,13 +78,8 @@ class Text2MotionDataset(Dataset):
         if unit_length < 1 or max_motion_length < unit_length:
             raise ValueError(f"need 1 <= unit_length ({unit_length}) <= max_motion_length "
                              f"({max_motion_length})")
-        self.layout = DatasetLayout(root)
-        if not self.layout.root.is_dir():
-            raise MlctError(f"{self.layout.root}: no such directory")
-        skel = resolve_skeleton(skeleton) or self.layout.infer_skeleton()
-        if skel is None:
-            raise MlctError(f"{self.layout.root}: cannot tell the skeleton; pass skeleton=")
-        self.skeleton = skel
+        self.layout = DatasetLayout.existing(root)
+        self.skeleton = skel = self.layout.skeleton(skeleton)
         self.split = split
         self.unit_length = unit_length
         self.max_motion_length = max_motion_length

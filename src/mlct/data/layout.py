@@ -234,6 +234,22 @@ class DatasetLayout:
     def __init__(self, root: str | os.PathLike) -> None:
         object.__setattr__(self, "root", Path(root))
 
+    @classmethod
+    def existing(cls, root: str | os.PathLike) -> DatasetLayout:
+        """The layout of `root`, which must be a directory (one line otherwise)."""
+        layout = cls(root)
+        if not layout.root.is_dir():
+            raise MlctError(f"{layout.root}: no such directory")
+        return layout
+
+    def skeleton(self, given: Skeleton | str | None = None) -> Skeleton:
+        """`given` (a name or a Skeleton), else the one the files imply; one line if neither."""
+        skel = resolve_skeleton(given) or self.infer_skeleton()
+        if skel is None:
+            raise MlctError(f"{self.root}: cannot tell the skeleton from the feature files "
+                            f"(263-d HumanML3D or 251-d KIT-ML); name it (humanml3d or kit)")
+        return skel
+
     @property
     def features_dir(self) -> Path:
         return self.root / FEATURES_DIR

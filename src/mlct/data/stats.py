@@ -15,7 +15,7 @@ from typing import Any, Iterable, Iterator
 
 import numpy as np
 
-from mlct.data.layout import BadFileError, DatasetLayout, is_mirrored, resolve_skeleton
+from mlct.data.layout import BadFileError, DatasetLayout, is_mirrored
 from mlct.errors import MlctError
 from mlct.io import save_npy
 from mlct.motion.physics import foot_skating_ratio
@@ -87,16 +87,11 @@ def standard_mean_std(features: Iterable[np.ndarray],
 def dataset_statistics(directory: str | os.PathLike, skeleton: Skeleton | str | None = None,
                        write_mean_std: bool = True) -> dict[str, Any]:
     """Describe a dataset (counts, lengths, vocabulary, foot skating) and write its Mean/Std."""
-    layout = DatasetLayout(directory)
-    if not layout.root.is_dir():
-        raise MlctError(f"{layout.root}: no such directory")
+    layout = DatasetLayout.existing(directory)
     if not layout.features_dir.is_dir():
         raise MlctError(f"{layout.root}: no {layout.features_dir.name}/ directory "
                         f"(not a dataset in the standard layout)")
-    skel = resolve_skeleton(skeleton) or layout.infer_skeleton()
-    if skel is None:
-        raise MlctError(f"{layout.root}: cannot tell the skeleton from the files; "
-                        f"pass --skeleton humanml3d or kit")
+    skel = layout.skeleton(skeleton)
     notes: list[str] = []
     stats: dict[str, Any] = {"root": str(layout.root), "skeleton": skel.name, "fps": skel.fps,
                              "feature_dim": skel.feature_dim, "notes": notes}

@@ -5,7 +5,6 @@ Pure functions: the network F is called elsewhere; these only combine its output
 
 from __future__ import annotations
 
-import torch
 from torch import Tensor
 
 from mlct.diffusion.schedule import append_dims

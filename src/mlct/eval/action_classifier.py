@@ -31,7 +31,7 @@ import torch.nn.functional as F
 from safetensors.torch import load_file, save_file
 from torch import Tensor, nn
 
-from mlct.data.layout import DatasetLayout, load_npy, resolve_skeleton
+from mlct.data.layout import DatasetLayout, load_npy
 from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.eval.evaluator_dir import prepare_target
@@ -296,14 +296,9 @@ def train_action_classifier(data_dir: str | os.PathLike, out_dir: str | os.PathL
     dev = resolve_device(device)
     out = Path(out_dir)
     prepare_target(out, overwrite)
-    layout = DatasetLayout(data_dir)
-    if not layout.root.is_dir():
-        raise MlctError(f"{layout.root}: no such directory")
+    layout = DatasetLayout.existing(data_dir)
     labels = read_labels(layout.root)
-    skel = resolve_skeleton(skeleton) or layout.infer_skeleton()
-    if skel is None:
-        raise MlctError(f"{layout.root}: cannot tell the skeleton from the feature files; "
-                        f"pass skeleton=")
+    skel = layout.skeleton(skeleton)
     mean, std = layout.load_mean_std(skel)
     classes = derive_classes(labels.values())
     train_x, train_sets = _split_data(layout, labels, "train", skel)

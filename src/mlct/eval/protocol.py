@@ -326,14 +326,9 @@ def check_inputs(data_dir: str | Path, evaluator_dir: str | Path,
 
     `models` pairs a model directory with its bundle's config.json. Returns the skeleton.
     """
-    layout = DatasetLayout(data_dir)
+    layout = DatasetLayout.existing(data_dir)
     root = layout.root
-    if not root.is_dir():
-        raise MlctError(f"{root}: no such dataset directory")
-    skel = layout.infer_skeleton()
-    if skel is None:
-        raise MlctError(f"{root}: cannot tell the skeleton from the feature files (263-d "
-                        f"HumanML3D or 251-d KIT-ML)")
+    skel = layout.skeleton()
     _missing_stats(root, "the dataset's normalization statistics",
                    f"write them with `mlct data stats {root}`")
     if not layout.split_path(split).is_file():

@@ -43,7 +43,7 @@ from torch import Tensor, nn
 from torch.nn import functional as F
 
 from mlct.data.dataset import Text2MotionEvalDataset, collate
-from mlct.data.layout import BadFileError, DatasetLayout, resolve_skeleton
+from mlct.data.layout import BadFileError, DatasetLayout
 from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.eval.evaluator import FOOT_CONTACT_DIMS, UNIT_LENGTH, Evaluator
@@ -353,13 +353,8 @@ def train_evaluator(data_dir: str | os.PathLike, out_dir: str | os.PathLike, *,
     out = Path(out_dir)
     prepare_target(out, overwrite)
 
-    layout = DatasetLayout(data_dir)
-    if not layout.root.is_dir():
-        raise MlctError(f"{layout.root}: no such directory")
-    skel = resolve_skeleton(skeleton) or layout.infer_skeleton()
-    if skel is None:
-        raise MlctError(f"{layout.root}: cannot tell the skeleton from the feature files "
-                        f"(263-d HumanML3D or 251-d KIT-ML); pass skeleton=")
+    layout = DatasetLayout.existing(data_dir)
+    skel = layout.skeleton(skeleton)
     mean, std = evaluator_mean_std(*layout.load_mean_std(skel), skel, config.feat_bias)
     dataset = Text2MotionEvalDataset(layout.root, "train", skeleton=skel, mean=mean, std=std,
                                      on_bad_file=on_bad_file, generator=_generator(seed, 2))
