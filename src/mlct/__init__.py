@@ -10,8 +10,8 @@ if TYPE_CHECKING:
     from mlct.pipeline import MotionGenerator
 
 
-def load(path: Any, device: Any = None) -> "MotionGenerator":
-    """Load an inference bundle (`mlct export RUN --out DIR`): `mlct.load(DIR).generate(...)`."""
+def load(path: Any = None, device: Any = None) -> "MotionGenerator":
+    """Load a model: `mlct.load()` the bundled one, `mlct.load(DIR)` any `mlct export` bundle."""
     from mlct.pipeline import load as _load  # lazy: `import mlct` stays light
 
     return _load(path, device)

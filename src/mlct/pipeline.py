@@ -10,6 +10,7 @@ Built from an inference bundle (bundle.py); needs no training code.
 from __future__ import annotations
 
 import os
+from pathlib import Path
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Sequence
 
@@ -144,16 +145,23 @@ class MotionGenerator:
         return steps
 
     @torch.no_grad()
-    def sample_latents(self, cond: Tensor, nfe: int | None = None, seed: int | None = None,
-                       guidance: float | None = None) -> Tensor:
-        """(B, n, d) latents for text embeddings cond (B, c). NFE = denoiser evaluations."""
+    def sample_latents(self, cond: Tensor, nfe: int | None = None,
+                       seed: int | Sequence[int] | None = None, guidance: float | None = None
+                       ) -> Tensor:
+        """(B, n, d) latents for text embeddings cond (B, c). NFE = denoiser evaluations.
+
+        seed: an int seeds one generator for the whole batch; a sequence seeds each item on its
+        own (item i's latent is then independent of the rest of the batch); None is random."""
         batch = cond.shape[0]
         shape = (batch, *self.ae.latent_shape)
-        generator = torch.Generator()
+        generator: torch.Generator | list[torch.Generator]
         if seed is None:
+            generator = torch.Generator()
             generator.seed()
+        elif isinstance(seed, (int, np.integer)):
+            generator = torch.Generator().manual_seed(int(seed))
         else:
-            generator.manual_seed(int(seed))
+            generator = [torch.Generator().manual_seed(int(s)) for s in seed]
         steps = self.check_nfe(nfe)
         if self.sampler == "consistency":
             times = sampling_times(self.grid, steps)
@@ -202,6 +210,12 @@ class MotionGenerator:
         return out
 
 
-def load(path: str | os.PathLike, device: torch.device | str | None = None) -> MotionGenerator:
-    """Load an inference bundle written by `mlct export` (or the bundled model)."""
-    return MotionGenerator.load(path, device)
+def bundled_model_dir() -> Path:
+    """The model shipped inside the package (docs/model_card.md): small preset, MiniLM text."""
+    return Path(__file__).resolve().parent / "assets" / "model"
+
+
+def load(path: str | os.PathLike | None = None, device: torch.device | str | None = None
+         ) -> MotionGenerator:
+    """Load an inference bundle written by `mlct export`; with no path, the bundled model."""
+    return MotionGenerator.load(bundled_model_dir() if path is None else path, device)

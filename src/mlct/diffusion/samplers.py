@@ -7,7 +7,7 @@ by the caller's `model` (two passes per step).
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Sequence, Union
 
 import torch
 from torch import Tensor
@@ -18,16 +18,25 @@ from mlct.diffusion.solver import dpm_solver_1_step
 DenoiseFn = Callable[[Tensor, Tensor], Tensor]  # (x (B, n, d), t (B,)) -> x0 estimate
 
 
-def _randn(shape: tuple[int, ...], generator: torch.Generator | None, like: Tensor) -> Tensor:
+# one generator for the batch, or one per batch item
+Generators = Union[torch.Generator, Sequence[torch.Generator], None]
+
+
+def _randn(shape: tuple[int, ...], generator: Generators, like: Tensor) -> Tensor:
     # Noise is drawn on the generator's device (CPU for a CPU generator) then moved, so the
-    # same seed gives the same motion on every device.
+    # same seed gives the same motion on every device. A sequence holds one generator per batch
+    # item: item i then gets the same noise whatever else is in the batch (server batching).
+    if isinstance(generator, Sequence):
+        if len(generator) != shape[0]:
+            raise ValueError(f"{len(generator)} generators for a batch of {shape[0]}")
+        return torch.stack([_randn(shape[1:], g, like) for g in generator])
     device = generator.device if generator is not None else like.device
     return torch.randn(shape, generator=generator, device=device,
                        dtype=torch.float32).to(like.device, like.dtype)
 
 
 def sample_consistency(model: DenoiseFn, shape: tuple[int, ...], times: Tensor,
-                       schedule: VPSchedule, generator: torch.Generator | None = None,
+                       schedule: VPSchedule, generator: Generators = None,
                        clamp: float | None = 1.0) -> Tensor:
     """Multistep consistency sampling from T down through `times` (Algorithm 2). NFE = len(times)."""
     x = _randn(shape, generator, times)  # N(0, I), as Algorithm 2 (whatever alpha_T is)
@@ -50,7 +59,7 @@ def ddim_times(steps: int, t_max: float = 1.0, t_min: float = 1e-3,
 
 
 def sample_ddim(model: DenoiseFn, shape: tuple[int, ...], times: Tensor, schedule: VPSchedule,
-                generator: torch.Generator | None = None, clamp: float | None = 1.0) -> Tensor:
+                generator: Generators = None, clamp: float | None = 1.0) -> Tensor:
     """Deterministic DDIM (first-order, Eq. 12) from times[0] to times[-1] = 0."""
     x = _randn(shape, generator, times)
     x0 = x
