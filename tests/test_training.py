@@ -94,6 +94,13 @@ def test_export_load_generate(trained: Path, tmp_path: Path) -> None:
     again = gen.generate(texts, lengths=[7, 40, 64], nfe=3, seed=5)
     other = gen.generate(texts, lengths=[7, 40, 64], nfe=3, seed=6)
     assert all(np.array_equal(a.features, b.features) for a, b in zip(out, again))
+    # item i has seed 5 + i whatever else is in the batch (the server batches requests)
+    alone = gen.generate(texts[1], lengths=40, nfe=3, seed=6)[0]
+    assert alone.seed == out[1].seed == 6
+    assert np.allclose(alone.features, out[1].features, atol=1e-4)  # batch size: rounding only
+    assert out.joints.shape == (3, 64, 22, 3) and out.lengths.tolist() == [7, 40, 64]
+    assert np.array_equal(out.joints[0, 7:], np.broadcast_to(out[0].joints[-1], (57, 22, 3)))
+    assert out.texts == texts and out.features.shape == (3, 64, 263)
     assert not np.allclose(out[1].features, other[1].features)
     # the bundle holds no encoder half of the AE and no optimizer state
     from safetensors.torch import load_file
@@ -223,8 +230,11 @@ def test_cli_export_generate_and_errors(trained: Path, data: Path, tmp_path: Pat
     out = tmp_path / "walk.npy"
     assert main(["generate", "a person walks forward", "--model", str(model), "--seconds", "2",
                  "--nfe", "2", "--seed", "0", "--out", str(out)]) == 0
-    features = np.load(out)
-    assert features.shape == (40, 263) and np.isfinite(features).all()  # 2 s at 20 fps
+    joints = np.load(out)
+    assert joints.shape == (40, 22, 3) and np.isfinite(joints).all()  # 2 s at 20 fps
+    assert main(["generate", "a person walks forward", "--model", str(model), "--seconds", "2",
+                 "--nfe", "2", "--seed", "0", "--features", "--out", str(out)]) == 0
+    assert np.load(out).shape == (40, 263)
     gif = tmp_path / "walk.gif"
     assert main(["generate", "a person walks forward", "--model", str(model), "--length", "24",
                  "--out", str(gif)]) == 0
@@ -235,8 +245,8 @@ def test_cli_export_generate_and_errors(trained: Path, data: Path, tmp_path: Pat
         (["generate", "walk", "--model", str(model), "--seconds", "60", "--out", str(out)],
          "outside 1..64"),
         (["generate", "walk", "--model", str(model), "--out", str(tmp_path / "x.txt")],
-         ".npy, .gif"),
-        (["generate", "  ", "--model", str(model), "--out", str(out)], "text is empty"),
+         "must end in .gif"),
+        (["generate", "  ", "--model", str(model), "--out", str(out)], "prompt is empty"),
         (["generate", "walk", "--model", str(tmp_path / "none"), "--out", str(out)],
          "no such model directory"),
         (["train", "ae", "--data", str(data), "--out", str(tmp_path / "r"), "--config", "tiny",

@@ -188,23 +188,29 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 def _cmd_generate(args: argparse.Namespace) -> int:
     import mlct
-    from mlct.io import save_npy
-    from mlct.motion.render import render_motion
+    from mlct import generate_files
+    from mlct.prompts import clean_prompt, read_prompts
 
-    suffix = args.out.suffix.lower()
-    if suffix not in (".npy", ".gif", ".mp4", ".png"):
-        raise MlctError(f"--out must end in .npy, .gif, .mp4 or .png, not '{args.out.name}'")
-    if not args.text.strip():
-        raise MlctError("the text is empty; describe a motion, e.g. 'a person walks forward'")
-    generator = mlct.load(args.model, device=args.device)
-    motion = generator.generate([args.text], lengths=args.length, seconds=args.seconds,
-                                nfe=args.nfe, seed=args.seed)[0]
-    if suffix == ".npy":
-        save_npy(args.out, motion.joints if args.joints else motion.features)
-    else:
-        render_motion(motion.joints, args.out, skeleton=generator.skeleton, title=args.text,
-                      fps=motion.fps)
-    print(args.out)
+    if args.prompts is not None and args.text:
+        raise MlctError("give prompts on the command line or with --prompts FILE, not both")
+    if args.num < 1:
+        raise MlctError(f"--num must be at least 1, got {args.num}")
+    prompts = (read_prompts(args.prompts) if args.prompts is not None
+               else [clean_prompt(t) for t in args.text])
+    if not prompts:
+        raise MlctError("no prompt: mlct generate \"a person walks forward\" --out walk.gif")
+    long = args.prompts is None and len(prompts) > 1
+    if long and args.num > 1:
+        raise MlctError("--num makes variations of one prompt; several prompts make one long "
+                        "motion")
+    request = generate_files.Request(prompts, args.seconds, args.length, args.num, args.nfe,
+                                     args.seed, long)
+    names = ["_".join(prompts)] if long else [p for p in prompts for _ in range(args.num)]
+    paths = generate_files.output_paths(names, args.out, args.out_dir, args.format)
+    written = generate_files.run(lambda: mlct.load(args.model, device=args.device), request,
+                                 paths, features=args.features, progress=not args.quiet)
+    for path in written:
+        print(path)
     return 0
 
 
@@ -338,18 +344,35 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("--half", action="store_true", help="store weights in float16")
     export.set_defaults(func=_cmd_export)
 
-    generate = commands.add_parser("generate", help="text to motion")
-    generate.add_argument("text")
-    generate.add_argument("--model", required=True, type=Path, help="model directory")
+    generate = commands.add_parser(
+        "generate", help="text to motion: GIF, MP4, PNG filmstrip, NPY, JSON or BVH",
+        description="One prompt: one motion (--num for variations). Several prompts with one "
+                    "duration each: one continuous long motion doing them in order. --prompts "
+                    "FILE: one motion per line.")
+    generate.add_argument("text", nargs="*", help="what the person does")
+    generate.add_argument("--prompts", type=Path, default=None,
+                          help="a UTF-8 file, one prompt per line (batched)")
+    generate.add_argument("--model", type=Path, default=None,
+                          help="model directory (default: the bundled model)")
     length = generate.add_mutually_exclusive_group()
-    length.add_argument("--seconds", type=float, default=None)
-    length.add_argument("--length", type=int, default=None, help="frames")
+    length.add_argument("--seconds", type=float, nargs="+", default=None,
+                        help="duration; one per prompt for a long motion (default 5)")
+    length.add_argument("--length", type=int, nargs="+", default=None, help="frames")
     generate.add_argument("--nfe", type=int, default=None, help="sampling steps (default 5)")
-    generate.add_argument("--seed", type=int, default=None)
+    generate.add_argument("--seed", type=int, default=None,
+                          help="motion i gets seed + i (default: random)")
+    generate.add_argument("--num", type=int, default=1, help="variations per prompt (default 1)")
     generate.add_argument("--device", default=None)
-    generate.add_argument("--joints", action="store_true",
-                          help=".npy holds joints (T x J x 3) instead of features")
-    generate.add_argument("--out", required=True, type=Path, help="FILE.npy, .gif, .mp4 or .png")
+    generate.add_argument("--features", action="store_true",
+                          help=".npy holds the features (T x 263) instead of joints (T x J x 3)")
+    where = generate.add_mutually_exclusive_group()
+    where.add_argument("--out", type=Path, default=None,
+                       help="FILE.gif, .mp4, .png, .npy, .json or .bvh (several: FILE_000.gif, ...)")
+    where.add_argument("--out-dir", type=Path, default=None,
+                       help="directory; files named after the prompts")
+    generate.add_argument("--format", default=None,
+                          help="with --out-dir: gif (default), mp4, png, npy, json or bvh")
+    generate.add_argument("--quiet", action="store_true", help="no progress bar")
     generate.set_defaults(func=_cmd_generate)
 
     render = commands.add_parser("render", help="draw a motion file as GIF, MP4 or PNG filmstrip")

@@ -26,7 +26,7 @@ from mlct.io import save_npy, write_text
 from mlct.motion.skeleton import get_skeleton
 
 if TYPE_CHECKING:
-    from mlct.pipeline import GeneratedMotion
+    from mlct.generated import GeneratedMotion
 
 FORMATS = (".gif", ".mp4", ".png", ".npy", ".json", ".bvh")
 JSON_FORMAT = "mlct-motion"
@@ -48,7 +48,7 @@ def motion_json(motion: GeneratedMotion) -> dict[str, Any]:
     return {"format": JSON_FORMAT, "version": 1, "text": motion.text, "fps": motion.fps,
             "skeleton": skeleton.name, "unit": skeleton.unit,
             "joint_names": list(skeleton.joint_names), "parents": list(skeleton.parents),
-            "frames": len(motion.joints),
+            "frames": len(motion.joints), "seed": motion.seed,
             "joints": np.round(motion.joints.astype(np.float64), JSON_DECIMALS).tolist()}
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
@@ -25,27 +24,14 @@ from mlct.diffusion.parameterization import ConsistencyFunction, x0_from_eps
 from mlct.diffusion.samplers import ddim_times, sample_consistency, sample_ddim
 from mlct.diffusion.schedule import VPSchedule, karras_time_grid, sampling_times
 from mlct.errors import MlctError
+from mlct.generated import GeneratedMotion, Generation
 from mlct.models import build_autoencoder, build_denoiser, latent_clamp
 from mlct.motion.features import recover_from_ric
 from mlct.motion.skeleton import get_skeleton
+from mlct.prompts import clean_prompt
 
 if TYPE_CHECKING:
     from mlct.text import TextEncoder
-
-
-@dataclass
-class GeneratedMotion:
-    """One generated motion in real units: features (T, D), joints (T, J, 3)."""
-
-    text: str
-    features: np.ndarray
-    joints: np.ndarray
-    fps: float
-    skeleton: str
-
-    @property
-    def seconds(self) -> float:
-        return len(self.joints) / self.fps
 
 
 class MotionGenerator:
@@ -121,11 +107,17 @@ class MotionGenerator:
             raise MlctError("give lengths (frames) or seconds, not both")
         if seconds is not None:
             secs = [seconds] * count if np.isscalar(seconds) else list(seconds)  # type: ignore
-            lengths = [self.frames_for(float(s)) for s in secs]
+            for s in secs:
+                if not np.isfinite(float(s)) or float(s) <= 0:
+                    raise MlctError(f"seconds must be a positive number, got {s}")
+            lengths = [max(1, self.frames_for(min(float(s), 1e6))) for s in secs]
         if lengths is None:
             lengths = [min(self.max_frames, self.frames_for(5.0))] * count
         elif isinstance(lengths, (int, np.integer)):
             lengths = [int(lengths)] * count
+        if any(not np.isfinite(float(n)) or float(n) != int(float(n))
+               for n in lengths):  # type: ignore[union-attr]
+            raise MlctError(f"lengths must be whole numbers of frames, got {lengths}")
         out = [int(n) for n in lengths]  # type: ignore[union-attr]
         if len(out) != count:
             raise MlctError(f"{len(out)} lengths for {count} texts")
@@ -192,22 +184,41 @@ class MotionGenerator:
 
     def generate(self, texts: str | Sequence[str], lengths: int | Sequence[int] | None = None,
                  seconds: float | Sequence[float] | None = None, nfe: int | None = None,
-                 seed: int | None = None, guidance: float | None = None
-                 ) -> list[GeneratedMotion]:
-        """Motions for texts: one per text, each of its own length. Seeded: same seed, same motion."""
+                 seed: int | Sequence[int] | None = None, guidance: float | None = None
+                 ) -> Generation:
+        """Motions for texts: one per text, each of its own length.
+
+        seed: an int s gives item i the seed s + i, a sequence one seed per item; either way an
+        item's motion depends only on its text, length, nfe and seed, not on the rest of the
+        batch (generate(["a", "b"], seed=0)[1] is generate("b", seed=1)[0], up to float
+        rounding of a different batch size). None is random; the seed used is recorded."""
         if isinstance(texts, str):
             texts = [texts]
-        texts = list(texts)
+        texts = [clean_prompt(t, f"text {i + 1}" if len(texts) > 1 else "")
+                 for i, t in enumerate(texts)]
         if not texts:
-            return []
+            return Generation([])
         frames = self._lengths(len(texts), lengths, seconds)
         self.check_nfe(nfe)  # before the (slow) text encoder loads
-        z = self.sample_latents(self.encode_text(texts), nfe, seed, guidance)
+        seeds = self._seeds(len(texts), seed)
+        z = self.sample_latents(self.encode_text(texts), nfe, seeds, guidance)
         out = []
-        for text, feats in zip(texts, self.decode(z, frames)):
+        for text, feats, item_seed in zip(texts, self.decode(z, frames), seeds):
             joints = recover_from_ric(torch.from_numpy(feats)).numpy()
-            out.append(GeneratedMotion(text, feats, joints, self.skeleton.fps, self.skeleton.name))
-        return out
+            out.append(GeneratedMotion(text, feats, joints, self.skeleton.fps, self.skeleton.name,
+                                       item_seed))
+        return Generation(out)
+
+    @staticmethod
+    def _seeds(count: int, seed: int | Sequence[int] | None) -> list[int]:
+        if seed is None:  # random, but recorded on each motion so that it can be replayed
+            return [int(s) for s in torch.randint(0, 2**31 - 1, (count,))]
+        if isinstance(seed, (int, np.integer)):
+            return [int(seed) + i for i in range(count)]
+        seeds = [int(s) for s in seed]
+        if len(seeds) != count:
+            raise MlctError(f"{len(seeds)} seeds for {count} texts")
+        return seeds
 
 
 def bundled_model_dir() -> Path:

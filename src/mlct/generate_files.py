@@ -1,0 +1,125 @@
+"""`mlct generate`: prompts in, files out, batched, with a progress bar.
+
+Three ways to call it:
+- one prompt: one motion (or --num variations, seeds seed, seed + 1, ...);
+- several prompts on the command line with one duration each: one continuous long motion that
+  does them in order (long_motion.py);
+- --prompts FILE: one motion per line (times --num), generated in batches.
+Every output path is checked before the model loads, so a typo costs no generation time.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Sequence
+
+from tqdm import tqdm
+
+from mlct.errors import MlctError
+from mlct.exports import check_format
+
+if TYPE_CHECKING:
+    from mlct.generated import GeneratedMotion
+    from mlct.pipeline import MotionGenerator
+
+BATCH = 64  # motions per generate() call: big enough to batch, small enough to show progress
+
+
+@dataclass
+class Request:
+    """What to generate: prompts (one motion each), or one long motion when `long` is set."""
+
+    prompts: list[str]
+    seconds: list[float] | None = None
+    lengths: list[int] | None = None
+    num: int = 1
+    nfe: int | None = None
+    seed: int | None = None
+    long: bool = False
+
+
+def slug(text: str, limit: int = 40) -> str:
+    """A file-name-safe form of a prompt: 'a person walks forward' -> 'a_person_walks_forward'."""
+    words = re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")
+    return words[:limit].rstrip("_") or "motion"
+
+
+def check_writable(directory: Path) -> None:
+    """MlctError unless directory exists (or can be made) and we may write in it."""
+    existing = directory
+    while not existing.exists():
+        existing = existing.parent
+    if not existing.is_dir():
+        raise MlctError(f"cannot write in {directory}: {existing} is not a directory")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise MlctError(f"cannot write in {directory}: permission denied")
+
+
+def output_paths(names: Sequence[str], out: Path | None, out_dir: Path | None,
+                 fmt: str | None) -> list[Path]:
+    """One path per motion: --out FILE (indexed when there are several), or --out-dir DIR with
+    names from the prompts and the --format extension."""
+    if (out is None) == (out_dir is None):
+        raise MlctError("give --out FILE or --out-dir DIR")
+    if out is not None:
+        if fmt is not None:
+            raise MlctError("--format goes with --out-dir; with --out the extension names it")
+        check_format(out)
+        check_writable(out.parent)
+        if len(names) == 1:
+            return [out]
+        return [out.with_name(f"{out.stem}_{i:03d}{out.suffix}") for i in range(len(names))]
+    assert out_dir is not None
+    suffix = "." + (fmt or "gif").lower().lstrip(".")
+    check_format(f"motion{suffix}")
+    check_writable(out_dir)
+    return [out_dir / f"{i:03d}_{slug(name)}{suffix}" for i, name in enumerate(names)]
+
+
+def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[Path],
+        features: bool = False, progress: bool = True) -> list[Path]:
+    """Generate the request's motions and write each to its path; returns the paths.
+
+    `load` makes the model: it is called only after every argument has been checked."""
+    generator = load()
+    if request.long:
+        from mlct.long_motion import generate_long
+
+        if request.seconds is None:
+            raise MlctError("a long motion needs one duration a prompt: --seconds 3 2 2")
+        motion = generate_long(generator, request.prompts, request.seconds, request.nfe,
+                               request.seed)
+        motion.save(paths[0], features)
+        return [paths[0]]
+    texts = [p for p in request.prompts for _ in range(request.num)]
+    seeds = None if request.seed is None else [request.seed + i for i in range(len(texts))]
+    lengths = _per_text(request.lengths, request.prompts, request.num, "--length")
+    seconds = _per_text(request.seconds, request.prompts, request.num, "--seconds")
+    written = []
+    bar = tqdm(total=len(texts), unit="motion", disable=not progress or len(texts) == 1)
+    with bar:
+        for start in range(0, len(texts), BATCH):
+            stop = start + BATCH
+            motions: Sequence[GeneratedMotion] = generator.generate(
+                texts[start:stop], lengths=None if lengths is None else lengths[start:stop],
+                seconds=None if seconds is None else seconds[start:stop], nfe=request.nfe,
+                seed=None if seeds is None else seeds[start:stop])
+            for motion, path in zip(motions, paths[start:stop]):
+                written.append(motion.save(path, features))
+                bar.update(1)
+    return written
+
+
+def _per_text(values: list | None, prompts: list[str], num: int, flag: str) -> list | None:
+    # One value for all prompts, or one a prompt; repeated for the --num variations.
+    if values is None:
+        return None
+    if len(values) == 1:
+        values = values * len(prompts)
+    if len(values) != len(prompts):
+        raise MlctError(f"{flag}: {len(values)} values for {len(prompts)} prompts; "
+                        f"give one, or one a prompt")
+    return [v for v in values for _ in range(num)]
