@@ -169,3 +169,31 @@ def test_cli_generate_variations_prompts_file_and_long(tmp_path: Path, capsys) -
         assert main(argv) == 2, argv
         err = capsys.readouterr().err.strip()
         assert message in err and err.count("\n") == 0, err
+
+
+def test_damaged_model_directories_give_one_line_errors(tmp_path: Path, capsys) -> None:
+    import shutil
+
+    from mlct.pipeline import bundled_model_dir
+
+    model = tmp_path / "model"
+    shutil.copytree(bundled_model_dir(), model)
+    weights = (model / "model.safetensors").read_bytes()
+    config = (model / "config.json").read_text()
+    damages = [
+        (lambda: (model / "model.safetensors").write_bytes(weights[:5000]), "unreadable weights"),
+        (lambda: (model / "config.json").write_text("{bad json"), "unreadable"),
+        (lambda: (model / "config.json").write_text('{"format": "mlct-model", "version": 1}'),
+         "incomplete model config"),
+        (lambda: (model / "config.json").unlink(), "not an mlct model"),
+    ]
+    for damage, message in damages:
+        (model / "model.safetensors").write_bytes(weights)
+        (model / "config.json").write_text(config)
+        damage()
+        capsys.readouterr()
+        assert main(["generate", "walk", "--model", str(model), "--out",
+                     str(tmp_path / "x.npy")]) == 2
+        err = capsys.readouterr().err.strip()
+        assert message in err and err.count("\n") == 0, err
+    assert not (tmp_path / "x.npy").exists()

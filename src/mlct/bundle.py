@@ -28,6 +28,7 @@ BUNDLE_FORMAT = "mlct-model"
 BUNDLE_VERSION = 1
 SAMPLERS = {"cm": "consistency", "diffusion": "ddim"}
 ENCODER_PREFIXES = ("enc_in.", "enc_tokens", "enc_pos", "encoder.")
+META_KEYS = ("sampler", "config", "feature_dim", "skeleton", "text_encoder", "text_dim")
 
 
 def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None = None,
@@ -89,6 +90,9 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
         raise MlctError(f"{config_path}: not an mlct model config")
     if meta.get("version") != BUNDLE_VERSION:
         raise MlctError(f"{path}: model format version {meta.get('version')} is not supported")
+    missing = [k for k in META_KEYS if k not in meta]
+    if missing:
+        raise MlctError(f"{config_path}: incomplete model config (no {', '.join(missing)})")
     try:
         tensors = load_file(str(weights))
     except Exception as err:  # safetensors raises several kinds on a damaged file
