@@ -108,7 +108,7 @@ def test_rows_configurations_and_nfe(report: dict) -> None:
     assert report["config"]["kept_per_replication"] == 32 and report["config"]["items"] == 51
     assert report["config"]["protocol"]["diversity_times"] == 31  # kept - 1 on a small split
     for row in rows:
-        assert set(row["metrics"]) == set(METRICS)
+        assert set(row["metrics"]) == set(METRICS) - {"semantic_exact", "semantic_recall"}
         assert all(np.isfinite(m["mean"]) and len(m["values"]) == 3
                    for m in row["metrics"].values())
         timing = row["timing"]
@@ -330,3 +330,46 @@ def test_cli_train_parses_every_stage(monkeypatch, tmp_path, capsys) -> None:
     assert "best step 2" in capsys.readouterr().out
     assert _exit_code(["train", "evaluator", "--data", "d", "--out", "e", "a.b=1"]) == 2
     assert "unrecognized arguments: a.b=1" in capsys.readouterr().err
+
+
+def test_semantic_accuracy_with_an_action_classifier(models, data, evaluator_dir,
+                                                     tmp_path) -> None:
+    from mlct.eval.action_classifier import (ClassifierSizes, action_targets,
+                                             load_action_classifier, read_labels,
+                                             semantic_accuracy, train_action_classifier)
+    from mlct.eval.report import format_markdown
+
+    sizes = ClassifierSizes(hidden=32, blocks=2)
+    classifier_dir = tmp_path / "cls"
+    train_action_classifier(data, classifier_dir, steps=20, batch_size=16, progress=False,
+                            sizes=sizes)
+    config = ProtocolConfig(reps=2, seed=7, aits_runs=0)
+    report = run_evaluation([models[0]], data, evaluator_dir, nfe=[1], split=SPLIT,
+                            config=config, device="cpu", command="test",
+                            classifier_dir=classifier_dir)
+    real, row = report["real"], report["rows"][0]
+    for r in (real, row):
+        for key in ("semantic_exact", "semantic_recall"):
+            values = r["metrics"][key]["values"]
+            assert len(values) == 2 and all(0.0 <= v <= 1.0 for v in values)
+        assert r["semantic_recall"] and all(0 <= v <= 1 for v in r["semantic_recall"].values())
+    # the Real row's replication 0 is the classifier on those real motions, computed directly
+    protocol = open_protocol(data, evaluator_dir, SPLIT, config)
+    idx, _ = protocol.order(0)
+    labels = read_labels(data)
+    dataset = protocol.dataset
+    raw = [dataset.denormalize(dataset[i].motion[None])[0, :dataset[i].length].numpy()
+           for i in idx]
+    direct = semantic_accuracy(load_action_classifier(classifier_dir), raw,
+                               [action_targets(labels[dataset.name(i)]) for i in idx])
+    assert real["metrics"]["semantic_exact"]["values"][0] == pytest.approx(
+        direct["exact_set_accuracy"])
+    markdown = format_markdown(report)
+    assert "Sem. recall ↑" in markdown and "## Semantic accuracy per class" in markdown
+    # a benchmark without labels cannot be judged: one line, before any work
+    unlabeled = tmp_path / "unlabeled"
+    shutil.copytree(data, unlabeled)
+    (unlabeled / "labels.jsonl").unlink()
+    with pytest.raises(MlctError, match="labels.jsonl: missing"):
+        run_evaluation([models[0]], unlabeled, evaluator_dir, split=SPLIT, config=config,
+                       classifier_dir=classifier_dir)

@@ -42,6 +42,8 @@ import torch
 from mlct.data.dataset import MAX_MOTION_LENGTH, Text2MotionEvalDataset
 from mlct.data.layout import DatasetLayout
 from mlct.errors import MlctError
+from mlct.eval.action_classifier import (ActionClassifier, action_targets, load_action_classifier,
+                                         read_labels, semantic_accuracy)
 from mlct.eval.aits import time_inference
 from mlct.eval.evaluator import Evaluator
 from mlct.eval.evaluator_dir import load_evaluator_dir, read_evaluator_meta
@@ -63,7 +65,7 @@ REPLICATIONS = 20
 MM_TEXTS = 100  # mm_num_samples
 MM_GENERATIONS = 30  # mm_num_repeats
 METRICS = ("r_precision_top1", "r_precision_top2", "r_precision_top3", "fid", "mm_dist",
-           "diversity", "multimodality")
+           "diversity", "multimodality", "semantic_exact", "semantic_recall")
 NOISE_STREAM, MM_STREAM = 0, 1  # seed streams of the generations of a replication
 
 Log = Callable[[str], None]
@@ -95,6 +97,23 @@ class RealFeatures:
     lengths: np.ndarray  # (N,) frames
     text: np.ndarray  # (N, E) text embeddings of the captions
     motion: np.ndarray  # (N, E) embeddings of the real motions
+    features: list[np.ndarray] | None = None  # (T_i, D) real units; kept for a SemanticJudge
+
+
+@dataclass(frozen=True)
+class SemanticJudge:
+    """Semantic accuracy (beyond the paper): the benchmark's action classifier, and the classes
+    each test item's prompt asks for (labels.jsonl), by dataset index."""
+
+    classifier: ActionClassifier
+    targets: list[set[str]]
+
+    def score(self, features: Sequence[np.ndarray], idx: np.ndarray
+              ) -> tuple[dict[str, float], dict[str, float]]:
+        """(exact-set accuracy and mean recall, per-class recall) of motions for items idx."""
+        result = semantic_accuracy(self.classifier, features, [self.targets[i] for i in idx])
+        return ({"semantic_exact": result["exact_set_accuracy"],
+                 "semantic_recall": result["mean_recall"]}, result["recall"])
 
 
 @dataclass
@@ -110,9 +129,18 @@ class RowResult:
     metrics: dict[str, dict[str, Any]] = field(default_factory=dict)  # mean, ci, values
     timing: dict[str, Any] | None = None
     seconds: float = 0.0
+    semantic_recall: dict[str, float] | None = None  # per class, mean over replications
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
+
+
+def mean_recall_per_class(replications: Sequence[dict[str, float]]) -> dict[str, float] | None:
+    """Per-class recalls of several replications -> their mean per class (None: none given)."""
+    if not replications:
+        return None
+    classes = sorted({k for rep in replications for k in rep})
+    return {k: float(np.mean([rep[k] for rep in replications if k in rep])) for k in classes}
 
 
 def summarize(replications: Sequence[dict[str, float]]) -> dict[str, dict[str, Any]]:
@@ -141,10 +169,10 @@ def embed_features(evaluator: Evaluator, features: Sequence[np.ndarray]) -> np.n
 
 
 def embed_real(dataset: Text2MotionEvalDataset, evaluator: Evaluator,
-               batch_size: int = 128) -> RealFeatures:
+               batch_size: int = 128, keep_features: bool = False) -> RealFeatures:
     """Draw every item once (its dataset's seeded caption and crop) and embed text and motion."""
     samples = [dataset[i] for i in range(len(dataset))]
-    texts, motions = [], []
+    texts, motions, kept = [], [], []
     for start in range(0, len(samples), batch_size):
         chunk = samples[start:start + batch_size]
         words, pos = evaluator.tokens_to_tensors([s.tokens for s in chunk])
@@ -152,22 +180,30 @@ def embed_real(dataset: Text2MotionEvalDataset, evaluator: Evaluator,
         raw = dataset.denormalize(torch.stack([s.motion for s in chunk]))  # real units
         motions.append(evaluator.embed_motion(evaluator.normalize(raw),
                                               [s.length for s in chunk]).cpu().numpy())
+        if keep_features:
+            kept += [raw[i, :s.length].numpy() for i, s in enumerate(chunk)]
     return RealFeatures([dataset.name(i) for i in range(len(samples))],
                         [s.caption for s in samples], np.array([s.length for s in samples]),
-                        np.concatenate(texts), np.concatenate(motions))
+                        np.concatenate(texts), np.concatenate(motions),
+                        kept if keep_features else None)
 
 
 def generated_embeddings(gen: MotionGenerator, evaluator: Evaluator, captions: Sequence[str],
                          lengths: Sequence[int], *, nfe: int | None, guidance: float | None,
-                         seeds: Sequence[int], batch_size: int) -> np.ndarray:
-    """Generate for (caption, length) pairs in batches (batch b seeded by seeds[b]); embed."""
+                         seeds: Sequence[int], batch_size: int,
+                         keep: list[np.ndarray] | None = None) -> np.ndarray:
+    """Generate for (caption, length) pairs in batches (batch b seeded by seeds[b]); embed.
+    The generated features (real units) are appended to `keep` when one is given."""
     out = []
     for b, start in enumerate(range(0, len(captions), batch_size)):
         texts = list(captions[start:start + batch_size])
         frames = [int(n) for n in lengths[start:start + batch_size]]
         # generate() without the joints: the text -> latent -> features path it runs
         z = gen.sample_latents(gen.encode_text(texts), nfe, seeds[b], guidance)
-        out.append(embed_features(evaluator, gen.decode(z, frames)))
+        features = gen.decode(z, frames)
+        out.append(embed_features(evaluator, features))
+        if keep is not None:
+            keep.extend(features)
     return np.concatenate(out)
 
 
@@ -175,9 +211,11 @@ class Protocol:
     """One test split measured by one evaluator; the real side is embedded once and cached."""
 
     def __init__(self, evaluator: Evaluator, dataset: Text2MotionEvalDataset,
-                 config: ProtocolConfig = ProtocolConfig(), log: Log | None = None) -> None:
+                 config: ProtocolConfig = ProtocolConfig(), log: Log | None = None,
+                 judge: SemanticJudge | None = None) -> None:
         self.evaluator = evaluator
         self.dataset = dataset
+        self.judge = judge
         self.log = log or (lambda message: None)
         self.config = resolve_config(config, len(dataset))
         self._real: RealFeatures | None = None
@@ -191,7 +229,8 @@ class Protocol:
     def real(self) -> RealFeatures:
         if self._real is None:
             started = time.perf_counter()
-            self._real = embed_real(self.dataset, self.evaluator)
+            self._real = embed_real(self.dataset, self.evaluator,
+                                    keep_features=self.judge is not None)
             self.log(f"embedded {len(self._real.names)} real items "
                      f"({time.perf_counter() - started:.1f} s)")
         return self._real
@@ -212,13 +251,18 @@ class Protocol:
                 "mm_dist": matching_score(text, motion),
                 "diversity": diversity(motion, times, rng=rng)}
 
-    def real_replication(self, rep: int) -> dict[str, float]:
+    def real_replication(self, rep: int) -> dict[str, Any]:
         """The Real row's metrics in replication rep (the real motions as the 'generations')."""
         idx, rng = self.order(rep)
-        return self._metrics(idx, self.real.motion[idx], rng)
+        out: dict[str, Any] = self._metrics(idx, self.real.motion[idx], rng)
+        if self.judge is not None:
+            assert self.real.features is not None
+            scores, out["per_class"] = self.judge.score([self.real.features[i] for i in idx], idx)
+            out.update(scores)
+        return out
 
     def replication(self, gen: MotionGenerator, rep: int, nfe: int | None = None,
-                    guidance: float | None = None) -> dict[str, float]:
+                    guidance: float | None = None) -> dict[str, Any]:
         """One replication of a model configuration: generate for the kept items, measure."""
         cfg = self.config
         idx, rng = self.order(rep)
@@ -228,11 +272,16 @@ class Protocol:
         # of which configurations ran before on this generator (its memo is then full).
         gen.encode_text(sorted(set(self.real.captions)))
         batches = range(-(-len(idx) // cfg.batch_size))
+        features: list[np.ndarray] | None = [] if self.judge is not None else None
         motion = generated_embeddings(
             gen, self.evaluator, [self.real.captions[i] for i in idx], self.real.lengths[idx],
             nfe=nfe, guidance=guidance, seeds=[_seed(seed, NOISE_STREAM, b) for b in batches],
-            batch_size=cfg.batch_size)
-        out = self._metrics(idx, motion, rng)
+            batch_size=cfg.batch_size, keep=features)
+        out: dict[str, Any] = self._metrics(idx, motion, rng)
+        if self.judge is not None:
+            assert features is not None
+            scores, out["per_class"] = self.judge.score(features, idx)
+            out.update(scores)
         if cfg.mm:
             assert cfg.mm_texts is not None
             chosen = rng.choice(len(self.dataset), cfg.mm_texts, replace=False)
@@ -251,7 +300,9 @@ class Protocol:
         started = time.perf_counter()
         reps = [self.real_replication(r) for r in range(self.config.reps)]
         return RowResult("Real", "real", metrics=summarize(reps),
-                         seconds=time.perf_counter() - started)
+                         seconds=time.perf_counter() - started,
+                         semantic_recall=mean_recall_per_class(
+                             [r["per_class"] for r in reps if "per_class" in r]))
 
     def evaluate(self, gen: MotionGenerator, nfe: int | None = None,
                  guidance: float | None = None, method: str = "model",
@@ -276,7 +327,9 @@ class Protocol:
                                     frames=min(cfg.aits_frames, gen.max_frames),
                                     runs=cfg.aits_runs, warmup=cfg.aits_warmup)
         return RowResult(method, gen.sampler, model, steps, 2 * steps if ddim else steps, scale,
-                         summarize(reps), timing, seconds)
+                         summarize(reps), timing, seconds,
+                         mean_recall_per_class([r["per_class"] for r in reps
+                                                if "per_class" in r]))
 
 
 def resolve_config(config: ProtocolConfig, items: int) -> ProtocolConfig:
@@ -357,15 +410,30 @@ def check_inputs(data_dir: str | Path, evaluator_dir: str | Path,
 def open_protocol(data_dir: str | Path, evaluator_dir: str | Path, split: str = "test",
                   config: ProtocolConfig = ProtocolConfig(), device: str | torch.device = "cpu",
                   log: Log | None = None,
-                  models: Sequence[tuple[str | Path, dict[str, Any]]] = ()) -> Protocol:
-    """Check the inputs (and the models' metadata), load the evaluator and the split's items.
+                  models: Sequence[tuple[str | Path, dict[str, Any]]] = (),
+                  classifier_dir: str | Path | None = None) -> Protocol:
+    """Check the inputs (and the models' metadata), load the evaluator and the split's items,
+    and the action classifier with every item's labels when classifier_dir is given.
 
     Nothing is embedded yet: the real side is embedded on first use.
     """
     skel = check_inputs(data_dir, evaluator_dir, models, split)
+    judge = None
+    if classifier_dir is not None:
+        classifier = load_action_classifier(classifier_dir)
+        classifier.check(skel.feature_dim, skel.name)
+        labels = read_labels(data_dir)
     evaluator = load_evaluator_dir(evaluator_dir).to(device)
     dataset = Text2MotionEvalDataset(data_dir, split, skeleton=skel, seed=config.seed)
-    return Protocol(evaluator, dataset, config, log)
+    if classifier_dir is not None:
+        names = [dataset.name(i) for i in range(len(dataset))]
+        unlabeled = [n for n in names if n not in labels]
+        if unlabeled:
+            raise MlctError(f"{len(unlabeled)} items of split {split!r} have no action labels "
+                            f"in {Path(data_dir) / 'labels.jsonl'} (first: {unlabeled[0]})")
+        judge = SemanticJudge(classifier.to(device),
+                              [action_targets(labels[n]) for n in names])
+    return Protocol(evaluator, dataset, config, log, judge)
 
 
 def check_model(protocol: Protocol, gen: MotionGenerator, steps: Sequence[int | None],

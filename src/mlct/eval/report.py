@@ -23,6 +23,8 @@ from mlct.io import atomic_path, write_text
 COLUMNS = [("R@1 ↑", "r_precision_top1"), ("R@2 ↑", "r_precision_top2"),
            ("R@3 ↑", "r_precision_top3"), ("FID ↓", "fid"), ("MM-Dist ↓", "mm_dist"),
            ("Diversity →", "diversity"), ("MModality ↑", "multimodality")]
+# Beyond the paper, with --classifier: shown only when some row has them.
+SEMANTIC_COLUMNS = [("Sem. exact ↑", "semantic_exact"), ("Sem. recall ↑", "semantic_recall")]
 DASH = "-"
 
 
@@ -70,10 +72,23 @@ def _table(header: list[str], lines: list[list[str]]) -> str:
 def results_table(report: dict[str, Any]) -> str:
     """The Table 1 layout: Real first, then every configuration."""
     rows = [report["real"], *report["rows"]]
-    header = ["Methods", *(name for name, _ in COLUMNS), "NFE", "AITS (ms)"]
-    lines = [[row["method"], *(format_value(row["metrics"].get(key)) for _, key in COLUMNS),
+    columns = COLUMNS + [c for c in SEMANTIC_COLUMNS
+                         if any(c[1] in row["metrics"] for row in rows)]
+    header = ["Methods", *(name for name, _ in columns), "NFE", "AITS (ms)"]
+    lines = [[row["method"], *(format_value(row["metrics"].get(key)) for _, key in columns),
               format_nfe(row), _aits(row)] for row in rows]
     return _table(header, lines)
+
+
+def semantic_table(report: dict[str, Any]) -> str | None:
+    """Recall per action class (mean over replications), one column per row; None without."""
+    rows = [r for r in [report["real"], *report["rows"]] if r.get("semantic_recall")]
+    if not rows:
+        return None
+    classes = sorted({k for r in rows for k in r["semantic_recall"]})
+    lines = [[k, *(f"{r['semantic_recall'][k]:.2f}" if k in r["semantic_recall"] else DASH
+                   for r in rows)] for k in classes]
+    return _table(["class", *(r["method"] for r in rows)], lines)
 
 
 def format_markdown(report: dict[str, Any]) -> str:
@@ -110,6 +125,19 @@ def format_markdown(report: dict[str, Any]) -> str:
                      f"{row['timing']['text_ms']:.1f}", f"{row['timing']['sampling_ms']:.1f}",
                      f"{row['timing']['decoding_ms']:.1f}", f"{row['timing']['aits_ms']:.1f}"]
                     for row in timed]),
+            "",
+        ]
+    semantic = semantic_table(report)
+    if semantic:
+        text += [
+            "## Semantic accuracy per class",
+            "",
+            f"Recall of each action class (labels.jsonl) by the action classifier "
+            f"`{cfg.get('classifier')}`, mean over the replications: of the prompts that ask "
+            f"for a class, the share of motions in which it is detected. Real is the "
+            f"classifier's own ceiling.",
+            "",
+            semantic,
             "",
         ]
     text += ["## Protocol choices", "", *(f"- {choice}" for choice in cfg["choices"]), "",

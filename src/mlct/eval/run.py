@@ -73,11 +73,13 @@ def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
                    guidance: Sequence[float] | None = None, split: str = "test",
                    config: ProtocolConfig = ProtocolConfig(),
                    device: str | torch.device | None = None, log: Log | None = None,
-                   command: str | None = None) -> dict[str, Any]:
+                   command: str | None = None,
+                   classifier_dir: str | Path | None = None) -> dict[str, Any]:
     """Evaluate every configuration of every model and the Real row; the report as a dict.
 
     Every input is checked (files, widths, skeletons, lengths, step counts) before the real
-    side is embedded or anything is generated.
+    side is embedded or anything is generated. With classifier_dir (an action classifier of a
+    procedural benchmark) every row also gets the semantic accuracy.
     """
     log = log or (lambda message: None)
     started = time.perf_counter()
@@ -95,7 +97,8 @@ def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
             raise MlctError(f"{flag} applies to DDIM (diffusion) models only; a consistency "
                             f"model's guidance w is set at training (consistency.guidance)")
     protocol = open_protocol(data_dir, evaluator_dir, split, config, dev, log,
-                             models=[(p, meta) for p, (meta, _) in zip(paths, bundles)])
+                             models=[(p, meta) for p, (meta, _) in zip(paths, bundles)],
+                             classifier_dir=classifier_dir)
     dataset = protocol.dataset
     gens = [MotionGenerator(meta, tensors, dev) for meta, tensors in bundles]
     grids = [_grid(g, nfe, ddim_steps, guidance) for g in gens]
@@ -121,6 +124,7 @@ def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
             "data": str(Path(data_dir)), "split": split, "items": len(dataset),
             "kept_per_replication": protocol.kept, "skeleton": dataset.skeleton.name,
             "evaluator": str(Path(evaluator_dir)), "models": [str(p) for p in paths],
+            "classifier": None if classifier_dir is None else str(Path(classifier_dir)),
             "nfe": list(nfe) if nfe else None,
             "ddim_steps": list(ddim_steps) if ddim_steps else None,
             "guidance": list(guidance) if guidance else None, "device": str(dev),
