@@ -48,6 +48,18 @@ def _cmd_data_check(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_data_import(args: argparse.Namespace) -> int:
+    from mlct.data.importer import format_summary, import_dataset, parse_split
+
+    summary = import_dataset(args.out, args.captions, joints_dir=args.joints, bvh_dir=args.bvh,
+                             skeleton=args.skeleton, joint_map=args.joint_map, scale=args.scale,
+                             fps=args.fps, split=parse_split(args.split), seed=args.seed,
+                             skip_uncaptioned=args.skip_uncaptioned, overwrite=args.overwrite,
+                             progress=not args.quiet)
+    print(format_summary(summary))
+    return 0
+
+
 def _cmd_render(args: argparse.Namespace) -> int:
     from mlct.motion.render import render_file
 
@@ -171,7 +183,8 @@ def _cmd_eval(args: argparse.Namespace) -> int:
                             ddim_steps=args.ddim_steps, guidance=args.guidance,
                             split=args.split, config=config, device=args.device,
                             log=None if args.quiet else log,
-                            command=shlex.join(["mlct", *args.argv]))
+                            command=shlex.join(["mlct", *args.argv]),
+                            classifier_dir=args.classifier)
     written = write_report(args.out, report)
     print(results_table(report))
     if not args.quiet:
@@ -183,6 +196,13 @@ def _cmd_export(args: argparse.Namespace) -> int:
     from mlct.bundle import export_run
 
     print(export_run(args.run, args.out, stage=args.stage, half=args.half))
+    return 0
+
+
+def _cmd_serve(args: argparse.Namespace) -> int:
+    from mlct.serve import run_server
+
+    run_server(args.model, host=args.host, port=args.port, device=args.device)
     return 0
 
 
@@ -242,6 +262,30 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("dir", type=Path)
     check.add_argument("--skeleton", default=None, help="humanml3d or kit (default: from width)")
     check.set_defaults(func=_cmd_data_check)
+
+    imported = data_commands.add_parser(
+        "import", help="turn your own motion capture (joints .npy or BVH) and captions into a "
+                       "dataset in the standard layout (docs/custom_data.md)")
+    source = imported.add_mutually_exclusive_group(required=True)
+    source.add_argument("--joints", type=Path, help="directory of (T, J, 3) .npy joints, y up")
+    source.add_argument("--bvh", type=Path, help="directory of .bvh files")
+    imported.add_argument("--captions", required=True, type=Path,
+                          help="CSV (name,caption) or JSONL ({name, caption|captions})")
+    imported.add_argument("--skeleton", default="humanml3d", choices=["humanml3d", "kit"])
+    imported.add_argument("--out", required=True, type=Path, help="dataset directory to create")
+    imported.add_argument("--joint-map", type=Path, default=None,
+                          help="JSON {BVH joint: skeleton joint} (default: same names)")
+    imported.add_argument("--scale", type=float, default=None,
+                          help="factor to the skeleton's units, m or mm (default: guessed)")
+    imported.add_argument("--fps", type=float, default=None,
+                          help="input frame rate (default: BVH Frame Time; skeleton fps for .npy)")
+    imported.add_argument("--split", default="0.8,0.1,0.1", help="train,val,test fractions")
+    imported.add_argument("--seed", type=int, default=0, help="seed of the split shuffle")
+    imported.add_argument("--skip-uncaptioned", action="store_true",
+                          help="skip motion files without a caption instead of stopping")
+    imported.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
+    imported.add_argument("--quiet", action="store_true", help="no progress bar")
+    imported.set_defaults(func=_cmd_data_import)
 
     demo = commands.add_parser("demo", help="make a small procedural dataset, render one motion")
     demo.add_argument("--out", type=Path, default=Path("mlct-demo"), help="default ./mlct-demo")
@@ -323,6 +367,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--reps", type=int, default=20, help="replications (default 20)")
     evaluate.add_argument("--mm", action="store_true",
                           help="also MultiModality (100 texts x 30 generations a replication)")
+    evaluate.add_argument("--classifier", type=Path, default=None,
+                          help="action classifier (mlct train classifier): adds semantic "
+                               "accuracy, per class too")
     evaluate.add_argument("--split", default="test")
     evaluate.add_argument("--batch-size", type=int, default=32,
                           help="R-precision group and generation batch (default 32)")
@@ -343,6 +390,15 @@ def build_parser() -> argparse.ArgumentParser:
                         help="which stage-2 model (default cm)")
     export.add_argument("--half", action="store_true", help="store weights in float16")
     export.set_defaults(func=_cmd_export)
+
+    serve = commands.add_parser("serve", help="the JSON API and the web page (real-time "
+                                "generation in the browser)")
+    serve.add_argument("--model", type=Path, default=None,
+                       help="model directory (default: the bundled model)")
+    serve.add_argument("--host", default="127.0.0.1", help="default 127.0.0.1 (this machine)")
+    serve.add_argument("--port", type=int, default=8000, help="default 8000")
+    serve.add_argument("--device", default=None, help="cpu or cuda (default: cuda if available)")
+    serve.set_defaults(func=_cmd_serve)
 
     generate = commands.add_parser(
         "generate", help="text to motion: GIF, MP4, PNG filmstrip, NPY, JSON or BVH",

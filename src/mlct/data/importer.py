@@ -1,0 +1,546 @@
+"""`mlct data import`: a user's own motion capture and captions -> the standard dataset layout.
+
+Input: a directory of joint positions (`.npy`, (T, J, 3) in the skeleton's joint order, y up) or
+of BVH files (joints matched by name, or through a JSON map), and a captions file. Processing
+is HumanML3D's: resample to the skeleton's fps (linear interpolation), cut long clips into equal
+windows within the length filter (short ones are skipped and reported), `joints_to_features`
+(retarget to the target skeleton, floor, facing +Z), `new_joints` recovered from the features,
+caption lines with word/POS tokens, seeded splits by clip (the windows of a clip stay in one
+split), Mean/Std the standard way. The dataset is built in a hidden directory and renamed into
+place at the end: a failed import leaves nothing behind.
+
+Captions (docs/custom_data.md): CSV with a header holding `name` and `caption` columns, one row
+per caption (a name may repeat), or JSONL with one object per line, `{"name": ..., "caption":
+"..."}` or `{"name": ..., "captions": ["...", ...]}`. The name is the motion file's stem. Every
+caption describes the whole clip (each window of a cut clip gets all of its clip's captions).
+
+Tokens: HumanML3D tags captions with spaCy (lemmas for nouns and verbs, universal POS tags).
+spaCy's English model is not installable from PyPI, so captions are tagged with the procedural
+benchmark's lexicon tagger, and words outside its lexicon by suffix (`-ly` adverb, `-ing`/`-ed`
+verb, else noun, not lemmatized). The tokens only feed the evaluator's text encoder.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterator
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from mlct.data.layout import (
+    FEATURES_DIR,
+    JOINTS_DIR,
+    TEXTS_DIR,
+    BadFileError,
+    joints_problems,
+    load_npy,
+    resolve_skeleton,
+)
+from mlct.data.stats import standard_mean_std
+from mlct.data.synth.text import format_text_line, pos_tag
+from mlct.errors import MlctError
+from mlct.io import atomic_dir, save_npy, write_text
+from mlct.motion.features import features_to_joints, joints_to_features
+from mlct.motion.kinematics import forward_kinematics
+from mlct.motion.skeleton import Skeleton
+
+DEFAULT_SPLIT = (0.8, 0.1, 0.1)
+SCALE_GUESS_FILES = 20  # files read to guess the units
+SCALE_TOLERANCE = 2.0  # a guessed body may be this many times shorter or taller than the rest pose
+SUFFIXES = {"joints": ".npy", "bvh": ".bvh"}
+_WORDS = re.compile(r"[^\W_]+")
+# Closed-class words the benchmark's lexicon lacks (its captions never use them).
+_FUNCTION_WORDS = {
+    **dict.fromkeys("it they them he she him himself herself themselves its this".split(), "PRON"),
+    **dict.fromkeys("from through across behind toward towards onto off under like as near "
+                    "along against between".split(), "ADP"),
+    **dict.fromkeys("these those some another each every".split(), "DET"),
+    **dict.fromkeys("or but".split(), "CCONJ"),
+    **dict.fromkeys("are was were be been".split(), "AUX"),
+    "not": "PART",
+}
+
+
+@dataclass
+class ImportSummary:
+    """What `import_dataset` wrote and what it left out."""
+
+    path: str
+    skeleton: str
+    fps: float
+    clips: int  # input files imported
+    motions: int  # motions written (a long clip makes several windows)
+    frames: int  # feature frames
+    hours: float
+    scale: float
+    splits: dict[str, int]
+    skipped_short: list[str] = field(default_factory=list)
+    skipped_uncaptioned: list[str] = field(default_factory=list)
+    unused_captions: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+
+# ---------------------------------------------------------------------------------------------
+# Captions
+# ---------------------------------------------------------------------------------------------
+
+def tag_caption(caption: str) -> list[tuple[str, str]]:
+    """(word, POS) tokens of a caption: the benchmark's tagger, suffix rules for other words."""
+    try:
+        return pos_tag(caption)
+    except ValueError:
+        pass  # a word outside the benchmark's lexicon: tag word by word
+    tags: list[tuple[str, str]] = []
+    for word in _WORDS.findall(caption.lower().replace("-", "")):
+        if not word.isalpha():
+            continue  # numerals dropped, as HumanML3D drops non-alphabetic tokens
+        try:
+            tags.extend(pos_tag(word))
+        except ValueError:
+            tags.append(_guess_tag(word, tags[-1][1] if tags else ""))
+    return tags
+
+
+def _guess_tag(word: str, previous: str) -> tuple[str, str]:
+    """(lemma, POS) of a word outside the lexicon, by its suffix and the tag before it."""
+    if word in _FUNCTION_WORDS:
+        return word, _FUNCTION_WORDS[word]
+    if len(word) >= 4 and word.endswith("ly"):
+        return word, "ADV"
+    if (len(word) >= 6 and word.endswith("ing")) or (
+            len(word) >= 5 and word.endswith("ed") and not word.endswith("eed")):
+        return word, "VERB"
+    if previous in ("NOUN", "PRON", "CCONJ", "ADV") and word.endswith("s") and \
+            not word.endswith("ss"):
+        # "a person stumbles", "and then tosses": a third-person verb -> its lemma
+        if word == "goes" or word.endswith(("ches", "shes", "sses", "xes", "zes")):
+            return word[:-2], "VERB"
+        return (word[:-3] + "y" if word.endswith("ies") else word[:-1]), "VERB"
+    return word, "NOUN"
+
+
+def _clean_caption(text: Any, path: Path, line: int) -> str:
+    if not isinstance(text, str):
+        raise BadFileError(path, f"caption {text!r} is not text", line=line)
+    caption = " ".join(text.split())  # newlines and runs of spaces -> one space
+    if not caption:
+        raise BadFileError(path, "empty caption", line=line)
+    if "#" in caption:
+        raise BadFileError(path, "a caption may not contain '#' (the texts/ field separator)",
+                           line=line)
+    if not tag_caption(caption):
+        raise BadFileError(path, f"caption {caption!r} has no words", line=line)
+    return caption
+
+
+def _clean_name(name: Any, path: Path, line: int) -> str:
+    if not isinstance(name, str) or not name.strip():
+        raise BadFileError(path, f"missing motion name (got {name!r})", line=line)
+    name = name.strip()
+    for suffix in SUFFIXES.values():
+        if name.lower().endswith(suffix):
+            name = name[: -len(suffix)]
+    return name
+
+
+def read_captions(path: str | os.PathLike) -> dict[str, list[str]]:
+    """name -> captions from a CSV (`name`, `caption` columns) or JSONL file (module doc)."""
+    path = Path(path)
+    if not path.is_file():
+        raise MlctError(f"{path}: no such captions file")
+    suffix = path.suffix.lower()
+    if suffix == ".csv":
+        pairs = _read_csv(path)
+    elif suffix in (".jsonl", ".ndjson"):
+        pairs = _read_jsonl(path)
+    else:
+        raise MlctError(f"{path}: captions must be a .csv (name,caption) or .jsonl file")
+    captions: dict[str, list[str]] = {}
+    for name, caption in pairs:
+        captions.setdefault(name, []).append(caption)
+    if not captions:
+        raise MlctError(f"{path}: no captions")
+    return captions
+
+
+def _read_text(path: Path) -> str:
+    """The file's text; utf-8-sig drops the byte-order mark that spreadsheet programs write."""
+    try:
+        return path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as error:
+        raise BadFileError(path, f"cannot read: {error}") from None
+
+
+def _read_csv(path: Path) -> list[tuple[str, str]]:
+    reader = csv.DictReader(io.StringIO(_read_text(path), newline=""))
+    fields = [f.strip().lower() for f in reader.fieldnames or []]
+    if "name" not in fields or "caption" not in fields:
+        raise BadFileError(path, f"the header must name the columns 'name' and 'caption' "
+                                 f"(found {', '.join(fields) or 'nothing'})", line=1)
+    reader.fieldnames = fields
+    pairs = []
+    for row in reader:
+        line = reader.line_num
+        if None in row or row.get("caption") is None:
+            raise BadFileError(path, "row does not match the header's columns", line=line)
+        pairs.append((_clean_name(row["name"], path, line),
+                      _clean_caption(row["caption"], path, line)))
+    return pairs
+
+
+def _read_jsonl(path: Path) -> list[tuple[str, str]]:
+    pairs = []
+    for number, text in enumerate(_read_text(path).splitlines(), start=1):
+        if not text.strip():
+            continue
+        try:
+            record = json.loads(text)
+        except json.JSONDecodeError as error:
+            raise BadFileError(path, f"not JSON ({error.msg})", line=number) from None
+        if not isinstance(record, dict):
+            raise BadFileError(path, "each line must be a JSON object", line=number)
+        name = _clean_name(record.get("name"), path, number)
+        if "captions" in record and isinstance(record["captions"], list):
+            texts = record["captions"]
+        elif "caption" in record:
+            texts = [record["caption"]]
+        else:
+            raise BadFileError(path, "needs 'caption' (text) or 'captions' (list of texts)",
+                               line=number)
+        if not texts:
+            raise BadFileError(path, "empty 'captions' list", line=number)
+        pairs.extend((name, _clean_caption(t, path, number)) for t in texts)
+    return pairs
+
+
+def _joint_map(path: str | os.PathLike | None, skeleton: Skeleton) -> dict[str, str]:
+    """BVH joint name -> skeleton joint name, from a JSON object file (or names as they are)."""
+    if path is None:
+        return {}
+    path = Path(path)
+    try:
+        mapping = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise MlctError(f"{path}: cannot read the joint map ({error})") from None
+    if not isinstance(mapping, dict) or not all(
+            isinstance(k, str) and isinstance(v, str) for k, v in mapping.items()):
+        raise MlctError(f"{path}: the joint map must be a JSON object "
+                        f"{{\"BVH joint\": \"{skeleton.name} joint\", ...}}")
+    unknown = sorted(set(mapping.values()) - set(skeleton.joint_names))
+    if unknown:
+        raise MlctError(f"{path}: {', '.join(unknown)} are not {skeleton.name} joints (known: "
+                        f"{', '.join(skeleton.joint_names)})")
+    return mapping
+
+
+# ---------------------------------------------------------------------------------------------
+# Motions
+# ---------------------------------------------------------------------------------------------
+
+def _load_joints(path: Path, skeleton: Skeleton) -> np.ndarray:
+    array = load_npy(path)
+    problems = joints_problems(array, skeleton.n_joints)
+    if problems:
+        raise BadFileError(path, "; ".join(message for _, message in problems))
+    return array.astype(np.float64)
+
+
+def _load_bvh(path: Path, skeleton: Skeleton, mapping: dict[str, str]) -> tuple[np.ndarray, float]:
+    """(T, J, 3) positions in the skeleton's joint order, in the file's units; and its fps."""
+    from mlct.motion.bvh import read_bvh
+
+    clip = read_bvh(path)
+    columns: dict[str, int] = {}
+    for column, name in enumerate(clip.joint_names):
+        ours = mapping.get(name, name)
+        if ours in skeleton.joint_names:
+            if ours in columns:
+                raise MlctError(f"{path}: joints {clip.joint_names[columns[ours]]} and {name} "
+                                f"both map to {ours}")
+            columns[ours] = column
+    missing = [name for name in skeleton.joint_names if name not in columns]
+    if missing:
+        shown = ", ".join(clip.joint_names[:12]) + (" ..." if len(clip.joint_names) > 12 else "")
+        raise MlctError(f"{path}: no joint for {', '.join(missing)} (its joints: {shown}); "
+                        f"map them with --joint-map FILE.json")
+    positions = clip.positions[:, [columns[name] for name in skeleton.joint_names]]
+    return positions, clip.fps
+
+
+def resample(positions: np.ndarray, source_fps: float, target_fps: float) -> np.ndarray:
+    """(T, J, 3) at source_fps -> the same time span at target_fps, linearly interpolated."""
+    if math.isclose(source_fps, target_fps, rel_tol=1e-6) or len(positions) < 2:
+        return positions
+    duration = (len(positions) - 1) / source_fps
+    n_frames = int(math.floor(duration * target_fps + 1e-9)) + 1
+    at = np.arange(n_frames) * (source_fps / target_fps)  # fractional source frames
+    first = np.minimum(np.floor(at).astype(int), len(positions) - 2)
+    weight = (at - first)[:, None, None]
+    return (1.0 - weight) * positions[first] + weight * positions[first + 1]
+
+
+def windows(n_frames: int, skeleton: Skeleton) -> list[tuple[int, int]]:
+    """[start, stop) joint-frame windows of a clip whose feature lengths (stop - start - 1) fall
+    in the length filter: equal windows as long as allowed; [] when the clip is too short."""
+    n_features = n_frames - 1
+    if n_features < skeleton.min_frames:
+        return []
+    longest = skeleton.max_frames - 1
+    count = math.ceil(n_features / longest)
+    length = n_features // count
+    return [(i * length, i * length + length + 1) for i in range(count)]
+
+
+def _rest_height(skeleton: Skeleton) -> float:
+    """Vertical extent of the skeleton's rest pose, in its units: what a body should measure."""
+    local = torch.zeros(skeleton.n_joints, 4, dtype=torch.float64)
+    local[:, 0] = 1.0
+    rest = forward_kinematics(local, torch.zeros(3, dtype=torch.float64),
+                              skeleton.rest_offsets, skeleton).numpy()
+    return float(np.ptp(rest[:, 1]))
+
+
+def guess_scale(heights: list[float], skeleton: Skeleton) -> float:
+    """The power of ten that brings the median body height (file units) to the rest pose's."""
+    height = float(np.median(heights))
+    target = _rest_height(skeleton)
+    if not height > 0:
+        raise MlctError("cannot guess the units: the bodies have no height; pass --scale")
+    scale = 10.0 ** round(math.log10(target / height))
+    if not 1 / SCALE_TOLERANCE <= height * scale / target <= SCALE_TOLERANCE:
+        raise MlctError(f"cannot guess the units: bodies measure {height:.4g} units from the "
+                        f"lowest to the highest joint, no power of ten makes that a "
+                        f"{target:.4g} {skeleton.unit} body; pass --scale (to {skeleton.unit})")
+    return scale
+
+
+def _height(positions: np.ndarray) -> float:
+    """Median over frames of the vertical extent of the joints."""
+    return float(np.median(np.ptp(positions[..., 1], axis=-1)))
+
+
+# ---------------------------------------------------------------------------------------------
+# The import
+# ---------------------------------------------------------------------------------------------
+
+def parse_split(text: str) -> tuple[float, float, float]:
+    """'0.8,0.1,0.1' -> train, val, test fractions (non-negative, summing to 1)."""
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    return check_split(values, text)
+
+
+def check_split(values: tuple[float, ...], given: Any = None) -> tuple[float, float, float]:
+    """The fractions if they are three non-negative numbers summing to 1; MlctError otherwise."""
+    if len(values) != 3 or not all(math.isfinite(v) and v >= 0 for v in values) or not \
+            math.isclose(sum(values), 1.0, abs_tol=1e-6):
+        shown = values if given is None else given
+        raise MlctError(f"--split must be three fractions train,val,test summing to 1 "
+                        f"(e.g. 0.8,0.1,0.1), got {shown!r}")
+    return values  # type: ignore[return-value]
+
+
+def split_clips(clips: list[str], fractions: tuple[float, float, float],
+                seed: int) -> dict[str, list[str]]:
+    """Seeded shuffle of the clips into train/val/test by the fractions (test takes the rest)."""
+    order = np.random.default_rng(seed).permutation(len(clips))
+    shuffled = [clips[i] for i in order]
+    n_train = int(round(fractions[0] * len(clips)))
+    n_val = min(int(round(fractions[1] * len(clips))), len(clips) - n_train)
+    return {"train": shuffled[:n_train], "val": shuffled[n_train:n_train + n_val],
+            "test": shuffled[n_train + n_val:]}
+
+
+def _motion_files(directory: Path, suffix: str) -> dict[str, Path]:
+    if not directory.is_dir():
+        raise MlctError(f"{directory}: no such directory")
+    files = {p.name[: -len(suffix)]: p for p in sorted(directory.iterdir())
+             if p.name.lower().endswith(suffix) and not p.name.startswith(".") and p.is_file()}
+    if not files:
+        raise MlctError(f"{directory}: no {suffix} files")
+    return files
+
+
+def _short_list(names: list[str], limit: int = 10) -> str:
+    shown = ", ".join(names[:limit])
+    return shown + (f" and {len(names) - limit} more" if len(names) > limit else "")
+
+
+def import_dataset(out: str | os.PathLike, captions: str | os.PathLike, *,
+                   joints_dir: str | os.PathLike | None = None,
+                   bvh_dir: str | os.PathLike | None = None,
+                   skeleton: str | Skeleton = "humanml3d",
+                   joint_map: str | os.PathLike | None = None, scale: float | None = None,
+                   fps: float | None = None, split: tuple[float, float, float] = DEFAULT_SPLIT,
+                   seed: int = 0, skip_uncaptioned: bool = False, overwrite: bool = False,
+                   progress: bool = False) -> ImportSummary:
+    """Import joints (.npy) or BVH files with their captions as a dataset at `out` (module doc).
+
+    `scale` multiplies the input positions into the skeleton's units (m for humanml3d, mm for
+    kit); None guesses a power of ten from the body height. `fps` is the input's frame rate;
+    None takes the BVH Frame Time, or the skeleton's fps for .npy.
+    """
+    if (joints_dir is None) == (bvh_dir is None):
+        raise MlctError("give one source: --joints DIR or --bvh DIR")
+    skel = resolve_skeleton(skeleton)
+    assert skel is not None
+    kind = "joints" if joints_dir is not None else "bvh"
+    files = _motion_files(Path(joints_dir if joints_dir is not None else bvh_dir), SUFFIXES[kind])
+    for name, value in (("--scale", scale), ("--fps", fps)):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise MlctError(f"{name} must be a positive number, got {value}")
+    if seed < 0:
+        raise MlctError(f"--seed must be a non-negative integer, got {seed}")
+    split = check_split(tuple(split))
+    out = Path(out)
+    if out.exists() and (not out.is_dir() or (any(out.iterdir()) and not overwrite)):
+        raise MlctError(f"{out} exists and is not an empty directory: choose a new one or pass "
+                        f"--overwrite")
+    if joint_map is not None and kind != "bvh":
+        raise MlctError("--joint-map is for --bvh input (.npy joints are in the skeleton's order)")
+    texts = read_captions(captions)
+    mapping = _joint_map(joint_map, skel)
+
+    summary = ImportSummary(path=str(out), skeleton=skel.name, fps=skel.fps, clips=0,
+                            motions=0, frames=0, hours=0.0, scale=1.0, splits={})
+    uncaptioned = [name for name in files if name not in texts]
+    if uncaptioned and not skip_uncaptioned:
+        raise MlctError(f"{len(uncaptioned)} motion file(s) have no caption in {captions}: "
+                        f"{_short_list(uncaptioned)} (caption them or pass --skip-uncaptioned)")
+    summary.skipped_uncaptioned = uncaptioned
+    summary.unused_captions = sorted(set(texts) - set(files))
+    files = {name: path for name, path in files.items() if name in texts}
+    if not files:
+        raise MlctError("no motion file has a caption: nothing to import")
+
+    loaded: dict[Path, tuple[np.ndarray, float]] = {}  # the files read for the units guess
+
+    def load(path: Path) -> tuple[np.ndarray, float]:
+        """(positions in file units, fps) of one file."""
+        if path in loaded:
+            return loaded.pop(path)
+        if kind == "bvh":
+            positions, file_fps = _load_bvh(path, skel, mapping)
+            return positions, fps or file_fps
+        return _load_joints(path, skel), fps or skel.fps
+
+    if scale is None:
+        sample = list(files.values())[:SCALE_GUESS_FILES]
+        loaded.update((path, load(path)) for path in sample)
+        scale = guess_scale([_height(positions) for positions, _ in loaded.values()], skel)
+        summary.notes.append(f"--scale not given: positions x {scale:g} to {skel.unit}, guessed "
+                             f"from the body height of {len(sample)} file(s)")
+    summary.scale = scale
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)  # tiny per-clip tensors: threads cost more than they give
+    try:
+        with atomic_dir(out) as work:
+            for sub in (FEATURES_DIR, JOINTS_DIR, TEXTS_DIR):
+                (work / sub).mkdir()
+            members = _write_motions(work, files, texts, load, skel, scale, summary, progress)
+            _write_splits(work, members, split, seed, summary)
+            mean, std, constant = standard_mean_std(_features(work, members), skel)
+            save_npy(work / "Mean.npy", mean)
+            save_npy(work / "Std.npy", std)
+            summary.notes.extend(f"feature group {g!r} is constant: its std is set to 1"
+                                 for g in constant)
+            info = {"source": str(joints_dir if joints_dir is not None else bvh_dir),
+                    "kind": kind, "captions": str(captions), "skeleton": skel.name,
+                    "fps": skel.fps, "scale": scale, "split": list(split), "seed": seed,
+                    "clips": {clip: names for clip, names in members.items()},
+                    "skipped_short": summary.skipped_short,
+                    "skipped_uncaptioned": summary.skipped_uncaptioned}
+            write_text(work / "import.json", json.dumps(info, indent=2) + "\n")
+    finally:
+        torch.set_num_threads(threads)
+    summary.hours = summary.frames / skel.fps / 3600.0
+    return summary
+
+
+def _write_motions(work: Path, files: dict[str, Path], texts: dict[str, list[str]], load: Any,
+                   skel: Skeleton, scale: float, summary: ImportSummary,
+                   progress: bool) -> dict[str, list[str]]:
+    """Process and write every clip; returns clip -> names of its motions."""
+    members: dict[str, list[str]] = {}
+    taken: dict[str, str] = {}  # motion name -> clip it came from
+    for clip, path in tqdm(files.items(), disable=not progress, desc="import", unit="clip"):
+        positions, file_fps = load(path)
+        positions = resample(positions * scale, file_fps, skel.fps)
+        spans = windows(len(positions), skel)
+        if not spans:
+            summary.skipped_short.append(clip)
+            continue
+        width = max(2, len(str(len(spans) - 1)))
+        names = [clip] if len(spans) == 1 else [f"{clip}_{i:0{width}d}" for i in range(len(spans))]
+        lines = "".join(format_text_line(c, tag_caption(c)) + "\n" for c in texts[clip])
+        for name, (start, stop) in zip(names, spans):
+            if name in taken:
+                raise MlctError(f"{path}: its motion {name} clashes with {taken[name]}'s; "
+                                f"rename one of the files")
+            taken[name] = clip
+            try:
+                features = joints_to_features(positions[start:stop], skel).features
+            except MlctError as error:
+                raise MlctError(f"{path}: {error}") from None
+            np.save(work / FEATURES_DIR / f"{name}.npy", features)
+            np.save(work / JOINTS_DIR / f"{name}.npy", features_to_joints(features))
+            (work / TEXTS_DIR / f"{name}.txt").write_text(lines, encoding="utf-8")
+            summary.frames += len(features)
+        members[clip] = names
+        summary.clips += 1
+        summary.motions += len(names)
+    if not members:
+        raise MlctError(f"every clip is shorter than the {skel.name} length filter "
+                        f"({skel.min_frames} frames at {skel.fps:g} fps): nothing to import")
+    return members
+
+
+def _write_splits(work: Path, members: dict[str, list[str]], split: tuple[float, float, float],
+                  seed: int, summary: ImportSummary) -> None:
+    by_clip = split_clips(sorted(members), split, seed)
+    names = {part: sorted(n for clip in clips for n in members[clip])
+             for part, clips in by_clip.items()}
+    for part, part_names in names.items():
+        write_text(work / f"{part}.txt", "".join(f"{n}\n" for n in part_names))
+    write_text(work / "train_val.txt", "".join(f"{n}\n" for n in
+                                               sorted(names["train"] + names["val"])))
+    write_text(work / "all.txt", "".join(f"{n}\n" for clip in sorted(members)
+                                         for n in members[clip]))
+    summary.splits = {part: len(part_names) for part, part_names in names.items()}
+
+
+def _features(work: Path, members: dict[str, list[str]]) -> Iterator[np.ndarray]:
+    for clip_names in members.values():
+        for name in clip_names:
+            yield np.load(work / FEATURES_DIR / f"{name}.npy")
+
+
+def format_summary(summary: ImportSummary) -> str:
+    """The lines `mlct data import` prints."""
+    lines = list(summary.notes)
+    lines.append(f"imported {summary.clips} clip(s) as {summary.motions} motion(s), "
+                 f"{summary.frames:,} frames at {summary.fps:g} fps ({summary.hours:.3f} hours, "
+                 f"{summary.skeleton}) to {summary.path}; splits " +
+                 ", ".join(f"{k} {v}" for k, v in summary.splits.items()))
+    if summary.skipped_short:
+        lines.append(f"skipped {len(summary.skipped_short)} clip(s) shorter than the length "
+                     f"filter: {_short_list(summary.skipped_short)}")
+    if summary.skipped_uncaptioned:
+        lines.append(f"skipped {len(summary.skipped_uncaptioned)} uncaptioned file(s): "
+                     f"{_short_list(summary.skipped_uncaptioned)}")
+    if summary.unused_captions:
+        lines.append(f"{len(summary.unused_captions)} caption name(s) match no file: "
+                     f"{_short_list(summary.unused_captions)}")
+    return "\n".join(lines)
