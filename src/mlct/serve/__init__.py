@@ -1,0 +1,60 @@
+"""`mlct serve`: a JSON API and a web page over one loaded model, with dynamic batching."""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+import time
+from collections.abc import Iterator
+from typing import TYPE_CHECKING, Any
+
+from mlct.serve.settings import ServeSettings
+
+if TYPE_CHECKING:
+    from fastapi import FastAPI
+
+__all__ = ["ServeSettings", "create_app", "run_server", "serve_in_thread"]
+
+
+def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI:
+    """The FastAPI app over a loaded generator (see mlct.serve.app)."""
+    from mlct.serve.app import create_app as _create_app  # lazy: fastapi loads on use
+
+    return _create_app(generator, settings)
+
+
+def run_server(model: Any = None, host: str = "127.0.0.1", port: int = 8000,
+               device: Any = None, settings: ServeSettings | None = None) -> None:
+    """Load the model (None: the bundled one) and serve it until interrupted."""
+    import uvicorn
+
+    import mlct
+    from mlct.devices import resolve_device
+
+    generator = mlct.load(model, device=resolve_device(device))
+    uvicorn.run(create_app(generator, settings), host=host, port=port, log_level="info")
+
+
+@contextlib.contextmanager
+def serve_in_thread(app: FastAPI, host: str = "127.0.0.1", port: int = 0,
+                    timeout: float = 120.0) -> Iterator[str]:
+    """Run app under uvicorn on a background thread (port 0: a free one); yields its URL.
+
+    For tests and benchmarks that need a real socket (a browser, concurrent clients)."""
+    import uvicorn
+
+    server = uvicorn.Server(uvicorn.Config(app, host=host, port=port, log_level="warning"))
+    thread = threading.Thread(target=server.run, name="mlct-uvicorn", daemon=True)
+    thread.start()
+    deadline = time.monotonic() + timeout  # startup includes the model's warm-up
+    while not server.started:
+        if not thread.is_alive() or time.monotonic() > deadline:
+            server.should_exit = True
+            raise RuntimeError(f"the server did not start on {host}:{port}")
+        time.sleep(0.02)
+    bound = server.servers[0].sockets[0].getsockname()[1]
+    try:
+        yield f"http://{host}:{bound}"
+    finally:
+        server.should_exit = True
+        thread.join(timeout)

@@ -1,0 +1,251 @@
+"""The HTTP API and the web page of `mlct serve` (FastAPI).
+
+    POST /generate  texts -> motions (JSON) or one motion as a file (npy, bvh, gif)
+    GET  /health    model, limits, queue and batching figures
+    GET  /docs      the OpenAPI page;  GET /  the web page (static/, plotly.js from its wheel)
+
+Every error is JSON {"detail": "one line"}: 400 malformed JSON, 413 body too large, 415 not
+JSON, 422 a value out of bounds, 503 queue full. Requests are checked before they are queued;
+generation runs on the batcher's one worker thread (batcher.py).
+
+(No `from __future__ import annotations` here: FastAPI reads the route's body annotation, a class
+built per app, at runtime.)
+"""
+
+import asyncio
+import json
+import logging
+import re
+import secrets
+import time
+from collections.abc import AsyncIterator, Awaitable, Callable
+from contextlib import asynccontextmanager
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from fastapi import FastAPI
+from fastapi_offline import FastAPIOffline
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import FileResponse, JSONResponse, Response
+from fastapi.staticfiles import StaticFiles
+from starlette.concurrency import run_in_threadpool
+from starlette.exceptions import HTTPException
+
+from mlct import __version__
+from mlct.errors import MlctError
+from mlct.exports import export_bytes, motion_json
+from mlct.serve.batcher import Batcher, QueueFull, ServerClosing
+from mlct.serve.schemas import Limits, one_line, request_model
+from mlct.serve.settings import ServeSettings
+
+log = logging.getLogger(__name__)
+
+STATIC = Path(__file__).resolve().parent / "static"
+DEFAULT_SECONDS = 5.0
+# The page's gallery: captions in the procedural benchmark's style (mlct.data.synth), so the
+# bundled model knows them. Warm-up encodes them, so a gallery click skips the text encoder.
+EXAMPLES = (
+    "a person walks forward at a brisk pace.",
+    "the woman walks backward at a steady pace.",
+    "a person runs straight ahead.",
+    "the woman waves the right hand back and forth two times.",
+    "the person puts both their arms up in the air.",
+    "a person squats down three times.",
+    "the man jumps two times straight up.",
+    "the man steps sideways to the left three times.",
+    "a person kicks out with the right foot.",
+    "a figure turns right by 45 degrees.",
+)
+MEDIA_TYPES = {"npy": "application/octet-stream", "bvh": "text/plain; charset=utf-8",
+               "gif": "image/gif"}
+
+
+def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI:
+    """The app serving `generator` (a MotionGenerator, or anything with its interface)."""
+    settings = settings or ServeSettings()
+    fps = float(generator.skeleton.fps)
+    limits = Limits(settings.max_text_chars, settings.max_texts,
+                    settings.frame_limit(generator.max_frames), settings.max_nfe, fps)
+    default_frames = min(limits.max_frames, round(DEFAULT_SECONDS * fps))
+    GenerateRequest = request_model(limits)
+    batcher = Batcher(generator, settings.max_batch, settings.batch_wait_ms / 1000,
+                      settings.queue_depth)
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        batcher.start()
+        if settings.warmup:  # loads the text encoder and warms the kernels before any request
+            for start in range(0, len(EXAMPLES), settings.max_batch):
+                texts = list(EXAMPLES[start:start + settings.max_batch])
+                await asyncio.wrap_future(batcher.submit(texts, [default_frames] * len(texts),
+                                                         None, [0] * len(texts)))
+        yield
+        batcher.stop()
+
+    # FastAPIOffline: FastAPI whose /docs (Swagger UI 5) and /redoc pages load their scripts from
+    # its own wheel, not from a CDN, so the OpenAPI page works offline.
+    app = FastAPIOffline(title="mlct", version=__version__, lifespan=lifespan,
+                         description="Real-time text-to-motion (Motion Latent Consistency "
+                         "Training). The web page is at /.")
+    app.state.batcher = batcher
+    app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
+    _add_error_handlers(app)
+
+    @app.post("/generate", summary="Text to motion",
+              responses={200: {"description": "motions as JSON, or one motion as a file"},
+                         503: {"description": "the queue is full; retry shortly"}})
+    async def generate(body: GenerateRequest) -> Response:  # type: ignore[valid-type]
+        received = time.perf_counter()
+        texts = body.prompts
+        seeds = body.seeds(draw=secrets.randbelow(2**31))
+        try:
+            future = batcher.submit(texts, body.frames(default_frames), body.nfe, seeds)
+        except QueueFull as error:
+            return _error(503, str(error), {"Retry-After": "1"})
+        try:
+            result = await asyncio.wrap_future(future)
+        except MlctError as error:
+            return _error(422, str(error))
+        except ServerClosing as error:
+            return _error(503, str(error))
+        except Exception as error:  # noqa: BLE001 - the batcher logged it; answer, keep serving
+            return _error(500, f"generation failed ({type(error).__name__}); "
+                          "the server keeps running")
+        nfe = body.nfe if body.nfe is not None else generator.default_nfe
+        timing = {"queue_ms": round(result.queue_s * 1e3, 1),
+                  "generate_ms": round(result.generate_s * 1e3, 1),
+                  "batch_size": result.batch_size}
+        if body.format == "json":
+            motions = await run_in_threadpool(
+                lambda: [{**motion_json(m), "seed": s, "nfe": nfe}
+                         for m, s in zip(result.motions, seeds)])
+            timing["server_ms"] = round((time.perf_counter() - received) * 1e3, 1)
+            return JSONResponse({"motions": motions, "timing": timing})
+        data = await run_in_threadpool(export_bytes, result.motions[0], f".{body.format}")
+        timing["server_ms"] = round((time.perf_counter() - received) * 1e3, 1)
+        name = f"{_slug(texts[0])}_seed{seeds[0]}.{body.format}"
+        return Response(data, media_type=MEDIA_TYPES[body.format], headers={
+            "Content-Disposition": f'attachment; filename="{name}"',
+            "X-Mlct-Seed": str(seeds[0]), "X-Mlct-Nfe": str(nfe),
+            "Server-Timing": ", ".join(f"{k[:-3]};dur={v}" for k, v in timing.items()
+                                       if k.endswith("_ms"))})
+
+    @app.get("/health", summary="Model, limits, queue and batching figures")
+    async def health() -> dict[str, Any]:
+        return {"status": "ok", "version": __version__, "model": _model_info(generator),
+                "limits": {"max_text_chars": limits.max_text_chars,
+                           "max_texts": limits.max_texts, "max_frames": limits.max_frames,
+                           "max_seconds": limits.max_seconds, "max_nfe": limits.max_nfe,
+                           "max_body_bytes": settings.max_body_bytes,
+                           "queue_depth": settings.queue_depth,
+                           "default_frames": default_frames},
+                "queue": batcher.stats()}
+
+    @app.get("/examples", summary="Example prompts (the page's gallery)")
+    async def examples() -> dict[str, list[str]]:
+        return {"examples": list(EXAMPLES)}
+
+    @app.get("/", include_in_schema=False)
+    async def page() -> FileResponse:
+        return FileResponse(STATIC / "index.html")
+
+    @app.get("/vendor/plotly.min.js", include_in_schema=False)
+    async def plotly_js() -> FileResponse:
+        # plotly.js as the plotly wheel ships it: nothing third-party is copied into mlct.
+        path = resources.files("plotly") / "package_data" / "plotly.min.js"
+        return FileResponse(str(path), media_type="text/javascript",
+                            headers={"Cache-Control": "public, max-age=86400"})
+
+    app.mount("/static", StaticFiles(directory=STATIC), name="static")
+    return app
+
+
+def _model_info(generator: Any) -> dict[str, Any]:
+    meta = generator.meta
+    return {"sampler": meta.get("sampler"), "skeleton": generator.skeleton.name,
+            "fps": float(generator.skeleton.fps), "max_frames": generator.max_frames,
+            "default_nfe": generator.default_nfe, "text_encoder": meta.get("text_encoder"),
+            "step": meta.get("step")}
+
+
+def _slug(text: str, limit: int = 40) -> str:
+    """A file name from a prompt: 'A person walks!' -> 'a_person_walks'."""
+    return re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")[:limit].rstrip("_") or "motion"
+
+
+def _error(status: int, detail: str, headers: dict[str, str] | None = None) -> JSONResponse:
+    return JSONResponse({"detail": detail}, status_code=status, headers=headers)
+
+
+def _add_error_handlers(app: FastAPI) -> None:
+    """Every error as {"detail": "one line"}, with the status that names its kind."""
+
+    @app.exception_handler(RequestValidationError)
+    async def invalid(request: Any, error: RequestValidationError) -> JSONResponse:
+        errors = list(error.errors())
+        first = errors[0] if errors else {}
+        if first.get("type") == "json_invalid":
+            where = first.get("loc", ("body", 0))[-1]
+            reason = (first.get("ctx") or {}).get("error", "")
+            return _error(400, f"malformed JSON at character {where}: {reason}".rstrip(": "))
+        if first.get("type") == "model_attributes_type" and isinstance(first.get("input"), bytes):
+            return _error(415, "send the body as JSON with Content-Type: application/json")
+        return _error(422, one_line(errors))
+
+    @app.exception_handler(HTTPException)
+    async def http_error(request: Any, error: HTTPException) -> JSONResponse:
+        return _error(error.status_code, str(error.detail), getattr(error, "headers", None))
+
+    @app.exception_handler(MlctError)
+    async def user_error(request: Any, error: MlctError) -> JSONResponse:
+        return _error(422, str(error))
+
+    @app.exception_handler(Exception)
+    async def server_error(request: Any, error: Exception) -> JSONResponse:
+        log.exception("unhandled error")
+        return _error(500, f"internal error ({type(error).__name__}); the server keeps running")
+
+
+Scope = dict[str, Any]
+Receive = Callable[[], Awaitable[dict[str, Any]]]
+Send = Callable[[dict[str, Any]], Awaitable[None]]
+
+
+class BodyLimit:
+    """413 for a body over max_bytes: by its Content-Length before reading, else while reading.
+
+    (Starlette's own limit answers in plain text; every error here is JSON.)"""
+
+    def __init__(self, app: Callable[..., Awaitable[None]], max_bytes: int) -> None:
+        self.app = app
+        self.max_bytes = max_bytes
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        too_large = f"the request body exceeds {self.max_bytes} bytes"
+        declared = dict(scope.get("headers", ())).get(b"content-length")
+        if declared is not None and (not declared.isdigit() or int(declared) > self.max_bytes):
+            await _send_json(send, 413, {"detail": too_large})
+            return
+        seen = 0
+
+        async def limited() -> dict[str, Any]:
+            nonlocal seen
+            message = await receive()
+            seen += len(message.get("body", b""))
+            if seen > self.max_bytes:  # a chunked body, announced by no Content-Length
+                raise HTTPException(413, too_large)  # the app's handler answers it
+            return message
+
+        await self.app(scope, limited, send)
+
+
+async def _send_json(send: Send, status: int, content: dict[str, Any]) -> None:
+    body = json.dumps(content).encode()
+    await send({"type": "http.response.start", "status": status,
+                "headers": [(b"content-type", b"application/json"),
+                            (b"content-length", str(len(body)).encode())]})
+    await send({"type": "http.response.body", "body": body})

@@ -1,0 +1,127 @@
+"""The web page end to end in headless Chromium: type a prompt, generate, watch it move, download.
+
+Needs Debian's chromium (/usr/bin/chromium) and the playwright package (never `playwright
+install`: the system browser is used). Skipped without them. Set MLCT_WEB_SCREENSHOT=PATH to keep
+the page's screenshot there (docs/img/web_app.png is made this way).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+if not os.path.exists(CHROMIUM):
+    pytest.skip("Debian's chromium is not installed (apt-get install chromium)",
+                allow_module_level=True)
+playwright = pytest.importorskip("playwright.sync_api",
+                                 reason="playwright is not installed (pip install playwright)")
+Image = pytest.importorskip("PIL.Image")
+
+import mlct
+from mlct.serve import ServeSettings, create_app, serve_in_thread
+
+# No sandbox (containers, root), no network beyond localhost, no GPU: WebGL runs on SwiftShader.
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--use-angle=swiftshader", "--enable-unsafe-swiftshader"]
+
+
+@pytest.fixture(scope="module")
+def url():
+    app = create_app(mlct.load(), ServeSettings())
+    with serve_in_thread(app) as base:
+        yield base
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    with playwright.sync_playwright() as p:
+        context = p.chromium.launch_persistent_context(
+            str(tmp_path_factory.mktemp("profile")), executable_path=CHROMIUM, args=FLAGS,
+            headless=True, viewport={"width": 1280, "height": 860}, accept_downloads=True)
+        yield context
+        context.close()
+
+
+@pytest.fixture()
+def page(browser, url):
+    page = browser.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda error: errors.append(str(error)))
+    page.goto(url)
+    page.wait_for_function("window.mlct && window.mlct.ready", timeout=60_000)
+    yield page
+    page.close()
+    assert errors == []
+
+
+def plot_pixels(page) -> np.ndarray:
+    return np.asarray(Image.open(io.BytesIO(page.locator("#plot").screenshot())).convert("RGB"))
+
+
+def changed(a: np.ndarray, b: np.ndarray) -> float:
+    """The fraction of pixels that differ visibly."""
+    return float(np.any(np.abs(a.astype(int) - b.astype(int)) > 30, axis=-1).mean())
+
+
+def test_prompt_generate_play_download(page, tmp_path):
+    assert page.evaluate("window.mlct.firstFrameMs.length") == 1  # the page's opening motion
+    page.fill("#prompt", "the woman waves the right hand back and forth two times.")
+    page.press("#prompt", "Enter")
+    page.wait_for_function("window.mlct.firstFrameMs.length === 2", timeout=30_000)
+    status = page.inner_text("#status")
+    assert "waves the right hand" in status and "server" in status and "first frame" in status
+
+    # playback: the canvas changes between two frames
+    drawn = page.evaluate("window.mlct.framesDrawn")
+    before = plot_pixels(page)
+    page.wait_for_function(f"window.mlct.framesDrawn > {drawn + 4}", timeout=10_000)
+    after = plot_pixels(page)
+    assert changed(before, after) > 0.001, f"{changed(before, after):.4%} of the pixels changed"
+    assert (before < 100).all(axis=-1).sum() > 200  # dark skeleton pixels are drawn at all
+
+    # pause holds the frame (and the picture); the scrubber moves it
+    page.click("#play")
+    page.wait_for_timeout(150)
+    frame = page.evaluate("window.mlct.state.frame")
+    held = plot_pixels(page)
+    page.wait_for_timeout(300)
+    assert page.evaluate("window.mlct.state.frame") == frame
+    assert changed(held, plot_pixels(page)) == 0.0
+    page.locator("#scrub").fill("30")
+    page.wait_for_function("window.mlct.state.frame === 30", timeout=5_000)
+    assert page.inner_text("#clock").startswith("1.50 /")
+
+    # the BVH download is the motion on screen
+    with page.expect_download(timeout=30_000) as download:
+        page.click("#dl-bvh")
+    path = tmp_path / download.value.suggested_filename
+    download.value.save_as(path)
+    text = path.read_text()
+    assert text.startswith("HIERARCHY") and "Frames: 80" in text
+    assert path.name.startswith("the_woman_waves_the_right_hand") and path.suffix == ".bvh"
+
+    shot = tmp_path / "web_app.png"
+    page.screenshot(path=str(shot))
+    assert Image.open(shot).size == (1280, 860)
+    if os.environ.get("MLCT_WEB_SCREENSHOT"):
+        target = Path(os.environ["MLCT_WEB_SCREENSHOT"])
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(shot, target)
+
+
+def test_bad_input_shows_the_servers_message(page):
+    page.fill("#prompt", "   ")
+    page.click("#generate")
+    page.wait_for_function("document.getElementById('status').classList.contains('error')",
+                           timeout=10_000)
+    assert "prompt is empty" in page.inner_text("#status")
+    page.click("#gallery button >> nth=2")  # the server keeps answering
+    page.wait_for_function("window.mlct.firstFrameMs.length === 2", timeout=30_000)
+    assert "runs straight ahead" in page.inner_text("#status")
