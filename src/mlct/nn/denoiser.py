@@ -16,6 +16,8 @@ default there; their autoencoder and MLD use Xavier).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import torch
 import torch.nn.functional as F
@@ -72,6 +74,40 @@ class Denoiser(nn.Module):
         self.head = nn.Sequential(
             nn.Linear(width, latent_dim), nn.GELU(), nn.Linear(latent_dim, latent_dim)
         )
+        # set by fixed_condition: (text_emb, its text terms, {time: its time terms})
+        self._fixed: tuple[Tensor, list[Tensor], dict[float, list[Tensor]]] | None = None
+
+    def text_terms(self, text_emb: Tensor) -> list[Tensor]:
+        """W_c,i LN(c) of every block i: `layers` tensors (B, width)."""
+        text_emb = self.text_norm(text_emb)
+        return [cp(text_emb) for cp in self.text_proj]
+
+    def time_terms(self, t: Tensor, dtype: torch.dtype = torch.float32) -> list[Tensor]:
+        """W_t,i sinusoid(t) of every block i: `layers` tensors (B, width), t (B,)."""
+        t_emb = timestep_embedding(t * self.time_embed_scale, self.time_embed_dim)  # (B, 256)
+        t_emb = t_emb.to(dtype)
+        return [tp(t_emb) for tp in self.time_proj]
+
+    @contextmanager
+    def fixed_condition(self, text_emb: Tensor, times: Tensor) -> Iterator[None]:
+        """Within the block, forward calls given this very tensor as text_emb reuse its text
+        terms, and, when t is one of `times` for every item (as samplers call it), that time's
+        terms: both computed once here, not at every step (docs/performance.md). Inference
+        only: the terms carry no gradient. The time lookup reads t, so it is done on the CPU
+        only (on a GPU it would wait for the device at every step)."""
+        times = times.reshape(-1)
+        with torch.no_grad():
+            text = self.text_terms(text_emb)
+            steps: dict[float, list[Tensor]] = {}
+            if times.device.type == "cpu":
+                terms = self.time_terms(times, text[0].dtype)  # `layers` x (K, width)
+                steps = {v: [term[k : k + 1] for term in terms]
+                         for k, v in enumerate(times.tolist())}
+        self._fixed = (text_emb, text, steps)
+        try:
+            yield
+        finally:
+            self._fixed = None
 
     def forward(self, x_t: Tensor, t: Tensor, text_emb: Tensor) -> Tensor:
         """x_t (B, n, d), t (B,) or scalar in [0, 1], text_emb (B, text_dim) -> F (B, n, d)."""
@@ -85,13 +121,17 @@ class Denoiser(nn.Module):
                 f"text_emb must be ({b}, {self.text_dim}), got {tuple(text_emb.shape)}"
             )
         t = torch.as_tensor(t, device=x_t.device).reshape(-1).expand(b)  # (B,)
-        t_emb = timestep_embedding(t * self.time_embed_scale, self.time_embed_dim)  # (B, 256)
-        t_emb = t_emb.to(x_t.dtype)
-        text_emb = self.text_norm(text_emb.to(x_t.dtype))
+        fixed = self._fixed if self._fixed is not None and self._fixed[0] is text_emb else None
+        text = fixed[1] if fixed else self.text_terms(text_emb.to(x_t.dtype))
+        time = None
+        if fixed and fixed[2] and bool((t == t[0]).all()):
+            time = fixed[2].get(float(t[0]))  # (1, w) each, broadcast over the batch
+        if time is None:
+            time = self.time_terms(t, x_t.dtype)
         # one condition per block, on the condition token only (position 0)
         conds = [
-            F.pad((tp(t_emb) + cp(text_emb)).unsqueeze(1), (0, 0, 0, self.n_tokens))  # (B, 1+n, w)
-            for tp, cp in zip(self.time_proj, self.text_proj)
+            F.pad((a + c).unsqueeze(1), (0, 0, 0, self.n_tokens))  # (B, 1+n, w)
+            for a, c in zip(time, text)
         ]
         h = torch.cat([x_t.new_zeros(b, 1, self.width), self.in_proj(x_t)], dim=1)  # (B, 1+n, w)
         h = self.backbone(h + self.pos, cond=conds)  # (B, 1+n, w)

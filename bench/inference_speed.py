@@ -1,0 +1,575 @@
+"""Inference speed: AITS split, throughput, peak memory, and the machine's limit (issue 6).
+
+    python bench/inference_speed.py [--quick] [--device cpu|cuda] [--dtypes float32,bfloat16]
+                                    [--threads N] [--runs 20] [--json OUT.json]
+
+Models: the bundled small consistency model ("small CM"); the paper-size networks of the
+humanml3d preset ("paper CM"); the latent diffusion baseline at both sizes ("... LDM": 50 DDIM
+steps, classifier-free guidance as one batch of 2 per step). Paper-size and LDM networks get
+seeded random weights: the time does not depend on the values. Text encoder: the bundled MiniLM.
+
+Per model, dtype and NFE, at batch 1 and 196 frames (mlct.eval.aits.time_inference, medians
+over --runs after warm-up): text (encoder run: "cold"), sampling, decoding; "warm" totals take the
+text from the generator's memo. Throughput: sampling + decoding of B motions at the default NFE,
+for B = 1, 8, 64, 512, 4096 until the next size is predicted to exceed the time budget or the
+free memory; peak memory is the process's max RSS (CPU) or the allocator's peak (CUDA).
+
+The limit: FLOPs counted by torch.utils.flop_counter per part (text, one denoiser step, decoding)
+and bytes = the weights each part reads (every parameter once per network pass; activations at
+batch 1 are at most ~1 MB and stay in cache, so they are not counted). The machine is measured
+here, each the best of 10 or more runs: peak matmul FLOP/s of a large GEMM in the dtype on all
+threads, and read bandwidth over a buffer the size of each part's weights (cache-resident when
+they fit, as they would be). A part's best time is max(FLOPs / peak, bytes / bandwidth); the
+limit sums the parts (no term for per-operation overhead: that is what the ratio shows).
+
+Each model runs in its own process, so peak memory is its own. --device cuda runs the networks
+in bfloat16 under torch.compile (not run in this repository's CI; needs a GPU).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import resource
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from typing import Any
+
+MODELS = {  # label: (preset, sampler, NFEs; for DDIM the step count)
+    "small CM": ("small", "consistency", (1, 3, 5, 10)),
+    "paper CM": ("humanml3d", "consistency", (1, 3, 5, 10)),
+    "paper LDM": ("humanml3d", "ddim", (50,)),
+    "small LDM": ("small", "ddim", (50,)),
+}
+BATCHES = (1, 8, 64, 512, 4096)
+FRAMES, FEATURE_DIM, TEXT_DIM = 196, 263, 384
+TEXTS = ["a person walks forward", "someone jumps up and down twice", "a man waves his right hand",
+         "the person turns around and sits down", "a person kicks with the left leg",
+         "someone runs in a circle", "a person bends down to pick something up",
+         "a figure raises both arms above the head", "the person walks backwards slowly",
+         "a person does a cartwheel", "someone stretches the arms to the sides",
+         "a man walks forward then stops and waves", "a person crouches and stands up",
+         "the person steps to the left", "a person claps the hands three times",
+         "someone spins on the spot"]
+
+
+def _best_time(fn: Callable[[], Any], reps: int, sync: Callable[[], None]) -> float:
+    """Shortest seconds of fn over reps runs, after one untimed run: a roof of the machine is
+    the best it does (other processes only slow it down)."""
+    fn()
+    times = []
+    for _ in range(reps):
+        sync()
+        start = time.perf_counter()
+        fn()
+        sync()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def _syncer(device: Any) -> Callable[[], None]:
+    import torch
+
+    return (lambda: torch.cuda.synchronize(device)) if device.type == "cuda" else (lambda: None)
+
+
+def peak_matmul_flops(dtype: Any, device: Any) -> float:
+    """FLOP/s of a large square GEMM in dtype on all threads (the compute roof)."""
+    import torch
+
+    n = 8192 if device.type == "cuda" else 2048
+    a, b = torch.randn(n, n, device=device).to(dtype), torch.randn(n, n, device=device).to(dtype)
+    return 2 * n**3 / _best_time(lambda: a @ b, 10, _syncer(device))
+
+
+def read_bandwidth(nbytes: int, device: Any) -> float:
+    """Bytes/s reading a buffer of nbytes (a sum; a copy on CUDA counts read + write)."""
+    import torch
+
+    n = max(nbytes // 4, 1 << 16)
+    buf = torch.randn(n, device=device)
+    reps = max(10, min(200, int(4e9 // (4 * n))))
+    if device.type == "cuda":
+        out = torch.empty_like(buf)
+        return 2 * 4 * n / _best_time(lambda: out.copy_(buf), reps, _syncer(device))
+    return 4 * n / _best_time(lambda: buf.sum(), reps, _syncer(device))
+
+
+def bundle_in_memory(preset: str, sampler: str) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The bundled model for the small CM; otherwise a preset's networks with seeded random
+    weights, as mlct.bundle.read_bundle returns a bundle: (meta, tensors)."""
+    import torch
+
+    from mlct.bundle import ENCODER_PREFIXES, read_bundle
+    from mlct.config import load_config
+    from mlct.models import build_autoencoder, build_denoiser
+    from mlct.pipeline import bundled_model_dir
+
+    if (preset, sampler) == ("small", "consistency"):
+        return read_bundle(bundled_model_dir())
+    config = load_config(preset)
+    torch.manual_seed(0)
+    ae, den = build_autoencoder(config, FEATURE_DIM), build_denoiser(config, TEXT_DIM)
+    tensors = {f"decoder.{k}": v for k, v in ae.state_dict().items()
+               if not k.startswith(ENCODER_PREFIXES)}
+    tensors.update({f"denoiser.{k}": v for k, v in den.state_dict().items()})
+    tensors.update({"norm.mean": torch.zeros(FEATURE_DIM), "norm.std": torch.ones(FEATURE_DIM)})
+    meta = {"config": config.to_dict(), "sampler": sampler, "feature_dim": FEATURE_DIM,
+            "skeleton": "humanml3d", "text_encoder": "minilm", "text_dim": TEXT_DIM}
+    return meta, tensors
+
+
+def variant(meta: dict[str, Any], tensors: dict[str, Any], layers: str, text_once: bool,
+            inference_mode: bool = True, dtype: str = "float32") -> Any:
+    """A generator whose networks run as `layers` says: "torch" (the modules as trained:
+    nn.TransformerEncoderLayer, nn.Linear), "fast" (mlct.nn.inference, plain products) or
+    "packed" (the default); text_once=False recomputes the text and time terms every step;
+    inference_mode=False samples and decodes under no_grad instead."""
+    from contextlib import nullcontext
+
+    import torch
+
+    from mlct.diffusion.parameterization import ConsistencyFunction
+    from mlct.models import build_autoencoder, build_denoiser
+    from mlct.nn.inference import for_inference
+    from mlct.pipeline import MotionGenerator
+    from mlct.train.checkpoint import strip_prefix
+
+    gen = MotionGenerator(meta, tensors, dtype=dtype)
+    if layers != "packed":
+        ae = build_autoencoder(gen.config, meta["feature_dim"])
+        ae.load_state_dict(strip_prefix(tensors, "decoder"), strict=False)
+        den = build_denoiser(gen.config, meta["text_dim"])
+        den.load_state_dict(strip_prefix(tensors, "denoiser"))
+        gen.ae, gen.denoiser = ae.eval().requires_grad_(False), den.eval().requires_grad_(False)
+        if layers == "fast":
+            for_inference(gen.ae, dtype, prepack=False)
+            for_inference(gen.denoiser, dtype, prepack=False)
+        s = gen.config.schedule
+        gen.consistency = ConsistencyFunction(gen.denoiser, s.eta, s.time_scale)
+    if not text_once:
+        gen.denoiser.fixed_condition = lambda text_emb, times: nullcontext()
+    if not inference_mode:
+        for name in ("sample_latents", "decode"):
+            plain = getattr(MotionGenerator, name).__wrapped__  # under the decorator
+            setattr(gen, name, torch.no_grad()(plain.__get__(gen)))
+    return gen
+
+
+def in_memory_generator(preset: str, sampler: str, device: str, dtype: str) -> Any:
+    from mlct.pipeline import MotionGenerator
+
+    meta, tensors = bundle_in_memory(preset, sampler)
+    return MotionGenerator(meta, tensors, device, dtype)
+
+
+def _compile_for_cuda(gen: Any) -> None:
+    """Fewer launches on the GPU: the two transformer stacks compiled with CUDA graphs
+    ("reduce-overhead"); the condition terms and the heads stay eager (a few launches)."""
+    import torch
+
+    gen.denoiser.backbone = torch.compile(gen.denoiser.backbone, mode="reduce-overhead")
+    gen.ae.decoder = torch.compile(gen.ae.decoder, mode="reduce-overhead")
+
+
+def _weight_bytes(*modules: Any) -> int:
+    return sum(p.numel() * p.element_size() for m in modules for p in m.parameters())
+
+
+def part_costs(gen: Any) -> dict[str, dict[str, float]]:
+    """FLOPs and weight bytes at batch 1 of the text encoder, one sampling step and decoding."""
+    import torch
+    from torch.utils.flop_counter import FlopCounterMode
+
+    def linear_flops(x: Any, w: Any, *args: Any, out_shape: Any = None, **kwargs: Any) -> int:
+        return 2 * math.prod(out_shape) * x[-1]  # (..., K) x (N, K)^T
+
+    # the packed products of mlct.nn.inference are an op the counter does not know
+    mapping = {torch.ops.mkldnn._linear_pointwise: linear_flops}
+
+    def flops(fn: Callable[[], Any]) -> float:
+        with FlopCounterMode(display=False, custom_mapping=mapping) as counter, torch.no_grad():
+            fn()
+        return float(counter.get_total_flops())
+
+    cond = gen.encode_text([TEXTS[0]])
+    z = gen.sample_latents(cond, 1, seed=0)
+    ae = gen.ae
+    model = getattr(gen.text_encoder, "model", None)
+    return {
+        "text": {"flops": flops(lambda: gen.text_encoder.encode([TEXTS[1]])),
+                 "bytes": _weight_bytes(model) if model is not None else 0.0},
+        "step": {"flops": flops(lambda: gen.sample_latents(cond, 1, seed=0)),
+                 "bytes": _weight_bytes(gen.denoiser)},
+        "decode": {"flops": flops(lambda: gen.decode(z, [FRAMES])),
+                   "bytes": _weight_bytes(ae.decoder, ae.head) + ae.dec_pos.numel() * 4},
+    }
+
+
+def throughput(gen: Any, budget_s: float, sync: Callable[[], None]) -> list[dict[str, Any]]:
+    """Motions/s of sampling + decoding at the default NFE, growing B while it stays in budget."""
+    import torch
+
+    cond = gen.encode_text(TEXTS)
+    rows: list[dict[str, Any]] = []
+    base_rss = _peak_mb(gen.device)
+    for batch in BATCHES:
+        if rows:
+            last = rows[-1]
+            predicted = last["seconds"] * batch / last["batch"]
+            grow_mb = max(last["peak_mb"] - base_rss, 1.0) * batch / last["batch"]
+            free_mb = _free_mb(gen.device)
+            if predicted > budget_s or grow_mb > free_mb * 0.5:
+                why = (f"predicted {predicted:.0f} s > {budget_s:g} s" if predicted > budget_s
+                       else f"needs ~{grow_mb / 1024:.1f} GiB of {free_mb / 1024:.1f} free")
+                rows.append({"batch": batch, "skipped": why})
+                break
+        c = cond[torch.arange(batch) % len(TEXTS)]
+
+        def run(c: Any = c, batch: int = batch) -> None:
+            gen.decode(gen.sample_latents(c, None, seed=batch), [FRAMES] * batch)
+
+        if gen.device.type == "cuda":
+            torch.cuda.reset_peak_memory_stats(gen.device)
+        if not rows or rows[-1]["seconds"] * batch / rows[-1]["batch"] < 2.0:
+            run()  # warm-up, when it is cheap
+        sync()
+        start = time.perf_counter()
+        run()
+        sync()
+        seconds = time.perf_counter() - start
+        rows.append({"batch": batch, "seconds": seconds, "motions_per_s": batch / seconds,
+                     "peak_mb": _peak_mb(gen.device)})
+    return rows
+
+
+def _peak_mb(device: Any) -> float:
+    import torch
+
+    if device.type == "cuda":
+        return torch.cuda.max_memory_allocated(device) / 2**20
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB on Linux
+
+
+def _free_mb(device: Any) -> float:
+    import torch
+
+    if device.type == "cuda":
+        return torch.cuda.mem_get_info(device)[0] / 2**20
+    with open("/proc/meminfo") as f:
+        info = dict(line.split(":", 1) for line in f)
+    return int(info["MemAvailable"].split()[0]) / 1024
+
+
+def run_model(spec: dict[str, Any]) -> dict[str, Any]:
+    """One model in one dtype: AITS per NFE, throughput, part costs and the limit."""
+    import torch
+
+    from mlct.eval.aits import time_inference
+    from mlct.text import load_text_encoder
+
+    if spec["threads"]:
+        torch.set_num_threads(spec["threads"])
+    preset, sampler, nfes = MODELS[spec["model"]]
+    gen = in_memory_generator(preset, sampler, spec["device"], spec["dtype"])
+    device = gen.device
+    sync = _syncer(device)
+    if device.type == "cuda":
+        gen._text_encoder = load_text_encoder(gen.meta["text_encoder"], device=device)
+        _compile_for_cuda(gen)
+    gen.encode_text([""])  # loads the text encoder: loading is not timed
+    costs = part_costs(gen)
+    bandwidth = {part: read_bandwidth(int(c["bytes"]), device) for part, c in costs.items()}
+    peak = spec["peak_flops"][spec["dtype"] if device.type == "cpu" else "bfloat16"]
+    text_peak = spec["peak_flops"]["float32"]  # the text encoder runs in fp32
+
+    def best(part: str, times: int = 1) -> float:
+        c = costs[part]
+        roof = text_peak if part == "text" else peak
+        return times * max(c["flops"] / roof, c["bytes"] / bandwidth[part]) * 1000.0
+
+    rows = []
+    for nfe in [n for n in nfes if not spec["quick"] or n in (5, 50)]:
+        if spec["quick"]:
+            runs, warmup = 3, 1
+        else:  # as many runs as fit the budget, from one probe run
+            probe = time_inference(gen, TEXTS, nfe=nfe, runs=1, warmup=1)["aits_ms"]
+            runs = max(3, min(spec["runs"], int(spec["aits_budget_s"] * 1000 / probe)))
+            warmup = 1 if probe > 500 else 3  # the probe warmed it up already
+        t = time_inference(gen, TEXTS, nfe=nfe, runs=runs, warmup=warmup)["median"]
+        warm = t["text_cached_ms"] + t["sampling_ms"] + t["decoding_ms"]
+        limit_warm = best("step", nfe) + best("decode")
+        rows.append({"nfe": nfe, "runs": runs, **t, "warm_ms": warm,
+                     "cold_ms": warm - t["text_cached_ms"] + t["text_ms"],
+                     "limit_warm_ms": limit_warm, "limit_cold_ms": limit_warm + best("text"),
+                     "limit_parts_ms": {"text": best("text"), "step": best("step"),
+                                        "decode": best("decode")}})
+        print(f"  {spec['model']} {spec['dtype']} nfe {nfe}: warm {warm:.1f} ms "
+              f"(limit {limit_warm:.1f} ms)", file=sys.stderr, flush=True)
+    tput = throughput(gen, spec["throughput_budget_s"], sync)
+    return {"model": spec["model"], "dtype": spec["dtype"], "device": str(device),
+            "threads": torch.get_num_threads(), "aits": rows, "throughput": tput,
+            "costs": costs, "bandwidth_gb_s": {k: v / 1e9 for k, v in bandwidth.items()}}
+
+
+def ablations(reps: int) -> list[dict[str, Any]]:
+    """Each optimization of the inference path on and off, interleaved run by run so that a
+    busy machine disturbs all variants alike: medians at batch 1, 5 NFE, 196 frames, warm text."""
+    import numpy as np
+    import torch
+
+    from mlct.pipeline import MotionGenerator
+
+    threads = torch.get_num_threads()
+    rows = []
+    for model in ("small CM", "paper CM"):
+        meta, tensors = bundle_in_memory(*MODELS[model][:2])
+        default = MotionGenerator(meta, tensors)
+        variants: list[tuple[str, Any, int]] = [  # name, generator, threads
+            ("before: torch layers, conditions every step, no_grad",
+             variant(meta, tensors, "torch", False, False), threads),
+            ("+ fast layers (SDPA, plain products)",
+             variant(meta, tensors, "fast", False, False), threads),
+            ("+ weights packed for oneDNN", variant(meta, tensors, "packed", False, False),
+             threads),
+            ("+ text and time terms once per sample",
+             variant(meta, tensors, "packed", True, False), threads),
+            ("+ inference_mode (the float32 default)", default, threads),
+            ("  the same with bfloat16 products",
+             MotionGenerator(meta, tensors, dtype="bfloat16"), threads)]
+        if threads > 1:
+            variants.append(("  the float32 default on 1 thread", default, 1))
+        cond = torch.randn(1, TEXT_DIM, generator=torch.Generator().manual_seed(0))
+        cond = cond / cond.norm()
+        times = np.zeros((len(variants), reps, 2))
+        for rep in range(reps + 2):
+            for i, (_, gen, n) in enumerate(variants):
+                torch.set_num_threads(n)
+                start = time.perf_counter()
+                z = gen.sample_latents(cond, 5, seed=rep)
+                mid = time.perf_counter()
+                gen.decode(z, [FRAMES])
+                end = time.perf_counter()
+                if rep >= 2:  # two warm-up rounds
+                    times[i, rep - 2] = (mid - start, end - mid)
+        torch.set_num_threads(threads)
+        medians = np.median(times, axis=1) * 1000.0
+        before = medians[0].sum()
+        for (name, *_), (sampling, decoding) in zip(variants, medians):
+            rows.append({"model": model, "variant": name, "sampling_ms": float(sampling),
+                         "decoding_ms": float(decoding), "total_ms": float(sampling + decoding),
+                         "speedup": float(before / (sampling + decoding))})
+    return rows
+
+
+def print_ablations(rows: list[dict[str, Any]]) -> None:
+    print("\nablations: batch 1, 5 NFE, 196 frames, text from the memo; medians in ms")
+    print(f"{'model':<9} {'variant':<54} {'sampl':>6} {'decode':>6} {'total':>6} {'gain':>5}")
+    for r in rows:
+        print(f"{r['model']:<9} {r['variant']:<54} {r['sampling_ms']:>6.1f} "
+              f"{r['decoding_ms']:>6.1f} {r['total_ms']:>6.1f} {r['speedup']:>4.2f}x")
+
+
+def machine(device: str) -> dict[str, Any]:
+    import torch
+
+    info: dict[str, Any] = {"torch": torch.__version__, "python": platform.python_version(),
+                            "cores": os.cpu_count(), "cpu": platform.processor()}
+    try:
+        with open("/proc/cpuinfo") as f:
+            info["cpu"] = next(line.split(":", 1)[1].strip() for line in f
+                               if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    if device == "cuda":
+        info["gpu"] = torch.cuda.get_device_name(0)
+    return info
+
+
+def quality_bf16() -> dict[str, float]:
+    """Joints of the bundled model in bfloat16 against float32: 8 prompts, 196 frames, 5 NFE."""
+    import torch
+
+    import mlct
+    from mlct.motion.features import recover_from_ric
+
+    out = []
+    for dtype in ("float32", "bfloat16"):
+        gen = mlct.load(dtype=dtype)
+        cond = gen.encode_text(TEXTS[:8])
+        feats = gen.decode(gen.sample_latents(cond, 5, seed=list(range(8))), [FRAMES] * 8)
+        out.append(torch.stack([recover_from_ric(torch.from_numpy(f)) for f in feats]))
+    ref, got = out
+    dist = (got - ref).norm(dim=-1) * 1000.0
+    pose = ((got - got[:, :, :1]) - (ref - ref[:, :, :1])).norm(dim=-1) * 1000.0
+    return {"mean_mm": float(dist.mean()), "max_mm": float(dist.max()),
+            "pose_mean_mm": float(pose.mean()), "pose_max_mm": float(pose.max())}
+
+
+def targets(results: list[dict[str, Any]], device: str) -> list[tuple[str, str, bool]]:
+    """(target, measured, met) for each of issue 6's targets that this run measured."""
+    def row(model: str, dtype: str, nfe: int) -> dict[str, Any] | None:
+        for r in results:
+            if r["model"] == model and r["dtype"] == dtype:
+                return next((a for a in r["aits"] if a["nfe"] == nfe), None)
+        return None
+
+    out = []
+    for dtype in sorted({r["dtype"] for r in results}):
+        cm, small, ldm = row("paper CM", dtype, 5), row("small CM", dtype, 5), \
+            row("paper LDM", dtype, 50)
+        if device == "cpu":
+            for name, r, goal in (("paper CM", cm, 40.0), ("small CM", small, 15.0)):
+                if r:
+                    out.append((f"{name} {dtype}: <= {goal:g} ms (warm, 5 NFE)",
+                                f"{r['warm_ms']:.1f} ms (cold {r['cold_ms']:.1f})",
+                                r["warm_ms"] <= goal))
+        else:
+            if cm:
+                out.append((f"paper CM {dtype}: <= 3 ms per sentence", f"{cm['warm_ms']:.2f} ms",
+                            cm["warm_ms"] <= 3.0))
+            best = max((t.get("motions_per_s", 0.0) for r in results if r["model"] == "paper CM"
+                        for t in r["throughput"]), default=0.0)
+            out.append(("paper CM: >= 50,000 motions/s batched", f"{best:,.0f}/s",
+                        best >= 50000))
+        if cm and ldm:
+            ratio = ldm["warm_ms"] / cm["warm_ms"]
+            cold = ldm["cold_ms"] / cm["cold_ms"]
+            out.append((f"paper LDM / paper CM {dtype}: >= 8x",
+                         f"{ratio:.1f}x (cold {cold:.1f}x)", ratio >= 8.0))
+        for name, r in (("paper CM", cm), ("small CM", small)):
+            if r:
+                ratio = r["warm_ms"] / r["limit_warm_ms"]
+                out.append((f"{name} {dtype}: within 2x of the limit",
+                            f"{ratio:.1f}x ({r['limit_warm_ms']:.1f} ms)", ratio <= 2.0))
+    return out
+
+
+def report(results: list[dict[str, Any]], info: dict[str, Any], device: str) -> None:
+    print(f"\nmachine: {info['cpu']}, {info['cores']} cores"
+          + (f", {info['gpu']}" if "gpu" in info else "") + f"; torch {info['torch']}; "
+          f"peak matmul " + ", ".join(f"{k} {v / 1e9:.0f} GFLOP/s"
+                                      for k, v in info["peak_flops"].items()))
+    print("\nAITS at batch 1, 196 frames, medians in ms (warm: text from the memo; cold: "
+          "encoder run)")
+    head = (f"{'model':<10} {'dtype':<8} {'NFE':>3} {'text':>6} {'sampl':>7} {'decode':>6} "
+            f"{'warm':>7} {'cold':>7} {'limit':>6} {'x lim':>5}")
+    print(head)
+    print("-" * len(head))
+    for r in results:
+        for a in r["aits"]:
+            print(f"{r['model']:<10} {r['dtype']:<8} {a['nfe']:>3} {a['text_ms']:>6.1f} "
+                  f"{a['sampling_ms']:>7.1f} {a['decoding_ms']:>6.1f} {a['warm_ms']:>7.1f} "
+                  f"{a['cold_ms']:>7.1f} {a['limit_warm_ms']:>6.2f} "
+                  f"{a['warm_ms'] / a['limit_warm_ms']:>5.1f}")
+    by = {(r["model"], r["dtype"]): r for r in results}
+    for size in ("paper", "small"):
+        for dtype in sorted({r["dtype"] for r in results}):
+            cm, ldm = by.get((f"{size} CM", dtype)), by.get((f"{size} LDM", dtype))
+            if cm and ldm:
+                base = ldm["aits"][0]
+                ratios = ", ".join(f"NFE {a['nfe']} {base['warm_ms'] / a['warm_ms']:.1f}x"
+                                   for a in cm["aits"])
+                print(f"{size} LDM (50 DDIM + CFG) / {size} CM, {dtype}, warm: {ratios}")
+    print("\nthroughput: sampling + decoding at the default NFE, 196 frames")
+    for r in results:
+        cells = [f"B={t['batch']}: {t['motions_per_s']:.1f}/s, peak {t['peak_mb']:.0f} MB"
+                 if "motions_per_s" in t else f"B={t['batch']}: skipped ({t['skipped']})"
+                 for t in r["throughput"]]
+        print(f"{r['model']:<10} {r['dtype']:<8} " + "; ".join(cells))
+    print("\nlimit parts (ms at batch 1): text / one step / decoding; FLOPs and weight MB")
+    for r in results:
+        a, c = r["aits"][0]["limit_parts_ms"], r["costs"]
+        print(f"{r['model']:<10} {r['dtype']:<8} {a['text']:.2f} / {a['step']:.3f} / "
+              f"{a['decode']:.2f} ms; " + ", ".join(
+                  f"{k} {v['flops'] / 1e9:.3f} GFLOP {v['bytes'] / 2**20:.1f} MB "
+                  f"@ {r['bandwidth_gb_s'][k]:.0f} GB/s" for k, v in c.items()))
+    if "quality_bf16" in info:
+        q = info["quality_bf16"]
+        print(f"\nbfloat16 vs float32 joints (bundled model): mean {q['mean_mm']:.1f} mm, max "
+              f"{q['max_mm']:.1f} mm; relative to the root: mean {q['pose_mean_mm']:.2f} mm, "
+              f"max {q['pose_max_mm']:.1f} mm")
+    print("\ntargets (issue 6)")
+    for name, measured, met in targets(results, device):
+        print(f"  {'met    ' if met else 'NOT met'}  {name}: {measured}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="a ~30 s smoke run")
+    parser.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
+    parser.add_argument("--dtypes", default=None,
+                        help="comma-separated: float32,bfloat16 (default: both on CPU, "
+                             "bfloat16 on CUDA; --quick: float32)")
+    parser.add_argument("--models", default=",".join(MODELS),
+                        help=f"comma-separated, of: {', '.join(MODELS)}")
+    parser.add_argument("--threads", type=int, default=0, help="intra-op threads (0: torch's)")
+    parser.add_argument("--runs", type=int, default=20, help="timed runs per AITS figure (at "
+                        "most; fewer where a run is slow)")
+    parser.add_argument("--json", default=None, help="write every figure to this file")
+    parser.add_argument("--ablations", type=int, default=0, metavar="REPS",
+                        help="instead: each optimization on and off, REPS interleaved runs")
+    parser.add_argument("--child", default=None, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        print(json.dumps(run_model(json.loads(args.child))))
+        return
+    import torch
+
+    models = [m.strip() for m in args.models.split(",")]
+    unknown = [m for m in models if m not in MODELS]
+    if unknown:
+        parser.error(f"unknown model {unknown[0]!r}; choose from {', '.join(MODELS)}")
+    if args.device == "cuda" and not torch.cuda.is_available():
+        parser.error("--device cuda: no CUDA device here")
+    default = "bfloat16" if args.device == "cuda" else (
+        "float32" if args.quick else "float32,bfloat16")
+    dtypes = (args.dtypes or default).split(",")
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    if args.ablations:
+        rows = ablations(args.ablations)
+        print_ablations(rows)
+        if args.json:
+            _write_json(args.json, {"machine": machine("cpu"), "ablations": rows})
+        return
+    dev = torch.device(args.device)
+    info = machine(args.device)
+    info["threads"] = torch.get_num_threads()
+    info["peak_flops"] = {d: peak_matmul_flops(getattr(torch, d), dev)
+                          for d in sorted({"float32", "bfloat16"})}
+    results = []
+    for dtype in dtypes:
+        for model in models:
+            print(f"measuring {model} ({dtype}) ...", file=sys.stderr, flush=True)
+            spec = {"model": model, "dtype": dtype, "device": args.device,
+                    "threads": args.threads, "quick": args.quick, "runs": args.runs,
+                    "aits_budget_s": 20.0,
+                    "throughput_budget_s": 1.0 if args.quick else 15.0,
+                    "peak_flops": info["peak_flops"]}
+            proc = subprocess.run([sys.executable, __file__, "--child", json.dumps(spec)],
+                                  stdout=subprocess.PIPE, text=True, check=False)
+            if proc.returncode != 0:
+                sys.exit(f"{model} ({dtype}) failed (exit {proc.returncode})")
+            results.append(json.loads(proc.stdout.strip().splitlines()[-1]))
+    if "bfloat16" in dtypes and args.device == "cpu":
+        info["quality_bf16"] = quality_bf16()
+    report(results, info, args.device)
+    if args.json:
+        _write_json(args.json, {"machine": info, "results": results})
+
+
+def _write_json(path: str, data: dict[str, Any]) -> None:
+    from mlct.io import atomic_path
+
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps({**data, "command": " ".join(sys.argv)}, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,154 @@
+"""The sampling-time layers (mlct.nn.inference) against the plain PyTorch modules they replace.
+
+fp32: the same function (joints of the bundled model within 1 mm). bfloat16 products: within
+the stated tolerance of docs/performance.md.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+import torch
+from torch import nn
+
+from mlct.bundle import read_bundle
+from mlct.diffusion.parameterization import ConsistencyFunction
+from mlct.errors import MlctError
+from mlct.models import build_autoencoder, build_denoiser
+from mlct.motion.features import recover_from_ric
+from mlct.nn.inference import FastEncoderLayer, FastLinear, for_inference
+from mlct.pipeline import MotionGenerator, bundled_model_dir
+from mlct.train.checkpoint import strip_prefix
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+LENGTHS = [196, 120, 40]  # one full-length motion and two padded ones (the decoder's mask)
+
+
+@pytest.fixture(scope="module")
+def bundle() -> tuple[dict, dict]:
+    return read_bundle(bundled_model_dir())
+
+
+def reference(meta: dict, tensors: dict) -> MotionGenerator:
+    """A generator whose networks are the plain modules (nn.TransformerEncoderLayer, nn.Linear)."""
+    gen = MotionGenerator(meta, tensors)
+    ae = build_autoencoder(gen.config, meta["feature_dim"])
+    ae.load_state_dict(strip_prefix(tensors, "decoder"), strict=False)
+    den = build_denoiser(gen.config, meta["text_dim"])
+    den.load_state_dict(strip_prefix(tensors, "denoiser"))
+    gen.ae, gen.denoiser = ae.eval().requires_grad_(False), den.eval().requires_grad_(False)
+    s = gen.config.schedule
+    gen.consistency = ConsistencyFunction(den, s.eta, s.time_scale)
+    return gen
+
+
+def joints(gen: MotionGenerator, cond: torch.Tensor, nfe: int = 5) -> list[torch.Tensor]:
+    """(T_i, J, 3) joints of per-item-seeded samples of LENGTHS frames."""
+    z = gen.sample_latents(cond, nfe, seed=list(range(len(cond))))
+    feats = gen.decode(z, LENGTHS)
+    return [recover_from_ric(torch.from_numpy(f)) for f in feats]
+
+
+def conds(meta: dict) -> torch.Tensor:
+    """Three unit-norm stand-ins for MiniLM embeddings (the text encoder is not under test)."""
+    c = torch.randn(len(LENGTHS), meta["text_dim"], generator=torch.Generator().manual_seed(3))
+    return c / c.norm(dim=-1, keepdim=True)
+
+
+def deviation_mm(a: list[torch.Tensor], b: list[torch.Tensor], pose: bool = False
+                 ) -> torch.Tensor:
+    """Per joint and frame distances in mm; pose=True first subtracts each frame's root."""
+    if pose:
+        a, b = [x - x[:, :1] for x in a], [y - y[:, :1] for y in b]
+    return torch.cat([(x - y).norm(dim=-1).flatten() for x, y in zip(a, b)]) * 1000.0
+
+
+def test_fp32_pipeline_matches_plain_modules_within_1mm(bundle):
+    meta, tensors = bundle
+    gen = MotionGenerator(meta, tensors)
+    assert isinstance(gen.denoiser.backbone.middle_block, FastEncoderLayer)
+    cond = conds(meta)
+    dev = deviation_mm(joints(gen, cond), joints(reference(meta, tensors), cond))
+    assert float(dev.max()) < 1.0
+    assert [len(j) for j in joints(gen, cond, nfe=1)] == LENGTHS
+
+
+def test_bfloat16_pipeline_stays_within_stated_tolerance(bundle):
+    # Measured: joints mean 4 mm, max 26 mm off fp32; the pose relative to the root mean
+    # 0.3 mm, max 4 mm. Most of it is the root trajectory, which integrates per-frame
+    # velocities, so their rounding accumulates over the frames.
+    meta, tensors = bundle
+    gen = MotionGenerator(meta, tensors, dtype="bfloat16")
+    assert gen.denoiser.backbone.middle_block.linear1.weight.dtype == torch.bfloat16
+    cond = conds(meta)
+    got, want = joints(gen, cond), joints(reference(meta, tensors), cond)
+    dev, pose = deviation_mm(got, want), deviation_mm(got, want, pose=True)
+    assert float(dev.mean()) < 15.0 and float(dev.max()) < 60.0
+    assert float(pose.mean()) < 2.0 and float(pose.max()) < 15.0
+    assert float(dev.max()) > 0.0  # it is a different computation
+
+
+def test_unknown_dtype_is_a_one_line_error(bundle):
+    with pytest.raises(MlctError, match="unknown weight dtype 'float8'.*float32, bfloat16"):
+        MotionGenerator(*bundle, dtype="float8")
+
+
+@pytest.mark.parametrize("activation", ["gelu", "relu"])
+def test_fast_encoder_layer_is_the_torch_layer(activation):
+    torch.manual_seed(0)
+    layer = nn.TransformerEncoderLayer(32, 4, 64, dropout=0.1, activation=activation,
+                                       batch_first=True).eval()
+    fast = FastEncoderLayer(copy.deepcopy(layer), torch.float32)
+    x = torch.randn(3, 10, 32)
+    pad = torch.arange(10)[None, :] >= torch.tensor([10, 6, 1])[:, None]  # True = pad
+    with torch.no_grad():
+        for mask in (None, pad):
+            want, got = layer(x, src_key_padding_mask=mask), fast(x, src_key_padding_mask=mask)
+            keep = torch.ones(3, 10, dtype=torch.bool) if mask is None else ~pad
+            torch.testing.assert_close(got[keep], want[keep], atol=1e-5, rtol=1e-5)
+
+
+def test_for_inference_swaps_in_place_and_shares_fp32_weights():
+    torch.manual_seed(0)
+    net = nn.Sequential(nn.Linear(4, 8), nn.ModuleList([nn.Linear(8, 8)]))
+    weight = net[1][0].weight
+    assert for_inference(net) is net
+    assert isinstance(net[0], FastLinear) and isinstance(net[1][0], FastLinear)
+    assert net[1][0].weight.data_ptr() == weight.data_ptr()  # no copy in fp32
+    assert not any(p.requires_grad for p in net.parameters())
+    x = torch.randn(2, 4)
+    half = for_inference(copy.deepcopy(net), "bfloat16")
+    assert half[0](x).dtype == torch.float32  # the output keeps the input's dtype
+    torch.testing.assert_close(half[0](x), net[0](x), atol=0.05, rtol=0.02)
+    with pytest.raises(ValueError, match="unknown weight dtype"):
+        for_inference(net, "int4")
+
+
+def test_fixed_condition_computes_the_terms_once_within_its_block_only(bundle):
+    gen = MotionGenerator(*bundle)
+    den = gen.denoiser
+    times = torch.tensor([0.9, 0.5, 0.2])
+    x, cond = torch.randn(2, *gen.ae.latent_shape), conds(bundle[0])[:2]
+    text_calls, time_calls = [], []
+    hooks = [den.text_norm.register_forward_hook(lambda *_: text_calls.append(1)),
+             den.time_proj[0].register_forward_hook(lambda *_: time_calls.append(1))]
+    with torch.no_grad():
+        want = [den(x, t.expand(2), cond) for t in times]
+        other_t = den(x, torch.tensor([0.9, 0.2]), cond)
+        del text_calls[:], time_calls[:]
+        with den.fixed_condition(cond, times):
+            got = [den(x, t.expand(2), cond) for t in times]
+            assert (len(text_calls), len(time_calls)) == (1, 1)  # all on entry
+            mixed = den(x, torch.tensor([0.9, 0.2]), cond)  # items at two times: computed
+            clone = den(x, times[0].expand(2), cond.clone())  # another tensor: its own terms
+        after = den(x, times[0].expand(2), cond)
+    for hook in hooks:
+        hook.remove()
+    assert (len(text_calls), len(time_calls)) == (3, 4)
+    for a, b in zip(got, want):
+        torch.testing.assert_close(a, b)
+    torch.testing.assert_close(mixed, other_t)
+    torch.testing.assert_close(clone, want[0])
+    torch.testing.assert_close(after, want[0])
