@@ -94,7 +94,8 @@ class Denoiser(nn.Module):
         terms, and, when t is one of `times` for every item (as samplers call it), that time's
         terms: both computed once here, not at every step (docs/performance.md). Inference
         only: the terms carry no gradient. The time lookup reads t, so it is done on the CPU
-        only (on a GPU it would wait for the device at every step)."""
+        only (on a GPU it would wait for the device at every step). A call from another
+        thread, with another tensor, misses the memo and computes its own terms."""
         times = times.reshape(-1)
         with torch.no_grad():
             text = self.text_terms(text_emb)
