@@ -153,6 +153,10 @@ def test_cli_generate_variations_prompts_file_and_long(tmp_path: Path, capsys) -
     assert main(["generate", "--prompts", str(prompts), "--length", "30", "20", "--nfe", "1",
                  "--out-dir", str(tmp_path / "d"), "--format", "npy", "--quiet"]) == 0
     assert [np.load(p).shape[0] for p in sorted((tmp_path / "d").iterdir())] == [30, 20]
+    # bfloat16 products: the same motion within a few millimetres (docs/performance.md)
+    assert main(["generate", "a person walks forward", "--seconds", "2", "--nfe", "2", "--seed",
+                 "8", "--dtype", "bfloat16", "--out", str(tmp_path / "bf16.npy")]) == 0
+    assert np.abs(np.load(tmp_path / "bf16.npy") - b).mean() < 0.02
     assert main(["generate", "a person walks forward", "a person jumps", "--seconds", "2", "2",
                  "--nfe", "1", "--seed", "0", "--out", str(tmp_path / "long.npy")]) == 0
     assert np.load(tmp_path / "long.npy").shape == (80, 22, 3)

@@ -227,7 +227,8 @@ def _cmd_generate(args: argparse.Namespace) -> int:
                                      args.seed, long)
     names = ["_".join(prompts)] if long else [p for p in prompts for _ in range(args.num)]
     paths = generate_files.output_paths(names, args.out, args.out_dir, args.format)
-    written = generate_files.run(lambda: mlct.load(args.model, device=args.device), request,
+    written = generate_files.run(lambda: mlct.load(args.model, device=args.device,
+                                                   dtype=args.dtype), request,
                                  paths, features=args.features, progress=not args.quiet)
     for path in written:
         print(path)
@@ -419,6 +420,8 @@ def build_parser() -> argparse.ArgumentParser:
                           help="motion i gets seed + i (default: random)")
     generate.add_argument("--num", type=int, default=1, help="variations per prompt (default 1)")
     generate.add_argument("--device", default=None)
+    generate.add_argument("--dtype", default="float32", choices=["float32", "bfloat16"],
+                          help="precision of the networks' products (docs/performance.md)")
     generate.add_argument("--features", action="store_true",
                           help=".npy holds the features (T x 263) instead of joints (T x J x 3)")
     where = generate.add_mutually_exclusive_group()
