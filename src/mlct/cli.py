@@ -168,13 +168,14 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     import shlex
 
     from mlct.eval.protocol import ProtocolConfig
-    from mlct.eval.report import check_report_dir, results_table, write_report
+    from mlct.eval.report import results_table, write_report
     from mlct.eval.run import run_evaluation
+    from mlct.io import check_writable_dir
 
     config = ProtocolConfig(reps=args.reps, seed=args.seed, batch_size=args.batch_size,
                             diversity_times=args.diversity_times, mm=args.mm,
                             aits_runs=args.aits_runs)
-    check_report_dir(args.out)
+    check_writable_dir(args.out)  # before any work
 
     def log(message: str) -> None:
         print(message, file=sys.stderr, flush=True)

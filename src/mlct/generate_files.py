@@ -10,7 +10,6 @@ Every output path is checked before the model loads, so a typo costs no generati
 
 from __future__ import annotations
 
-import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,6 +19,7 @@ from tqdm import tqdm
 
 from mlct.errors import MlctError
 from mlct.exports import check_format
+from mlct.io import check_writable_dir
 
 if TYPE_CHECKING:
     from mlct.generated import GeneratedMotion
@@ -47,17 +47,6 @@ def slug(text: str, limit: int = 40) -> str:
     return words[:limit].rstrip("_") or "motion"
 
 
-def check_writable(directory: Path) -> None:
-    """MlctError unless directory exists (or can be made) and we may write in it."""
-    existing = directory
-    while not existing.exists():
-        existing = existing.parent
-    if not existing.is_dir():
-        raise MlctError(f"cannot write in {directory}: {existing} is not a directory")
-    if not os.access(existing, os.W_OK | os.X_OK):
-        raise MlctError(f"cannot write in {directory}: permission denied")
-
-
 def output_paths(names: Sequence[str], out: Path | None, out_dir: Path | None,
                  fmt: str | None) -> list[Path]:
     """One path per motion: --out FILE (indexed when there are several), or --out-dir DIR with
@@ -68,14 +57,14 @@ def output_paths(names: Sequence[str], out: Path | None, out_dir: Path | None,
         if fmt is not None:
             raise MlctError("--format goes with --out-dir; with --out the extension names it")
         check_format(out)
-        check_writable(out.parent)
+        check_writable_dir(out.parent)
         if len(names) == 1:
             return [out]
         return [out.with_name(f"{out.stem}_{i:03d}{out.suffix}") for i in range(len(names))]
     assert out_dir is not None
     suffix = "." + (fmt or "gif").lower().lstrip(".")
     check_format(f"motion{suffix}")
-    check_writable(out_dir)
+    check_writable_dir(out_dir)
     return [out_dir / f"{i:03d}_{slug(name)}{suffix}" for i, name in enumerate(names)]
 
 

@@ -15,6 +15,8 @@ from typing import Iterator
 
 import numpy as np
 
+from mlct.errors import MlctError
+
 
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
@@ -81,3 +83,17 @@ def write_bytes(path: str | os.PathLike, data: bytes) -> None:
     """Write bytes atomically."""
     with atomic_path(path) as tmp:
         tmp.write_bytes(data)
+
+
+def check_writable_dir(directory: str | os.PathLike) -> Path:
+    """MlctError in one line, before any work, unless files can be written in directory: it is
+    a directory, or its nearest existing ancestor is, and we may write there. Creates nothing."""
+    directory = Path(directory)
+    existing = directory
+    while not existing.exists():
+        existing = existing.parent
+    if not existing.is_dir():
+        raise MlctError(f"cannot write in {directory}: {existing} is not a directory")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise MlctError(f"cannot write in {directory}: {existing} is not writable")
+    return directory

@@ -17,8 +17,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from mlct.errors import MlctError
-from mlct.io import atomic_path, write_text
+from mlct.io import atomic_path, check_writable_dir, write_text
 
 COLUMNS = [("R@1 ↑", "r_precision_top1"), ("R@2 ↑", "r_precision_top2"),
            ("R@3 ↑", "r_precision_top3"), ("FID ↓", "fid"), ("MM-Dist ↓", "mm_dist"),
@@ -26,19 +25,6 @@ COLUMNS = [("R@1 ↑", "r_precision_top1"), ("R@2 ↑", "r_precision_top2"),
 # Beyond the paper, with --classifier: shown only when some row has them.
 SEMANTIC_COLUMNS = [("Sem. exact ↑", "semantic_exact"), ("Sem. recall ↑", "semantic_recall")]
 DASH = "-"
-
-
-def check_report_dir(out: str | os.PathLike) -> Path:
-    """Fail in one line, before any work, when REPORT_DIR cannot be written (creates nothing)."""
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise MlctError(f"{out} exists and is not a directory")
-    existing = out
-    while not existing.exists():  # the nearest existing ancestor must be a writable directory
-        existing = existing.parent
-    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise MlctError(f"cannot write to {out} ({existing} is not a writable directory)")
-    return out
 
 
 def format_value(metric: dict[str, Any] | None, digits: int = 3) -> str:
@@ -210,7 +196,7 @@ def write_plots(out: Path, report: dict[str, Any]) -> list[Path]:
 
 def write_report(out: str | os.PathLike, report: dict[str, Any]) -> list[Path]:
     """Write results.json, results.md and the plots into REPORT_DIR; return their paths."""
-    out = check_report_dir(out)
+    out = check_writable_dir(out)
     out.mkdir(parents=True, exist_ok=True)
     write_text(out / "results.json", json.dumps(report, indent=2) + "\n")
     write_text(out / "results.md", format_markdown(report))
