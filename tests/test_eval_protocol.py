@@ -327,7 +327,11 @@ def test_cli_train_parses_every_stage(monkeypatch, tmp_path, capsys) -> None:
                  "--quiet"]) == 0
     assert seen["steps_decomp"] == 3 and seen["steps_match"] == 4 and seen["glove_dir"] is None
     assert seen["device"] == "cpu" and seen["data"] == Path("d")
+    assert seen["config"].sizes == module.EvaluatorSizes()  # the official widths by default
     assert "best step 2" in capsys.readouterr().out
+    assert main(["train", "evaluator", "--data", "d", "--out", str(tmp_path / "ev"),
+                 "--sizes", "compact", "--quiet"]) == 0
+    assert seen["config"].sizes.motion_hidden == 256 and seen["steps_match"] == 15000
     assert _exit_code(["train", "evaluator", "--data", "d", "--out", "e", "a.b=1"]) == 2
     assert "unrecognized arguments: a.b=1" in capsys.readouterr().err
 

@@ -105,10 +105,14 @@ def _cmd_train(args: argparse.Namespace) -> int:
 def _cmd_train_evaluator(args: argparse.Namespace) -> int:
     from mlct.eval.train_evaluator import train_evaluator
 
+    from mlct.eval.evaluator import EVALUATOR_SIZES
+    from mlct.eval.train_evaluator import EvaluatorTrainConfig
+
+    config = EvaluatorTrainConfig(sizes=EVALUATOR_SIZES[args.sizes])
     summary = train_evaluator(args.data, args.out, glove_dir=args.glove,
                               steps_decomp=args.steps_decomp, steps_match=args.steps_match,
                               batch_size=args.batch_size, seed=args.seed, device=args.device,
-                              progress=not args.quiet, overwrite=args.overwrite)
+                              progress=not args.quiet, config=config, overwrite=args.overwrite)
     print(f"evaluator: {summary['vocabulary']} word vectors ({summary['vocabulary_size']}), "
           f"{summary['train_items']} train items, best step {summary['best_step']}; "
           f"{summary['path']}")
@@ -330,6 +334,9 @@ def build_parser() -> argparse.ArgumentParser:
                            help="movement autoencoder steps (default 5000)")
     evaluator.add_argument("--steps-match", type=int, default=15000,
                            help="text-motion co-embedding steps (default 15000)")
+    evaluator.add_argument("--sizes", choices=["official", "compact"], default="official",
+                           help="network widths: the official evaluator's (default) or compact "
+                           "ones, about 10x faster to train on a CPU")
     evaluator.set_defaults(func=_cmd_train_evaluator)
 
     classifier = stages.add_parser("classifier", help="the action classifier of the semantic "
