@@ -377,3 +377,35 @@ def test_semantic_accuracy_with_an_action_classifier(models, data, evaluator_dir
     with pytest.raises(MlctError, match="labels.jsonl: missing"):
         run_evaluation([models[0]], unlabeled, evaluator_dir, split=SPLIT, config=config,
                        classifier_dir=classifier_dir)
+
+
+def test_results_report_assembles_the_reproduction_tables(report, tmp_path) -> None:
+    """tools/results_report.py: tables from mlct eval's JSON; MM merged; gaps say so."""
+    import copy
+    import json
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    from results_report import build_markdown
+
+    reports = tmp_path / "reports"
+    no_mm = copy.deepcopy(report)
+    for row in no_mm["rows"]:
+        row["metrics"].pop("multimodality", None)
+    latent = copy.deepcopy(report)
+    latent["rows"] = latent["rows"][:1]
+    latent["rows"][0].update(model=str(tmp_path / "cm-vae-w2"), guidance=2.0)
+    for name, content in (("table1", no_mm), ("table1-mm", report), ("latent", latent)):
+        (reports / name).mkdir(parents=True)
+        (reports / name / "results.json").write_text(json.dumps(content))
+    text = build_markdown(reports, tmp_path / "docs", "# head")
+    section1 = text.split("## 2.")[0]
+    mm = report["rows"][0]["metrics"]["multimodality"]
+    assert f"{mm['mean']:.3f}±{mm['ci']:.3f}" in section1  # merged from table1-mm
+    for row in report["rows"]:
+        assert row["method"] in section1
+    fid = latent["rows"][0]["metrics"]["fid"]
+    pivot = text.split("## 3.")[1].split("R-precision")[0]
+    assert f"| vae | - | - | {fid['mean']:.3f}±{fid['ci']:.3f} |" in pivot
+    for missing in ("guidance", "tokens-levels", "schedule"):
+        assert f"`{missing}` has no report" in text

@@ -48,6 +48,19 @@ ABLATION_AES = {
 PRINTED_SCHEDULE = ["schedule.beta_min=0.002", "schedule.beta_max=1"]  # as Sec. 4.2 prints it
 
 
+SCALES = f"""**Two scales.** Twenty-odd trainings do not fit a CPU at one budget, so:
+
+| scale | used in | autoencoder | denoiser (width x layers, ff) | stage-2 steps |
+|---|---|---|---|---|
+| main | sections 1 and 6 | small preset, 2,500 steps | 256 x 5, 1024 | 3,000 (MLCT and LDM alike) |
+| ablation | sections 2 to 5 | small preset, {AE_STEPS_ABLATION} steps | 128 x 3, 512 | {CM_STEPS_ABLATION} |
+
+The main scale is the bundled model's recipe (docs/model_card.md); the latent diffusion
+baseline shares its autoencoder and budget. Ablation runs differ from their reference in one
+switch only, and the reference is trained at the same reduced budget: compare them with each
+other, not with section 1."""
+
+
 @dataclass
 class Step:
     """One command; `out` existing means done. Trainings mark themselves done in `done/`."""
@@ -126,7 +139,43 @@ def plan(work: Path) -> list[Step]:
               [f"train.cm.max_steps={CM_STEPS_ABLATION}", *ABLATION_DENOISER, *ae_overrides,
                f"consistency.guidance={_fmt(w)}", *extra], [f"ae-{ae}"], ae=runs / f"ae-{ae}")
         export(name, runs / name, "cm", name)
+    evaluate(steps, work)
     return steps
+
+
+# Reports: name -> (models, extra `mlct eval` options). Every report has the classifier.
+def report_specs() -> dict[str, tuple[list[str], list[str]]]:
+    q = [cm_name("quantized", w) for w in GUIDANCE_SWEEP]
+    latent = [cm_name(ae, w) for ae in ("quantized", "vae", "plain") for w in LATENT_GUIDANCE]
+    return {
+        "table1": (["main-cm", "main-ldm"], ["--nfe", "1,3,5,10"]),
+        # MultiModality costs 3,000 generations a replication (60,000 for 20): fewer here
+        "table1-mm": (["main-cm", "main-ldm"],
+                      ["--nfe", "1,3,5,10", "--mm", "--reps", str(MM_REPS), "--aits-runs", "0"]),
+        "guidance": (q, []),
+        "latent": (latent, []),
+        "tokens-levels": ([cm_name(n, 1.0) for n in ("tokens2", "quantized", "tokens4",
+                                                     "levels100")], []),
+        "schedule": ([cm_name("quantized", 1.0), cm_name("quantized", 1.0, "-printed")], []),
+        # issue 6: bfloat16 matrix products must keep the metrics inside float32's interval
+        "bfloat16": (["main-cm"], ["--nfe", "5", "--dtype", "bfloat16"]),
+    }
+
+
+MM_REPS = 3
+
+
+def evaluate(steps: list[Step], work: Path) -> None:
+    """One `mlct eval` per report, each once its models are exported."""
+    for name, (models, extra) in report_specs().items():
+        argv = ["mlct", "eval", "--data", str(work / "synth"), "--evaluator",
+                str(work / "evaluator"), "--classifier", str(work / "classifier"),
+                "--out", str(work / "reports" / name), "--quiet"]
+        for model in models:
+            argv += ["--model", str(work / "models" / model)]
+        steps.append(Step(f"eval-{name}", argv + extra,
+                          work / "reports" / name / "results.json",
+                          ["evaluator", "classifier", *(f"export-{m}" for m in models)]))
 
 
 def _run(step: Step, threads: int, log_dir: Path) -> None:
@@ -183,8 +232,8 @@ def run_steps(steps: list[Step], jobs: int, log_dir: Path) -> None:
                 running.add(step.name)
                 threading.Thread(target=worker, args=(step,), daemon=True).start()
             if pending and not running and not ready:
-                raise RuntimeError("steps wait on steps that cannot run: "
-                                   + ", ".join(s.name for s in pending))
+                raise SystemExit("steps wait on steps not done (train first): "
+                                 + ", ".join(s.name for s in pending))
             lock.wait()
         while running:
             lock.wait()
@@ -206,8 +255,16 @@ def main() -> None:
             state = "done" if step.out.exists() else "todo"
             print(f"{state} {step.name}: {shlex.join(step.argv)}")
         return
-    if args.only in (None, "train"):
+    if args.only == "train":
+        steps = [s for s in steps if not s.name.startswith("eval-")]
+    elif args.only == "eval":  # the trainings must be done: their outputs count as finished
+        steps = [s for s in steps if s.name.startswith("eval-") or s.out.exists()]
+    if args.only in (None, "train", "eval"):
         run_steps(steps, args.jobs, work / "logs")
+    if args.only in (None, "report"):
+        from results_report import write_results
+
+        print(write_results(work, REPO / "docs", SCALES))
 
 
 if __name__ == "__main__":

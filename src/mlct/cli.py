@@ -189,7 +189,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
                             split=args.split, config=config, device=args.device,
                             log=None if args.quiet else log,
                             command=shlex.join(["mlct", *args.argv]),
-                            classifier_dir=args.classifier)
+                            classifier_dir=args.classifier, dtype=args.dtype)
     written = write_report(args.out, report)
     print(results_table(report))
     if not args.quiet:
@@ -389,6 +389,8 @@ def build_parser() -> argparse.ArgumentParser:
                           help="timed batch-1 runs per configuration (0: no AITS)")
     evaluate.add_argument("--device", default=None, help="cpu or cuda (default: cuda if "
                           "available)")
+    evaluate.add_argument("--dtype", choices=["float32", "bfloat16"], default="float32",
+                          help="the models' matrix-product precision (default float32)")
     evaluate.add_argument("--quiet", action="store_true", help="no progress on stderr")
     evaluate.set_defaults(func=_cmd_eval)
 

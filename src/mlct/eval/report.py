@@ -87,7 +87,8 @@ def format_markdown(report: dict[str, Any]) -> str:
         "",
         f"Data `{cfg['data']}` ({cfg['skeleton']}), split `{cfg['split']}`: {cfg['items']} "
         f"items, {cfg['kept_per_replication']} kept per replication (groups of "
-        f"{protocol['batch_size']}). Evaluator `{cfg['evaluator']}`. Device {cfg['device']}.",
+        f"{protocol['batch_size']}). Evaluator `{cfg['evaluator']}`. Device {cfg['device']}"
+        f"{', ' + cfg['dtype'] if cfg.get('dtype', 'float32') != 'float32' else ''}.",
         f"{reps} replications (seeds {protocol['seed']}..{protocol['seed'] + reps - 1}); "
         f"values are mean±1.96·std/√{reps}. Diversity over {protocol['diversity_times']} pairs"
         + (f"; MultiModality over {protocol['mm_texts']} texts × {protocol['mm_generations']} "

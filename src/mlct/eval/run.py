@@ -74,12 +74,14 @@ def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
                    config: ProtocolConfig = ProtocolConfig(),
                    device: str | torch.device | None = None, log: Log | None = None,
                    command: str | None = None,
-                   classifier_dir: str | Path | None = None) -> dict[str, Any]:
+                   classifier_dir: str | Path | None = None,
+                   dtype: str = "float32") -> dict[str, Any]:
     """Evaluate every configuration of every model and the Real row; the report as a dict.
 
     Every input is checked (files, widths, skeletons, lengths, step counts) before the real
     side is embedded or anything is generated. With classifier_dir (an action classifier of a
-    procedural benchmark) every row also gets the semantic accuracy.
+    procedural benchmark) every row also gets the semantic accuracy. dtype: the models'
+    matrix-product precision (MotionGenerator), to check a reduced precision's metrics.
     """
     log = log or (lambda message: None)
     started = time.perf_counter()
@@ -100,7 +102,7 @@ def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
                              models=[(p, meta) for p, (meta, _) in zip(paths, bundles)],
                              classifier_dir=classifier_dir)
     dataset = protocol.dataset
-    gens = [MotionGenerator(meta, tensors, dev) for meta, tensors in bundles]
+    gens = [MotionGenerator(meta, tensors, dev, dtype) for meta, tensors in bundles]
     grids = [_grid(g, nfe, ddim_steps, guidance) for g in gens]
     for path, gen, grid in zip(paths, gens, grids):
         check_model(protocol, gen, [steps for steps, _ in grid], path)
@@ -128,6 +130,7 @@ def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
             "nfe": list(nfe) if nfe else None,
             "ddim_steps": list(ddim_steps) if ddim_steps else None,
             "guidance": list(guidance) if guidance else None, "device": str(dev),
+            "dtype": dtype,
             "protocol": asdict(cfg), "choices": CHOICES,
             "versions": _versions(),
         },
