@@ -40,17 +40,29 @@ def _eval_time(report: dict[str, Any]) -> str:
             f"{min(per_row):.0f}–{max(per_row):.0f} s.")
 
 
-def _with_multimodality(table1: dict[str, Any], mm: dict[str, Any] | None) -> dict[str, Any]:
-    """Table 1's rows with MultiModality taken from the (fewer-replication) MM report."""
-    if mm is None:
-        return table1
+def _merged(table1: dict[str, Any], mm: dict[str, Any] | None,
+            aits: dict[str, Any] | None) -> dict[str, Any]:
+    """Table 1's rows with MultiModality from the MM report and AITS from the AITS report."""
     merged = json.loads(json.dumps(table1))
-    by_method = {row["method"]: row for row in mm["rows"]}
+    mm_rows = {row["method"]: row for row in (mm or {}).get("rows", [])}
+    aits_rows = {row["method"]: row for row in (aits or {}).get("rows", [])}
     for row in merged["rows"]:
-        source = by_method.get(row["method"])
+        source = mm_rows.get(row["method"])
         if source and "multimodality" in source["metrics"]:
             row["metrics"]["multimodality"] = source["metrics"]["multimodality"]
+        if row["method"] in aits_rows and aits_rows[row["method"]].get("timing"):
+            row["timing"] = aits_rows[row["method"]]["timing"]
     return merged
+
+
+def _aits_split(report: dict[str, Any]) -> str:
+    rows = [row for row in report["rows"] if row.get("timing")]
+    return _table(["Methods", "NFE", "network passes", "text (ms)", "sampling (ms)",
+                   "decoding (ms)", "AITS (ms)"],
+                  [[row["method"], str(row["nfe"]), str(row["network_passes"]),
+                    *(f"{row['timing'][k]:.1f}" for k in ("text_ms", "sampling_ms",
+                                                          "decoding_ms", "aits_ms"))]
+                   for row in rows])
 
 
 def _pivot(report: dict[str, Any], key: str, names: list[str], ws: list[float]) -> str:
@@ -82,18 +94,23 @@ def _section(title: str, report: dict[str, Any] | None, name: str, body: list[st
 
 def build_markdown(reports: Path, docs: Path, header: str) -> str:
     r = {name: _load(reports, name) for name in
-         ("table1", "table1-mm", "guidance", "latent", "tokens-levels", "schedule",
+         ("table1", "table1-mm", "table1-aits", "guidance", "latent", "tokens-levels", "schedule",
           "bfloat16")}
     text = [header]
     t1 = r["table1"]
     if t1 is not None:
-        merged = _with_multimodality(t1, r["table1-mm"])
-        mm_reps = r["table1-mm"]["config"]["protocol"]["reps"] if r["table1-mm"] else None
+        merged = _merged(t1, r["table1-mm"], r["table1-aits"])
         body = [results_table(merged), ""]
-        if mm_reps:
-            body.append(f"MModality over {mm_reps} replications (`table1-mm`: "
-                        f"{_command(r['table1-mm'])}); every other column over "
-                        f"{t1['config']['protocol']['reps']}.")
+        if r["table1-mm"]:
+            body += [f"MModality over {r['table1-mm']['config']['protocol']['reps']} "
+                     f"replications, for MLCT only: {_command(r['table1-mm'])}. Every other "
+                     f"metric over {t1['config']['protocol']['reps']}.", ""]
+        if r["table1-aits"]:
+            a = next(row["timing"] for row in r["table1-aits"]["rows"] if row.get("timing"))
+            body += [f"AITS measured alone on the machine ({_command(r['table1-aits'])}): batch "
+                     f"{a['batch']}, {a['frames']} frames, mean of {a['runs']} runs after "
+                     f"{a['warmup']} warm-up runs, loading excluded, {a['device']}:", "",
+                     _aits_split(r["table1-aits"])]
         plot = _copy_plot(reports, "table1", "nfe.png", docs)
         body += ["", plot] if plot else []
     text += _section("1. Table 1 analogue: Real, latent diffusion (50 DDIM steps, CFG 7.5), "
@@ -203,5 +220,6 @@ def write_results(work: Path, docs: Path, scales: str) -> Path:
     """Write docs/results.md from WORK/reports; returns its path."""
     out = docs / "results.md"
     text = build_markdown(work / "reports", docs, header(work, scales))
+    text = text.replace(f"{work}/", "repro/")  # commands as `tools/reproduce.py --work repro`
     out.write_text(text, encoding="utf-8")
     return out
