@@ -70,6 +70,7 @@ class Step:
     out: Path
     after: list[str] = field(default_factory=list)
     training: bool = False
+    alone: bool = False  # timed: runs with nothing beside it, after the others are done
 
 
 def _fmt(w: float) -> str:
@@ -181,7 +182,8 @@ def evaluate(steps: list[Step], work: Path) -> None:
             argv += ["--model", str(work / "models" / model)]
         steps.append(Step(f"eval-{name}", argv + extra,
                           work / "reports" / name / "results.json",
-                          ["evaluator", "classifier", *(f"export-{m}" for m in models)]))
+                          ["evaluator", "classifier", *(f"export-{m}" for m in models)],
+                          alone="--aits-runs" not in extra))
 
 
 def _run(step: Step, threads: int, log_dir: Path) -> None:
@@ -212,19 +214,22 @@ def run_steps(steps: list[Step], jobs: int, log_dir: Path, threads: int | None =
     pending = [s for s in steps if not s.out.exists()]
     finished = {s.name for s in steps if s.out.exists()}
     running: set[str] = set()
+    alone_running = False
     failures: list[str] = []
     lock = threading.Condition()
     threads = threads or max(1, (os.cpu_count() or 2) // jobs)
 
     def worker(step: Step) -> None:
         try:
-            _run(step, threads, log_dir)
+            _run(step, (os.cpu_count() or 1) if step.alone else threads, log_dir)
             ok = True
         except RuntimeError as error:
             failures.append(str(error))
             ok = False
+        nonlocal alone_running
         with lock:
             running.discard(step.name)
+            alone_running = False
             if ok:
                 finished.add(step.name)
             lock.notify_all()
@@ -232,8 +237,12 @@ def run_steps(steps: list[Step], jobs: int, log_dir: Path, threads: int | None =
     with lock:
         while pending and not failures:
             ready = [s for s in pending if all(a in finished for a in s.after)]
-            while ready and len(running) < jobs:
+            ready.sort(key=lambda s: s.alone)  # timed steps last
+            while ready and len(running) < jobs and not alone_running:
+                if ready[0].alone and running:
+                    break  # wait for a quiet machine (ready is sorted: all the rest are alone)
                 step = ready.pop(0)
+                alone_running = step.alone
                 pending.remove(step)
                 running.add(step.name)
                 threading.Thread(target=worker, args=(step,), daemon=True).start()

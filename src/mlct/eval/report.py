@@ -74,7 +74,9 @@ def semantic_table(report: dict[str, Any]) -> str | None:
     classes = sorted({k for r in rows for k in r["semantic_recall"]})
     lines = [[k, *(f"{r['semantic_recall'][k]:.2f}" if k in r["semantic_recall"] else DASH
                    for r in rows)] for k in classes]
-    return _table(["class", *(r["method"] for r in rows)], lines)
+    # a model evaluated at several NFE has one method name: the NFE tells its columns apart
+    return _table(["class", *(r["method"] + (f", NFE {r['nfe']}" if r.get("nfe") else "")
+                              for r in rows)], lines)
 
 
 def format_markdown(report: dict[str, Any]) -> str:
