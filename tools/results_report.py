@@ -44,14 +44,17 @@ def _merged(table1: dict[str, Any], mm: dict[str, Any] | None,
             aits: dict[str, Any] | None) -> dict[str, Any]:
     """Table 1's rows with MultiModality from the MM report and AITS from the AITS report."""
     merged = json.loads(json.dumps(table1))
-    mm_rows = {row["method"]: row for row in (mm or {}).get("rows", [])}
-    aits_rows = {row["method"]: row for row in (aits or {}).get("rows", [])}
+    def key(row: dict[str, Any]) -> tuple[str, int | None]:  # one model has a row per NFE
+        return row["method"], row["nfe"]
+
+    mm_rows = {key(row): row for row in (mm or {}).get("rows", [])}
+    aits_rows = {key(row): row for row in (aits or {}).get("rows", [])}
     for row in merged["rows"]:
-        source = mm_rows.get(row["method"])
+        source = mm_rows.get(key(row))
         if source and "multimodality" in source["metrics"]:
             row["metrics"]["multimodality"] = source["metrics"]["multimodality"]
-        if row["method"] in aits_rows and aits_rows[row["method"]].get("timing"):
-            row["timing"] = aits_rows[row["method"]]["timing"]
+        if aits_rows.get(key(row), {}).get("timing"):
+            row["timing"] = aits_rows[key(row)]["timing"]
     return merged
 
 
