@@ -153,9 +153,10 @@ def report_specs() -> dict[str, tuple[list[str], list[str]]]:
         # AITS alone, on a quiet machine (run it when nothing else runs): 2 replications
         "table1-aits": (["main-cm", "main-ldm"], ["--nfe", "1,3,5,10", "--reps", "2"]),
         # MultiModality costs 3,000 generations a replication (60,000 for 20): fewer here, and
-        # not for the 50-step baseline (100 network passes a motion: about 40 min a replication)
+        # fewer still for the 50-step baseline (100 network passes a motion)
         "table1-mm": (["main-cm"],
                       ["--nfe", "1,3,5,10", "--mm", "--reps", str(MM_REPS), *NO_AITS]),
+        "table1-mm-ldm": (["main-ldm"], ["--mm", "--reps", "2", *NO_AITS]),
         "guidance": (q, NO_AITS),
         "latent": (latent, NO_AITS),
         "tokens-levels": ([cm_name(n, 1.0) for n in ("tokens2", "quantized", "tokens4",

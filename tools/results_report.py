@@ -40,14 +40,14 @@ def _eval_time(report: dict[str, Any]) -> str:
             f"{min(per_row):.0f}–{max(per_row):.0f} s.")
 
 
-def _merged(table1: dict[str, Any], mm: dict[str, Any] | None,
+def _merged(table1: dict[str, Any], mms: list[dict[str, Any]],
             aits: dict[str, Any] | None) -> dict[str, Any]:
-    """Table 1's rows with MultiModality from the MM report and AITS from the AITS report."""
+    """Table 1's rows with MultiModality from the MM reports and AITS from the AITS report."""
     merged = json.loads(json.dumps(table1))
     def key(row: dict[str, Any]) -> tuple[str, int | None]:  # one model has a row per NFE
         return row["method"], row["nfe"]
 
-    mm_rows = {key(row): row for row in (mm or {}).get("rows", [])}
+    mm_rows = {key(row): row for mm in mms for row in mm["rows"]}
     aits_rows = {key(row): row for row in (aits or {}).get("rows", [])}
     for row in merged["rows"]:
         source = mm_rows.get(key(row))
@@ -97,17 +97,20 @@ def _section(title: str, report: dict[str, Any] | None, name: str, body: list[st
 
 def build_markdown(reports: Path, docs: Path, header: str) -> str:
     r = {name: _load(reports, name) for name in
-         ("table1", "table1-mm", "table1-aits", "guidance", "latent", "tokens-levels", "schedule",
+         ("table1", "table1-mm", "table1-mm-ldm", "table1-aits", "guidance", "latent", "tokens-levels", "schedule",
           "bfloat16")}
     text = [header]
     t1 = r["table1"]
     if t1 is not None:
-        merged = _merged(t1, r["table1-mm"], r["table1-aits"])
+        mms = [r[name] for name in ("table1-mm", "table1-mm-ldm") if r[name]]
+        merged = _merged(t1, mms, r["table1-aits"])
         body = [results_table(merged), ""]
-        if r["table1-mm"]:
-            body += [f"MModality over {r['table1-mm']['config']['protocol']['reps']} "
-                     f"replications, for MLCT only: {_command(r['table1-mm'])}. Every other "
-                     f"metric over {t1['config']['protocol']['reps']}.", ""]
+        for mm in mms:
+            body += [f"MModality of {', '.join(Path(m).name for m in mm['config']['models'])} "
+                     f"over {mm['config']['protocol']['reps']} replications: {_command(mm)}.",
+                     ""]
+        if mms:
+            body += [f"Every other metric over {t1['config']['protocol']['reps']}.", ""]
         if r["table1-aits"]:
             a = next(row["timing"] for row in r["table1-aits"]["rows"] if row.get("timing"))
             body += [f"AITS measured alone on the machine ({_command(r['table1-aits'])}): batch "
