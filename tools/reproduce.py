@@ -53,7 +53,8 @@ SCALES = f"""**Two scales.** Twenty-odd trainings do not fit a CPU at one budget
 | scale | used in | autoencoder | denoiser (width x layers, ff) | stage-2 steps |
 |---|---|---|---|---|
 | main | sections 1 and 6 | small preset, 2,500 steps | 256 x 5, 1024 | 3,000 (MLCT and LDM alike) |
-| ablation | sections 2 to 5 | small preset, {AE_STEPS_ABLATION} steps | 128 x 3, 512 | {CM_STEPS_ABLATION} |
+| ablation | sections 2 to 5 | small preset, {AE_STEPS_ABLATION} steps | 128 x 3, 512 \
+| {CM_STEPS_ABLATION} |
 
 The main scale is the bundled model's recipe (docs/model_card.md); the latent diffusion
 baseline shares its autoencoder and budget. Ablation runs differ from their reference in one

@@ -9,18 +9,23 @@ from __future__ import annotations
 
 import json
 import shutil
+from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from mlct.eval.report import _table, format_value, results_table, semantic_table
+from mlct.eval.report import (aits_table, format_value, markdown_table, results_table,
+                              semantic_table)
 
 READING = Path(__file__).with_name("results_reading.md")
 IMAGES = "img/results"
 
 
-def _load(reports: Path, name: str) -> dict[str, Any] | None:
-    path = reports / name / "results.json"
-    return json.loads(path.read_text(encoding="utf-8")) if path.exists() else None
+def _load_all(reports: Path) -> defaultdict[str, dict[str, Any] | None]:
+    """Every report under REPORTS by name; a missing one reads as None."""
+    found: defaultdict[str, dict[str, Any] | None] = defaultdict(lambda: None)
+    for path in sorted(reports.glob("*/results.json")):
+        found[path.parent.name] = json.loads(path.read_text(encoding="utf-8"))
+    return found
 
 
 def _command(report: dict[str, Any]) -> str:
@@ -58,23 +63,13 @@ def _merged(table1: dict[str, Any], mms: list[dict[str, Any]],
     return merged
 
 
-def _aits_split(report: dict[str, Any]) -> str:
-    rows = [row for row in report["rows"] if row.get("timing")]
-    return _table(["Methods", "NFE", "network passes", "text (ms)", "sampling (ms)",
-                   "decoding (ms)", "AITS (ms)"],
-                  [[row["method"], str(row["nfe"]), str(row["network_passes"]),
-                    *(f"{row['timing'][k]:.1f}" for k in ("text_ms", "sampling_ms",
-                                                          "decoding_ms", "aits_ms"))]
-                   for row in rows])
-
-
 def _pivot(report: dict[str, Any], key: str, names: list[str], ws: list[float]) -> str:
     """Rows = latent type, columns = trained w; cells = metric `key`."""
     cells = {}
     for row in report["rows"]:
         model = Path(row["model"]).name  # cm-<type>-w<w>
         cells[(model.split("-")[1], row["guidance"])] = format_value(row["metrics"].get(key))
-    return _table(["latent", *(f"w = {w:g}" for w in ws)],
+    return markdown_table(["latent", *(f"w = {w:g}" for w in ws)],
                   [[n, *(cells.get((n, w), "-") for w in ws)] for n in names])
 
 
@@ -96,9 +91,7 @@ def _section(title: str, report: dict[str, Any] | None, name: str, body: list[st
 
 
 def build_markdown(reports: Path, docs: Path, header: str) -> str:
-    r = {name: _load(reports, name) for name in
-         ("table1", "table1-mm", "table1-mm-ldm", "table1-aits", "guidance", "latent", "tokens-levels", "schedule",
-          "bfloat16")}
+    r = _load_all(reports)
     text = [header]
     t1 = r["table1"]
     if t1 is not None:
@@ -116,7 +109,7 @@ def build_markdown(reports: Path, docs: Path, header: str) -> str:
             body += [f"AITS measured alone on the machine ({_command(r['table1-aits'])}): batch "
                      f"{a['batch']}, {a['frames']} frames, mean of {a['runs']} runs after "
                      f"{a['warmup']} warm-up runs, loading excluded, {a['device']}:", "",
-                     _aits_split(r["table1-aits"])]
+                     aits_table(r["table1-aits"])]
         plot = _copy_plot(reports, "table1", "nfe.png", docs)
         body += ["", plot] if plot else []
     text += _section("1. Table 1 analogue: Real, latent diffusion (50 DDIM steps, CFG 7.5), "
@@ -172,12 +165,12 @@ def _training_times(work: Path) -> str:
     lines = []
     for marker in sorted((work / "done").glob("*")):
         lines.append([marker.name, marker.read_text(encoding="utf-8").strip()])
-    return _table(["training", "wall time (one thread, two side by side)"], lines)
+    return markdown_table(["training", "wall time (one thread, two side by side)"], lines)
 
 
 def header(work: Path, scales: str) -> str:
-    t1 = _load(work / "reports", "table1")
-    real = ""
+    t1 = _load_all(work / "reports")["table1"]
+    real = classifier = ""
     if t1 is not None:
         m = t1["real"]["metrics"]
         real = (f" On the real test motions it gives R@1 {format_value(m['r_precision_top1'])}, "
@@ -185,6 +178,9 @@ def header(work: Path, scales: str) -> str:
                 f"{format_value(m['mm_dist'])}, Diversity {format_value(m['diversity'])}.")
         versions = ", ".join(f"{k} {v}" for k, v in t1["config"]["versions"].items())
         real += f" Software: {versions}; device {t1['config']['device']}."
+        if "semantic_exact" in m:
+            classifier = (f" Exact-set accuracy {format_value(m['semantic_exact'])} on the real "
+                          f"test motions.")
     return "\n".join([
         "# Results: the paper's comparisons on the procedural benchmark",
         "",
@@ -209,8 +205,8 @@ def header(work: Path, scales: str) -> str:
         "numbers are comparable between the rows of this page, not with the papers' HumanML3D "
         "tables." + real,
         "",
-        "**Action classifier** (section 6 and the Sem. columns): `mlct train classifier`, "
-        "exact-set accuracy 0.987 on the real test motions.",
+        "**Action classifier** (section 6 and the Sem. columns): `mlct train classifier`."
+        + classifier,
         "",
         "**Protocol.** `mlct eval`: 20 replications, R-precision in groups of 32, values "
         "mean ± 1.96 std / √20 (docs/evaluation.md). AITS: batch 1, 196 frames, this CPU.",

@@ -21,7 +21,7 @@ import torch
 from safetensors.torch import load_file, save_file
 
 from mlct.errors import MlctError
-from mlct.io import atomic_dir
+from mlct.io import atomic_dir, read_format_json
 from mlct.train.checkpoint import strip_prefix
 
 BUNDLE_FORMAT = "mlct-model"
@@ -82,14 +82,7 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
     if not config_path.is_file() or not weights.is_file():
         raise MlctError(f"{path}: not an mlct model (needs config.json and model.safetensors; "
                         f"make one with `mlct export RUN --out {path}`)")
-    try:
-        meta = json.loads(config_path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as err:
-        raise MlctError(f"{config_path}: unreadable ({err})") from None
-    if not isinstance(meta, dict) or meta.get("format") != BUNDLE_FORMAT:
-        raise MlctError(f"{config_path}: not an mlct model config")
-    if meta.get("version") != BUNDLE_VERSION:
-        raise MlctError(f"{path}: model format version {meta.get('version')} is not supported")
+    meta = read_format_json(config_path, BUNDLE_FORMAT, BUNDLE_VERSION, "an mlct model config")
     missing = [k for k in META_KEYS if k not in meta]
     if missing:
         raise MlctError(f"{config_path}: incomplete model config (no {', '.join(missing)})")

@@ -7,11 +7,12 @@ write to a temporary name in the same directory, then `os.replace` it onto the f
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Iterator
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -97,3 +98,21 @@ def check_writable_dir(directory: str | os.PathLike) -> Path:
     if not os.access(existing, os.W_OK | os.X_OK):
         raise MlctError(f"cannot write in {directory}: {existing} is not writable")
     return directory
+
+
+def read_format_json(path: str | os.PathLike, format_name: str, version: int,
+                     what: str) -> dict[str, Any]:
+    """A JSON file that names its format and version (model, evaluator, classifier
+    descriptions), checked; a one-line MlctError naming `what` the file should describe."""
+    path = Path(path)
+    if not path.is_file():
+        raise MlctError(f"{path.parent}: no {path.name} (not {what})")
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as error:  # UnicodeDecodeError is a ValueError
+        raise MlctError(f"{path}: unreadable, not valid JSON ({error})") from None
+    if not isinstance(meta, dict) or meta.get("format") != format_name:
+        raise MlctError(f"{path}: not {what} (format is not {format_name!r})")
+    if meta.get("version") != version:
+        raise MlctError(f"{path}: version {meta.get('version')!r}, this mlct reads {version}")
+    return meta

@@ -35,7 +35,7 @@ from mlct.data.layout import DatasetLayout, load_npy
 from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.eval.evaluator_dir import prepare_target
-from mlct.io import atomic_dir, save_npy, write_text
+from mlct.io import atomic_dir, read_format_json, save_npy, write_text
 
 FORMAT = "mlct-action-classifier"
 VERSION = 1
@@ -374,15 +374,11 @@ def load_action_classifier(directory: str | os.PathLike) -> ActionClassifier:
     """The ActionClassifier of a directory written by train_action_classifier."""
     root = Path(directory)
     path = root / META_FILE
-    if not path.is_file():
-        raise MlctError(f"{root}: no {META_FILE} (not an action classifier directory)")
+    meta = read_format_json(path, FORMAT, VERSION, "an action classifier directory")
     try:
-        meta = json.loads(path.read_text(encoding="utf-8"))
-        if meta.get("format") != FORMAT or meta.get("version") != VERSION:
-            raise ValueError(f"format/version is not {FORMAT!r} {VERSION}")
         classes, skeleton = list(meta["classes"]), str(meta["skeleton"])
         feature_dim, sizes = int(meta["feature_dim"]), ClassifierSizes(**meta["sizes"])
-    except (ValueError, KeyError, TypeError, AttributeError, MlctError) as error:
+    except (ValueError, KeyError, TypeError, AttributeError) as error:
         raise MlctError(f"{path}: not a valid classifier description ({error})") from None
     mean, std = (load_npy(root / name) for name in ("Mean.npy", "Std.npy"))
     if mean.shape != (feature_dim,) or std.shape != (feature_dim,):

@@ -36,7 +36,7 @@ from mlct.eval.evaluator import (
 )
 from mlct.eval.learned_words import LearnedWordVectors
 from mlct.eval.word_vectors import UNKNOWN_WORD, WordVectorizer
-from mlct.io import atomic_dir, save_npy, write_text
+from mlct.io import atomic_dir, read_format_json, save_npy, write_text
 from mlct.motion.skeleton import get_skeleton, skeleton_for_dim
 
 FORMAT = "mlct-evaluator-dir"
@@ -100,19 +100,8 @@ def write_evaluator_dir(out: str | os.PathLike, evaluator: Evaluator, sizes: Eva
 
 def read_evaluator_meta(directory: str | os.PathLike) -> dict[str, Any]:
     """meta.json of an evaluator directory, checked (format, version); MlctError otherwise."""
-    root = Path(directory)
-    path = root / META_FILE
-    if not path.is_file():
-        raise MlctError(f"{root}: no {META_FILE} (not an evaluator directory of train_evaluator)")
-    try:
-        meta = json.loads(path.read_text(encoding="utf-8"))
-    except (ValueError, UnicodeDecodeError) as error:
-        raise MlctError(f"{path}: not valid JSON ({error})") from None
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-        raise MlctError(f"{path}: format is not {FORMAT!r}")
-    if meta.get("version") != VERSION:
-        raise MlctError(f"{path}: version {meta.get('version')!r}, this mlct reads {VERSION}")
-    return meta
+    return read_format_json(Path(directory) / META_FILE, FORMAT, VERSION,
+                            "an evaluator directory of train_evaluator")
 
 
 def load_evaluator_dir(directory: str | os.PathLike) -> Evaluator:

@@ -49,7 +49,7 @@ def _aits(row: dict[str, Any]) -> str:
     return f"{timing['aits_ms']:.1f}" if timing else DASH
 
 
-def _table(header: list[str], lines: list[list[str]]) -> str:
+def markdown_table(header: list[str], lines: list[list[str]]) -> str:
     out = ["| " + " | ".join(header) + " |", "|" + "|".join(["---"] * len(header)) + "|"]
     out += ["| " + " | ".join(line) + " |" for line in lines]
     return "\n".join(out)
@@ -63,7 +63,7 @@ def results_table(report: dict[str, Any]) -> str:
     header = ["Methods", *(name for name, _ in columns), "NFE", "AITS (ms)"]
     lines = [[row["method"], *(format_value(row["metrics"].get(key)) for _, key in columns),
               format_nfe(row), _aits(row)] for row in rows]
-    return _table(header, lines)
+    return markdown_table(header, lines)
 
 
 def semantic_table(report: dict[str, Any]) -> str | None:
@@ -75,8 +75,19 @@ def semantic_table(report: dict[str, Any]) -> str | None:
     lines = [[k, *(f"{r['semantic_recall'][k]:.2f}" if k in r["semantic_recall"] else DASH
                    for r in rows)] for k in classes]
     # a model evaluated at several NFE has one method name: the NFE tells its columns apart
-    return _table(["class", *(r["method"] + (f", NFE {r['nfe']}" if r.get("nfe") else "")
+    return markdown_table(["class", *(r["method"] + (f", NFE {r['nfe']}" if r.get("nfe") else "")
                               for r in rows)], lines)
+
+
+def aits_table(report: dict[str, Any]) -> str:
+    """The AITS split (text encoding, sampling, decoding) of every timed row."""
+    return markdown_table(
+        ["Methods", "NFE", "network passes", "text (ms)", "sampling (ms)", "decoding (ms)",
+         "AITS (ms)"],
+        [[row["method"], str(row["nfe"]), str(row["network_passes"]),
+          *(f"{row['timing'][k]:.1f}" for k in ("text_ms", "sampling_ms", "decoding_ms",
+                                                 "aits_ms"))]
+         for row in report["rows"] if row.get("timing")])
 
 
 def format_markdown(report: dict[str, Any]) -> str:
@@ -108,12 +119,7 @@ def format_markdown(report: dict[str, Any]) -> str:
             f"Batch {first['batch']}, {first['frames']} frames, mean of {first['runs']} runs "
             f"after {first['warmup']} warm-up runs, loading excluded, device {first['device']}.",
             "",
-            _table(["Methods", "NFE", "network passes", "text (ms)", "sampling (ms)",
-                    "decoding (ms)", "AITS (ms)"],
-                   [[row["method"], str(row["nfe"]), str(row["network_passes"]),
-                     f"{row['timing']['text_ms']:.1f}", f"{row['timing']['sampling_ms']:.1f}",
-                     f"{row['timing']['decoding_ms']:.1f}", f"{row['timing']['aits_ms']:.1f}"]
-                    for row in timed]),
+            aits_table(report),
             "",
         ]
     semantic = semantic_table(report)
