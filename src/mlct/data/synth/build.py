@@ -31,6 +31,10 @@ from mlct.motion.physics import foot_skating_ratio
 from mlct.motion.skeleton import Skeleton, get_skeleton
 
 SPLIT_FRACTIONS = {"train": 0.80, "val": 0.05, "test": 0.15}  # as HumanML3D's splits
+# The version of the motions a seed makes; bumped whenever the same seed gives other data.
+# 2: the ground-contact solver no longer throws the root backwards at each jog/run stride, and
+#    the swing ankle eases in (v1 snapped it 50 degrees at toe-off).
+BENCHMARK_VERSION = 2
 MAX_TRIES = 50
 
 
@@ -188,7 +192,8 @@ def _synthesize(out: Path, num: int, seed: int, skeleton: Skeleton, workers: int
         save_npy(work / "Mean.npy", mean)
         save_npy(work / "Std.npy", std)
         write_text(work / "labels.jsonl", "".join(json.dumps(r) + "\n" for r in labels))
-        info = {"generator": "mlct procedural benchmark", "skeleton": skeleton.name, "seed": seed,
+        info = {"generator": "mlct procedural benchmark", "version": BENCHMARK_VERSION,
+                "skeleton": skeleton.name, "seed": seed,
                 "num": num, "fps": skeleton.fps, "splits": {k: len(v) for k, v in splits.items()}}
         write_text(work / "synth.json", json.dumps(info, indent=2) + "\n")
     return {"motions": num, "frames": frames, "skating_ratio": float(np.mean(skating)),

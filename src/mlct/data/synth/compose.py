@@ -1,9 +1,9 @@
 """From a script to global joint positions: clips, cross-fades, style noise, ground contact.
 
 The ground-contact solver places the body in the world so that it is physically plausible:
-the lowest contact point (ankle, ball of the foot, knee) touches the floor; the planted point
-does not slide, so the root travels exactly as the stance leg pushes it (no foot skating by
-construction); in flight phases the body follows the clip's clearance and keeps its velocity.
+the lowest contact point (ankle, ball of the foot, knee) touches the floor; the planted points
+barely slide, so the root travels as the stance leg pushes it, with a bounded acceleration; in
+flight phases the body follows the clip's clearance and keeps its velocity.
 """
 
 from __future__ import annotations
@@ -18,7 +18,8 @@ from mlct.data.synth.motions import ANGLE_CHANNELS, ARM_CHANNELS, Clip, Style, a
 from mlct.data.synth.rig import Rig, pose_positions, rot_y
 
 BLEND_SECONDS = 0.4
-SWITCH_MARGIN = 0.012  # metres: a new point must be this much lower to take over as the anchor
+CONTACT_SOFTNESS = 0.01  # metres: a contact point this much higher than the lowest bears 1/e as much
+MAX_ACCELERATION = 12.0  # m/s^2: bound on the root's horizontal acceleration (sprint starts reach ~10)
 
 
 @dataclass
@@ -69,42 +70,61 @@ def concatenate(clips: list[Clip], fps: float) -> tuple[Clip, list[tuple[int, in
     return out, segments
 
 
-def place_on_ground(rig: Rig, body: np.ndarray, clip: Clip) -> np.ndarray:
-    """World positions (T, J, 3) from pelvis-relative positions `body` (T, J, 3)."""
+def place_on_ground(rig: Rig, body: np.ndarray, clip: Clip, fps: float) -> np.ndarray:
+    """World positions (T, J, 3) from pelvis-relative positions `body` (T, J, 3).
+
+    In stance the root moves opposite to the body-frame velocity of the contact points, each
+    weighted by how close it is to the floor (a soft minimum over CONTACT_SOFTNESS): the
+    lowest point stays planted and weight passes from heel to ball to the other foot. The
+    root's horizontal acceleration is bounded by MAX_ACCELERATION; where the rig's feet ask for
+    more, they slide for a frame or two. (Benchmark v1 pinned one anchor point at a time; a
+    swing foot that became the lowest while still travelling forward relative to the pelvis
+    threw the root 0.2 m backwards once per jog and run stride, and jog was no faster than walk.)
+    """
     n = len(body)
     points = body[:, list(rig.contact_points)]  # (T, P, 3)
     heights = points[..., 1]
     root = np.zeros((n, 3))
     root[:, 1] = -heights.min(axis=1) + clip.clearance * rig.scale
-    margin = SWITCH_MARGIN * rig.scale
-    anchor = -1
-    anchor_xz = np.zeros(2)
+    softness = CONTACT_SOFTNESS * rig.scale
     velocity = np.zeros(2)
     heading = rot_y(clip.channels["yaw"])
-    for t in range(n):
+    previous = np.zeros(2)  # the root's last step (x, z)
+    landed = True
+    for t in range(1, n):
         if clip.flight[t]:
             v_body = clip.flight_velocity[t]
             if not np.isnan(v_body).any():
                 # Body-frame velocity (x, z) turned into the world by the heading.
                 v = heading[t] @ np.array([v_body[0], 0.0, v_body[1]]) * rig.scale
                 velocity = v[[0, 2]]
-            root[t, [0, 2]] = (root[t - 1, [0, 2]] if t else 0.0) + velocity
-            anchor = -1
+            root[t, [0, 2]] = root[t - 1, [0, 2]] + velocity
+            previous = velocity
+            landed = False
             continue
-        lowest = int(np.argmin(heights[t]))
-        if anchor < 0:
-            # Landing (or the first frame): plant the lowest point where it is now.
-            guess = root[t - 1, [0, 2]] + velocity if t else np.zeros(2)
-            anchor, anchor_xz = lowest, guess + points[t, lowest, [0, 2]]
-        elif heights[t, lowest] < heights[t, anchor] - margin:
-            # Weight moved onto a new point: it has been planted since the previous frame, so
-            # it holds the place it had then (the old point may already be lifting off).
-            anchor, anchor_xz = lowest, root[t - 1, [0, 2]] + points[t - 1, lowest, [0, 2]]
-        root[t, [0, 2]] = anchor_xz - points[t, anchor, [0, 2]]
-        if t:
-            # Take-off velocity: the mean over the last frames of stance, not the final push.
-            first = max(0, t - 3)
-            velocity = (root[t, [0, 2]] - root[first, [0, 2]]) / (t - first)
+        if not landed:
+            # Touch-down frame: the body keeps its flight velocity; the feet take over after.
+            root[t, [0, 2]] = root[t - 1, [0, 2]] + velocity
+            previous = velocity
+            landed = True
+            continue
+        # Soft minimum over this frame's heights: the lowest points bear the weight.
+        weight = np.exp(-(heights[t] - heights[t].min()) / softness)
+        weight /= weight.sum()
+        slide = points[t, :, [0, 2]].T - points[t - 1, :, [0, 2]].T  # (P, 2) body-frame motion
+        step = -weight @ slide
+        # The rig's feet are posed by joint angles, not by physics: around toe-off and touch-down
+        # they can sweep 0.2 m in a frame. A body cannot change its speed that fast, so the
+        # change of root velocity is bounded (the feet slide a little instead).
+        change = step - previous
+        limit = MAX_ACCELERATION * rig.scale / fps**2
+        if np.linalg.norm(change) > limit:
+            step = previous + change * (limit / np.linalg.norm(change))
+        root[t, [0, 2]] = root[t - 1, [0, 2]] + step
+        previous = step
+        # Take-off velocity: the mean over the last frames of stance, not the final push.
+        first = max(0, t - 3)
+        velocity = (root[t, [0, 2]] - root[first, [0, 2]]) / (t - first)
     return body + root[:, None, :]
 
 
@@ -129,6 +149,6 @@ def compose(script: Script, rig: Rig, style: Style, rng: np.random.Generator, fp
             clip.channels[name] = clip.channels[name] + np.stack(
                 [smooth_noise(rng, n, fps, 0.015) for _ in range(3)], -1)
     body = pose_positions(rig, clip.channels)
-    positions = place_on_ground(rig, body, clip)
+    positions = place_on_ground(rig, body, clip, fps)
     # Only the clips of actions are segments; the lead-in and lead-out are idle.
     return Composed(positions, segments[1:-1])
