@@ -1,0 +1,211 @@
+"""Does the model do what its text says? Physical read-outs of motions, per family and side.
+
+    python bench/motion_quality.py --data SYNTH [--model MODEL_DIR] [--ae RUN] [--seeds 5]
+        [--classifier CLS] [--limit N] [--json OUT] [--render DIR]
+
+Every motion is scored by mlct.eval.readouts: the checks that a benchmark label (family, side,
+count, direction) implies, read from the joints alone. It prints the pass rate, per family and
+overall, of
+  (a) the ground-truth test motions (must be >= 98%, or the read-outs are wrong);
+  (b) the autoencoder's reconstructions of them (--ae RUN: a training run or its AE checkpoint),
+      with MPJPE and the pelvis-rise (jumps, hops) and foot-travel (walks) ratios to the truth;
+  (c) generations from the test captions at the real lengths, --nfe, --seeds seeds;
+  (d) generations from hand-written paraphrases (bench/data/quality_prompts.json);
+  (e) generations from two-action prompts (first action in the first half, second in the second);
+and, where a side or turn direction is named, how often the named side is the one that moves.
+(b) next to (c) says where quality is lost: stage 1 or stage 2. --classifier adds the action
+classifier's exact-set accuracy and mean recall on (c). The default model is the bundled one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+import mlct
+from mlct.data.layout import DatasetLayout
+from mlct.eval.action_classifier import read_labels
+from mlct.eval.readouts import evaluate_label, foot_travel, pelvis_rise
+
+PROMPTS = Path(__file__).parent / "data" / "quality_prompts.json"
+SIDE_KEYS = ("side", "hand", "leg")
+MAX_FRAMES = 196
+
+
+class Tally:
+    """Pass counts per family, per named side, and overall."""
+
+    def __init__(self) -> None:
+        self.family: dict[str, list[int]] = defaultdict(lambda: [0, 0])
+        self.sided: list[int] = [0, 0]
+        self.motions: list[int] = [0, 0]
+
+    def add(self, label: dict[str, Any], results: list[tuple[str, bool]]) -> bool:
+        ok = all(passed for _, passed in results)
+        self.motions[0] += ok
+        self.motions[1] += 1
+        tagged = [(f"{i}:", a) for i, a in enumerate(label["actions"])]
+        if label.get("concurrent"):
+            tagged.append(("+:", label["concurrent"]))
+        for tag, action in tagged:
+            mine = [(name, p) for name, p in results if name.startswith(tag)]
+            fam = self.family[action["family"]]
+            fam[0] += all(p for _, p in mine)
+            fam[1] += 1
+            if any(k in action.get("params", {}) for k in SIDE_KEYS):
+                # The checks that name a side: the named one moves, the other does not.
+                sided = [p for name, p in mine if any(w in name for w in ("left", "right", "side"))]
+                if sided:
+                    self.sided[0] += all(sided)
+                    self.sided[1] += 1
+        return ok
+
+    @staticmethod
+    def rate(pair: list[int]) -> float:
+        return pair[0] / pair[1] if pair[1] else float("nan")
+
+    def summary(self) -> dict[str, Any]:
+        return {"overall": self.rate(self.motions), "motions": self.motions[1],
+                "named_side": self.rate(self.sided), "named_side_n": self.sided[1],
+                "families": {f: self.rate(v) for f, v in sorted(self.family.items())}}
+
+
+def reconstruct(run: Path, features: list[np.ndarray]) -> list[np.ndarray]:
+    """The autoencoder's reconstructions (real units) of feature arrays."""
+    from mlct.train.stages import find_autoencoder, load_frozen_autoencoder
+    ae, norm, _ = load_frozen_autoencoder(find_autoencoder(run, None), torch.device("cpu"))
+    out = []
+    for x in features:
+        xt = (torch.from_numpy(x).float()[None] - norm.mean) / norm.std
+        with torch.no_grad():
+            recon, _ = ae(xt, torch.tensor([len(x)]))
+        out.append(norm.denormalize(recon)[0].numpy())
+    return out
+
+
+def to_joints(features: np.ndarray) -> np.ndarray:
+    from mlct.motion.features import recover_from_ric
+    return recover_from_ric(torch.from_numpy(np.ascontiguousarray(features)).float()).numpy()
+
+
+def prompt_label(actions: list[dict[str, Any]], seconds: float) -> dict[str, Any]:
+    """A label for a hand-written prompt: its actions share the clip in equal windows."""
+    share = seconds / len(actions)
+    return {"actions": [dict(a, start=i * share, end=(i + 1) * share)
+                        for i, a in enumerate(actions)], "concurrent": None}
+
+
+def print_table(title: str, columns: dict[str, dict[str, Any]]) -> None:
+    print(f"\n## {title}")
+    families = sorted({f for c in columns.values() for f in c["families"]})
+    print(f"{'family':<16}" + "".join(f"{name:>14}" for name in columns))
+    for fam in families:
+        print(f"{fam:<16}" + "".join(f"{c['families'].get(fam, float('nan')):>14.2f}"
+                                      for c in columns.values()))
+    print(f"{'OVERALL':<16}" + "".join(f"{c['overall']:>14.3f}" for c in columns.values()))
+    print(f"{'named side':<16}" + "".join(f"{c['named_side']:>14.3f}" for c in columns.values()))
+    print(f"{'motions':<16}" + "".join(f"{c['motions']:>14d}" for c in columns.values()))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--data", type=Path, required=True, help="a procedural benchmark")
+    parser.add_argument("--model", type=Path, default=None, help="default: the bundled model")
+    parser.add_argument("--ae", type=Path, default=None, help="run or AE checkpoint for (b)")
+    parser.add_argument("--split", default="test")
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--nfe", type=int, default=5)
+    parser.add_argument("--limit", type=int, default=None, help="first N motions of the split")
+    parser.add_argument("--classifier", type=Path, default=None)
+    parser.add_argument("--skip-generation", action="store_true", help="only (a) and (b)")
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args()
+    torch.manual_seed(0)
+
+    layout = DatasetLayout.existing(args.data)
+    labels = read_labels(args.data)
+    names = [n for n in layout.read_split(args.split) if n in labels][: args.limit]
+    # The models' horizon is 196 frames (HumanML3D's); the few longer clips lose their last frames.
+    real = [layout.load_features(n)[:MAX_FRAMES] for n in names]
+    real_joints = [to_joints(f) for f in real]
+    report: dict[str, Any] = {"data": str(args.data), "split": args.split, "motions": len(names)}
+
+    truth = Tally()
+    for name, joints in zip(names, real_joints):
+        truth.add(labels[name], evaluate_label(joints, labels[name]))
+    columns = {"ground truth": truth.summary()}
+
+    if args.ae is not None:
+        recon = Tally()
+        mpjpe, rises, travels = [], defaultdict(list), []
+        for name, joints, feats in zip(names, real_joints, reconstruct(args.ae, real)):
+            made = to_joints(feats)
+            recon.add(labels[name], evaluate_label(made, labels[name]))
+            mpjpe.append(float(np.linalg.norm(made - joints, axis=-1).mean()))
+            families = [a["family"] for a in labels[name]["actions"]]
+            if len(families) == 1 and families[0] in ("jump", "hop"):
+                rises[families[0]].append((pelvis_rise(joints), pelvis_rise(made)))
+            if len(families) == 1 and families[0] == "walk":
+                travels.append((sum(foot_travel(joints).values()), sum(foot_travel(made).values())))
+        columns["AE recon"] = recon.summary()
+        ratios = {f"pelvis_rise_{f}": float(np.mean([m for _, m in v]) / np.mean([t for t, _ in v]))
+                  for f, v in rises.items()}
+        if travels:
+            ratios["foot_travel_walk"] = float(np.mean([m for _, m in travels])
+                                               / np.mean([t for t, _ in travels]))
+        report["reconstruction"] = {"mpjpe_m": float(np.mean(mpjpe)), **ratios}
+
+    if not args.skip_generation:
+        pipe = mlct.load(args.model)
+        captions = [layout.read_texts(n)[0].caption for n in names]
+        lengths = [min(len(r), pipe.max_frames) for r in real]
+        generated, made_features, targets = Tally(), [], []
+        start = time.perf_counter()
+        for seed in range(args.seeds):
+            out = pipe.generate(captions, lengths=lengths, nfe=args.nfe, seed=seed * 100_000)
+            for name, motion in zip(names, out):
+                generated.add(labels[name], evaluate_label(motion.joints, labels[name]))
+                made_features.append(motion.features)
+                targets.append(labels[name])
+        columns["captions"] = generated.summary()
+        prompts = json.loads(PROMPTS.read_text(encoding="utf-8"))
+        for key, title, seconds in (("paraphrases", "paraphrases", 4.0),
+                                    ("two_actions", "two actions", 7.0)):
+            tally = Tally()
+            items = prompts[key]
+            for seed in range(args.seeds):
+                out = pipe.generate([p["text"] for p in items], seconds=seconds, nfe=args.nfe,
+                                    seed=seed * 100_000)
+                for item, motion in zip(items, out):
+                    label = prompt_label(item["actions"], motion.joints.shape[0] / pipe.skeleton.fps)
+                    tally.add(label, evaluate_label(motion.joints, label))
+            columns[title] = tally.summary()
+        report["generation_seconds"] = time.perf_counter() - start
+        if args.classifier is not None:
+            from mlct.eval.action_classifier import (action_targets, load_action_classifier,
+                                                     semantic_accuracy)
+            classifier = load_action_classifier(args.classifier)
+            sem = semantic_accuracy(classifier, made_features, [action_targets(t) for t in targets])
+            report["classifier"] = {"exact_set_accuracy": sem["exact_set_accuracy"],
+                                    "mean_recall": sem["mean_recall"]}
+
+    print(f"{len(names)} motions of {args.data} ({args.split}); nfe {args.nfe}, "
+          f"{args.seeds} seeds; model {args.model or 'bundled'}")
+    print_table("read-out pass rates", columns)
+    for key in ("reconstruction", "classifier"):
+        if key in report:
+            print(f"\n{key}: " + ", ".join(f"{k} {v:.3f}" for k, v in report[key].items()))
+    report["columns"] = columns
+    if args.json is not None:
+        args.json.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+
+
+if __name__ == "__main__":
+    main()
