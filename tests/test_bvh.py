@@ -222,3 +222,14 @@ def test_save_motion_writes_bvh(tmp_path):
                              joints=joints, fps=20.0, skeleton="humanml3d")
     path = save_motion(motion, tmp_path / "turn.bvh")
     assert error_cm(path, joints, HUMANML3D) < 0.01
+
+
+@pytest.mark.parametrize("content", [b"", b"   \n", b"not a bvh at all\n",
+                                     b"HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n"])
+def test_read_bvh_refuses_empty_or_truncated_files_in_one_line(tmp_path, content):
+    """An empty .bvh made bvhio's parser loop forever (`mlct data import --bvh` hung)."""
+    path = tmp_path / "bad.bvh"
+    path.write_bytes(content)
+    with pytest.raises(MlctError) as info:
+        read_bvh(path)
+    assert "bad.bvh" in str(info.value) and "\n" not in str(info.value)

@@ -32,6 +32,9 @@ def test_unwritable_output_is_one_line_exit_2(tmp_path):
     ["data", "synth", "--out", "x", "--num", "0"],
     ["data", "synth", "--out", "x", "--skeleton", "smpl"],
     ["frobnicate"],
+    # 10^9 variations: refused at once, before a name per motion is built (it ran out of memory)
+    ["generate", "a person walks", "--num", "1000000000", "--out", "x.npy"],
+    ["generate", "a", "b", "c", "--num", "40000", "--out-dir", "x", "--format", "npy"],
 ])
 def test_bad_usage_exits_2_with_one_line(argv, capsys):
     with pytest.raises(SystemExit) as exit_info:

@@ -16,6 +16,9 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"mlct: error: {message}\n")
 
 
+MAX_MOTIONS = 100_000  # motions one `mlct generate` makes (files and names are listed first)
+
+
 def _cmd_data_synth(args: argparse.Namespace) -> int:
     from mlct.data.synth.build import synthesize_dataset
 
@@ -220,8 +223,14 @@ def _cmd_generate(args: argparse.Namespace) -> int:
         raise MlctError("give prompts on the command line or with --prompts FILE, not both")
     if args.num < 1:
         raise MlctError(f"--num must be at least 1, got {args.num}")
+    if args.num > MAX_MOTIONS:  # checked before a name per motion is built (10^9 ran out of memory)
+        raise MlctError(f"--num {args.num} is more than the {MAX_MOTIONS:,} motions one command "
+                        f"makes; split the work over several commands")
     prompts = (read_prompts(args.prompts) if args.prompts is not None
                else [clean_prompt(t) for t in args.text])
+    if len(prompts) * args.num > MAX_MOTIONS:
+        raise MlctError(f"{len(prompts)} prompts x --num {args.num} make more than the "
+                        f"{MAX_MOTIONS:,} motions one command makes")
     if not prompts:
         raise MlctError("no prompt: mlct generate \"a person walks forward\" --out walk.gif")
     long = args.prompts is None and len(prompts) > 1

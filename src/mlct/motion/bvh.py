@@ -231,6 +231,23 @@ class BvhClip:
         return 1.0 / self.frame_time
 
 
+def _check_bvh_shape(path: Path) -> None:
+    """A one-line error unless the file has a BVH's two sections: bvhio's parser loops forever
+    on an empty file, so nothing without them is handed to it."""
+    try:
+        with open(path, "rb") as handle:
+            head = handle.read(64).lstrip()
+            handle.seek(0)
+            text = handle.read().decode("utf-8", errors="replace")
+    except OSError as error:
+        raise MlctError(f"{path}: cannot read ({error.strerror})") from None
+    if not head:
+        raise MlctError(f"{path}: not a readable BVH file (it is empty)")
+    if not head.upper().startswith(b"HIERARCHY") or "MOTION" not in text or "Frames:" not in text:
+        raise MlctError(f"{path}: not a readable BVH file (it needs a HIERARCHY section, then "
+                        f"MOTION with Frames: and Frame Time:)")
+
+
 def read_bvh(path: str | os.PathLike) -> BvhClip:
     """Parse a BVH file (bvhio) and compute every joint's world position per frame.
 
@@ -242,6 +259,7 @@ def read_bvh(path: str | os.PathLike) -> BvhClip:
     import bvhio  # the BVH reader of `mlct data import --bvh`; export needs no package
 
     path = Path(path)
+    _check_bvh_shape(path)
     try:
         container = bvhio.readAsBvh(str(path))
     except (OSError, SyntaxError, ValueError, IndexError, TypeError) as error:
