@@ -27,7 +27,7 @@ from mlct.train.checkpoint import strip_prefix
 BUNDLE_FORMAT = "mlct-model"
 BUNDLE_VERSION = 1
 SAMPLERS = {"cm": "consistency", "diffusion": "ddim"}
-ENCODER_PREFIXES = ("enc_in.", "enc_tokens", "enc_pos", "encoder.")
+ENCODER_PREFIXES = ("enc_in.", "enc_tokens", "enc_pos", "encoder.", "to_tokens.")
 META_KEYS = ("sampler", "config", "feature_dim", "skeleton", "text_encoder", "text_dim")
 
 

@@ -55,6 +55,12 @@ class AutoencoderConfig(_Section):
     dropout: float = Field(0.1, ge=0.0, lt=1.0)
     joint_weight: float = Field(1e-3, ge=0.0)  # lambda_j (Eq. 9)
     kl_weight: float = Field(1e-4, ge=0.0)  # for latent_type = vae (MLD's value)
+    # Ours, beyond Eq. 9 (0 / off = the paper): see nn/autoencoder.py and train/stages.py.
+    # "transformer" = the paper's skip transformer; "conv" = nn/conv_autoencoder.py
+    architecture: Literal["transformer", "conv"] = "transformer"
+    channels: int = Field(128, ge=1)  # conv only: width of its 1-D convolutions
+    velocity_weight: float = Field(0.0, ge=0.0)  # frame-to-frame feature differences
+    frame_upsampler: bool = False  # transformer only: the latent reaches every frame query
 
 
 class DenoiserConfig(_Section):

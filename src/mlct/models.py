@@ -4,15 +4,25 @@ from __future__ import annotations
 
 from mlct.config import Config
 from mlct.nn.autoencoder import MotionAutoencoder
+from mlct.nn.conv_autoencoder import ConvMotionAutoencoder
 from mlct.nn.denoiser import Denoiser
 
 
-def build_autoencoder(config: Config, feature_dim: int) -> MotionAutoencoder:
+AnyAutoencoder = MotionAutoencoder | ConvMotionAutoencoder
+
+
+def build_autoencoder(config: Config, feature_dim: int) -> AnyAutoencoder:
     ae = config.ae
+    if ae.architecture == "conv":
+        return ConvMotionAutoencoder(
+            feature_dim, latent_type=ae.latent_type, n_tokens=ae.n_tokens,
+            latent_dim=ae.latent_dim, levels=ae.levels, channels=ae.channels,
+            max_len=config.data.max_motion_length)
     return MotionAutoencoder(
         feature_dim, latent_type=ae.latent_type, n_tokens=ae.n_tokens,
         latent_dim=ae.latent_dim, levels=ae.levels, layers=ae.layers, heads=ae.heads,
-        ff_dim=ae.ff_dim, dropout=ae.dropout, max_len=config.data.max_motion_length)
+        ff_dim=ae.ff_dim, dropout=ae.dropout, max_len=config.data.max_motion_length,
+        frame_upsampler=ae.frame_upsampler)
 
 
 def build_denoiser(config: Config, text_dim: int) -> Denoiser:

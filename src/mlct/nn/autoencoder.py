@@ -9,6 +9,14 @@ Facts from the MLCT authors' code (``mae_net.py``, ``block.py``), kept here:
   transformer, then a head Linear(d -> D), ReLU, Linear(D -> D) on the frame positions.
 Deviations: the decoder gets the padding mask (the authors build it and do not pass it), its
 padded output frames are set to 0, and it only runs over the frames requested, not always 196.
+
+Our option ``frame_upsampler`` (off by default, as in the paper): the latent also reaches every
+frame query directly, through a Linear to a coarse time axis (one step per 8 frames) and three
+nearest-upsample + Conv1d stages. Why: with the latent only as n tokens in front, the decoder's
+queries are the same learned positions for every motion, and on a CPU budget (a few epochs) it
+learns the average pose per frame first; sharp events at varying times (a jump's flight, a swing
+foot's lift) average out (docs/training.md). The conv path gives each frame a latent-dependent
+signal from the first step, as the convolutional VQ-VAEs of T2M-GPT and MoMask do.
 """
 
 from __future__ import annotations
@@ -34,6 +42,41 @@ class Latent(NamedTuple):
     kl: Tensor | None  # scalar
 
 
+def latent_of_tokens(tokens: Tensor, latent_type: str, n_tokens: int, levels: int,
+                     training: bool) -> Latent:
+    """The encoder's output tokens (B, n_enc, d) -> Latent of the given type (Eq. 8 or VAE)."""
+    if latent_type == "quantized":
+        # fp32: under bf16 autocast the l = 1000 grid would not survive the cast back.
+        return Latent(quantize(tokens.float(), levels), tokens, None)  # Eq. 8
+    if latent_type == "plain":
+        return Latent(tokens, tokens, None)
+    mu, logvar = tokens[:, :n_tokens], tokens[:, n_tokens:]  # (B, n, d) each
+    kl = 0.5 * (mu.pow(2) + logvar.exp() - 1.0 - logvar).mean()  # KL to N(0, I), per element
+    z = mu + torch.exp(0.5 * logvar) * torch.randn_like(mu) if training else mu  # reparam.
+    return Latent(z, mu, kl)
+
+
+class _FrameUpsampler(nn.Module):
+    """z (B, n, d) -> (B, T, d): a per-frame signal from the whole latent, 8x conv upsampling."""
+
+    factor = 8
+
+    def __init__(self, n_tokens: int, width: int, max_len: int) -> None:
+        super().__init__()
+        self.coarse = -(-max_len // self.factor)  # ceil: coarse steps covering max_len frames
+        self.width = width
+        self.project = nn.Linear(n_tokens * width, self.coarse * width)
+        stages: list[nn.Module] = []
+        for _ in range(3):  # 2 x 2 x 2 = factor
+            stages += [nn.Upsample(scale_factor=2, mode="nearest"),
+                       nn.Conv1d(width, width, kernel_size=3, padding=1), nn.GELU()]
+        self.stages = nn.Sequential(*stages[:-1])  # no activation on the output
+
+    def forward(self, z: Tensor, frames: int) -> Tensor:
+        coarse = self.project(z.flatten(1)).view(z.shape[0], self.width, self.coarse)
+        return self.stages(coarse)[:, :, :frames].transpose(1, 2)  # (B, frames, d)
+
+
 class MotionAutoencoder(nn.Module):
     """Transformer autoencoder E, D with a quantized (Eq. 8), VAE or plain latent of n x d."""
 
@@ -49,6 +92,7 @@ class MotionAutoencoder(nn.Module):
         ff_dim: int = 1024,
         dropout: float = 0.1,
         max_len: int = 196,
+        frame_upsampler: bool = False,
     ) -> None:
         super().__init__()
         if latent_type not in LATENT_TYPES:
@@ -72,6 +116,7 @@ class MotionAutoencoder(nn.Module):
         # decoder D
         self.dec_pos = nn.Parameter(torch.randn(1, n_tokens + max_len, latent_dim))
         self.decoder = SkipTransformer(latent_dim, layers, heads, ff_dim, dropout, "gelu")
+        self.upsampler = _FrameUpsampler(n_tokens, latent_dim, max_len) if frame_upsampler else None
         self.head = nn.Sequential(
             nn.Linear(latent_dim, feature_dim), nn.ReLU(), nn.Linear(feature_dim, feature_dim)
         )
@@ -101,19 +146,8 @@ class MotionAutoencoder(nn.Module):
         h = torch.cat([self.enc_tokens.expand(b, -1, -1), self.enc_in(x)], dim=1)  # (B, n_enc+T, d)
         h = h + self.enc_pos[:, : n_enc + t]
         tokens = self.encoder(h, key_padding_mask=pad)[:, :n_enc]  # (B, n_enc, d)
-
-        if self.latent_type == "quantized":
-            # fp32: under bf16 autocast the l = 1000 grid would not survive the cast back.
-            return Latent(quantize(tokens.float(), self.levels), tokens, None)  # Eq. 8
-        if self.latent_type == "plain":
-            return Latent(tokens, tokens, None)
-        mu, logvar = tokens[:, : self.n_tokens], tokens[:, self.n_tokens :]  # (B, n, d) each
-        kl = 0.5 * (mu.pow(2) + logvar.exp() - 1.0 - logvar).mean()  # KL to N(0, I), per element
-        if self.training:
-            z = mu + torch.exp(0.5 * logvar) * torch.randn_like(mu)  # reparameterization
-        else:
-            z = mu
-        return Latent(z, mu, kl)
+        return latent_of_tokens(tokens, self.latent_type, self.n_tokens, self.levels,
+                                self.training)
 
     def decode(self, z: Tensor, lengths: Tensor, max_len: int | None = None) -> Tensor:
         """D: z (B, n, d), lengths (B,) -> (B, T, D), T = max_len or max(lengths); pads are 0."""
@@ -127,7 +161,8 @@ class MotionAutoencoder(nn.Module):
         valid = lengths_to_mask(lengths.to(z.device), t)  # (B, T)
         pad = torch.cat([valid.new_zeros(b, n), ~valid], dim=1)  # (B, n + T)
         pos = self.dec_pos[:, : n + t].expand(b, -1, -1)  # (B, n + T, d): queries = 0 + position
-        h = pos + torch.cat([z, z.new_zeros(b, t, self.latent_dim)], dim=1)  # tokens in front
+        frames = z.new_zeros(b, t, self.latent_dim) if self.upsampler is None else self.upsampler(z, t)
+        h = pos + torch.cat([z, frames], dim=1)  # tokens in front
         h = self.decoder(h, key_padding_mask=pad)[:, n:]  # (B, T, d)
         out = self.head(h)  # (B, T, D)
         return out.masked_fill(~valid.unsqueeze(-1), 0.0)  # padded frames exactly 0

@@ -21,9 +21,8 @@ from mlct.diffusion.losses import consistency_training_loss, diffusion_training_
 from mlct.diffusion.parameterization import ConsistencyFunction
 from mlct.diffusion.schedule import VPSchedule, karras_time_grid
 from mlct.errors import MlctError
-from mlct.models import build_autoencoder, build_denoiser, latent_clamp
+from mlct.models import AnyAutoencoder, build_autoencoder, build_denoiser, latent_clamp
 from mlct.motion.features import recover_from_ric
-from mlct.nn.autoencoder import MotionAutoencoder
 from mlct.nn.masks import lengths_to_mask
 from mlct.train.checkpoint import Checkpoint, latest_checkpoint, load_checkpoint, prefixed
 
@@ -113,6 +112,13 @@ class AutoencoderStage(Stage):
         joint = _masked_smooth_l1(joints_hat, joints, mask)
         total = feature + self.config.ae.joint_weight * joint
         out = {"feature": feature.detach(), "joint": joint.detach()}
+        if self.config.ae.velocity_weight > 0 and frames > 1:
+            # Ours: frame-to-frame differences, so that a sharp event (a jump's take-off, a
+            # foot's lift) costs as much as its size and cannot be smoothed into the mean.
+            pairs = mask[:, 1:] * mask[:, :-1]
+            velocity = _masked_smooth_l1(recon.diff(dim=1), x.diff(dim=1), pairs)
+            total = total + self.config.ae.velocity_weight * velocity
+            out["velocity"] = velocity.detach()
         if latent.kl is not None:
             total = total + self.config.ae.kl_weight * latent.kl
             out["kl"] = latent.kl.detach()
@@ -150,10 +156,11 @@ def find_autoencoder(run: Path, ae_path: str | Path | None) -> Path:
 
 
 def load_frozen_autoencoder(path: Path, device: torch.device
-                            ) -> tuple[MotionAutoencoder, Normalizer, dict[str, Any]]:
+                            ) -> tuple[AnyAutoencoder, Normalizer, dict[str, Any]]:
     """A trained AE in eval mode with its Mean/Std, gradients off, and its checkpoint metadata."""
     checkpoint = load_checkpoint(path, with_state=False)
-    if "feature_dim" not in checkpoint.meta or "ae.enc_in.weight" not in checkpoint.tensors:
+    if "feature_dim" not in checkpoint.meta or not any(
+            key.startswith("ae.encoder.") for key in checkpoint.tensors):
         raise MlctError(f"{path}: not an autoencoder checkpoint")
     ae_config = config_from_dict(checkpoint.meta["config"], str(path))
     model = build_autoencoder(ae_config, checkpoint.meta["feature_dim"])

@@ -1,0 +1,82 @@
+"""The convolutional autoencoder (ae.architecture: conv) keeps MotionAutoencoder's contract."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+from mlct.config import load_config, config_from_dict
+from mlct.models import build_autoencoder
+from mlct.nn import Latent, lengths_to_mask
+from mlct.nn.autoencoder import MotionAutoencoder
+from mlct.nn.conv_autoencoder import ConvMotionAutoencoder
+
+D = 12
+LENGTHS = torch.tensor([40, 60, 7])
+
+
+def _ae(latent_type: str = "quantized") -> ConvMotionAutoencoder:
+    torch.manual_seed(0)
+    return ConvMotionAutoencoder(D, latent_type=latent_type, n_tokens=3, latent_dim=16,
+                                 channels=24, max_len=60)
+
+
+def _batch() -> torch.Tensor:
+    torch.manual_seed(1)
+    return torch.randn(3, 60, D)
+
+
+@pytest.mark.parametrize("latent_type", ["quantized", "vae", "plain"])
+def test_shapes_zero_padding_and_gradients(latent_type: str) -> None:
+    ae = _ae(latent_type)
+    recon, lat = ae(_batch(), LENGTHS)
+    assert isinstance(lat, Latent) and lat.z.shape == (3, 3, 16) and recon.shape == (3, 60, D)
+    valid = lengths_to_mask(LENGTHS, 60)
+    assert torch.all(recon[~valid] == 0) and torch.all(recon[valid].abs().sum(-1) > 0)
+    assert ae.decode(lat.z, torch.tensor([5, 7, 3])).shape == (3, 7, D)
+    with pytest.raises(ValueError):
+        ae.decode(lat.z, LENGTHS, max_len=61)
+    (recon.square().mean() + (lat.kl if lat.kl is not None else 0.0)).backward()
+    missing = [n for n, p in ae.named_parameters() if p.grad is None or p.grad.abs().sum() == 0]
+    assert not missing, missing
+    if latent_type == "quantized":
+        k = lat.z * 1000
+        torch.testing.assert_close(k, k.round(), rtol=0, atol=1e-3)
+        assert lat.z.abs().max() <= 1.0
+
+
+def test_encoder_ignores_padding_and_decoder_ignores_padding_length() -> None:
+    ae = _ae("plain").eval()
+    x = _batch()
+    z = ae.encode(x, LENGTHS).z
+    x2 = x.clone()
+    valid = lengths_to_mask(LENGTHS, 60)
+    x2[~valid] = 1e3 * torch.randn(int((~valid).sum()), D)
+    torch.testing.assert_close(ae.encode(x2, LENGTHS).z, z, rtol=0, atol=1e-5)
+    torch.testing.assert_close(ae.encode(x[:1, :40], LENGTHS[:1]).z[0], z[0])
+    # a frame's output depends on the latent and the frame, not on how far the batch is padded
+    torch.testing.assert_close(ae.decode(z, LENGTHS)[:, :7],
+                               ae.decode(z, torch.tensor([7, 7, 7])), rtol=1e-5, atol=1e-5)
+
+
+def test_config_builds_either_architecture_and_rejects_unknown() -> None:
+    config = load_config("tiny").to_dict()
+    assert isinstance(build_autoencoder(config_from_dict(config), D), MotionAutoencoder)
+    config["ae"]["architecture"] = "conv"
+    assert isinstance(build_autoencoder(config_from_dict(config), D), ConvMotionAutoencoder)
+    config["ae"]["architecture"] = "lstm"
+    with pytest.raises(Exception, match="architecture"):
+        config_from_dict(config)
+
+
+def test_frame_upsampler_reaches_every_frame_and_trains() -> None:
+    torch.manual_seed(0)
+    ae = MotionAutoencoder(D, n_tokens=2, latent_dim=16, layers=1, heads=2, ff_dim=32,
+                           dropout=0.0, max_len=60, frame_upsampler=True)
+    recon, lat = ae(_batch(), LENGTHS)
+    recon.square().mean().backward()
+    assert all(p.grad is not None and p.grad.abs().sum() > 0 for p in ae.upsampler.parameters())
+    # another latent changes every valid frame, not only through attention to the tokens
+    other = ae.decode(lat.z.roll(1, dims=0), LENGTHS)
+    valid = lengths_to_mask(LENGTHS, 60)
+    assert torch.all((other - recon)[valid].abs().sum(-1) > 0)
