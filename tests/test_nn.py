@@ -267,3 +267,30 @@ def test_state_dict_round_trip(kind: str) -> None:
     else:
         args = (torch.randn(2, 3, 32), torch.rand(2), torch.randn(2, 24))
         torch.testing.assert_close(dst(*args), src(*args), rtol=0, atol=0)
+
+
+def test_denoiser_attends_over_token_states() -> None:
+    """text_tokens > 0: a change in one token row alone (the pooled vector kept) changes F."""
+    from mlct.nn.inference import for_inference
+
+    torch.manual_seed(0)
+    k, dim = 4, 16
+    den = Denoiser(latent_dim=8, n_tokens=2, text_dim=(1 + k) * dim, width=32, layers=3,
+                   heads=4, ff_dim=64, dropout=0.0, text_tokens=k, text_heads=2)
+    text = torch.randn(2, 1 + k, dim)
+    text[:, 3:] = 0  # two token rows, then padding
+    x, t = torch.randn(2, 2, 8), torch.tensor([0.3, 0.7])
+    out = den(x, t, text.flatten(1))
+    out.square().sum().backward()
+    assert den.text_query.grad.abs().sum() > 0
+    assert all(p.grad is not None for p in den.text_attention.parameters())
+    den.eval()
+    with torch.no_grad():
+        base = den(x, t, text.flatten(1))
+        side = text.clone()
+        side[:, 2] = torch.randn(2, dim)  # one token differs, as "left" / "right" do
+        assert (den(x, t, side.flatten(1)) - base).abs().max() > 1e-3
+        fast = for_inference(den, torch.float32)
+        torch.testing.assert_close(fast(x, t, text.flatten(1)), base, rtol=1e-5, atol=1e-5)
+    with pytest.raises(ValueError, match="text_dim"):
+        Denoiser(latent_dim=8, n_tokens=2, text_dim=51, text_tokens=4)

@@ -446,3 +446,21 @@ def test_cache_concurrent_processes(tmp_path):
     assert len(got) == 60 == cache.count()
     for k, v in got.items():
         np.testing.assert_array_equal(v, _vec(k))
+
+
+def test_minilm_tokens_carries_pooled_vector_and_token_states(minilm):
+    from mlct.text.encoders import TOKEN_SLOTS, token_slots_of
+
+    tokens = load_text_encoder("minilm+tokens")
+    assert tokens.name == "minilm+tokens" and tokens.dim == (1 + TOKEN_SLOTS) * 384
+    assert token_slots_of("minilm+tokens") == TOKEN_SLOTS and token_slots_of("minilm") == 0
+    left, right, jump = "a person waves the left hand", "a person waves the right hand", "jumps"
+    both = tokens.encode([left, jump]).view(2, 1 + TOKEN_SLOTS, 384)
+    torch.testing.assert_close(both[:, 0], minilm.encode([left, jump]), rtol=0, atol=1e-5)
+    # [CLS] a person waves the left hand [SEP]: 8 rows, then zeros; the batch's padding is not kept
+    assert (both[0, 1:].abs().sum(-1) > 0).sum() == 8 and (both[1, 1:].abs().sum(-1) > 0).sum() == 3
+    torch.testing.assert_close(tokens.encode([jump])[0], both[1].flatten(), rtol=0, atol=1e-5)
+    # the side lives in one token row, far more than in the pooled vector
+    a, b = tokens.encode([left, right]).view(2, 1 + TOKEN_SLOTS, 384)
+    cos = torch.nn.functional.cosine_similarity(a, b, dim=-1)
+    assert cos[0] > 0.95 and cos[1 + 5] < 0.9  # pooled vs the "left"/"right" token

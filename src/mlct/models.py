@@ -6,6 +6,7 @@ from mlct.config import Config
 from mlct.nn.autoencoder import MotionAutoencoder
 from mlct.nn.conv_autoencoder import ConvMotionAutoencoder
 from mlct.nn.denoiser import Denoiser
+from mlct.text.encoders import token_slots_of
 
 
 AnyAutoencoder = MotionAutoencoder | ConvMotionAutoencoder
@@ -29,7 +30,8 @@ def build_denoiser(config: Config, text_dim: int) -> Denoiser:
     d = config.denoiser
     return Denoiser(latent_dim=config.ae.latent_dim, n_tokens=config.ae.n_tokens,
                     text_dim=text_dim, width=d.width, layers=d.layers, heads=d.heads,
-                    ff_dim=d.ff_dim, dropout=d.dropout)
+                    ff_dim=d.ff_dim, dropout=d.dropout,
+                    text_tokens=token_slots_of(config.text.encoder))
 
 
 def latent_clamp(config: Config) -> float | None:

@@ -11,6 +11,12 @@ Facts from the MLCT authors' code (``denoiser_net.py``), kept here:
 - head: Linear(width -> d), GELU, Linear(d -> d), default (not zero) initialization.
 The skip transformer uses Xavier-uniform initialization (the authors' denoiser keeps PyTorch's
 default there; their autoencoder and MLD use Xavier).
+
+Ours, off by default (``text_tokens = 0`` is the paper): with a "+tokens" text encoder the
+condition is [pooled vector, K token states] (text/encoders.py), and `text_queries` learned
+queries attend over the token states; their outputs join the pooled vector before the per-block
+projections. Why: the pooled MiniLM vectors of "waves the left hand" and "... the right hand"
+have cosine 0.976, so the side is a 2 % signal; attention can weight the one word that differs.
 """
 
 from __future__ import annotations
@@ -53,8 +59,13 @@ class Denoiser(nn.Module):
         dropout: float = 0.1,
         time_embed_dim: int = 256,
         time_embed_scale: float = 1.0,
+        text_tokens: int = 0,
+        text_queries: int = 2,
+        text_heads: int = 4,
     ) -> None:
         super().__init__()
+        if text_tokens < 0 or (text_tokens and text_dim % (text_tokens + 1)):
+            raise ValueError(f"text_dim {text_dim} is not (1 + text_tokens {text_tokens}) rows")
         self.latent_dim = latent_dim
         self.n_tokens = n_tokens
         self.text_dim = text_dim
@@ -68,8 +79,16 @@ class Denoiser(nn.Module):
         # features are ~10x larger): a LayerNorm makes the condition as loud as the time
         # embedding whatever the encoder. Without it a MiniLM-conditioned model learned the text
         # so slowly that its samples ignored it. (Not in the authors' code, which uses CLIP.)
-        self.text_norm = nn.LayerNorm(text_dim)
-        self.text_proj = nn.ModuleList(nn.Linear(text_dim, width) for _ in range(layers))
+        self.text_tokens = text_tokens
+        cond_dim = text_dim
+        if text_tokens:
+            token_dim = text_dim // (text_tokens + 1)
+            self.token_norm = nn.LayerNorm(token_dim)
+            self.text_query = nn.Parameter(0.02 * torch.randn(1, text_queries, token_dim))
+            self.text_attention = nn.MultiheadAttention(token_dim, text_heads, batch_first=True)
+            cond_dim = token_dim * (1 + text_queries)
+        self.text_norm = nn.LayerNorm(cond_dim)
+        self.text_proj = nn.ModuleList(nn.Linear(cond_dim, width) for _ in range(layers))
         self.backbone = SkipTransformer(width, layers, heads, ff_dim, dropout, "gelu")
         self.head = nn.Sequential(
             nn.Linear(width, latent_dim), nn.GELU(), nn.Linear(latent_dim, latent_dim)
@@ -79,8 +98,22 @@ class Denoiser(nn.Module):
 
     def text_terms(self, text_emb: Tensor) -> list[Tensor]:
         """W_c,i LN(c) of every block i: `layers` tensors (B, width)."""
+        if self.text_tokens:
+            text_emb = self._attend_tokens(text_emb)
         text_emb = self.text_norm(text_emb)
         return [cp(text_emb) for cp in self.text_proj]
+
+    def _attend_tokens(self, text_emb: Tensor) -> Tensor:
+        """[pooled, K token states] (B, (1 + K) D) -> [pooled, Q attended] (B, (1 + Q) D)."""
+        b = text_emb.shape[0]
+        rows = text_emb.view(b, self.text_tokens + 1, -1)  # (B, 1 + K, D)
+        pooled, states = rows[:, 0], rows[:, 1:]
+        padding = states.abs().sum(-1) == 0  # (B, K) the zero rows past the caption's end
+        padding[:, 0] = False  # [CLS] always counts (and an all-zero row cannot empty the softmax)
+        query = self.text_query.expand(b, -1, -1).to(states.dtype)
+        attended, _ = self.text_attention(query, self.token_norm(states), self.token_norm(states),
+                                          key_padding_mask=padding, need_weights=False)
+        return torch.cat([pooled, attended.flatten(1)], dim=1)
 
     def time_terms(self, t: Tensor, dtype: torch.dtype = torch.float32) -> list[Tensor]:
         """W_t,i sinusoid(t) of every block i: `layers` tensors (B, width), t (B,)."""

@@ -23,8 +23,13 @@ from torch import Tensor
 from mlct.errors import MlctError
 
 MINILM = "minilm"  # the spec (and cache name) of the bundled all-MiniLM-L6-v2
+# Suffix of a spec whose embedding also carries the token states: "minilm+tokens" gives
+# [pooled (384), TOKEN_SLOTS x token state (384), zero rows past the caption's end].
+TOKENS_SUFFIX = "+tokens"
+TOKEN_SLOTS = 20  # wordpieces kept, [CLS] included; a two-action caption takes ~15
 CLIP_MAX_LENGTH = 77  # CLIP's context length; longer captions are truncated as in the paper
-SPEC_FORMS = "'minilm', 'clip:/path/to/dir', 'st:/path/to/dir' or a model directory path"
+SPEC_FORMS = ("'minilm', 'minilm+tokens', 'clip:/path/to/dir', 'st:/path/to/dir' or a model "
+              "directory path")
 
 # Files any of which means "the weights are here" (plain, sharded, or legacy PyTorch pickles).
 _WEIGHT_PATTERNS = ("*.safetensors", "*.safetensors.index.json", "pytorch_model*.bin")
@@ -109,9 +114,11 @@ class SentenceTransformerEncoder(TextEncoder):
         name: str | None = None,
         device: str | torch.device | None = None,
         batch_size: int = 256,
+        token_slots: int = 0,
     ) -> None:
         path = Path(path).expanduser().resolve()
         _check_model_dir(path, "st")
+        self.token_slots = token_slots
         _offline()
         from sentence_transformers import SentenceTransformer
 
@@ -139,6 +146,8 @@ class SentenceTransformerEncoder(TextEncoder):
         self._null = null[0]
 
     def _encode(self, texts: list[str]) -> Tensor:
+        if self.token_slots:
+            return self._encode_with_tokens(texts)
         # No normalize_embeddings: the model's own Normalize module (if any) already ran. numpy
         # output also turns encode's inference-mode tensors into ordinary ones, which autograd
         # accepts when the embedding later feeds a trained layer.
@@ -150,6 +159,25 @@ class SentenceTransformerEncoder(TextEncoder):
             normalize_embeddings=False,
         )
         return torch.from_numpy(arr).float().reshape(len(texts), -1)
+
+    def _encode_with_tokens(self, texts: list[str]) -> Tensor:
+        """(B, (1 + K) D): the pooled vector, then the first K token states, zero-padded."""
+        outputs = self.model.encode(texts, batch_size=self.batch_size, output_value=None,
+                                    show_progress_bar=False)
+        rows = []
+        for out in outputs:
+            pooled = out["sentence_embedding"].detach().float().cpu()  # (D,)
+            valid = out["attention_mask"].bool().cpu()  # the batch pads every caption
+            states = out["token_embeddings"].detach().float().cpu()[valid][: self.token_slots]
+            slots = states.new_zeros(self.token_slots, pooled.shape[0])
+            slots[: states.shape[0]] = states
+            rows.append(torch.cat([pooled, slots.flatten()]))
+        return torch.stack(rows).clone()  # out of inference mode: later layers train on it
+
+
+def token_slots_of(spec: str) -> int:
+    """The number of token-state slots in the embeddings of text encoder `spec` (0: pooled)."""
+    return TOKEN_SLOTS if spec.strip().lower().endswith(TOKENS_SUFFIX) else 0
 
 
 class ClipTextEncoder(TextEncoder):
@@ -222,6 +250,9 @@ def load_text_encoder(spec: str = MINILM, device: str | torch.device | None = No
     spec = spec.strip()
     if spec.lower() == MINILM:
         return SentenceTransformerEncoder(bundled_minilm_path(), name=MINILM, device=device)
+    if spec.lower() == MINILM + TOKENS_SUFFIX:
+        return SentenceTransformerEncoder(bundled_minilm_path(), name=MINILM + TOKENS_SUFFIX,
+                                          device=device, token_slots=TOKEN_SLOTS)
     kind, sep, rest = spec.partition(":")
     if sep and kind.lower() in ("clip", "st"):
         if not rest:
