@@ -102,7 +102,7 @@ def test_export_load_generate(trained: Path, tmp_path: Path) -> None:
     assert np.array_equal(out.joints[0, 7:], np.broadcast_to(out[0].joints[-1], (57, 22, 3)))
     assert out.texts == texts and out.features.shape == (3, 64, 263)
     assert not np.allclose(out[1].features, other[1].features)
-    # the bundle holds no encoder half of the AE and no optimizer state
+    # the bundle holds no optimizer state; the AE encoder only under ae_encoder.
     from safetensors.torch import load_file
 
     keys = load_file(str(model_dir / "model.safetensors")).keys()
@@ -287,3 +287,50 @@ def test_ae_path_may_name_a_run_a_stage_or_a_checkpoint(trained: Path) -> None:
     for given in (trained, trained / "ae", latest):
         assert find_autoencoder(Path("/elsewhere"), given) == latest
     assert find_autoencoder(trained, None) == latest
+
+
+def test_init_starts_from_a_model_for_fine_tuning(trained: Path, data: Path, cache: str,
+                                                   tmp_path: Path) -> None:
+    """--init MODEL_DIR: the model's config, normalization and weights are where a run starts."""
+    from safetensors.torch import load_file, save_file
+
+    from mlct.bundle import export_run, read_bundle
+
+    model_dir = export_run(trained, tmp_path / "model")
+    _, tensors = read_bundle(model_dir)
+    assert any(k.startswith("ae_encoder.") for k in tensors)  # shipped for fine-tuning
+    run = tmp_path / "fine"
+    still = ["train.{}.max_steps=1", "train.{}.lr=1e-12", "train.{}.lr_min=0"]  # one no-op step
+    train("ae", data, run, None, overrides=[cache, *(s.format("ae") for s in still)],
+          progress=False, init=model_dir)
+    ckpt = load_checkpoint(latest_checkpoint(run / "ae" / "checkpoints"), with_state=False)
+    ae = ckpt.module_state("ae")
+    for key, value in tensors.items():
+        for prefix in ("decoder.", "ae_encoder."):
+            if key.startswith(prefix):
+                torch.testing.assert_close(ae[key[len(prefix):]], value, rtol=0, atol=1e-6)
+    assert set(ae) == {k.split(".", 1)[1] for k in tensors if k.startswith(("decoder.", "ae_"))}
+    assert torch.equal(ckpt.tensors["norm.mean"], tensors["norm.mean"])
+    assert ckpt.meta["config"]["ae"] == load_checkpoint(
+        latest_checkpoint(trained / "ae" / "checkpoints"), with_state=False).meta["config"]["ae"]
+
+    train("cm", data, run, None, overrides=[cache, *(s.format("cm") for s in still)],
+          progress=False, init=model_dir)
+    ckpt = load_checkpoint(latest_checkpoint(run / "cm" / "checkpoints"), with_state=False)
+    denoiser = ckpt.module_state("denoiser")
+    for key, value in tensors.items():
+        if key.startswith("denoiser."):
+            torch.testing.assert_close(denoiser[key[len("denoiser."):]], value, rtol=0, atol=1e-6)
+
+    with pytest.raises(MlctError, match="consistency model cannot start `train diffusion`"):
+        train("diffusion", data, run, None, overrides=[cache], progress=False, init=model_dir)
+    with pytest.raises(MlctError, match="--init starts a new run"):
+        train("cm", data, run, None, resume=True, progress=False, init=model_dir)
+    old = tmp_path / "old"  # a model exported before the encoder was shipped
+    old.mkdir()
+    (old / "config.json").write_text((model_dir / "config.json").read_text())
+    weights = load_file(str(model_dir / "model.safetensors"))
+    save_file({k: v for k, v in weights.items() if not k.startswith("ae_encoder.")},
+              str(old / "model.safetensors"))
+    with pytest.raises(MlctError, match="ships no autoencoder encoder"):
+        train("ae", data, tmp_path / "again", None, overrides=[cache], progress=False, init=old)

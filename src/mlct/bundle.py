@@ -2,11 +2,13 @@
 
 A bundle is a directory:
 - model.safetensors: the AE decoder ("decoder.*"), the sampling denoiser ("denoiser.*": the EMA
-  weights), the normalization ("norm.mean", "norm.std");
+  weights), the normalization ("norm.mean", "norm.std"), and the AE encoder ("ae_encoder.*"),
+  which generation never reads: it is there so that `mlct train ae|cm --init MODEL_DIR`
+  fine-tunes the model on a user's own data;
 - config.json: the full run config, the sampler kind, feature width, skeleton, text encoder;
 - Mean.npy, Std.npy: the dataset statistics, in the standard layout's names.
-It holds no optimizer state, no encoder half of the AE and no text-encoder weights (the encoder
-is named and loaded from its own package or directory).
+It holds no optimizer state and no text-encoder weights (the text encoder is named and loaded
+from its own package or directory).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ BUNDLE_FORMAT = "mlct-model"
 BUNDLE_VERSION = 1
 SAMPLERS = {"cm": "consistency", "diffusion": "ddim"}
 ENCODER_PREFIXES = ("enc_in.", "enc_tokens", "enc_pos", "encoder.", "to_tokens.")
+ENCODER_KEY = "ae_encoder"  # the AE encoder's tensors in a bundle (since stage-1 fine-tuning)
 META_KEYS = ("sampler", "config", "feature_dim", "skeleton", "text_encoder", "text_dim")
 
 
@@ -54,7 +57,10 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
                     else strip_prefix(ckpt.tensors, "denoiser"))
     else:
         denoiser = strip_prefix(target, "module")
+    encoder = {k: v for k, v in ae.items() if k.startswith(ENCODER_PREFIXES)}
     tensors = {**{f"decoder.{k}": v for k, v in decoder.items()},
+               # shipped for `mlct train ae --init MODEL_DIR` (fine-tuning); generation skips it
+               **{f"{ENCODER_KEY}.{k}": v for k, v in encoder.items()},
                **{f"denoiser.{k}": v for k, v in denoiser.items()},
                "norm.mean": ckpt.tensors["norm.mean"], "norm.std": ckpt.tensors["norm.std"]}
     if half:  # float16 storage halves the file; loading casts back to float32
@@ -71,6 +77,16 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
         np.save(tmp / "Mean.npy", ckpt.tensors["norm.mean"].numpy())
         np.save(tmp / "Std.npy", ckpt.tensors["norm.std"].numpy())
     return out
+
+
+def bundle_autoencoder_state(tensors: dict[str, torch.Tensor], path: str | os.PathLike
+                             ) -> dict[str, torch.Tensor]:
+    """The whole AE state dict (encoder and decoder) of a bundle read by `read_bundle`."""
+    encoder = strip_prefix(tensors, ENCODER_KEY)
+    if not encoder:
+        raise MlctError(f"{path}: this model ships no autoencoder encoder (exported by an "
+                        f"older mlct); it can start `mlct train cm --init` but not `train ae`")
+    return {**strip_prefix(tensors, "decoder"), **encoder}
 
 
 def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:

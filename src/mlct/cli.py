@@ -94,10 +94,19 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
     if args.resume and args.config is not None:
         raise MlctError("--resume continues the run's saved config; drop --config")
-    config = None if args.resume else load_config(args.config or "small", args.overrides)
+    if args.init is not None and args.config is not None:
+        raise MlctError("--init takes the model's own config; drop --config (key=value "
+                        "overrides still apply)")
+    if args.init == "bundled":
+        from mlct.pipeline import bundled_model_dir
+
+        args.init = bundled_model_dir()
+    saved = args.resume or args.init is not None  # the config comes from the run or the model
+    config = None if saved else load_config(args.config or "small", args.overrides)
     summary = train(args.stage, args.data, args.out, config=config,
-                    overrides=args.overrides if args.resume else [], resume=args.resume,
-                    ae_path=args.ae, device=args.device, progress=not args.quiet)
+                    overrides=args.overrides if saved else [], resume=args.resume,
+                    ae_path=args.ae, device=args.device, progress=not args.quiet,
+                    init=args.init)
     if summary.get("is_main", True):
         last = ", ".join(f"{k} {v:.4g}" for k, v in summary["last"].items())
         print(f"{args.stage}: step {summary['step']}, {last}; "
@@ -329,6 +338,9 @@ def build_parser() -> argparse.ArgumentParser:
                              help="continue from the latest checkpoint")
         parser_.add_argument("--ae", default=None, help="AE checkpoint for cm/diffusion "
                              "(default: RUN/ae's latest)")
+        parser_.add_argument("--init", default=None, metavar="MODEL_DIR",
+                             help="fine-tune: start from a model's config, normalization and "
+                             "weights; 'bundled' = the model that ships with mlct")
         parser_.add_argument("--device", default=None,
                              help="cpu or cuda (default: cuda if available)")
         parser_.add_argument("--quiet", action="store_true", help="no progress bar")

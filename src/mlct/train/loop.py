@@ -18,6 +18,7 @@ from typing import Any
 
 import torch
 import yaml
+from torch import Tensor
 from torch.nn.parallel import DistributedDataParallel
 
 from mlct.config import Config, TrainConfig, apply_overrides, config_from_dict
@@ -55,6 +56,12 @@ def _autocast(device: torch.device, precision: str) -> contextlib.AbstractContex
     if not use_bf16:
         return contextlib.nullcontext()
     return torch.autocast(device_type=device.type, dtype=torch.bfloat16)
+
+
+def _autoencoder_stats(path: Path) -> tuple[Tensor, Tensor]:
+    """Mean and Std an autoencoder checkpoint was trained with."""
+    norm = load_checkpoint(path, with_state=False).module_state("norm")
+    return norm["mean"].float(), norm["std"].float()
 
 
 def _rng_state(device: torch.device) -> dict[str, Any]:
@@ -132,8 +139,13 @@ def _progress(total: int, start: int, enabled: bool, desc: str) -> Any:
 def train(stage: str, data_dir: str | Path, out: str | Path, config: Config | None = None,
           overrides: list[str] | None = None, resume: bool = False,
           ae_path: str | Path | None = None, device: str | None = None,
-          progress: bool = True, stop_at: int | None = None) -> dict[str, Any]:
+          progress: bool = True, stop_at: int | None = None,
+          init: str | Path | None = None) -> dict[str, Any]:
     """Train one stage; returns a summary (final step, last losses, throughput, paths).
+
+    init: a model bundle (`mlct export`) to start from, for fine-tuning on other data: its
+    config (plus `overrides`), its normalization and its weights (the AE for `ae`, the denoiser
+    for `cm` / `diffusion`). `config` is then ignored.
 
     stop_at: leave after this step (checkpointed) as if interrupted; `resume` continues it
     exactly. For time-sliced jobs, and how the tests check exact resumption.
@@ -160,24 +172,74 @@ def train(stage: str, data_dir: str | Path, out: str | Path, config: Config | No
             if found is not None:
                 raise MlctError(f"{stage_dir} already holds a run; pass --resume to continue it "
                                 f"or choose another --out")
-            base = config.to_dict() if config is not None else Config().to_dict()
+            if init is not None:
+                initial = InitialWeights.read(init, stage)
+                base = initial.config
+            else:
+                base = config.to_dict() if config is not None else Config().to_dict()
             config = config_from_dict(apply_overrides(base, overrides), "config + overrides")
+        if resume and init is not None:
+            raise MlctError("--init starts a new run from a model; --resume continues a run: "
+                            "pass one of them")
         return _train(stage, Path(data_dir), run, config, checkpoint, info, ae_path, progress,
-                      stop_at)
+                      stop_at, initial if init is not None else None)
     finally:
         distributed.teardown(info)
 
 
+class InitialWeights:
+    """What `--init MODEL_DIR` starts a stage from: the bundle's config, normalization and the
+    weights that stage trains."""
+
+    def __init__(self, path: Path, config: dict[str, Any], mean: Tensor, std: Tensor,
+                 weights: dict[str, Tensor]) -> None:
+        self.path, self.config, self.mean, self.std, self.weights = path, config, mean, std, weights
+
+    @classmethod
+    def read(cls, path: str | Path, stage: str) -> "InitialWeights":
+        from mlct.bundle import bundle_autoencoder_state, read_bundle
+        from mlct.train.checkpoint import strip_prefix
+
+        meta, tensors = read_bundle(path)
+        if stage == "ae":
+            weights = bundle_autoencoder_state(tensors, path)
+        else:
+            wanted = {"cm": "consistency", "diffusion": "ddim"}[stage]
+            if meta["sampler"] != wanted:
+                raise MlctError(f"{path}: a {meta['sampler']} model cannot start `train {stage}`")
+            weights = strip_prefix(tensors, "denoiser")
+        return cls(Path(path), meta["config"], tensors["norm.mean"], tensors["norm.std"],
+                   weights)
+
+    def load_into(self, stage: Stage) -> None:
+        try:
+            if isinstance(stage, AutoencoderStage):
+                stage.model.load_state_dict(self.weights)
+            elif isinstance(stage, (ConsistencyStage, DiffusionStage)):
+                stage.start_from(self.weights)
+        except RuntimeError:
+            raise MlctError(f"{self.path}: its weights do not fit this stage's network (were "
+                            f"the architecture keys overridden?)") from None
+
+
 def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoint: Any,
            info: distributed.DistInfo, ae_path: str | Path | None,
-           progress: bool, stop_at: int | None) -> dict[str, Any]:
+           progress: bool, stop_at: int | None,
+           initial: InitialWeights | None = None) -> dict[str, Any]:
     tc: TrainConfig = getattr(config.train, stage_name)
     stage_dir = run / stage_name
     torch.manual_seed(tc.seed * 1000 + info.rank)  # noise and dropout; data has its own seeds
 
     dc = config.data
+    # The normalization the networks were trained with: a model's under --init; for the latent
+    # stages, the autoencoder's (its latents are only defined for the motions it was fed).
+    stats = (initial.mean, initial.std) if initial is not None else None
+    if stage_name != "ae":
+        stats = _autoencoder_stats(find_autoencoder(run, ae_path))
+    mean, std = (None, None) if stats is None else (stats[0].numpy(), stats[1].numpy())
     data = Text2MotionDataset(data_dir, "train", max_motion_length=dc.max_motion_length,
-                              unit_length=dc.unit_length, on_bad_file=dc.on_bad_file, seed=tc.seed)
+                              unit_length=dc.unit_length, on_bad_file=dc.on_bad_file, seed=tc.seed,
+                              mean=mean, std=std)
     val = None
     if (data.layout.root / "val.txt").is_file():
         try:
@@ -193,6 +255,8 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
             raise MlctError(f"{checkpoint.path} was trained on "
                             f"{checkpoint.meta.get('feature_dim')}-d motion, the data is "
                             f"{data.skeleton.feature_dim}-d")
+    if initial is not None and checkpoint is None:
+        initial.load_into(stage)
     config = stage.config
     model = stage.trainable
     optimizer = torch.optim.AdamW(model.parameters(), lr=tc.lr, weight_decay=tc.weight_decay)

@@ -267,6 +267,12 @@ class ConsistencyStage(LatentStage):
         if self.target is not None:
             self.target.update_parameters(self.online)
 
+    def start_from(self, denoiser: dict[str, Tensor]) -> None:
+        """Fine-tuning: the denoiser's weights from a model; the EMA target restarts from them."""
+        self.denoiser.load_state_dict(denoiser)
+        if self.target is not None:
+            self.target = self._ema(self.online)
+
     def sampling_denoiser(self) -> nn.Module:
         """The weights generation uses: the EMA target network, else the online one."""
         return self.target.module.net if self.target is not None else self.denoiser
@@ -305,6 +311,11 @@ class DiffusionStage(LatentStage):
 
     def after_step(self) -> None:
         self.ema.update_parameters(self.denoiser)
+
+    def start_from(self, denoiser: dict[str, Tensor]) -> None:
+        """Fine-tuning: the denoiser's weights from a model; the EMA restarts from them."""
+        self.denoiser.load_state_dict(denoiser)
+        self.ema = self._ema(self.denoiser)
 
     def sampling_denoiser(self) -> nn.Module:
         return self.ema.module
