@@ -174,7 +174,7 @@ def _compile_for_cuda(gen: Any) -> None:
     import torch
 
     gen.denoiser.backbone = torch.compile(gen.denoiser.backbone, mode="reduce-overhead")
-    gen.ae.decoder = torch.compile(gen.ae.decoder, mode="reduce-overhead")
+    gen.ae.decoder = torch.compile(gen.ae.decoder, mode="reduce-overhead")  # either architecture
 
 
 def _weight_bytes(*modules: Any) -> int:
@@ -185,6 +185,8 @@ def part_costs(gen: Any) -> dict[str, dict[str, float]]:
     """FLOPs and weight bytes at batch 1 of the text encoder, one sampling step and decoding."""
     import torch
     from torch.utils.flop_counter import FlopCounterMode
+
+    from mlct.bundle import ENCODER_PREFIXES
 
     def linear_flops(x: Any, w: Any, *args: Any, out_shape: Any = None, **kwargs: Any) -> int:
         return 2 * math.prod(out_shape) * x[-1]  # (..., K) x (N, K)^T
@@ -207,7 +209,8 @@ def part_costs(gen: Any) -> dict[str, dict[str, float]]:
         "step": {"flops": flops(lambda: gen.sample_latents(cond, 1, seed=0)),
                  "bytes": _weight_bytes(gen.denoiser)},
         "decode": {"flops": flops(lambda: gen.decode(z, [FRAMES])),
-                   "bytes": _weight_bytes(ae.decoder, ae.head) + ae.dec_pos.numel() * 4},
+                   "bytes": sum(p.numel() * p.element_size() for n, p in ae.named_parameters()
+                                if not n.startswith(ENCODER_PREFIXES))},
     }
 
 

@@ -208,3 +208,16 @@ def test_bad_input_is_one_clear_error():
         joints_to_features(np.zeros((5, 22, 3)), HUMANML3D)
     with pytest.raises(MlctError, match="feature width"):
         recover_from_ric(torch.zeros(5, 100))
+
+
+def test_recover_a_single_frame() -> None:
+    """A one-frame motion (mlct generate --seconds 0.001) recovers to one pose, not an error."""
+    import torch
+
+    from mlct.motion.features import recover_from_ric
+
+    features = torch.zeros(1, 263)
+    features[0, 3] = 0.9  # root height
+    joints = recover_from_ric(features)
+    assert joints.shape == (1, 22, 3) and float(joints[0, 0, 1]) == pytest.approx(0.9)
+    assert recover_from_ric(torch.zeros(2, 1, 263)).shape == (2, 1, 22, 3)

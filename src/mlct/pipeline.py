@@ -23,6 +23,7 @@ from mlct.config import config_from_dict
 from mlct.diffusion.parameterization import ConsistencyFunction, x0_from_eps
 from mlct.diffusion.samplers import ddim_times, sample_consistency, sample_ddim
 from mlct.diffusion.schedule import VPSchedule, karras_time_grid, sampling_times
+from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.generated import GeneratedMotion, Generation
 from mlct.models import build_autoencoder, build_denoiser, latent_clamp
@@ -51,7 +52,7 @@ class MotionGenerator:
             raise MlctError(str(err)) from None
         self.meta = meta
         self.config = config_from_dict(meta["config"], "model config")
-        self.device = torch.device(device or "cpu")
+        self.device = resolve_device("cpu" if device is None else device)
         self.skeleton = get_skeleton(meta["skeleton"])
         self.sampler = meta["sampler"]
         self.ae = build_autoencoder(self.config, meta["feature_dim"])
@@ -116,19 +117,17 @@ class MotionGenerator:
         if lengths is not None and seconds is not None:
             raise MlctError("give lengths (frames) or seconds, not both")
         if seconds is not None:
-            secs = [seconds] * count if np.isscalar(seconds) else list(seconds)  # type: ignore
+            secs = _numbers(seconds, count, "seconds")
             for s in secs:
-                if not np.isfinite(float(s)) or float(s) <= 0:
+                if not np.isfinite(s) or s <= 0:
                     raise MlctError(f"seconds must be a positive number, got {s}")
-            lengths = [max(1, self.frames_for(min(float(s), 1e6))) for s in secs]
+            lengths = [max(1, self.frames_for(min(s, 1e6))) for s in secs]
         if lengths is None:
             lengths = [min(self.max_frames, self.frames_for(5.0))] * count
-        elif isinstance(lengths, (int, np.integer)):
-            lengths = [int(lengths)] * count
-        if any(not np.isfinite(float(n)) or float(n) != int(float(n))
-               for n in lengths):  # type: ignore[union-attr]
+        numbers = _numbers(lengths, count, "lengths")
+        if any(not np.isfinite(n) or n != int(n) for n in numbers):
             raise MlctError(f"lengths must be whole numbers of frames, got {lengths}")
-        out = [int(n) for n in lengths]  # type: ignore[union-attr]
+        out = [int(n) for n in numbers]
         if len(out) != count:
             raise MlctError(f"{len(out)} lengths for {count} texts")
         for n in out:
@@ -140,6 +139,8 @@ class MotionGenerator:
 
     def check_nfe(self, nfe: int | None) -> int:
         """The step count to sample with (the default for None); MlctError when out of range."""
+        if nfe is not None and not _is_int(nfe):
+            raise MlctError(f"nfe must be a whole number of steps, got {nfe!r}")
         steps = self.default_nfe if nfe is None else int(nfe)
         top = len(self.grid) if self.sampler == "consistency" else 1000
         if not 1 <= steps <= top:
@@ -206,6 +207,9 @@ class MotionGenerator:
         rounding of a different batch size). None is random; the seed used is recorded."""
         if isinstance(texts, str):
             texts = [texts]
+        if not isinstance(texts, (list, tuple)):
+            raise MlctError(f"texts must be a string or a list of strings, not "
+                            f"{type(texts).__name__}")
         texts = [clean_prompt(t, f"text {i + 1}" if len(texts) > 1 else "")
                  for i, t in enumerate(texts)]
         if not texts:
@@ -225,12 +229,37 @@ class MotionGenerator:
     def _seeds(count: int, seed: int | Sequence[int] | None) -> list[int]:
         if seed is None:  # random, but recorded on each motion so that it can be replayed
             return [int(s) for s in torch.randint(0, 2**31 - 1, (count,))]
-        if isinstance(seed, (int, np.integer)):
-            return [int(seed) + i for i in range(count)]
-        seeds = [int(s) for s in seed]
+        if _is_int(seed):
+            seeds = [int(seed) + i for i in range(count)]  # type: ignore[arg-type]
+        elif isinstance(seed, (list, tuple, np.ndarray)) and all(_is_int(s) for s in seed):
+            seeds = [int(s) for s in seed]
+        else:
+            raise MlctError(f"seed must be a whole number or a list of them, got {seed!r}")
         if len(seeds) != count:
             raise MlctError(f"{len(seeds)} seeds for {count} texts")
+        if any(not 0 <= s <= MAX_SEED for s in seeds):
+            raise MlctError(f"seeds must lie in 0..{MAX_SEED} (item i uses seed + i), got {seed}")
         return seeds
+
+
+MAX_SEED = 2**63 - 1  # torch.Generator.manual_seed takes 64 bits; kept signed for portability
+
+
+def _is_int(value: object) -> bool:
+    """A whole number given as an int (not a bool, a float or a string)."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def _numbers(value: object, count: int, name: str) -> list[float]:
+    """A number for every item, or a list of them: floats; MlctError naming `name` otherwise."""
+    def number(item: object) -> float:
+        if isinstance(item, (bool, np.bool_)) or not isinstance(item, (int, float, np.number)):
+            raise MlctError(f"{name} must be numbers, got {item!r}")
+        return float(item)
+
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [number(item) for item in value]
+    return [number(value)] * count
 
 
 def bundled_model_dir() -> Path:
@@ -242,4 +271,6 @@ def load(path: str | os.PathLike | None = None, device: torch.device | str | Non
          dtype: str | torch.dtype = "float32") -> MotionGenerator:
     """Load an inference bundle written by `mlct export`; with no path, the bundled model.
     dtype: "float32" or "bfloat16" matrix products (MotionGenerator)."""
+    if path is not None and not isinstance(path, (str, os.PathLike)):
+        raise MlctError(f"path must be a model directory (str or Path), not {type(path).__name__}")
     return MotionGenerator.load(bundled_model_dir() if path is None else path, device, dtype)

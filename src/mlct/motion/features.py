@@ -165,7 +165,7 @@ def recover_root_rot_pos(features: Tensor) -> tuple[Tensor, Tensor]:
 
     vel = features[..., :-1, 1:3]  # (..., T-1, 2) in the root frame of the later frame
     vel = torch.stack([vel[..., 0], torch.zeros_like(vel[..., 0]), vel[..., 1]], dim=-1)
-    vel = torch.cat([torch.zeros_like(vel[..., :1, :]), vel], dim=-2)  # (..., T, 3)
+    vel = torch.cat([vel.new_zeros(*vel.shape[:-2], 1, 3), vel], dim=-2)  # (..., T, 3); T=1 too
     xz = torch.cumsum(qrot(qinv(r_rot), vel), dim=-2)
     r_pos = torch.stack([xz[..., 0], features[..., 3], xz[..., 2]], dim=-1)  # (..., T, 3)
     return r_rot, r_pos

@@ -8,6 +8,8 @@ from dataclasses import dataclass
 import torch
 import torch.distributed as dist
 
+from mlct.errors import MlctError
+
 
 @dataclass(frozen=True)
 class DistInfo:
@@ -30,6 +32,11 @@ def setup(device: str | None = None) -> DistInfo:
 
     NCCL on CUDA, gloo on CPU. `device` forces "cpu" or "cuda"; default: CUDA when available.
     """
+    if device is not None:  # one line for "bogus", "cuda" on a CPU-only torch, "mps", ...
+        from mlct.devices import resolve_device
+
+        if resolve_device(device).type not in ("cpu", "cuda"):
+            raise MlctError(f"device {device!r}: training runs on cpu or cuda")
     use_cuda = torch.cuda.is_available() if device is None else device.startswith("cuda")
     world = int(os.environ.get("WORLD_SIZE", "1"))
     rank = int(os.environ.get("RANK", "0"))
