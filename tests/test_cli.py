@@ -35,6 +35,12 @@ def test_unwritable_output_is_one_line_exit_2(tmp_path):
     # 10^9 variations: refused at once, before a name per motion is built (it ran out of memory)
     ["generate", "a person walks", "--num", "1000000000", "--out", "x.npy"],
     ["generate", "a", "b", "c", "--num", "40000", "--out-dir", "x", "--format", "npy"],
+    # issue 15: raw Overflow / torch device errors had reached the user
+    ["generate", "a person walks", "--seed", "18446744073709551616", "--out", "x.npy"],
+    ["generate", "a person walks", "--seed", "-3", "--out", "x.npy"],
+    ["generate", "a person walks", "--device", "bogus", "--out", "x.npy"],
+    ["train", "ae", "--data", "/no/such/dir", "--out", "x", "--device", "bogus"],
+    ["train", "cm", "--data", "/no/such/dir", "--out", "x", "--init", "/no/such/model"],
 ])
 def test_bad_usage_exits_2_with_one_line(argv, capsys):
     with pytest.raises(SystemExit) as exit_info:
@@ -50,3 +56,16 @@ def test_demo_prints_a_caption_and_a_gif(tmp_path, capsys):
     caption, path = capsys.readouterr().out.strip().splitlines()
     assert caption.endswith(".") and path.endswith(".gif")
     assert (tmp_path / "demo" / "000000.gif").stat().st_size > 1000
+
+
+def test_a_closed_pipe_is_not_an_error(tmp_path):
+    """`mlct data stats DIR --no-write | head -1` had ended in 'mlct: error: Broken pipe'."""
+    assert _run("data", "synth", "--out", str(tmp_path / "d"), "--num", "2").returncode == 0
+    command = [sys.executable, "-m", "mlct.cli", "data", "stats", str(tmp_path / "d"),
+               "--no-write"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               bufsize=0)
+    process.stdout.read(1)  # the reader takes one byte and leaves, as head does
+    process.stdout.close()
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 0 and b"error" not in err, err

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -500,6 +501,11 @@ def main(argv: list[str] | None = None) -> int:
     except MlctError as error:
         print(f"mlct: error: {error}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # `mlct ... | head`: the reader left; that is not an error. Point stdout at devnull so
+        # that the interpreter's final flush does not raise again.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except OSError as error:
         # A file the user named cannot be read or written: say which, in one line.
         where = f": {error.filename}" if error.filename else ""
