@@ -320,3 +320,21 @@ def test_cli_as_a_user_calls_it(tmp_path):
                          timeout=120)
     assert bad.returncode == 2
     assert bad.stderr.count("\n") == 1 and "no such file" in bad.stderr
+
+
+def test_render_reads_mlct_bvh_and_names_what_it_cannot(tmp_path: Path) -> None:
+    """`mlct render x.bvh` had said 'cannot read ... as .npy: pickled data'."""
+    from mlct.motion.bvh import write_bvh
+    from motion_builders import random_motion
+
+    joints = np.asarray(random_motion(HUMANML3D, 12, seed=0))
+    write_bvh(tmp_path / "m.bvh", joints, HUMANML3D, 20.0)
+    out = render_file(tmp_path / "m.bvh", tmp_path / "m.png")
+    assert Image.open(out).size[0] > 100
+    foreign = (tmp_path / "m.bvh").read_text().replace("pelvis", "Hips")
+    (tmp_path / "cmu.bvh").write_text(foreign)
+    with pytest.raises(MlctError, match="not those of a known skeleton"):
+        render_file(tmp_path / "cmu.bvh", tmp_path / "c.png")
+    (tmp_path / "m.txt").write_text("hello")
+    with pytest.raises(MlctError, match="reads .npy"):
+        render_file(tmp_path / "m.txt", tmp_path / "t.png")

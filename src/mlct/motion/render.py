@@ -92,6 +92,10 @@ def render_file(path: str | os.PathLike, out: str | os.PathLike,
     """
     path, out = Path(path), Path(out)
     _output_kind(out)  # fail on a bad --out before loading anything
+    if path.suffix.lower() == ".bvh":
+        return _render_bvh(path, out, skeleton, caption, fps)
+    if path.suffix.lower() not in (".npy", ""):
+        raise MlctError(f"{path}: render reads .npy (features or joints) or .bvh files")
     array = _load_npy(path)
     feature_dims = sorted(s.feature_dim for s in SKELETONS.values())
     is_features = array.ndim == 2 and array.shape[1] in feature_dims
@@ -130,6 +134,26 @@ def render_file(path: str | os.PathLike, out: str | os.PathLike,
     if caption is None:
         caption = dataset_caption(path)
     return render_motion(joints, out, skel, title=caption, fps=fps)
+
+
+def _render_bvh(path: Path, out: Path, skeleton: Skeleton | str | None, caption: str | None,
+                fps: float | None) -> Path:
+    """A BVH whose joints carry a known skeleton's names (mlct's own BVH output does): drawn
+    at the file's frame rate, in its units (mlct writes metres)."""
+    from mlct.motion.bvh import read_bvh
+
+    clip = read_bvh(path)
+    candidates = [_resolve_skeleton(skeleton)] if skeleton is not None else list(SKELETONS.values())
+    for skel in candidates:
+        if set(skel.joint_names) <= set(clip.joint_names):
+            index = [clip.joint_names.index(name) for name in skel.joint_names]
+            joints = clip.positions[:, index]
+            return render_motion(joints, out, skel, title=caption,
+                                 fps=clip.fps if fps is None else fps)
+    names = ", ".join(s.name for s in candidates)
+    raise MlctError(f"{path}: its joints are not those of a known skeleton ({names}); import it "
+                    f"with `mlct data import --bvh DIR --joint-map MAP.json` and render the "
+                    f"imported motion")
 
 
 def dataset_caption(path: str | os.PathLike) -> str | None:
