@@ -380,3 +380,29 @@ def test_cli_serve_passes_its_options(monkeypatch):
     monkeypatch.setattr(mlct.serve, "run_server", lambda *a, **k: calls.append((a, k)))
     assert main(["serve", "--port", "9123", "--host", "0.0.0.0", "--device", "cpu"]) == 0
     assert calls == [((None,), {"host": "0.0.0.0", "port": 9123, "device": "cpu"})]
+
+
+@pytest.mark.parametrize("host, loopback", [
+    ("127.0.0.1", True), ("127.0.0.5", True), ("::1", True), ("[::1]", True),
+    ("localhost", True), ("0.0.0.0", False), ("::", False), ("192.168.1.4", False),
+    ("example.com", False),
+])
+def test_non_loopback_hosts_are_told_apart(host: str, loopback: bool) -> None:
+    """`mlct serve --host 0.0.0.0` warns (issue 15): is_loopback decides when."""
+    from mlct.serve import is_loopback
+
+    assert is_loopback(host) is loopback
+
+
+def test_serving_beyond_this_machine_warns(monkeypatch, capsys) -> None:
+    import uvicorn
+
+    from mlct.serve import run_server
+
+    monkeypatch.setattr(uvicorn, "run", lambda *args, **kwargs: None)
+    monkeypatch.setattr(mlct, "load", lambda *args, **kwargs: object())
+    monkeypatch.setattr("mlct.serve.create_app", lambda *args, **kwargs: None)
+    run_server(host="0.0.0.0", device="cpu")
+    assert "warning: listening on 0.0.0.0" in capsys.readouterr().err
+    run_server(host="127.0.0.1", device="cpu")
+    assert capsys.readouterr().err == ""

@@ -10,6 +10,7 @@ Built from an inference bundle (bundle.py); needs no training code.
 from __future__ import annotations
 
 import os
+from collections import OrderedDict
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
@@ -75,7 +76,7 @@ class MotionGenerator:
         self.grid = karras_time_grid(s.num_steps, s.eps, s.t_max, s.rho, device=self.device)
         self.clamp = latent_clamp(self.config)
         self._text_encoder: TextEncoder | None = None
-        self._text_memo: dict[str, Tensor] = {}
+        self._text_memo: OrderedDict[str, Tensor] = OrderedDict()
 
     @classmethod
     def load(cls, path: str | os.PathLike, device: torch.device | str | None = None,
@@ -102,12 +103,18 @@ class MotionGenerator:
         return self._text_encoder
 
     def encode_text(self, texts: Sequence[str]) -> Tensor:
-        """(B, c) frozen text embeddings; each distinct text is encoded once per generator."""
-        missing = sorted({t for t in texts if t not in self._text_memo})
+        """(B, c) frozen text embeddings. The last TEXT_MEMO_SIZE distinct texts are kept, so a
+        repeated prompt skips the encoder; the memo's memory is bounded (a server sees many)."""
+        found = {t: self._text_memo[t] for t in texts if t in self._text_memo}
+        missing = sorted(set(texts) - set(found))
         if missing:
-            for text, row in zip(missing, self.text_encoder.encode(missing)):
-                self._text_memo[text] = row.float()
-        return torch.stack([self._text_memo[t] for t in texts]).to(self.device)
+            found.update(zip(missing, (row.float() for row in self.text_encoder.encode(missing))))
+        for text in texts:  # most recently used last; the oldest go first
+            self._text_memo[text] = found[text]
+            self._text_memo.move_to_end(text)
+        while len(self._text_memo) > TEXT_MEMO_SIZE:
+            self._text_memo.popitem(last=False)
+        return torch.stack([found[t] for t in texts]).to(self.device)
 
     def frames_for(self, seconds: float) -> int:
         return int(round(seconds * self.skeleton.fps))
@@ -242,6 +249,7 @@ class MotionGenerator:
         return seeds
 
 
+TEXT_MEMO_SIZE = 2048  # texts whose embeddings a generator keeps (LRU): <= 64 MB with tokens
 MAX_SEED = 2**63 - 1  # torch.Generator.manual_seed takes 64 bits; kept signed for portability
 
 

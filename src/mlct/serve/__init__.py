@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -23,6 +24,18 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
     return _create_app(generator, settings)
 
 
+def is_loopback(host: str) -> bool:
+    """True for addresses only this machine can reach (127.0.0.0/8, ::1, localhost)."""
+    import ipaddress
+
+    if host.strip().lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False  # a hostname: it may resolve to an outside address
+
+
 def run_server(model: Any = None, host: str = "127.0.0.1", port: int = 8000,
                device: Any = None, settings: ServeSettings | None = None) -> None:
     """Load the model (None: the bundled one) and serve it until interrupted."""
@@ -31,6 +44,10 @@ def run_server(model: Any = None, host: str = "127.0.0.1", port: int = 8000,
     import mlct
     from mlct.devices import resolve_device
 
+    if not is_loopback(host):
+        print(f"mlct serve: warning: listening on {host}: any machine that can reach this one "
+              f"may use the API (it has no authentication); bind 127.0.0.1 unless you mean it",
+              file=sys.stderr)
     generator = mlct.load(model, device=resolve_device(device))
     uvicorn.run(create_app(generator, settings), host=host, port=port, log_level="info")
 
