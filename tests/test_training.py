@@ -334,3 +334,24 @@ def test_init_starts_from_a_model_for_fine_tuning(trained: Path, data: Path, cac
               str(old / "model.safetensors"))
     with pytest.raises(MlctError, match="ships no autoencoder encoder"):
         train("ae", data, tmp_path / "again", None, overrides=[cache], progress=False, init=old)
+
+
+def test_resume_survives_a_killed_write_and_a_broken_latest(data: Path, cache: str, tiny,
+                                                            tmp_path: Path, capsys) -> None:
+    """Issue 15: partial folders are removed on the next start; a broken `latest` falls back to
+    the newest intact checkpoint, saying so; `latest` is never joined to a path unchecked."""
+    run = tmp_path / "run"
+    common = [cache, "train.ae.max_steps=12", "train.ae.ckpt_every=4", "train.ae.val_every=6"]
+    train("ae", data, run, tiny, overrides=common, progress=False, stop_at=8)
+    checkpoints = run / "ae" / "checkpoints"
+    leftover = checkpoints / ".step-00000012.partial-abc123"  # a kill during a write
+    leftover.mkdir()
+    (leftover / "model.safetensors").write_bytes(b"half")
+    (checkpoints / "step-00000008" / "model.safetensors").write_bytes(b"\x00" * 64)  # corrupt
+    capsys.readouterr()
+    resumed = train("ae", data, run, resume=True, progress=False)
+    assert "resuming from step-00000004" in capsys.readouterr().err
+    assert resumed["step"] == 12 and not leftover.exists()
+    (checkpoints / "latest").write_text("../../../etc\n")
+    with pytest.raises(MlctError, match="not a checkpoint name.*newest intact checkpoint is"):
+        latest_checkpoint(checkpoints)

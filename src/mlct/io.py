@@ -19,6 +19,21 @@ import numpy as np
 from mlct.errors import MlctError
 
 
+def _fsync(path: Path) -> None:
+    """Flush a file's or a directory's entries to the disk: a rename is atomic against a crash
+    of the process, but only durable against power loss once both sides are synced."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return  # e.g. a directory that cannot be opened on this platform
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass  # some file systems (and Windows directories) refuse: best effort
+    finally:
+        os.close(fd)
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
     """Yield a temporary path beside `path`; on success it replaces `path`, on error it is removed.
@@ -41,7 +56,9 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     tmp_path.chmod(0o666 & ~umask)
     try:
         yield tmp_path
+        _fsync(tmp_path)
         os.replace(tmp_path, path)
+        _fsync(path.parent)
     except BaseException:
         tmp_path.unlink(missing_ok=True)
         raise
@@ -57,11 +74,14 @@ def atomic_dir(path: str | os.PathLike) -> Iterator[Path]:
     try:
         yield work
         work.chmod(0o755)  # mkdtemp makes it private; the result is an ordinary directory
+        for item in [*work.rglob("*"), work]:  # on disk before the rename makes it visible
+            _fsync(item)
         if path.exists():
             trash = Path(tempfile.mkdtemp(prefix=f".{path.name}.old-", dir=path.parent))
             os.replace(path, trash / path.name)
             shutil.rmtree(trash)
         os.replace(work, path)
+        _fsync(path.parent)
     except BaseException:
         shutil.rmtree(work, ignore_errors=True)
         raise

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -91,6 +92,7 @@ def save_checkpoint(directory: str | os.PathLike, step: int,
     """Write checkpoint `step` under `directory` atomically, point `latest` at it, prune old."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
+    remove_partial_writes(directory)
     name = f"step-{step:08d}"
     final = directory / name
     with atomic_dir(final) as tmp:  # re-saving a step (e.g. the last one) replaces it
@@ -103,15 +105,67 @@ def save_checkpoint(directory: str | os.PathLike, step: int,
     return final
 
 
+CHECKPOINT_NAME = re.compile(r"step-\d{8}")
+
+
+def remove_partial_writes(directory: str | os.PathLike) -> list[Path]:
+    """Remove what a killed checkpoint write left (atomic_dir's hidden .step-*.partial-* and
+    .step-*.old-* folders); returns them. Safe: no finished checkpoint is ever named so."""
+    removed = []
+    for leftover in Path(directory).glob(".step-*"):
+        if leftover.is_dir() and (".partial-" in leftover.name or ".old-" in leftover.name):
+            shutil.rmtree(leftover, ignore_errors=True)
+            removed.append(leftover)
+    return removed
+
+
+def intact_checkpoints(directory: str | os.PathLike) -> list[Path]:
+    """The step-N folders that hold weights, newest first."""
+    found = [p for p in Path(directory).glob("step-*")
+             if CHECKPOINT_NAME.fullmatch(p.name) and (p / WEIGHTS).is_file()]
+    return sorted(found, reverse=True)
+
+
 def latest_checkpoint(directory: str | os.PathLike) -> Path | None:
     """The checkpoint `latest` names, or None when the directory has none yet."""
     pointer = Path(directory) / "latest"
     if not pointer.is_file():
         return None
-    path = Path(directory) / pointer.read_text(encoding="utf-8").strip()
+    name = pointer.read_text(encoding="utf-8").strip()
+    if not CHECKPOINT_NAME.fullmatch(name):  # never joined to a path: it could point outside
+        raise MlctError(f"{pointer} holds {name[:40]!r}, not a checkpoint name like "
+                        f"step-00001000{_intact_hint(directory)}")
+    path = Path(directory) / name
     if not (path / WEIGHTS).is_file():
-        raise MlctError(f"{pointer} names {path.name}, which is missing or incomplete")
+        raise MlctError(f"{pointer} names {name}, which is missing or incomplete"
+                        f"{_intact_hint(directory)}")
     return path
+
+
+def _intact_hint(directory: str | os.PathLike) -> str:
+    intact = intact_checkpoints(directory)
+    return (f"; the newest intact checkpoint is {intact[0]} (write its name into "
+            f"{Path(directory) / 'latest'} to use it)" if intact else "")
+
+
+def resume_checkpoint(directory: str | os.PathLike) -> tuple[Checkpoint, str | None]:
+    """The checkpoint to resume from: `latest`, or when it is broken (missing, unreadable) the
+    newest intact one before it, with a one-line note saying so. MlctError when none is."""
+    directory = Path(directory)
+    try:
+        found = latest_checkpoint(directory)
+        if found is None:
+            raise MlctError(f"{directory}: no checkpoint to resume from")
+        return load_checkpoint(found), None
+    except MlctError as broken:
+        for candidate in intact_checkpoints(directory):
+            try:
+                checkpoint = load_checkpoint(candidate)
+            except MlctError:
+                continue
+            return checkpoint, (f"latest checkpoint unusable ({broken}); resuming from "
+                                f"{candidate.name}")
+        raise
 
 
 def load_checkpoint(path: str | os.PathLike, with_state: bool = True) -> Checkpoint:

@@ -12,6 +12,7 @@ import contextlib
 import hashlib
 import json
 import math
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -23,11 +24,13 @@ from torch.nn.parallel import DistributedDataParallel
 
 from mlct.config import Config, TrainConfig, apply_overrides, config_from_dict
 from mlct.data.dataset import Text2MotionDataset
+from mlct.data.layout import DatasetLayout
 from mlct.errors import MlctError
 from mlct.io import write_text
 from mlct.train import distributed
 from mlct.train.batches import fixed_batches, step_loader
-from mlct.train.checkpoint import latest_checkpoint, load_checkpoint, save_checkpoint
+from mlct.train.checkpoint import (intact_checkpoints, latest_checkpoint, load_checkpoint,
+                                   remove_partial_writes, resume_checkpoint, save_checkpoint)
 from mlct.train.stages import (AutoencoderStage, ConsistencyStage, DiffusionStage, Stage,
                                TextTable, find_autoencoder)
 
@@ -158,12 +161,21 @@ def train(stage: str, data_dir: str | Path, out: str | Path, config: Config | No
     overrides = list(overrides or [])
     info = distributed.setup(device)
     try:
-        found = latest_checkpoint(ckpt_dir)
+        if info.is_main:
+            remove_partial_writes(ckpt_dir)  # what a kill during a checkpoint write left
+        try:
+            found = latest_checkpoint(ckpt_dir)
+        except MlctError:
+            if not resume:
+                raise
+            found = None  # resume_checkpoint falls back to an intact one, or says why not
         checkpoint = None
         if resume:
-            if found is None:
+            if found is None and not intact_checkpoints(ckpt_dir):
                 raise MlctError(f"{ckpt_dir}: no checkpoint to resume from")
-            checkpoint = load_checkpoint(found)
+            checkpoint, note = resume_checkpoint(ckpt_dir)
+            if note and info.is_main:
+                print(f"mlct train: warning: {note}", file=sys.stderr)
             if checkpoint.meta.get("stage") != stage:
                 raise MlctError(f"{found}: a '{checkpoint.meta.get('stage')}' checkpoint, "
                                 f"not '{stage}'")
@@ -235,7 +247,12 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
     # stages, the autoencoder's (its latents are only defined for the motions it was fed).
     stats = (initial.mean, initial.std) if initial is not None else None
     if stage_name != "ae":
-        stats = _autoencoder_stats(find_autoencoder(run, ae_path))
+        ae_checkpoint = find_autoencoder(run, ae_path)
+        stats = _autoencoder_stats(ae_checkpoint)
+        width = DatasetLayout.existing(data_dir).skeleton(None).feature_dim
+        if stats[0].shape[0] != width:
+            raise MlctError(f"the autoencoder {ae_checkpoint} reads {stats[0].shape[0]}-d motion, "
+                            f"the data has {width}-d features")
     mean, std = (None, None) if stats is None else (stats[0].numpy(), stats[1].numpy())
     data = Text2MotionDataset(data_dir, "train", max_motion_length=dc.max_motion_length,
                               unit_length=dc.unit_length, on_bad_file=dc.on_bad_file, seed=tc.seed,
