@@ -102,13 +102,13 @@ def read_bandwidth(nbytes: int, device: Any) -> float:
 
 def bundle_in_memory(preset: str, sampler: str) -> tuple[dict[str, Any], dict[str, Any]]:
     """The bundled model for the small CM; otherwise a preset's networks with seeded random
-    weights, as mlct.bundle.read_bundle returns a bundle: (meta, tensors)."""
+    weights, as mlct.generate.bundle.read_bundle returns a bundle: (meta, tensors)."""
     import torch
 
-    from mlct.bundle import ENCODER_PREFIXES, read_bundle
+    from mlct.generate.bundle import ENCODER_PREFIXES, read_bundle
     from mlct.config import load_config
-    from mlct.models import build_autoencoder, build_denoiser
-    from mlct.pipeline import bundled_model_dir
+    from mlct.nn.build import build_autoencoder, build_denoiser
+    from mlct.generate.pipeline import bundled_model_dir
 
     if (preset, sampler) == ("small", "consistency"):
         return read_bundle(bundled_model_dir())
@@ -135,10 +135,10 @@ def variant(meta: dict[str, Any], tensors: dict[str, Any], layers: str, text_onc
     import torch
 
     from mlct.diffusion.parameterization import ConsistencyFunction
-    from mlct.models import build_autoencoder, build_denoiser
+    from mlct.nn.build import build_autoencoder, build_denoiser
     from mlct.nn.inference import for_inference
-    from mlct.pipeline import MotionGenerator
-    from mlct.train.checkpoint import strip_prefix
+    from mlct.generate.pipeline import MotionGenerator
+    from mlct.io import strip_prefix
 
     gen = MotionGenerator(meta, tensors, dtype=dtype)
     if layers != "packed":
@@ -162,7 +162,7 @@ def variant(meta: dict[str, Any], tensors: dict[str, Any], layers: str, text_onc
 
 
 def in_memory_generator(preset: str, sampler: str, device: str, dtype: str) -> Any:
-    from mlct.pipeline import MotionGenerator
+    from mlct.generate.pipeline import MotionGenerator
 
     meta, tensors = bundle_in_memory(preset, sampler)
     return MotionGenerator(meta, tensors, device, dtype)
@@ -186,7 +186,7 @@ def part_costs(gen: Any) -> dict[str, dict[str, float]]:
     import torch
     from torch.utils.flop_counter import FlopCounterMode
 
-    from mlct.bundle import ENCODER_PREFIXES
+    from mlct.generate.bundle import ENCODER_PREFIXES
 
     def linear_flops(x: Any, w: Any, *args: Any, out_shape: Any = None, **kwargs: Any) -> int:
         return 2 * math.prod(out_shape) * x[-1]  # (..., K) x (N, K)^T
@@ -326,7 +326,7 @@ def ablations(reps: int) -> list[dict[str, Any]]:
     import numpy as np
     import torch
 
-    from mlct.pipeline import MotionGenerator
+    from mlct.generate.pipeline import MotionGenerator
 
     threads = torch.get_num_threads()
     rows = []

@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 import mlct
-from mlct.long_motion import BLEND_SECONDS, generate_long, seam_speeds
+from mlct.generate.long_motion import BLEND_SECONDS, generate_long, seam_speeds
 
 CHAINS = [
     (["a person walks forward", "a person turns left", "a person jumps"], [3, 2, 2]),

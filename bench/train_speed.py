@@ -26,7 +26,7 @@ def _run_one(preset: str, stage: str, steps: int, device: str) -> dict:
     from mlct.diffusion.losses import consistency_training_loss, diffusion_training_loss
     from mlct.diffusion.parameterization import ConsistencyFunction
     from mlct.diffusion.schedule import karras_time_grid
-    from mlct.models import build_autoencoder, build_denoiser
+    from mlct.nn.build import build_autoencoder, build_denoiser
     from mlct.train.stages import AutoencoderStage, schedule_of
 
     torch.manual_seed(0)

@@ -68,7 +68,7 @@ def test_text_memo_is_bounded_and_keeps_recent_texts(monkeypatch) -> None:
     """A server sees unboundedly many prompts: the embedding memo is an LRU (issue 15)."""
     import torch
 
-    from mlct import pipeline
+    from mlct.generate import pipeline
 
     gen = mlct.load()
     calls: list[list[str]] = []

@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from mlct.config import load_config, config_from_dict
-from mlct.models import build_autoencoder
+from mlct.nn.build import build_autoencoder
 from mlct.nn import Latent, lengths_to_mask
 from mlct.nn.autoencoder import MotionAutoencoder
 from mlct.nn.conv_autoencoder import ConvMotionAutoencoder

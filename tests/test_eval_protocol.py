@@ -18,7 +18,7 @@ import pytest
 import torch
 
 import mlct
-from mlct.bundle import export_run
+from mlct.train.export import export_run
 from mlct.config import load_config
 from mlct.data.dataset import Text2MotionEvalDataset
 from mlct.data.synth.build import synthesize_dataset

@@ -11,10 +11,10 @@ import pytest
 import mlct
 from mlct.cli import main
 from mlct.errors import MlctError
-from mlct.generate_files import output_paths, slug
-from mlct.long_motion import chain_segments, heading, seam_speeds, generate_long
+from mlct.generate.files import output_paths, slug
+from mlct.generate.long_motion import chain_segments, heading, seam_speeds, generate_long
 from mlct.motion.skeleton import get_skeleton
-from mlct.prompts import MAX_PROMPT_CHARS, clean_prompt, read_prompts
+from mlct.generate.prompts import MAX_PROMPT_CHARS, clean_prompt, read_prompts
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 SKELETON = get_skeleton("humanml3d")
@@ -178,7 +178,7 @@ def test_cli_generate_variations_prompts_file_and_long(tmp_path: Path, capsys) -
 def test_damaged_model_directories_give_one_line_errors(tmp_path: Path, capsys) -> None:
     import shutil
 
-    from mlct.pipeline import bundled_model_dir
+    from mlct.generate.pipeline import bundled_model_dir
 
     model = tmp_path / "model"
     shutil.copytree(bundled_model_dir(), model)

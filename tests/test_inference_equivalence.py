@@ -12,14 +12,14 @@ import pytest
 import torch
 from torch import nn
 
-from mlct.bundle import read_bundle
+from mlct.generate.bundle import read_bundle
 from mlct.diffusion.parameterization import ConsistencyFunction
 from mlct.errors import MlctError
-from mlct.models import build_autoencoder, build_denoiser
+from mlct.nn.build import build_autoencoder, build_denoiser
 from mlct.motion.features import recover_from_ric
 from mlct.nn.inference import FastEncoderLayer, FastLinear, for_inference
-from mlct.pipeline import MotionGenerator, bundled_model_dir
-from mlct.train.checkpoint import strip_prefix
+from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
+from mlct.io import strip_prefix
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 

@@ -81,7 +81,7 @@ def test_checkpoint_is_self_describing(trained: Path) -> None:
 
 
 def test_export_load_generate(trained: Path, tmp_path: Path) -> None:
-    from mlct.bundle import export_run
+    from mlct.train.export import export_run
 
     model_dir = export_run(trained, tmp_path / "model")
     gen = mlct.load(model_dir)
@@ -111,7 +111,7 @@ def test_export_load_generate(trained: Path, tmp_path: Path) -> None:
 
 
 def test_diffusion_baseline_samples_with_ddim_cfg(trained: Path, tmp_path: Path) -> None:
-    from mlct.bundle import export_run
+    from mlct.train.export import export_run
 
     gen = mlct.load(export_run(trained, tmp_path / "ldm", stage="diffusion"))
     assert gen.sampler == "ddim" and gen.default_nfe == 50
@@ -294,7 +294,8 @@ def test_init_starts_from_a_model_for_fine_tuning(trained: Path, data: Path, cac
     """--init MODEL_DIR: the model's config, normalization and weights are where a run starts."""
     from safetensors.torch import load_file, save_file
 
-    from mlct.bundle import export_run, read_bundle
+    from mlct.generate.bundle import read_bundle
+    from mlct.train.export import export_run
 
     model_dir = export_run(trained, tmp_path / "model")
     _, tensors = read_bundle(model_dir)

@@ -7,12 +7,12 @@ from typing import TYPE_CHECKING, Any
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:
-    from mlct.pipeline import MotionGenerator
+    from mlct.generate.pipeline import MotionGenerator
 
 
 def load(path: Any = None, device: Any = None, dtype: Any = "float32") -> "MotionGenerator":
     """Load a model: `mlct.load()` the bundled one, `mlct.load(DIR)` any `mlct export` bundle;
     dtype "bfloat16" for faster, slightly rounded matrix products (docs/performance.md)."""
-    from mlct.pipeline import load as _load  # lazy: `import mlct` stays light
+    from mlct.generate.pipeline import load as _load  # lazy: `import mlct` stays light
 
     return _load(path, device, dtype)

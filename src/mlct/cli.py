@@ -99,7 +99,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         raise MlctError("--init takes the model's own config; drop --config (key=value "
                         "overrides still apply)")
     if args.init == "bundled":
-        from mlct.pipeline import bundled_model_dir
+        from mlct.generate.pipeline import bundled_model_dir
 
         args.init = bundled_model_dir()
     saved = args.resume or args.init is not None  # the config comes from the run or the model
@@ -211,7 +211,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from mlct.bundle import export_run
+    from mlct.train.export import export_run
 
     print(export_run(args.run, args.out, stage=args.stage, half=args.half))
     return 0
@@ -226,8 +226,8 @@ def _cmd_serve(args: argparse.Namespace) -> int:
 
 def _cmd_generate(args: argparse.Namespace) -> int:
     import mlct
-    from mlct import generate_files
-    from mlct.prompts import clean_prompt, read_prompts
+    from mlct.generate import files as generate_files
+    from mlct.generate.prompts import clean_prompt, read_prompts
 
     if args.prompts is not None and args.text:
         raise MlctError("give prompts on the command line or with --prompts FILE, not both")

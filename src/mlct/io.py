@@ -12,11 +12,14 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Any, Iterator
+from typing import TYPE_CHECKING, Any, Iterator
 
 import numpy as np
 
 from mlct.errors import MlctError
+
+if TYPE_CHECKING:
+    import torch
 
 
 def _fsync(path: Path) -> None:
@@ -136,3 +139,14 @@ def read_format_json(path: str | os.PathLike, format_name: str, version: int,
     if meta.get("version") != version:
         raise MlctError(f"{path}: version {meta.get('version')!r}, this mlct reads {version}")
     return meta
+
+# Tensor-dict helpers: a module's state_dict inside a checkpoint or bundle lives under a prefix.
+def prefixed(prefix: str, state: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+    """A module's state_dict under `prefix.` (the inverse of strip_prefix)."""
+    return {f"{prefix}.{k}": v for k, v in state.items()}
+
+
+def strip_prefix(tensors: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:
+    """The tensors under `prefix.`, with the prefix removed (a module's state_dict)."""
+    head = prefix + "."
+    return {k[len(head):]: v for k, v in tensors.items() if k.startswith(head)}

@@ -59,7 +59,7 @@ from mlct.eval.metrics import (
     r_precision_batched,
 )
 from mlct.motion.skeleton import Skeleton
-from mlct.pipeline import MotionGenerator
+from mlct.generate.pipeline import MotionGenerator
 
 REPLICATIONS = 20
 MM_TEXTS = 100  # mm_num_samples

@@ -21,11 +21,11 @@ from typing import Any, Sequence
 
 import torch
 
-from mlct.bundle import read_bundle
+from mlct.generate.bundle import read_bundle
 from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.eval.protocol import Log, ProtocolConfig, check_model, open_protocol
-from mlct.pipeline import MotionGenerator
+from mlct.generate.pipeline import MotionGenerator
 
 REPORT_FORMAT = "mlct-eval-report"
 REPORT_VERSION = 1

@@ -34,7 +34,7 @@ from starlette.exceptions import HTTPException
 
 from mlct import __version__
 from mlct.errors import MlctError
-from mlct.exports import export_bytes, motion_json
+from mlct.generate.exports import export_bytes, motion_json
 from mlct.serve.batcher import Batcher, QueueFull, ServerClosing
 from mlct.serve.schemas import Limits, one_line, request_model
 from mlct.serve.settings import ServeSettings

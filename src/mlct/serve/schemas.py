@@ -14,7 +14,7 @@ from pydantic import (AfterValidator, BaseModel, BeforeValidator, ConfigDict, Fi
                       ValidationError, model_validator)
 
 from mlct.errors import MlctError
-from mlct.prompts import clean_prompt
+from mlct.generate.prompts import clean_prompt
 
 Format = Literal["json", "npy", "bvh", "gif"]
 MAX_SEED = 2**53 - 1  # the largest integer a browser's JSON keeps exactly
@@ -36,7 +36,7 @@ class Limits:
 
 
 def check_text(text: str, max_chars: int) -> str:
-    """The prompt as the pipeline reads it (mlct.prompts.clean_prompt: whitespace collapsed; no
+    """The prompt as the pipeline reads it (mlct.generate.prompts.clean_prompt: whitespace collapsed; no
     control characters), within the server's length limit; ValueError naming the problem."""
     collapsed = " ".join(text.split())
     if len(collapsed) > max_chars:

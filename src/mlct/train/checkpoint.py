@@ -21,7 +21,7 @@ from safetensors import SafetensorError
 from safetensors.torch import load_file, safe_open, save_file
 
 from mlct.errors import MlctError
-from mlct.io import atomic_dir, write_text
+from mlct.io import atomic_dir, strip_prefix, write_text
 
 FORMAT = "mlct-checkpoint"
 VERSION = "1"
@@ -46,15 +46,6 @@ class Checkpoint:
         return found
 
 
-def prefixed(prefix: str, state: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
-    """A module's state_dict under `prefix.` (the inverse of strip_prefix)."""
-    return {f"{prefix}.{k}": v for k, v in state.items()}
-
-
-def strip_prefix(tensors: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:
-    """The tensors under `prefix.`, with the prefix removed (a module's state_dict)."""
-    head = prefix + "."
-    return {k[len(head):]: v for k, v in tensors.items() if k.startswith(head)}
 
 
 def save_weights(path: Path, tensors: dict[str, torch.Tensor], meta: dict[str, Any]) -> None:

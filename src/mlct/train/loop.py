@@ -209,8 +209,8 @@ class InitialWeights:
 
     @classmethod
     def read(cls, path: str | Path, stage: str) -> "InitialWeights":
-        from mlct.bundle import bundle_autoencoder_state, read_bundle
-        from mlct.train.checkpoint import strip_prefix
+        from mlct.generate.bundle import bundle_autoencoder_state, read_bundle
+        from mlct.io import strip_prefix
 
         meta, tensors = read_bundle(path)
         if stage == "ae":

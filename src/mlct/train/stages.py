@@ -21,10 +21,11 @@ from mlct.diffusion.losses import consistency_training_loss, diffusion_training_
 from mlct.diffusion.parameterization import ConsistencyFunction
 from mlct.diffusion.schedule import VPSchedule, karras_time_grid
 from mlct.errors import MlctError
-from mlct.models import AnyAutoencoder, build_autoencoder, build_denoiser, latent_clamp
+from mlct.nn.build import AnyAutoencoder, build_autoencoder, build_denoiser, latent_clamp
 from mlct.motion.features import recover_from_ric
 from mlct.nn.masks import lengths_to_mask
-from mlct.train.checkpoint import Checkpoint, latest_checkpoint, load_checkpoint, prefixed
+from mlct.io import prefixed
+from mlct.train.checkpoint import Checkpoint, latest_checkpoint, load_checkpoint
 
 
 def schedule_of(config: Config) -> VPSchedule:

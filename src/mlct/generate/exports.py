@@ -17,7 +17,7 @@ import json
 import os
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -25,8 +25,18 @@ from mlct.errors import MlctError
 from mlct.io import save_npy, write_text
 from mlct.motion.skeleton import get_skeleton
 
-if TYPE_CHECKING:
-    from mlct.generated import GeneratedMotion
+
+class GeneratedMotion(Protocol):
+    """What a writer reads from a motion (mlct.generate.generated.GeneratedMotion has it): a
+    protocol, so that this module does not import the one that imports it."""
+
+    text: str
+    joints: np.ndarray  # (T, J, 3)
+    features: np.ndarray  # (T, D)
+    fps: float
+    skeleton: str
+    seed: int | None
+
 
 FORMATS = (".gif", ".mp4", ".png", ".npy", ".json", ".bvh")
 JSON_FORMAT = "mlct-motion"

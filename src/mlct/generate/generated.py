@@ -33,8 +33,8 @@ class GeneratedMotion:
         return len(self.joints) / self.fps
 
     def save(self, path: str | os.PathLike, features: bool = False) -> Path:
-        """Write to path: .gif .mp4 .png .npy .json .bvh (mlct.exports)."""
-        from mlct.exports import save_motion
+        """Write to path: .gif .mp4 .png .npy .json .bvh (mlct.generate.exports)."""
+        from mlct.generate.exports import save_motion
 
         return save_motion(self, path, features)
 

@@ -18,20 +18,20 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from mlct.bundle import ENCODER_PREFIXES, read_bundle
-from mlct.train.checkpoint import strip_prefix
+from mlct.generate.bundle import ENCODER_PREFIXES, read_bundle
+from mlct.io import strip_prefix
 from mlct.config import config_from_dict
 from mlct.diffusion.parameterization import ConsistencyFunction, x0_from_eps
 from mlct.diffusion.samplers import ddim_times, sample_consistency, sample_ddim
 from mlct.diffusion.schedule import VPSchedule, karras_time_grid, sampling_times
 from mlct.devices import resolve_device
 from mlct.errors import MlctError
-from mlct.generated import GeneratedMotion, Generation
-from mlct.models import build_autoencoder, build_denoiser, latent_clamp
+from mlct.generate.generated import GeneratedMotion, Generation
+from mlct.nn.build import build_autoencoder, build_denoiser, latent_clamp
 from mlct.motion.features import recover_from_ric
 from mlct.motion.skeleton import get_skeleton
 from mlct.nn.inference import for_inference, weight_dtype
-from mlct.prompts import clean_prompt
+from mlct.generate.prompts import clean_prompt
 
 if TYPE_CHECKING:
     from mlct.text import TextEncoder
@@ -272,7 +272,7 @@ def _numbers(value: object, count: int, name: str) -> list[float]:
 
 def bundled_model_dir() -> Path:
     """The model shipped inside the package (docs/model_card.md): small preset, MiniLM text."""
-    return Path(__file__).resolve().parent / "assets" / "model"
+    return Path(__file__).resolve().parent.parent / "assets" / "model"
 
 
 def load(path: str | os.PathLike | None = None, device: torch.device | str | None = None,

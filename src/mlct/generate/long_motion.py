@@ -20,11 +20,11 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from mlct.errors import MlctError
-from mlct.generated import GeneratedMotion
+from mlct.generate.generated import GeneratedMotion
 from mlct.motion.skeleton import Skeleton
 
 if TYPE_CHECKING:
-    from mlct.pipeline import MotionGenerator
+    from mlct.generate.pipeline import MotionGenerator
 
 BLEND_SECONDS = 0.75  # the shortest that kept seam speeds within the segments' (bench/long_motion.py)
 

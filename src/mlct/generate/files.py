@@ -18,12 +18,12 @@ from typing import TYPE_CHECKING, Callable, Sequence
 from tqdm import tqdm
 
 from mlct.errors import MlctError
-from mlct.exports import check_format
+from mlct.generate.exports import check_format
 from mlct.io import check_writable_dir
 
 if TYPE_CHECKING:
-    from mlct.generated import GeneratedMotion
-    from mlct.pipeline import MotionGenerator
+    from mlct.generate.generated import GeneratedMotion
+    from mlct.generate.pipeline import MotionGenerator
 
 BATCH = 64  # motions per generate() call: big enough to batch, small enough to show progress
 
@@ -75,7 +75,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     `load` makes the model: it is called only after every argument has been checked."""
     generator = load()
     if request.long:
-        from mlct.long_motion import generate_long
+        from mlct.generate.long_motion import generate_long
 
         if request.seconds is None:
             raise MlctError("a long motion needs one duration a prompt: --seconds 3 2 2")

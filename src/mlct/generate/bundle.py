@@ -1,0 +1,63 @@
+"""Inference bundles: `mlct export RUN --out MODEL_DIR` writes one (train/export.py),
+`mlct.load` reads it (this module owns the format).
+
+A bundle is a directory:
+- model.safetensors: the AE decoder ("decoder.*"), the sampling denoiser ("denoiser.*": the EMA
+  weights), the normalization ("norm.mean", "norm.std"), and the AE encoder ("ae_encoder.*"),
+  which generation never reads: it is there so that `mlct train ae|cm --init MODEL_DIR`
+  fine-tunes the model on a user's own data;
+- config.json: the full run config, the sampler kind, feature width, skeleton, text encoder;
+- Mean.npy, Std.npy: the dataset statistics, in the standard layout's names.
+It holds no optimizer state and no text-encoder weights (the text encoder is named and loaded
+from its own package or directory).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import torch
+from safetensors.torch import load_file
+
+from mlct.errors import MlctError
+from mlct.io import read_format_json, strip_prefix
+
+BUNDLE_FORMAT = "mlct-model"
+BUNDLE_VERSION = 1
+SAMPLERS = {"cm": "consistency", "diffusion": "ddim"}
+ENCODER_PREFIXES = ("enc_in.", "enc_tokens", "enc_pos", "encoder.", "to_tokens.")
+ENCODER_KEY = "ae_encoder"  # the AE encoder's tensors in a bundle (since stage-1 fine-tuning)
+META_KEYS = ("sampler", "config", "feature_dim", "skeleton", "text_encoder", "text_dim")
+
+
+
+def bundle_autoencoder_state(tensors: dict[str, torch.Tensor], path: str | os.PathLike
+                             ) -> dict[str, torch.Tensor]:
+    """The whole AE state dict (encoder and decoder) of a bundle read by `read_bundle`."""
+    encoder = strip_prefix(tensors, ENCODER_KEY)
+    if not encoder:
+        raise MlctError(f"{path}: this model ships no autoencoder encoder (exported by an "
+                        f"older mlct); it can start `mlct train cm --init` but not `train ae`")
+    return {**strip_prefix(tensors, "decoder"), **encoder}
+
+
+def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
+    """config.json and the tensors of a bundle; one-line MlctError when it is not one."""
+    path = Path(path)
+    if not path.is_dir():
+        raise MlctError(f"{path}: no such model directory")
+    config_path, weights = path / "config.json", path / "model.safetensors"
+    if not config_path.is_file() or not weights.is_file():
+        raise MlctError(f"{path}: not an mlct model (needs config.json and model.safetensors; "
+                        f"make one with `mlct export RUN --out {path}`)")
+    meta = read_format_json(config_path, BUNDLE_FORMAT, BUNDLE_VERSION, "an mlct model config")
+    missing = [k for k in META_KEYS if k not in meta]
+    if missing:
+        raise MlctError(f"{config_path}: incomplete model config (no {', '.join(missing)})")
+    try:
+        tensors = load_file(str(weights))
+    except Exception as err:  # safetensors raises several kinds on a damaged file
+        raise MlctError(f"{weights}: unreadable weights ({str(err).splitlines()[0]})") from None
+    return meta, {k: (v.float() if v.dtype == torch.float16 else v) for k, v in tensors.items()}

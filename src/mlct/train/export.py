@@ -1,0 +1,59 @@
+"""`mlct export RUN --out MODEL_DIR`: a trained run's latest checkpoint as an inference bundle
+(the format mlct.generate.bundle defines and reads)."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+from safetensors.torch import save_file
+
+from mlct.errors import MlctError
+from mlct.generate.bundle import (BUNDLE_FORMAT, BUNDLE_VERSION, ENCODER_KEY, ENCODER_PREFIXES,
+                                  SAMPLERS)
+from mlct.io import atomic_dir, strip_prefix
+from mlct.train.checkpoint import latest_checkpoint, load_checkpoint
+
+def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None = None,
+               half: bool = False) -> Path:
+    """Write the inference bundle of RUN's latest `cm` (default) or `diffusion` checkpoint."""
+    run, out = Path(run), Path(out)
+    if stage is None:
+        stage = "cm" if (run / "cm").is_dir() or not (run / "diffusion").is_dir() else "diffusion"
+    if stage not in SAMPLERS:
+        raise MlctError(f"cannot export stage '{stage}'; choose cm or diffusion")
+    found = latest_checkpoint(run / stage / "checkpoints")
+    if found is None:
+        raise MlctError(f"{run / stage}: no checkpoint to export (train it first)")
+    ckpt = load_checkpoint(found, with_state=False)
+    ae = strip_prefix(ckpt.tensors, "ae")
+    decoder = {k: v for k, v in ae.items() if not k.startswith(ENCODER_PREFIXES)}
+    target = strip_prefix(ckpt.tensors, "target")
+    if stage == "cm":
+        # the EMA target network when trained with one, else the online weights
+        denoiser = (strip_prefix(target, "module.net") if target
+                    else strip_prefix(ckpt.tensors, "denoiser"))
+    else:
+        denoiser = strip_prefix(target, "module")
+    encoder = {k: v for k, v in ae.items() if k.startswith(ENCODER_PREFIXES)}
+    tensors = {**{f"decoder.{k}": v for k, v in decoder.items()},
+               # shipped for `mlct train ae --init MODEL_DIR` (fine-tuning); generation skips it
+               **{f"{ENCODER_KEY}.{k}": v for k, v in encoder.items()},
+               **{f"denoiser.{k}": v for k, v in denoiser.items()},
+               "norm.mean": ckpt.tensors["norm.mean"], "norm.std": ckpt.tensors["norm.std"]}
+    if half:  # float16 storage halves the file; loading casts back to float32
+        tensors = {k: (v.half() if v.is_floating_point() and not k.startswith("norm.") else v)
+                   for k, v in tensors.items()}
+    meta = {"format": BUNDLE_FORMAT, "version": BUNDLE_VERSION, "sampler": SAMPLERS[stage],
+            "step": ckpt.meta["step"], "config": ckpt.meta["config"],
+            "feature_dim": ckpt.meta["feature_dim"], "skeleton": ckpt.meta["skeleton"],
+            "text_encoder": ckpt.meta["text_encoder"], "text_dim": ckpt.meta["text_dim"]}
+    with atomic_dir(out) as tmp:
+        save_file({k: v.contiguous() for k, v in tensors.items()}, str(tmp / "model.safetensors"),
+                  metadata={"format": BUNDLE_FORMAT})
+        (tmp / "config.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+        np.save(tmp / "Mean.npy", ckpt.tensors["norm.mean"].numpy())
+        np.save(tmp / "Std.npy", ckpt.tensors["norm.std"].numpy())
+    return out
