@@ -356,3 +356,22 @@ def test_resume_survives_a_killed_write_and_a_broken_latest(data: Path, cache: s
     (checkpoints / "latest").write_text("../../../etc\n")
     with pytest.raises(MlctError, match="not a checkpoint name.*newest intact checkpoint is"):
         latest_checkpoint(checkpoints)
+
+
+def test_latent_scale_is_undone_before_decoding(trained: Path, tmp_path: Path) -> None:
+    """schedule.latent_scale: stage 2 samples in a scaled latent space; decode divides by it
+    (and the clamp of the quantized latent grows with it)."""
+    from mlct.config import config_from_dict
+    from mlct.nn.build import latent_clamp
+    from mlct.train.export import export_run
+
+    gen = mlct.load(export_run(trained, tmp_path / "model"))
+    z = torch.rand(2, *gen.ae.latent_shape) * 2 - 1
+    plain = gen.decode(z, [20, 30])
+    settings = gen.config.to_dict()
+    settings["schedule"]["latent_scale"] = 2.5
+    scaled = config_from_dict(settings)
+    gen.config = scaled
+    again = gen.decode(2.5 * z, [20, 30])
+    assert all(np.allclose(a, b, atol=1e-5) for a, b in zip(plain, again))
+    assert latent_clamp(scaled) == 2.5

@@ -196,8 +196,10 @@ class MotionGenerator:
 
     @torch.inference_mode()
     def decode(self, z: Tensor, lengths: Sequence[int]) -> list[np.ndarray]:
-        """Latents -> denormalized features, one (T_i, D) array per item."""
+        """Stage 2's latents (sample_latents) -> denormalized features, one (T_i, D) array per
+        item."""
         lens = torch.tensor(list(lengths), device=self.device)
+        z = z / self.config.schedule.latent_scale  # back to the autoencoder's latent
         feats = self.ae.decode(z, lens, max(lengths))  # (B, T, D) normalized
         feats = feats.float().cpu() * self.std + self.mean
         return [feats[i, :n].numpy() for i, n in enumerate(lengths)]

@@ -35,6 +35,6 @@ def build_denoiser(config: Config, text_dim: int) -> Denoiser:
 
 
 def latent_clamp(config: Config) -> float | None:
-    """Clamp bound of the latent: 1 for the quantized latent (tanh-bounded, Eq. 8), none for
-    the vae / plain ablations, whose latents are unbounded."""
-    return 1.0 if config.ae.latent_type == "quantized" else None
+    """Clamp bound of stage 2's latent: 1 for the quantized latent (tanh-bounded, Eq. 8) times
+    schedule.latent_scale, none for the vae / plain ablations, whose latents are unbounded."""
+    return config.schedule.latent_scale if config.ae.latent_type == "quantized" else None

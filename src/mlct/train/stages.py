@@ -214,7 +214,8 @@ class LatentStage(Stage):
         x = batch["motion"].to(self.device)
         lengths = batch["length"].to(self.device)
         with torch.no_grad():
-            return self.ae.encode(x[:, : int(lengths.max())], lengths).z.float()  # (B, n, d)
+            z = self.ae.encode(x[:, : int(lengths.max())], lengths).z.float()  # (B, n, d)
+        return z * self.config.schedule.latent_scale  # stage 2's latent space
 
     def _ema(self, module: nn.Module) -> AveragedModel:
         ema = AveragedModel(module, multi_avg_fn=get_ema_multi_avg_fn(self.ema_decay),
