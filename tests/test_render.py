@@ -197,8 +197,8 @@ def test_render_file_rejects_missing_unreadable_and_non_finite(tmp_path):
 def test_mp4_without_ffmpeg_says_so_before_rendering(tmp_path, monkeypatch):
     monkeypatch.setattr(render, "_ffmpeg_available", lambda: False)
     monkeypatch.setattr(render, "_Scene", None)  # rendering must not even start
-    with pytest.raises(MlctError, match=r"mp4 needs ffmpeg: install it \(apt-get install "
-                                        r"ffmpeg\) or write \.gif"):
+    with pytest.raises(MlctError, match=r"mp4 needs ffmpeg: pip install imageio-ffmpeg "
+                                        r"\(or apt-get install ffmpeg\), or write \.gif"):
         render_motion(walk(HUMANML3D, 3), tmp_path / "x.mp4", HUMANML3D)
     assert not list(tmp_path.iterdir())
 
@@ -338,3 +338,12 @@ def test_render_reads_mlct_bvh_and_names_what_it_cannot(tmp_path: Path) -> None:
     (tmp_path / "m.txt").write_text("hello")
     with pytest.raises(MlctError, match="reads .npy"):
         render_file(tmp_path / "m.txt", tmp_path / "t.png")
+
+
+def test_mp4_works_after_the_install_alone(tmp_path, monkeypatch):
+    """Issue 15: no system ffmpeg needed; the imageio-ffmpeg wheel (a dependency) provides it."""
+    pytest.importorskip("imageio_ffmpeg")
+    monkeypatch.setenv("PATH", "")  # as on a machine without a system ffmpeg
+    out = render_motion(walk(HUMANML3D, 6), tmp_path / "x.mp4", HUMANML3D)
+    head = out.read_bytes()[:12]
+    assert head[4:8] == b"ftyp" and out.stat().st_size > 1000  # an ISO media file

@@ -14,6 +14,7 @@ from typing import Callable, Iterator, TypeVar
 
 import numpy as np
 from PIL import Image
+import matplotlib
 from matplotlib.animation import FFMpegWriter
 from matplotlib.artist import Artist
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -199,15 +200,25 @@ def _output_kind(out: Path) -> str:
         raise MlctError(f"cannot render to {out.name!r}: the extension must be one of "
                         f"{', '.join(FORMATS)}")
     if kind == ".mp4" and not _ffmpeg_available():
-        raise MlctError(f"cannot write {out.name}: mp4 needs ffmpeg: install it "
-                        f"(apt-get install ffmpeg) or write .gif")
+        raise MlctError(f"cannot write {out.name}: mp4 needs ffmpeg: pip install imageio-ffmpeg "
+                        f"(or apt-get install ffmpeg), or write .gif")
     if out.is_dir():
         raise MlctError(f"cannot render to {out}: it is a directory")
     return kind
 
 
 def _ffmpeg_available() -> bool:
-    # matplotlib looks ffmpeg up on PATH (or rcParams['animation.ffmpeg_path']).
+    """matplotlib looks ffmpeg up on PATH (or rcParams['animation.ffmpeg_path']); without one
+    there, the binary the imageio-ffmpeg wheel ships (a dependency) is used."""
+    if FFMpegWriter.isAvailable():
+        return True
+    try:
+        import imageio_ffmpeg
+
+        path = imageio_ffmpeg.get_ffmpeg_exe()
+    except (ImportError, RuntimeError):
+        return False
+    matplotlib.rcParams["animation.ffmpeg_path"] = path
     return FFMpegWriter.isAvailable()
 
 
