@@ -30,6 +30,7 @@ def pipe():
     ({"lengths": 10**9}, "length"),
     ({"seconds": "3"}, "seconds"),
     ({"seconds": -1.0}, "seconds"),
+    ({"seconds": 12.0}, "several prompts.*chained"),
     ({"seconds": math.inf}, "seconds"),
     ({"seconds": [2.0, None]}, "seconds"),
     ({"nfe": 2.7}, "nfe"),

@@ -139,9 +139,12 @@ class MotionGenerator:
             raise MlctError(f"{len(out)} lengths for {count} texts")
         for n in out:
             if not 1 <= n <= self.max_frames:
+                longer = ("; for a longer motion give several prompts, one per part: they "
+                          "are chained into one (mlct generate "A" "B" --seconds 5 5)"
+                          if n > self.max_frames else "")
                 raise MlctError(f"length {n} frames is outside 1..{self.max_frames} "
                                 f"({self.max_frames / self.skeleton.fps:.2f} s at "
-                                f"{self.skeleton.fps:g} fps)")
+                                f"{self.skeleton.fps:g} fps){longer}")
         return out
 
     def check_nfe(self, nfe: int | None) -> int:
