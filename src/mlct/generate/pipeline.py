@@ -140,7 +140,7 @@ class MotionGenerator:
         for n in out:
             if not 1 <= n <= self.max_frames:
                 longer = ("; for a longer motion give several prompts, one per part: they "
-                          "are chained into one (mlct generate "A" "B" --seconds 5 5)"
+                          "are chained into one (mlct generate 'A' 'B' --seconds 5 5)"
                           if n > self.max_frames else "")
                 raise MlctError(f"length {n} frames is outside 1..{self.max_frames} "
                                 f"({self.max_frames / self.skeleton.fps:.2f} s at "
