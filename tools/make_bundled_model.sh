@@ -15,8 +15,7 @@ stage() {  # stage NAME ARGS...: train, or resume when the stage already has che
     if ls "$work/run/$name/checkpoints"/step-* >/dev/null 2>&1; then
         mlct train "$name" --data "$work/synth" --out "$work/run" --resume
     else
-        mlct train "$name" --data "$work/synth" --out "$work/run" --config small \
-            text.encoder=minilm+tokens "$@"
+        mlct train "$name" --data "$work/synth" --out "$work/run" --config small "$@"
     fi
 }
 [ -f "$work/synth/synth.json" ] || mlct data synth --out "$work/synth" --num 4000 --seed 0 --workers 2

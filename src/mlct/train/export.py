@@ -53,6 +53,9 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
     with atomic_dir(out) as tmp:
         save_file({k: v.contiguous() for k, v in tensors.items()}, str(tmp / "model.safetensors"),
                   metadata={"format": BUNDLE_FORMAT})
+        umask = os.umask(0)
+        os.umask(umask)
+        (tmp / "model.safetensors").chmod(0o666 & ~umask)  # safetensors writes it private (0600)
         (tmp / "config.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
         np.save(tmp / "Mean.npy", ckpt.tensors["norm.mean"].numpy())
         np.save(tmp / "Std.npy", ckpt.tensors["norm.std"].numpy())
