@@ -45,17 +45,15 @@ STATIC = Path(__file__).resolve().parent / "static"
 DEFAULT_SECONDS = 5.0
 # The page's gallery: captions in the procedural benchmark's style (mlct.data.synth), so the
 # bundled model knows them. Warm-up encodes them, so a gallery click skips the text encoder.
-EXAMPLES = (
-    "a person walks forward at a brisk pace.",
-    "the woman walks backward at a steady pace.",
+EXAMPLES = (  # families the bundled model does best by its read-outs (docs/model_card.md)
+    "a man jogs straight ahead.",
     "a person runs straight ahead.",
-    "the woman waves the right hand back and forth two times.",
+    "a person walks forward at a brisk pace.",
+    "the figure sits down on an invisible chair and stands back up.",
+    "a man bows politely.",
+    "a person reaches up high and leans to one side.",
     "the person puts both their arms up in the air.",
-    "a person squats down three times.",
-    "the man jumps two times straight up.",
-    "the man steps sideways to the left three times.",
-    "a person kicks out with the right foot.",
-    "a figure turns right by 45 degrees.",
+    "the woman stands quietly.",
 )
 MEDIA_TYPES = {"npy": "application/octet-stream", "bvh": "text/plain; charset=utf-8",
                "gif": "image/gif"}
