@@ -167,3 +167,16 @@ def test_infer_kit_and_resolve(tmp_path):
 def test_mirrored_names():
     assert is_mirrored("M000001") and not is_mirrored("000001")
     assert math.isclose(KIT.fps, 12.5)
+
+
+@pytest.mark.parametrize("bad", ["../../etc/passwd", "sub/name", "..", ".hidden", "a\\b"])
+def test_split_names_cannot_leave_the_dataset(tmp_path, bad) -> None:
+    """Names from split files are joined to paths: one that could escape is refused (issue 15)."""
+    from mlct.data.layout import read_split
+
+    split = tmp_path / "train.txt"
+    split.write_text(f"000001\n{bad}\n")
+    with pytest.raises(MlctError, match="line 2: .* is not a motion name"):
+        read_split(split)
+    split.write_text("000001\nM000002\n\n")
+    assert read_split(split) == ["000001", "M000002"]

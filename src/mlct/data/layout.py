@@ -141,8 +141,19 @@ def read_texts(path: str | os.PathLike) -> list[TextRecord]:
 
 
 def read_split(path: str | os.PathLike) -> list[str]:
-    """The names listed in a split file, in order (blank lines ignored, duplicates kept)."""
-    return [line.strip() for line in read_text_lines(path) if line.strip()]
+    """The names listed in a split file, in order (blank lines ignored, duplicates kept).
+    A name is joined to the dataset's folders, so one that could leave them (a separator,
+    '..', a leading dot) is refused, naming the line."""
+    names = []
+    for number, line in enumerate(read_text_lines(path), start=1):
+        name = line.strip()
+        if not name:
+            continue
+        if "/" in name or "\\" in name or name.startswith(".") or "\x00" in name:
+            raise MlctError(f"{path}, line {number}: {name[:60]!r} is not a motion name (names "
+                            f"are file stems: no '/', '\\' or leading '.')")
+        names.append(name)
+    return names
 
 
 def load_npy(path: str | os.PathLike) -> np.ndarray:
