@@ -378,8 +378,10 @@ def test_cli_serve_passes_its_options(monkeypatch):
 
     calls = []
     monkeypatch.setattr(mlct.serve, "run_server", lambda *a, **k: calls.append((a, k)))
-    assert main(["serve", "--port", "9123", "--host", "0.0.0.0", "--device", "cpu"]) == 0
-    assert calls == [((None,), {"host": "0.0.0.0", "port": 9123, "device": "cpu"})]
+    assert main(["serve", "--port", "9123", "--host", "0.0.0.0", "--device", "cpu",
+                 "--token", "a-long-secret"]) == 0
+    assert calls == [((None,), {"host": "0.0.0.0", "port": 9123, "device": "cpu",
+                                "token": "a-long-secret"})]
 
 
 @pytest.mark.parametrize("host, loopback", [
@@ -402,7 +404,29 @@ def test_serving_beyond_this_machine_warns(monkeypatch, capsys) -> None:
     monkeypatch.setattr(uvicorn, "run", lambda *args, **kwargs: None)
     monkeypatch.setattr(mlct, "load", lambda *args, **kwargs: object())
     monkeypatch.setattr("mlct.serve.create_app", lambda *args, **kwargs: None)
+    monkeypatch.delenv("MLCT_TOKEN", raising=False)
     run_server(host="0.0.0.0", device="cpu")
     assert "warning: listening on 0.0.0.0" in capsys.readouterr().err
     run_server(host="127.0.0.1", device="cpu")
     assert capsys.readouterr().err == ""
+    monkeypatch.setenv("MLCT_TOKEN", "a-long-secret")
+    run_server(host="0.0.0.0", device="cpu")  # a token is required: nothing to warn about
+    assert capsys.readouterr().err == ""
+
+
+def test_token_guards_generate_and_stays_secret() -> None:
+    """--token / MLCT_TOKEN: POST /generate needs the bearer token; health never shows it."""
+    client, _ = fake_client(token="s3cret-token")
+    body = {"text": "a person walks", "seconds": 1.0, "format": "json"}
+    with client:
+        missing = client.post("/generate", json=body)
+        assert missing.status_code == 401 and missing.headers["www-authenticate"] == "Bearer"
+        assert "Authorization: Bearer" in missing.json()["detail"]
+        wrong = client.post("/generate", json=body, headers={"Authorization": "Bearer nope"})
+        assert wrong.status_code == 401
+        right = client.post("/generate", json=body,
+                            headers={"Authorization": "Bearer s3cret-token"})
+        assert right.status_code == 200 and right.json()["motions"]
+        assert "s3cret-token" not in client.get("/health").text
+    with pytest.raises(Exception, match="at least 8 characters"):
+        ServeSettings(token="short")

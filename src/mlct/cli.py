@@ -220,7 +220,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
 def _cmd_serve(args: argparse.Namespace) -> int:
     from mlct.serve import run_server
 
-    run_server(args.model, host=args.host, port=args.port, device=args.device)
+    run_server(args.model, host=args.host, port=args.port, device=args.device, token=args.token)
     return 0
 
 
@@ -431,6 +431,9 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--host", default="127.0.0.1", help="default 127.0.0.1 (this machine)")
     serve.add_argument("--port", type=int, default=8000, help="default 8000")
     serve.add_argument("--device", default=None, help="cpu or cuda (default: cuda if available)")
+    serve.add_argument("--token", default=None,
+                       help="require 'Authorization: Bearer TOKEN' on POST /generate "
+                       "(default: $MLCT_TOKEN; the page takes it as #token=TOKEN)")
     serve.set_defaults(func=_cmd_serve)
 
     generate = commands.add_parser(

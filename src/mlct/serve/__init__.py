@@ -37,17 +37,24 @@ def is_loopback(host: str) -> bool:
 
 
 def run_server(model: Any = None, host: str = "127.0.0.1", port: int = 8000,
-               device: Any = None, settings: ServeSettings | None = None) -> None:
-    """Load the model (None: the bundled one) and serve it until interrupted."""
+               device: Any = None, settings: ServeSettings | None = None,
+               token: str | None = None) -> None:
+    """Load the model (None: the bundled one) and serve it until interrupted. token (or the
+    MLCT_TOKEN environment variable): POST /generate needs it as a bearer token."""
+    import dataclasses
+    import os
+
     import uvicorn
 
     import mlct
     from mlct.devices import resolve_device
 
-    if not is_loopback(host):
+    token = token or os.environ.get("MLCT_TOKEN") or None
+    settings = dataclasses.replace(settings or ServeSettings(), token=token)
+    if not is_loopback(host) and token is None:
         print(f"mlct serve: warning: listening on {host}: any machine that can reach this one "
-              f"may use the API (it has no authentication); bind 127.0.0.1 unless you mean it",
-              file=sys.stderr)
+              f"may use the API; bind 127.0.0.1 unless you mean it, or require a token "
+              f"(--token or MLCT_TOKEN)", file=sys.stderr)
     generator = mlct.load(model, device=resolve_device(device))
     uvicorn.run(create_app(generator, settings), host=host, port=port, log_level="info")
 

@@ -24,7 +24,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from fastapi import FastAPI
+from fastapi import FastAPI, Header
 from fastapi_offline import FastAPIOffline
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, JSONResponse, Response
@@ -93,8 +93,13 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
     @app.post("/generate", summary="Text to motion",
               responses={200: {"description": "motions as JSON, or one motion as a file"},
                          503: {"description": "the queue is full; retry shortly"}})
-    async def generate(body: GenerateRequest) -> Response:  # type: ignore[valid-type]
+    async def generate(body: GenerateRequest,  # type: ignore[valid-type]
+                       authorization: str | None = Header(default=None)) -> Response:
         received = time.perf_counter()
+        if settings.token is not None and not _bearer_matches(authorization, settings.token):
+            return _error(401, "this server needs 'Authorization: Bearer <token>' "
+                          "(mlct serve --token); the web page takes it as #token=... in its URL",
+                          {"WWW-Authenticate": "Bearer"})
         texts = body.prompts
         seeds = body.seeds(draw=secrets.randbelow(2**31))
         try:
@@ -170,6 +175,13 @@ def _model_info(generator: Any) -> dict[str, Any]:
 def _slug(text: str, limit: int = 40) -> str:
     """A file name from a prompt: 'A person walks!' -> 'a_person_walks'."""
     return re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")[:limit].rstrip("_") or "motion"
+
+
+def _bearer_matches(header: str | None, token: str) -> bool:
+    """A constant-time comparison of an Authorization header with the expected bearer token."""
+    scheme, _, given = (header or "").partition(" ")
+    return scheme.lower() == "bearer" and secrets.compare_digest(given.strip().encode(),
+                                                                 token.encode())
 
 
 def _error(status: int, detail: str, headers: dict[str, str] | None = None) -> JSONResponse:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from mlct.errors import MlctError
@@ -22,6 +22,8 @@ class ServeSettings:
     max_batch: int = 32  # texts the model runs at once (one forward pass per step)
     batch_wait_ms: float = 2.0  # how long the worker waits for more requests to join a batch
     warmup: bool = True  # generate once at start: the text encoder loads before any request
+    # POST /generate then needs "Authorization: Bearer <token>" (mlct serve --token / MLCT_TOKEN)
+    token: str | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         for name in ("max_text_chars", "max_texts", "max_nfe", "max_body_bytes", "queue_depth",
@@ -37,6 +39,8 @@ class ServeSettings:
         if not 0 <= self.batch_wait_ms <= 1000:
             raise MlctError(f"serve setting batch_wait_ms must be within 0..1000 ms, "
                             f"got {self.batch_wait_ms}")
+        if self.token is not None and len(self.token) < 8:
+            raise MlctError("serve token must be at least 8 characters")
         if self.max_texts > self.max_batch:
             raise MlctError(f"serve setting max_texts ({self.max_texts}) exceeds max_batch "
                             f"({self.max_batch}): one request must fit in one batch")
@@ -48,4 +52,7 @@ class ServeSettings:
         return min(self.max_frames, model_max_frames)
 
     def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
+        """The settings, the token left out (it is a secret; whether one is set is shown)."""
+        out = asdict(self)
+        out["token"] = self.token is not None
+        return out

@@ -169,9 +169,12 @@ function requestBody() {
 }
 
 async function postGenerate(body) {
-  const response = await fetch("/generate", {
-    method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body),
-  });
+  const headers = { "Content-Type": "application/json" };
+  // A server started with --token: the page's URL carries it as #token=... (a fragment is never
+  // sent to a server or written to its logs).
+  const token = new URLSearchParams(location.hash.slice(1)).get("token");
+  if (token) headers.Authorization = `Bearer ${token}`;
+  const response = await fetch("/generate", { method: "POST", headers, body: JSON.stringify(body) });
   if (!response.ok) {
     let detail = `${response.status} ${response.statusText}`;
     try { detail = (await response.json()).detail || detail; } catch (_) { /* not JSON */ }
