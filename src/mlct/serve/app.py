@@ -46,9 +46,9 @@ DEFAULT_SECONDS = 5.0
 # The page's gallery: captions in the procedural benchmark's style (mlct.data.synth), so the
 # bundled model knows them. Warm-up encodes them, so a gallery click skips the text encoder.
 EXAMPLES = (  # families the bundled model does best by its read-outs (docs/model_card.md)
+    "a person walks forward at a brisk pace.",
     "a man jogs straight ahead.",
     "a person runs straight ahead.",
-    "a person walks forward at a brisk pace.",
     "the figure sits down on an invisible chair and stands back up.",
     "a man bows politely.",
     "a person reaches up high and leans to one side.",
