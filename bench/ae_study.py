@@ -1,9 +1,11 @@
 """Which autoencoder learns fastest on this machine? Equal wall time per variant, then scores.
 
     python bench/ae_study.py --data synth4k --seconds 150 \\
-        base= conv=ae.architecture=conv "conv_vel=ae.architecture=conv ae.velocity_weight=1"
+        "transformer=ae.architecture=transformer ae.velocity_weight=0" \\
+        "conv=ae.velocity_weight=0" conv_vel=
 
-Each VARIANT is NAME=OVERRIDES (space-separated config overrides on the small preset). Each trains
+Each VARIANT is NAME=OVERRIDES (space-separated config overrides on the small preset, which is
+now the conv autoencoder with the velocity term: the paper's transformer is an override). Each trains
 for --seconds on one thread with the project's own stage-1 loss (train/stages.py), batch 32,
 then prints the validation feature loss on the first --val test motions (smooth-L1 on normalized
 features; predicting the mean scores ~0.38 on benchmark v2) and, per family, the ratio of the
