@@ -347,3 +347,17 @@ def test_mp4_works_after_the_install_alone(tmp_path, monkeypatch):
     out = render_motion(walk(HUMANML3D, 6), tmp_path / "x.mp4", HUMANML3D)
     head = out.read_bytes()[:12]
     assert head[4:8] == b"ftyp" and out.stat().st_size > 1000  # an ISO media file
+
+
+def test_frames_say_which_side_is_which(tmp_path: Path) -> None:
+    """Issue 15: a 'left'/'right' legend in the limbs' colours, bottom right of every image."""
+    out = render_motion(walk(HUMANML3D, 8), tmp_path / "x.png", HUMANML3D, title="a walk")
+    image = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    h, w, _ = image.shape
+    corner = image[int(h * 0.85):, int(w * 0.94):].reshape(-1, 3)
+
+    def has(colour: str) -> bool:
+        rgb = np.array([int(colour[i:i + 2], 16) for i in (1, 3, 5)])
+        return bool((np.abs(corner - rgb).sum(1) < 60).any())
+
+    assert has(render.COLORS["left"]) and has(render.COLORS["right"])

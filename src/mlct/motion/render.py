@@ -451,6 +451,17 @@ def _layout(fig: Figure, panels: list[tuple[Axes3D, _StickFigure, np.ndarray]],
                          panel / height))
     if text:
         fig.suptitle(text, fontsize=fontsize, y=1 - 0.06 / height, va="top")
+    _side_legend(fig, width, height, fontsize * 0.8)
+
+
+def _side_legend(fig: Figure, width: float, height: float, fontsize: float) -> None:
+    """'left' and 'right' in their limbs' colours, bottom right: which arm is which."""
+    char = 0.6 * fontsize / 72  # inches per character, roughly
+    x = 1 - 0.06 / width
+    for side in ("right", "left"):
+        fig.text(x, 0.04 / height, side, color=COLORS[side], fontsize=fontsize, ha="right",
+                 va="bottom", fontweight="bold")
+        x -= (len(side) + 1.5) * char / width
 
 
 def _sample(joints: np.ndarray, n: int = 64) -> np.ndarray:
