@@ -69,3 +69,16 @@ def test_a_closed_pipe_is_not_an_error(tmp_path):
     process.stdout.close()
     _, err = process.communicate(timeout=120)
     assert process.returncode == 0 and b"error" not in err, err
+
+
+def test_a_status_line_while_the_model_loads_on_a_terminal(tmp_path, capsys, monkeypatch):
+    """Issue 15: seconds of loading show a status line on a terminal; pipes stay clean."""
+    out = tmp_path / "x.npy"
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    assert main(["generate", "a man jogs straight ahead", "--seconds", "1", "--out",
+                 str(out)]) == 0
+    assert "mlct: loading the model and the text encoder" in capsys.readouterr().err
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
+    assert main(["generate", "a man jogs straight ahead", "--seconds", "1", "--out",
+                 str(out)]) == 0
+    assert capsys.readouterr().err == ""

@@ -6,6 +6,7 @@ import argparse
 import os
 import sys
 from pathlib import Path
+from typing import Any
 
 from mlct.errors import MlctError
 
@@ -251,9 +252,21 @@ def _cmd_generate(args: argparse.Namespace) -> int:
                                      args.seed, long)
     names = ["_".join(prompts)] if long else [p for p in prompts for _ in range(args.num)]
     paths = generate_files.output_paths(names, args.out, args.out_dir, args.format)
-    written = generate_files.run(lambda: mlct.load(args.model, device=args.device,
-                                                   dtype=args.dtype), request,
-                                 paths, features=args.features, progress=not args.quiet)
+    def load() -> Any:
+        # A status line while the model and the text encoder load (seconds on a cold start),
+        # on a terminal only: scripts and pipes keep a clean stderr.
+        status = not args.quiet and sys.stderr.isatty()
+        if status:
+            print("mlct: loading the model and the text encoder ...", end="\r", file=sys.stderr,
+                  flush=True)
+        generator = mlct.load(args.model, device=args.device, dtype=args.dtype)
+        generator.text_encoder  # noqa: B018 - loads it now, under the status line
+        if status:
+            print(" " * 50, end="\r", file=sys.stderr, flush=True)
+        return generator
+
+    written = generate_files.run(load, request, paths, features=args.features,
+                                 progress=not args.quiet)
     for path in written:
         print(path)
     return 0
