@@ -609,10 +609,7 @@ def _jump_checks(params: Mapping[str, Any]) -> list[Check]:
                     lambda r: r["airborne_frames"] >= 3),
               Check("jump.both_feet", "the two ankles lift within 0.1 m of each other",
                     lambda r: abs(r["foot_lift.left"] - r["foot_lift.right"]) < 0.1)]
-    count = params.get("count")
-    if count:
-        checks.append(Check("jump.count", f"{count} separate flights",
-                            lambda r: r["airborne_episodes"] == count))
+    checks += _count_check(params, "jump.count", "{} separate flights", "airborne_episodes")
     mode = params.get("mode")
     if mode == "forward":  # GT: 0.67 m or more
         checks.append(Check("jump.forward", "the pelvis lands over 0.5 m further forward",
@@ -623,13 +620,18 @@ def _jump_checks(params: Mapping[str, Any]) -> list[Check]:
     return checks
 
 
+def _count_check(params: Mapping[str, Any], name: str, what: str, readout: str) -> list[Check]:
+    """The check that `readout` equals the label's count, when the label has one."""
+    count = params.get("count")
+    if not count:
+        return []
+    return [Check(name, what.format(count), lambda r: r[readout] == count)]
+
+
 def _hop_checks(params: Mapping[str, Any]) -> list[Check]:
     checks = [Check("hop.airborne", "the hopping foot 5 cm off the floor in at least 3 frames",
                     lambda r: r["airborne_frames"] >= 3)]
-    count = params.get("count")
-    if count:
-        checks.append(Check("hop.count", f"{count} separate flights",
-                            lambda r: r["airborne_episodes"] == count))
+    checks += _count_check(params, "hop.count", "{} separate flights", "airborne_episodes")
     leg = params.get("leg")
     if leg:  # GT: the free ankle lifts 0.09-0.25 m more than the hopping one
         other = _other(leg)
@@ -712,10 +714,7 @@ def _arm_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
 def _clap_checks(params: Mapping[str, Any]) -> list[Check]:
     checks = [Check("clap.meet", "the wrists come within 0.15 m of each other at least twice",
                     lambda r: r["hand_gap_minima"] >= 2)]
-    count = params.get("count")
-    if count:
-        checks.append(Check("clap.count", f"the hands meet {count} times",
-                            lambda r: r["hand_gap_minima"] == count))
+    checks += _count_check(params, "clap.count", "the hands meet {} times", "hand_gap_minima")
     return checks
 
 

@@ -77,7 +77,52 @@ class _FrameUpsampler(nn.Module):
         return self.stages(coarse)[:, :, :frames].transpose(1, 2)  # (B, frames, d)
 
 
-class MotionAutoencoder(nn.Module):
+class LatentAutoencoder(nn.Module):
+    """What every stage-1 network shares: the n x d latent's shape, the argument checks and
+    forward = decode(encode(x)). Subclasses set the attributes below and define encode/decode."""
+
+    feature_dim: int
+    n_tokens: int
+    latent_dim: int
+    max_len: int
+
+    @property
+    def latent_shape(self) -> tuple[int, int]:
+        """(n, d) of the latent z."""
+        return (self.n_tokens, self.latent_dim)
+
+    def _check_lengths(self, lengths: Tensor, frames: int) -> None:
+        if lengths.ndim != 1:
+            raise ValueError(f"lengths must be (B,), got shape {tuple(lengths.shape)}")
+        if frames > self.max_len:
+            raise ValueError(f"{frames} frames exceed max_len {self.max_len}")
+        if lengths.numel() and (int(lengths.min()) < 1 or int(lengths.max()) > frames):
+            raise ValueError(f"lengths must lie in [1, {frames}]")
+
+    def _check_frames(self, x: Tensor, lengths: Tensor) -> None:
+        if x.ndim != 3 or x.shape[-1] != self.feature_dim:
+            raise ValueError(f"x must be (B, T, {self.feature_dim}), got {tuple(x.shape)}")
+        self._check_lengths(lengths, x.shape[1])
+
+    def _check_latent(self, z: Tensor) -> None:
+        if z.ndim != 3 or tuple(z.shape[1:]) != self.latent_shape:
+            raise ValueError(
+                f"z must be (B, {self.n_tokens}, {self.latent_dim}), got {tuple(z.shape)}"
+            )
+
+    def encode(self, x: Tensor, lengths: Tensor) -> Latent:
+        raise NotImplementedError
+
+    def decode(self, z: Tensor, lengths: Tensor, max_len: int | None = None) -> Tensor:
+        raise NotImplementedError
+
+    def forward(self, x: Tensor, lengths: Tensor) -> tuple[Tensor, Latent]:
+        """Reconstruct x (B, T, D) through z: returns (D(z) (B, T, D), Latent)."""
+        latent = self.encode(x, lengths)
+        return self.decode(latent.z, lengths, max_len=x.shape[1]), latent
+
+
+class MotionAutoencoder(LatentAutoencoder):
     """Transformer autoencoder E, D with a quantized (Eq. 8), VAE or plain latent of n x d."""
 
     def __init__(
@@ -121,25 +166,10 @@ class MotionAutoencoder(nn.Module):
             nn.Linear(latent_dim, feature_dim), nn.ReLU(), nn.Linear(feature_dim, feature_dim)
         )
 
-    @property
-    def latent_shape(self) -> tuple[int, int]:
-        """(n, d) of the latent z."""
-        return (self.n_tokens, self.latent_dim)
-
-    def _check_lengths(self, lengths: Tensor, frames: int) -> None:
-        if lengths.ndim != 1:
-            raise ValueError(f"lengths must be (B,), got shape {tuple(lengths.shape)}")
-        if frames > self.max_len:
-            raise ValueError(f"{frames} frames exceed max_len {self.max_len}")
-        if lengths.numel() and (int(lengths.min()) < 1 or int(lengths.max()) > frames):
-            raise ValueError(f"lengths must lie in [1, {frames}]")
-
     def encode(self, x: Tensor, lengths: Tensor) -> Latent:
         """E: x (B, T, D) normalized features, lengths (B,) -> Latent with z (B, n, d)."""
-        if x.ndim != 3 or x.shape[-1] != self.feature_dim:
-            raise ValueError(f"x must be (B, T, {self.feature_dim}), got {tuple(x.shape)}")
+        self._check_frames(x, lengths)
         b, t, _ = x.shape
-        self._check_lengths(lengths, t)
         n_enc = self.enc_tokens.shape[1]
         valid = lengths_to_mask(lengths.to(x.device), t)  # (B, T)
         pad = torch.cat([valid.new_zeros(b, n_enc), ~valid], dim=1)  # (B, n_enc + T), tokens kept
@@ -151,10 +181,7 @@ class MotionAutoencoder(nn.Module):
 
     def decode(self, z: Tensor, lengths: Tensor, max_len: int | None = None) -> Tensor:
         """D: z (B, n, d), lengths (B,) -> (B, T, D), T = max_len or max(lengths); pads are 0."""
-        if z.ndim != 3 or tuple(z.shape[1:]) != self.latent_shape:
-            raise ValueError(
-                f"z must be (B, {self.n_tokens}, {self.latent_dim}), got {tuple(z.shape)}"
-            )
+        self._check_latent(z)
         b, n = z.shape[0], self.n_tokens
         t = int(lengths.max()) if max_len is None else max_len
         self._check_lengths(lengths, t)
@@ -166,8 +193,3 @@ class MotionAutoencoder(nn.Module):
         h = self.decoder(h, key_padding_mask=pad)[:, n:]  # (B, T, d)
         out = self.head(h)  # (B, T, D)
         return out.masked_fill(~valid.unsqueeze(-1), 0.0)  # padded frames exactly 0
-
-    def forward(self, x: Tensor, lengths: Tensor) -> tuple[Tensor, Latent]:
-        """Reconstruct x (B, T, D) through z: returns (D(z) (B, T, D), Latent)."""
-        latent = self.encode(x, lengths)
-        return self.decode(latent.z, lengths, max_len=x.shape[1]), latent

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 from mlct.config import Config
-from mlct.nn.autoencoder import MotionAutoencoder
+from mlct.nn.autoencoder import LatentAutoencoder, MotionAutoencoder
 from mlct.nn.conv_autoencoder import ConvMotionAutoencoder
 from mlct.nn.denoiser import Denoiser
 from mlct.text.encoders import token_slots_of
 
 
-AnyAutoencoder = MotionAutoencoder | ConvMotionAutoencoder
+AnyAutoencoder = LatentAutoencoder  # either architecture
 
 
 def build_autoencoder(config: Config, feature_dim: int) -> AnyAutoencoder:

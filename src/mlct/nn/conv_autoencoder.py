@@ -23,7 +23,7 @@ from __future__ import annotations
 import torch
 from torch import Tensor, nn
 
-from mlct.nn.autoencoder import LATENT_TYPES, Latent, latent_of_tokens
+from mlct.nn.autoencoder import LATENT_TYPES, Latent, LatentAutoencoder, latent_of_tokens
 from mlct.nn.masks import lengths_to_mask
 
 FACTOR = 8  # three stride-2 stages
@@ -40,7 +40,7 @@ def _stage(channels: int, down: bool) -> list[nn.Module]:
     return layers
 
 
-class ConvMotionAutoencoder(nn.Module):
+class ConvMotionAutoencoder(LatentAutoencoder):
     """Convolutional E, D with a quantized (Eq. 8), VAE or plain latent of n x d."""
 
     def __init__(
@@ -75,25 +75,10 @@ class ConvMotionAutoencoder(nn.Module):
         self.decoder = nn.Sequential(*[m for _ in range(3) for m in _stage(channels, False)],
                                      nn.Conv1d(channels, feature_dim, 3, padding=1))
 
-    @property
-    def latent_shape(self) -> tuple[int, int]:
-        """(n, d) of the latent z."""
-        return (self.n_tokens, self.latent_dim)
-
-    def _check_lengths(self, lengths: Tensor, frames: int) -> None:
-        if lengths.ndim != 1:
-            raise ValueError(f"lengths must be (B,), got shape {tuple(lengths.shape)}")
-        if frames > self.max_len:
-            raise ValueError(f"{frames} frames exceed max_len {self.max_len}")
-        if lengths.numel() and (int(lengths.min()) < 1 or int(lengths.max()) > frames):
-            raise ValueError(f"lengths must lie in [1, {frames}]")
-
     def encode(self, x: Tensor, lengths: Tensor) -> Latent:
         """E: x (B, T, D) normalized features, lengths (B,) -> Latent with z (B, n, d)."""
-        if x.ndim != 3 or x.shape[-1] != self.feature_dim:
-            raise ValueError(f"x must be (B, T, {self.feature_dim}), got {tuple(x.shape)}")
+        self._check_frames(x, lengths)
         b, t, _ = x.shape
-        self._check_lengths(lengths, t)
         valid = lengths_to_mask(lengths.to(x.device), t).to(x.dtype).unsqueeze(-1)  # (B, T, 1)
         h = torch.cat([x * valid, valid], dim=-1).transpose(1, 2)  # (B, D + 1, T)
         h = nn.functional.pad(h, (0, self.coarse * FACTOR - t))  # (B, D + 1, coarse * 8)
@@ -104,18 +89,10 @@ class ConvMotionAutoencoder(nn.Module):
 
     def decode(self, z: Tensor, lengths: Tensor, max_len: int | None = None) -> Tensor:
         """D: z (B, n, d), lengths (B,) -> (B, T, D), T = max_len or max(lengths); pads are 0."""
-        if z.ndim != 3 or tuple(z.shape[1:]) != self.latent_shape:
-            raise ValueError(
-                f"z must be (B, {self.n_tokens}, {self.latent_dim}), got {tuple(z.shape)}"
-            )
+        self._check_latent(z)
         t = int(lengths.max()) if max_len is None else max_len
         self._check_lengths(lengths, t)
         h = self.from_tokens(z.flatten(1)).view(z.shape[0], self.channels, self.coarse)
         out = self.decoder(h)[:, :, :t].transpose(1, 2)  # (B, T, D)
         valid = lengths_to_mask(lengths.to(z.device), t)  # (B, T)
         return out.masked_fill(~valid.unsqueeze(-1), 0.0)  # padded frames exactly 0
-
-    def forward(self, x: Tensor, lengths: Tensor) -> tuple[Tensor, Latent]:
-        """Reconstruct x (B, T, D) through z: returns (D(z) (B, T, D), Latent)."""
-        latent = self.encode(x, lengths)
-        return self.decode(latent.z, lengths, max_len=x.shape[1]), latent
