@@ -130,6 +130,25 @@ def test_guidance_moves_the_target_away_from_the_unconditional_estimate() -> Non
     assert torch.allclose(rec["x"][0], expected, atol=1e-10)
 
 
+def test_denoise_term_regresses_the_conditional_branch_on_the_guided_latent() -> None:
+    x0 = torch.full((8, 2, 2), 0.2, dtype=torch.float64)
+    cond, null = torch.randn(8, 3, dtype=torch.float64), torch.zeros(3, dtype=torch.float64)
+    online, _ = _recorder()  # S(x_t, t, c) = S(x_t, t, null) = 0
+    target, _ = _recorder()
+    c = 0.001
+    plain = consistency_training_loss(online, target, x0, cond, null, SCHEDULE, GRID,
+                                      guidance=2.0, huber_c=c,
+                                      generator=torch.Generator().manual_seed(0))
+    assert "denoise" not in plain  # weight 0 = the paper's Eq. 15 alone
+    out = consistency_training_loss(online, target, x0, cond, null, SCHEDULE, GRID,
+                                    guidance=2.0, huber_c=c, denoise_weight=0.5,
+                                    generator=torch.Generator().manual_seed(0))
+    # x_phi = (1 + 2) 0.2 - 2 * 0 = 0.6; the conditional output 0 is that far from it.
+    per = (0.6**2 + c**2) ** 0.5 - c
+    assert torch.allclose(out["denoise"], torch.tensor(per, dtype=torch.float64))
+    assert torch.allclose(out["loss"], plain["loss"] + 0.5 * out["denoise"])
+
+
 def test_diffusion_loss_drops_the_condition_at_the_given_rate() -> None:
     seen: dict = {}
 

@@ -96,6 +96,9 @@ class ConsistencyConfig(_Section):
 
     guidance: float = Field(1.0, ge=0.0)  # w: 1 for HumanML3D, 2 for KIT; 0 = vanilla CT
     uncond_weight: float = Field(1.0, ge=0.0)  # lambda_c
+    # Ours (0 = the paper): weight of the direct term d(S(x_t, t, c), x_phi), see
+    # diffusion/losses.py: the conditional branch also regresses the guided clean latent.
+    denoise_weight: float = Field(0.0, ge=0.0)
     huber_c: float = Field(0.001, gt=0.0)  # gamma of the pseudo-Huber metric
     target: Literal["ema", "online"] = "ema"  # EMA target network or online stop-gradient
     target_decay: float = Field(0.995, ge=0.0, lt=1.0)  # EMA rate of the target network

@@ -263,7 +263,8 @@ class ConsistencyStage(LatentStage):
         return consistency_training_loss(
             model, target, self.latents(batch), self.text(batch["caption"]), self.text.null,
             self.schedule, self.grid, guidance=c.guidance, uncond_weight=c.uncond_weight,
-            huber_c=c.huber_c, clamp=self.clamp, generator=generator)
+            huber_c=c.huber_c, clamp=self.clamp, denoise_weight=c.denoise_weight,
+            generator=generator)
 
     def after_step(self) -> None:
         if self.target is not None:
