@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import numpy as np
 import torch
-from scipy.ndimage import gaussian_filter1d
 from torch import Tensor
 
 from mlct.motion.quaternion import cont6d_to_matrix, qbetween, qinv, qmul, qrot
@@ -84,6 +83,9 @@ def facing_quaternion(across: Tensor, smooth: bool = False) -> Tensor:
     forward = torch.cross(up.expand_as(across), across, dim=-1)
     if smooth:
         # scipy, not torch: the standard processing uses exactly this filter (not differentiable).
+        # Imported here: scipy.ndimage costs 0.1-0.3 s, and generating a motion never smooths.
+        from scipy.ndimage import gaussian_filter1d
+
         smoothed = gaussian_filter1d(forward.detach().cpu().numpy(), FORWARD_SMOOTHING_SIGMA,
                                      axis=-2, mode="nearest")
         forward = _like(smoothed, forward)

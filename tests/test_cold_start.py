@@ -1,0 +1,39 @@
+"""The first motion of a fresh process imports nothing it does not need (bench/cold_start.py).
+
+Each of these libraries once cost `mlct generate` from 0.1 s to seconds of start-up; a stray
+module-level import would bring the cost back silently, so the generate paths are checked in a
+fresh interpreter."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+# Not needed to write a .npy: Hugging Face stacks (the bundled MiniLM runs in plain torch),
+# scientific extras, plotting, the web server.
+HEAVY = ("sentence_transformers", "transformers", "sklearn", "scipy", "matplotlib", "fastapi",
+         "uvicorn", "plotly")
+
+_CHILD = """
+import sys
+import mlct
+from mlct.cli import main
+mlct.load().generate(["a person walks forward"], seconds=1, nfe=1, seed=0)
+assert main(["generate", "a person walks forward", "--seconds", "1", "--nfe", "1",
+             "--out", sys.argv[1], "--quiet"]) == 0
+print("heavy:", *sorted(m for m in {HEAVY} if m in sys.modules))
+"""
+
+
+def test_api_and_cli_generate_import_no_heavy_library(tmp_path: Path) -> None:
+    src = str(Path(__file__).resolve().parent.parent / "src")
+    path = os.pathsep.join(p for p in (src, os.environ.get("PYTHONPATH")) if p)
+    env = {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": "1"}
+    done = subprocess.run([sys.executable, "-c", _CHILD.format(HEAVY=HEAVY),
+                           str(tmp_path / "x.npy")], capture_output=True, text=True, env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    heavy = done.stdout.strip().splitlines()[-1]  # after the CLI's line naming the file
+    assert heavy == "heavy:", f"imported on the generate path: {heavy}"
+    assert (tmp_path / "x.npy").is_file()
