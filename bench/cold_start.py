@@ -1,0 +1,94 @@
+"""Cold start: wall time of a fresh process that makes one motion, against the 2.5 s goal.
+
+    python bench/cold_start.py [--repeat 5] [--model DIR] [--cli PATH]
+
+Each case runs as a new process, --repeat times, the cases interleaved so that a busy machine
+slows them alike; one untimed round first fills the OS file cache (a first run after a reboot
+also reads torch's libraries from disk, which this does not time). Cases:
+  - `python -c pass` and `python -c "import torch"`: the interpreter, and the floor that torch's
+    own import sets; compare against these when the machine is busy;
+  - the CLI: `mlct generate "a person walks forward" --out x.npy`, through the console script
+    next to this interpreter (not a pyenv shim, which adds its own start-up) or --cli;
+  - the Python API's first call: `import mlct; mlct.load().generate([...])`.
+Prints min / median / max seconds per case and whether the median meets the goal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+GOAL_S = 2.5
+PROMPT = "a person walks forward"
+GOAL_CASES = ("cli generate", "api first call")
+
+
+def cli_command(cli: str | None) -> list[str]:
+    """The `mlct` console script installed with this interpreter, else `python -m mlct.cli`."""
+    if cli:
+        return [cli]
+    script = Path(sys.executable).parent / "mlct"
+    if script.is_file():
+        return [str(script)]
+    found = shutil.which("mlct")
+    return [found] if found else [sys.executable, "-m", "mlct.cli"]
+
+
+def cases(out_dir: Path, model: str | None, cli: str | None) -> dict[str, list[str]]:
+    model_args = ["--model", model] if model else []
+    api = (f"import mlct; g = mlct.load({model!r}); "
+           f"assert g.generate([{PROMPT!r}])[0].joints.shape[0] > 0")
+    return {
+        "python -c pass": [sys.executable, "-c", "pass"],
+        "import torch": [sys.executable, "-c", "import torch"],
+        "cli generate": [*cli_command(cli), "generate", PROMPT, "--out",
+                         str(out_dir / "x.npy"), *model_args],
+        "api first call": [sys.executable, "-c", api],
+    }
+
+
+def run_once(command: list[str]) -> float:
+    start = time.perf_counter()
+    done = subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    wall = time.perf_counter() - start
+    if done.returncode:
+        raise SystemExit(f"{' '.join(command)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
+    return wall
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=5, help="timed runs per case (default 5)")
+    parser.add_argument("--model", default=None, help="model directory (default: the bundled)")
+    parser.add_argument("--cli", default=None, help="the mlct executable to time")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        commands = cases(Path(tmp), args.model, args.cli)
+        for command in commands.values():  # warm-up: the OS file cache, .pyc files
+            run_once(command)
+        times: dict[str, list[float]] = {name: [] for name in commands}
+        for _ in range(args.repeat):
+            for name, command in commands.items():
+                times[name].append(run_once(command))
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"cold start, {args.repeat} runs per case; {os.cpu_count()} CPUs, load average "
+          f"{load:.2f}, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}")
+    print(f"cli: {' '.join(commands['cli generate'][:1])}")
+    print(f"{'case':<16} {'min s':>7} {'median s':>9} {'max s':>7}")
+    for name, walls in times.items():
+        median = statistics.median(walls)
+        verdict = ""
+        if name in GOAL_CASES:
+            verdict = f"  {'meets' if median <= GOAL_S else 'MISSES'} the {GOAL_S} s goal"
+        print(f"{name:<16} {min(walls):7.2f} {median:9.2f} {max(walls):7.2f}{verdict}")
+
+
+if __name__ == "__main__":
+    main()
