@@ -253,7 +253,7 @@ def _cmd_generate(args: argparse.Namespace) -> int:
     names = ["_".join(prompts)] if long else [p for p in prompts for _ in range(args.num)]
     paths = generate_files.output_paths(names, args.out, args.out_dir, args.format)
     def load() -> Any:
-        # A status line while the model and the text encoder load (seconds on a cold start),
+        # A status line while the model and the text encoder load (a second or more cold),
         # on a terminal only: scripts and pipes keep a clean stderr.
         status = not args.quiet and sys.stderr.isatty()
         if status:

@@ -89,8 +89,9 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     lengths = _per_text(request.lengths, request.prompts, request.num, "--length")
     seconds = _per_text(request.seconds, request.prompts, request.num, "--seconds")
     written = []
-    # The text encoder loads on first use (seconds): load it and embed the first batch's prompts
-    # before the bar starts, so that the bar's first step and its ETA time generation only.
+    # The text encoder loads on first use (a CLIP one takes seconds): load it and embed the first
+    # batch's prompts before the bar starts, so that the bar's first step and its ETA time
+    # generation only.
     generator.encode_text(list(dict.fromkeys(clean_prompt(t) for t in texts[:BATCH])))
     bar = tqdm(total=len(texts), unit="motion", disable=not progress or len(texts) == 1)
     with bar:

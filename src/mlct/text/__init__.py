@@ -9,12 +9,14 @@ from mlct.text.encoders import (
     bundled_minilm_path,
     load_text_encoder,
 )
+from mlct.text.minilm import MiniLMEncoder
 
 __all__ = [
     "MINILM",
     "CachedTextEncoder",
     "ClipTextEncoder",
     "EmbeddingCache",
+    "MiniLMEncoder",
     "SentenceTransformerEncoder",
     "TextEncoder",
     "bundled_minilm_path",
