@@ -203,6 +203,25 @@ def test_denoiser_shape_and_dependence_on_t_and_text() -> None:
         den(x, t, text[:, :10])
 
 
+def test_condition_on_every_token_reaches_the_latent_tokens_without_attention() -> None:
+    # With attention zeroed out, a latent token can learn of the text only if the condition
+    # is added to it directly: the authors' layout (condition token only) then ignores the text.
+    g = torch.Generator().manual_seed(3)
+    x, t = torch.randn(2, 3, 32, generator=g), torch.full((2,), 0.5)
+    text_a, text_b = torch.randn(2, 24, generator=g), torch.randn(2, 24, generator=g)
+    for every, depends in ((False, False), (True, True)):
+        torch.manual_seed(0)
+        den = Denoiser(latent_dim=32, n_tokens=3, text_dim=24, width=32, layers=3, heads=4,
+                       ff_dim=64, dropout=0.0, condition_all_tokens=every).eval()
+        for layer in den.backbone.modules():
+            if isinstance(layer, torch.nn.MultiheadAttention):
+                torch.nn.init.zeros_(layer.out_proj.weight)
+                torch.nn.init.zeros_(layer.out_proj.bias)
+        with torch.no_grad():
+            moved = (den(x, t, text_a) - den(x, t, text_b)).abs().max()
+        assert (moved > 1e-4) == depends, (every, float(moved))
+
+
 def test_denoiser_every_parameter_gets_gradient() -> None:
     den = _den()
     out = den(torch.randn(2, 3, 32), torch.rand(2), torch.randn(2, 24))

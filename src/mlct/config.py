@@ -71,6 +71,9 @@ class DenoiserConfig(_Section):
     heads: int = Field(8, ge=1)
     ff_dim: int = Field(2048, ge=1)
     dropout: float = Field(0.1, ge=0.0, lt=1.0)
+    # Ours (False = the authors'): the text + time condition goes into every token at every
+    # block, not the condition token alone (nn/denoiser.py).
+    condition_all_tokens: bool = False
 
 
 class ScheduleConfig(_Section):

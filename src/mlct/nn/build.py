@@ -31,7 +31,8 @@ def build_denoiser(config: Config, text_dim: int) -> Denoiser:
     return Denoiser(latent_dim=config.ae.latent_dim, n_tokens=config.ae.n_tokens,
                     text_dim=text_dim, width=d.width, layers=d.layers, heads=d.heads,
                     ff_dim=d.ff_dim, dropout=d.dropout,
-                    text_tokens=token_slots_of(config.text.encoder))
+                    text_tokens=token_slots_of(config.text.encoder),
+                    condition_all_tokens=d.condition_all_tokens)
 
 
 def latent_clamp(config: Config) -> float | None:

@@ -17,6 +17,8 @@ condition is [pooled vector, K token states] (text/encoders.py), and `text_queri
 queries attend over the token states; their outputs join the pooled vector before the per-block
 projections. Why: the pooled MiniLM vectors of "waves the left hand" and "... the right hand"
 have cosine 0.976, so the side is a 2 % signal; attention can weight the one word that differs.
+Also ours, off by default: ``condition_all_tokens`` adds each block's condition to every token,
+not the condition token alone: a short CPU run learns the text far faster (docs/training.md).
 """
 
 from __future__ import annotations
@@ -62,6 +64,7 @@ class Denoiser(nn.Module):
         text_tokens: int = 0,
         text_queries: int = 2,
         text_heads: int = 4,
+        condition_all_tokens: bool = False,
     ) -> None:
         super().__init__()
         if text_tokens < 0 or (text_tokens and text_dim % (text_tokens + 1)):
@@ -72,6 +75,7 @@ class Denoiser(nn.Module):
         self.width = width
         self.time_embed_dim = time_embed_dim
         self.time_embed_scale = time_embed_scale
+        self.condition_all_tokens = condition_all_tokens
         self.in_proj = nn.Linear(latent_dim, width)
         self.pos = nn.Parameter(torch.randn(1, 1 + n_tokens, width))
         self.time_proj = nn.ModuleList(nn.Linear(time_embed_dim, width) for _ in range(layers))
@@ -162,11 +166,16 @@ class Denoiser(nn.Module):
             time = fixed[2].get(float(t[0]))  # (1, w) each, broadcast over the batch
         if time is None:
             time = self.time_terms(t, x_t.dtype)
-        # one condition per block, on the condition token only (position 0)
-        conds = [
-            F.pad((a + c).unsqueeze(1), (0, 0, 0, self.n_tokens))  # (B, 1+n, w)
-            for a, c in zip(time, text)
-        ]
+        if self.condition_all_tokens:
+            # Ours: every token gets the block's condition, so the latent tokens read the text
+            # directly rather than only through attention to the condition token.
+            conds = [(a + c).unsqueeze(1) for a, c in zip(time, text)]  # (B, 1, w) broadcast
+        else:
+            # the authors': one condition per block, on the condition token only (position 0)
+            conds = [
+                F.pad((a + c).unsqueeze(1), (0, 0, 0, self.n_tokens))  # (B, 1+n, w)
+                for a, c in zip(time, text)
+            ]
         h = torch.cat([x_t.new_zeros(b, 1, self.width), self.in_proj(x_t)], dim=1)  # (B, 1+n, w)
         h = self.backbone(h + self.pos, cond=conds)  # (B, 1+n, w)
         return self.head(h[:, 1:])  # (B, n, d)
