@@ -259,7 +259,8 @@ def test_bad_inputs_fail_before_any_work(data, evaluator_dir, models, tmp_path, 
 
 
 def test_a_model_too_short_for_the_split(protocol: Protocol) -> None:
-    short = SimpleNamespace(max_frames=64, sampler="consistency", check_nfe=lambda n: n)
+    short = SimpleNamespace(max_frames=64, sampler=SimpleNamespace(name="consistency"),
+                            check_nfe=lambda n: n)
     _one_line("makes at most 64 frames, the split has items of up to",
               lambda: check_model(protocol, short, [5], "short"))
 
