@@ -66,15 +66,19 @@ def _cmd_data_import(args: argparse.Namespace) -> int:
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
+    from mlct.data.layout import dataset_caption
     from mlct.motion.render import render_file
 
-    out = render_file(args.file, args.out, skeleton=args.skeleton, caption=args.caption,
+    # the title: --caption, else the dataset's first caption of the file (DIR/texts/NAME.txt)
+    caption = args.caption if args.caption is not None else dataset_caption(args.file)
+    out = render_file(args.file, args.out, skeleton=args.skeleton, caption=caption,
                       fps=args.fps)
     print(out)
     return 0
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
+    from mlct.data.layout import DatasetLayout, dataset_caption
     from mlct.data.synth.build import synthesize_dataset
     from mlct.motion.render import render_file
 
@@ -83,8 +87,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     name = f"{args.index:06d}"
     if args.index >= args.num:
         raise MlctError(f"--index {args.index} is beyond the {args.num} motions made")
-    caption = (data / "texts" / f"{name}.txt").read_text(encoding="utf-8").split("#", 1)[0]
-    gif = render_file(data / "new_joint_vecs" / f"{name}.npy", args.out / f"{name}.gif")
+    motion = DatasetLayout(data).features_path(name)
+    caption = dataset_caption(motion)
+    gif = render_file(motion, args.out / f"{name}.gif", caption=caption)
     print(f"{caption}")
     print(gif)
     return 0
