@@ -22,7 +22,7 @@ from typing import Any
 import torch
 from safetensors.torch import load_file
 
-from mlct.errors import MlctError
+from mlct.errors import MlctError, first_line
 from mlct.io import read_format_json, strip_prefix
 
 BUNDLE_FORMAT = "mlct-model"
@@ -59,5 +59,5 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
     try:
         tensors = load_file(str(weights))
     except Exception as err:  # safetensors raises several kinds on a damaged file
-        raise MlctError(f"{weights}: unreadable weights ({str(err).splitlines()[0]})") from None
+        raise MlctError(f"{weights}: unreadable weights ({first_line(err)})") from None
     return meta, {k: (v.float() if v.dtype == torch.float16 else v) for k, v in tensors.items()}

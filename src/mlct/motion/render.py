@@ -22,7 +22,7 @@ from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d import Axes3D, proj3d
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-from mlct.errors import MlctError
+from mlct.errors import MlctError, first_line
 from mlct.io import atomic_path
 from mlct.motion.skeleton import (SKELETONS, Skeleton, get_skeleton, skeleton_for_dim,
                                   skeleton_for_joints)
@@ -227,7 +227,7 @@ def _load_npy(path: Path) -> np.ndarray:
     except FileNotFoundError:
         raise MlctError(f"{path}: no such file") from None
     except (OSError, ValueError, EOFError) as error:
-        reason = str(error).splitlines()[0] if str(error) else type(error).__name__
+        reason = first_line(error)
         raise MlctError(f"cannot read {path} as .npy: {reason}") from None
     if not isinstance(array, np.ndarray):  # an .npz archive
         raise MlctError(f"{path} is not a single .npy array")

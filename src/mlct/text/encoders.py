@@ -21,7 +21,7 @@ from typing import Any, Sequence
 import torch
 from torch import Tensor
 
-from mlct.errors import MlctError
+from mlct.errors import MlctError, first_line
 
 MINILM = "minilm"  # the spec (and cache name) of the bundled all-MiniLM-L6-v2
 # Suffix of a spec whose embedding also carries the token states: "minilm+tokens" gives
@@ -134,7 +134,7 @@ class SentenceTransformerEncoder(TextEncoder):
             )
         except (OSError, ValueError, KeyError, RuntimeError) as e:
             raise MlctError(
-                f"cannot load a sentence-transformers model from {path}: {_first_line(e)}"
+                f"cannot load a sentence-transformers model from {path}: {first_line(e)}"
             )
         self.model = model.eval().requires_grad_(False)
         self.name = name or f"st:{path}"
@@ -206,7 +206,7 @@ class ClipTextEncoder(TextEncoder):
                 str(path), local_files_only=True, dtype=torch.float32
             )
         except (OSError, ValueError, KeyError, RuntimeError) as e:
-            raise MlctError(f"cannot load a CLIP text model from {path}: {_first_line(e)}")
+            raise MlctError(f"cannot load a CLIP text model from {path}: {first_line(e)}")
         self.model = model.to(self.device).eval().requires_grad_(False)
         self.name = f"clip:{path}"
         self.path = path
@@ -344,8 +344,3 @@ def _check_model_dir(path: Path, kind: str) -> None:
             f"{path} has no model weights (*.safetensors or pytorch_model.bin); "
             "point at a directory that holds a downloaded model"
         )
-
-
-def _first_line(e: BaseException) -> str:
-    text = str(e).strip()
-    return text.splitlines()[0] if text else type(e).__name__
