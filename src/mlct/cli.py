@@ -6,7 +6,7 @@ import argparse
 import os
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from mlct.errors import MlctError
 
@@ -173,18 +173,18 @@ def _trainer_options(parser: argparse.ArgumentParser, what: str, batch_size: int
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-def _int_list(text: str) -> list[int]:
-    try:
-        return [int(item) for item in text.split(",") if item.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected integers like 1,3,5, got {text!r}") from None
+def _number_list(kind: type, example: str) -> Callable[[str], list]:
+    """An argparse type for comma-separated numbers of `kind` ("1,3,5")."""
+    def parse(text: str) -> list:
+        try:
+            return [kind(item) for item in text.split(",") if item.strip()]
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {example}, got {text!r}") from None
+    return parse
 
 
-def _float_list(text: str) -> list[float]:
-    try:
-        return [float(item) for item in text.split(",") if item.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected numbers like 0,1,2.5, got {text!r}") from None
+_int_list = _number_list(int, "integers like 1,3,5")
+_float_list = _number_list(float, "numbers like 0,1,2.5")
 
 
 def _cmd_eval(args: argparse.Namespace) -> int:
