@@ -12,7 +12,7 @@ import torch
 
 from mlct.data.synth.build import synthesize_dataset
 from mlct.errors import MlctError
-from mlct.eval.action_classifier import (
+from mlct.eval.judge.action_classifier import (
     ClassifierSizes,
     accuracy_from_probabilities,
     action_targets,

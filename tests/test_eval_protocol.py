@@ -25,7 +25,7 @@ from mlct.data.synth.build import synthesize_dataset
 from mlct.errors import MlctError
 from mlct.eval import Evaluator, EvaluatorSizes, LearnedWordVectors, build_networks
 from mlct.eval import write_evaluator_dir
-from mlct.eval.learned_words import build_vocabulary
+from mlct.eval.judge.learned_words import build_vocabulary
 from mlct.eval.metrics import CI_Z
 from mlct.eval.protocol import METRICS, Protocol, ProtocolConfig, check_model, open_protocol
 from mlct.eval.report import write_report
@@ -321,7 +321,7 @@ def test_cli_train_parses_every_stage(monkeypatch, tmp_path, capsys) -> None:
     import importlib
 
     # the module (the package's attribute of that name is the function)
-    module = importlib.import_module("mlct.eval.train_evaluator")
+    module = importlib.import_module("mlct.eval.judge.train_evaluator")
     monkeypatch.setattr(module, "train_evaluator", fake)
     assert main(["train", "evaluator", "--data", "d", "--out", str(tmp_path / "ev"),
                  "--steps-decomp", "3", "--steps-match", "4", "--device", "cpu",
@@ -339,9 +339,9 @@ def test_cli_train_parses_every_stage(monkeypatch, tmp_path, capsys) -> None:
 
 def test_semantic_accuracy_with_an_action_classifier(models, data, evaluator_dir,
                                                      tmp_path) -> None:
-    from mlct.eval.action_classifier import (ClassifierSizes, action_targets,
-                                             load_action_classifier, read_labels,
-                                             semantic_accuracy, train_action_classifier)
+    from mlct.eval.judge.action_classifier import (ClassifierSizes, action_targets,
+                                                   load_action_classifier, read_labels,
+                                                   semantic_accuracy, train_action_classifier)
     from mlct.eval.report import format_markdown
 
     sizes = ClassifierSizes(hidden=32, blocks=2)

@@ -309,7 +309,7 @@ def test_word_vectorizer_files_are_checked(glove_dir, tmp_path):
 def test_official_files_import_to_an_evaluator_dir_unchanged(official_dir, glove_dir, evaluator,
                                                              tmp_path):
     from mlct.cli import main
-    from mlct.eval.evaluator_dir import import_official_evaluator, load_evaluator_dir
+    from mlct.eval.judge.evaluator_dir import import_official_evaluator, load_evaluator_dir
 
     mean, std = stats(HUMANML3D.feature_dim)
     np.save(tmp_path / "mean.npy", mean)

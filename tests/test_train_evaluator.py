@@ -15,16 +15,16 @@ from mlct.data.dataset import Text2MotionEvalDataset, collate
 from mlct.data.synth.build import synthesize_dataset
 from mlct.errors import MlctError
 from mlct.eval import Evaluator, euclidean_distance_matrix, r_precision_batched
-from mlct.eval.evaluator_dir import EvaluatorSizes, build_networks, load_evaluator_dir
-from mlct.eval.learned_words import LearnedWordVectors, build_vocabulary
-from mlct.eval.train_evaluator import (
+from mlct.eval.judge.evaluator_dir import EvaluatorSizes, build_networks, load_evaluator_dir
+from mlct.eval.judge.learned_words import LearnedWordVectors, build_vocabulary
+from mlct.eval.judge.train_evaluator import (
     EvaluatorTrainConfig,
     MovementConvDecoder,
     evaluator_mean_std,
     matching_loss,
     train_evaluator,
 )
-from mlct.eval.word_vectors import POS_ENUMERATOR
+from mlct.eval.judge.word_vectors import POS_ENUMERATOR
 from mlct.motion.skeleton import HUMANML3D
 
 # Small widths and a 10x learning rate: the real sizes take seconds per step on a CPU.

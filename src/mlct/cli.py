@@ -122,10 +122,10 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
 
 def _cmd_train_evaluator(args: argparse.Namespace) -> int:
-    from mlct.eval.train_evaluator import train_evaluator
+    from mlct.eval.judge.train_evaluator import train_evaluator
 
-    from mlct.eval.evaluator import EVALUATOR_SIZES
-    from mlct.eval.train_evaluator import EvaluatorTrainConfig
+    from mlct.eval.judge.evaluator import EVALUATOR_SIZES
+    from mlct.eval.judge.train_evaluator import EvaluatorTrainConfig
 
     config = EvaluatorTrainConfig(sizes=EVALUATOR_SIZES[args.sizes])
     summary = train_evaluator(args.data, args.out, glove_dir=args.glove,
@@ -139,7 +139,7 @@ def _cmd_train_evaluator(args: argparse.Namespace) -> int:
 
 
 def _cmd_train_classifier(args: argparse.Namespace) -> int:
-    from mlct.eval.action_classifier import train_action_classifier
+    from mlct.eval.judge.action_classifier import train_action_classifier
 
     summary = train_action_classifier(args.data, args.out, steps=args.steps,
                                       batch_size=args.batch_size, seed=args.seed,
@@ -152,7 +152,7 @@ def _cmd_train_classifier(args: argparse.Namespace) -> int:
 
 
 def _cmd_import_evaluator(args: argparse.Namespace) -> int:
-    from mlct.eval.evaluator_dir import import_official_evaluator
+    from mlct.eval.judge.evaluator_dir import import_official_evaluator
 
     out = import_official_evaluator(args.checkpoint, args.mean, args.std, args.glove, args.out,
                                     skeleton=args.skeleton, overwrite=args.overwrite)

@@ -42,11 +42,12 @@ import torch
 from mlct.data.dataset import MAX_MOTION_LENGTH, Text2MotionEvalDataset
 from mlct.data.layout import DatasetLayout
 from mlct.errors import MlctError
-from mlct.eval.action_classifier import (ActionClassifier, action_targets, load_action_classifier,
-                                         read_labels, semantic_accuracy)
+from mlct.eval.judge.action_classifier import (ActionClassifier, action_targets,
+                                               load_action_classifier, read_labels,
+                                               semantic_accuracy)
 from mlct.eval.aits import time_inference
-from mlct.eval.evaluator import Evaluator
-from mlct.eval.evaluator_dir import load_evaluator_dir, read_evaluator_meta
+from mlct.eval.judge.evaluator import Evaluator
+from mlct.eval.judge.evaluator_dir import load_evaluator_dir, read_evaluator_meta
 from mlct.eval.metrics import (
     DIVERSITY_TIMES,
     MULTIMODALITY_TIMES,

@@ -36,8 +36,8 @@ from torch.nn import functional as F
 
 from mlct.data.dataset import MAX_MOTION_LENGTH
 from mlct.errors import MlctError, first_line
-from mlct.eval.networks import MotionEncoderBiGRUCo, MovementConvEncoder, TextEncoderBiGRUCo
-from mlct.eval.word_vectors import POS_ENUMERATOR, WORD_DIM, WordVectorizer
+from mlct.eval.judge.networks import MotionEncoderBiGRUCo, MovementConvEncoder, TextEncoderBiGRUCo
+from mlct.eval.judge.word_vectors import POS_ENUMERATOR, WORD_DIM, WordVectorizer
 from mlct.io import atomic_path
 
 UNIT_LENGTH = 4  # frames per movement step (two stride-2 convolutions)

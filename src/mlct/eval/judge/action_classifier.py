@@ -34,7 +34,7 @@ from torch import Tensor, nn
 from mlct.data.layout import DatasetLayout, load_npy
 from mlct.devices import resolve_device
 from mlct.errors import MlctError, first_line
-from mlct.eval.evaluator_dir import prepare_target
+from mlct.eval.judge.evaluator_dir import prepare_target
 from mlct.io import atomic_dir, read_format_json, save_npy, write_text
 
 FORMAT = "mlct-action-classifier"
