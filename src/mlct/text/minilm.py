@@ -21,7 +21,7 @@ from torch import Tensor
 
 from mlct.errors import MlctError, first_line
 from mlct.text.bert import BertConfig, BertModel, mean_pool
-from mlct.text.encoders import TextEncoder
+from mlct.text.base import TextEncoder
 
 # The sentence-transformers pipeline this loader reproduces, module by module (modules.json).
 _PIPELINE = ("Transformer", "Pooling", "Normalize")
