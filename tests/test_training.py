@@ -19,6 +19,8 @@ from mlct.errors import MlctError
 from mlct.train.checkpoint import latest_checkpoint, load_checkpoint
 from mlct.train.loop import train
 
+pytestmark = pytest.mark.slow  # trains every stage, DDP and torchrun: about a minute
+
 
 def _log(run: Path, stage: str) -> list[dict]:
     return [json.loads(line) for line in (run / stage / "log.jsonl").read_text().splitlines()]
