@@ -134,7 +134,6 @@ def variant(meta: dict[str, Any], tensors: dict[str, Any], layers: str, text_onc
 
     import torch
 
-    from mlct.diffusion.parameterization import ConsistencyFunction
     from mlct.nn.build import build_autoencoder, build_denoiser
     from mlct.nn.inference import for_inference
     from mlct.generate.pipeline import MotionGenerator
@@ -150,8 +149,6 @@ def variant(meta: dict[str, Any], tensors: dict[str, Any], layers: str, text_onc
         if layers == "fast":
             for_inference(gen.ae, dtype, prepack=False)
             for_inference(gen.denoiser, dtype, prepack=False)
-        s = gen.config.schedule
-        gen.consistency = ConsistencyFunction(gen.denoiser, s.eta, s.time_scale)
     if not text_once:
         gen.denoiser.fixed_condition = lambda text_emb, times: nullcontext()
     if not inference_mode:

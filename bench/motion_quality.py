@@ -32,7 +32,7 @@ import torch
 
 import mlct
 from mlct.data.layout import DatasetLayout
-from mlct.eval.action_classifier import read_labels
+from mlct.eval.judge.action_classifier import read_labels
 from mlct.eval.readouts import evaluate_label, foot_travel, pelvis_rise
 from mlct.motion.features import features_to_joints
 
@@ -185,8 +185,8 @@ def main() -> None:
             columns[title] = tally.summary()
         report["generation_seconds"] = time.perf_counter() - start
         if args.classifier is not None:
-            from mlct.eval.action_classifier import (action_targets, load_action_classifier,
-                                                     semantic_accuracy)
+            from mlct.eval.judge.action_classifier import (action_targets, load_action_classifier,
+                                                           semantic_accuracy)
             classifier = load_action_classifier(args.classifier)
             sem = semantic_accuracy(classifier, made_features, [action_targets(t) for t in targets])
             report["classifier"] = {"exact_set_accuracy": sem["exact_set_accuracy"],

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import mlct
 from mlct.data.layout import DatasetLayout
-from mlct.eval.action_classifier import (action_targets, load_action_classifier, read_labels,
-                                         semantic_accuracy)
+from mlct.eval.judge.action_classifier import (action_targets, load_action_classifier, read_labels,
+                                               semantic_accuracy)
 
 
 def main() -> None:

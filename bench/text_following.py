@@ -64,7 +64,7 @@ def main() -> None:
     args = parser.parse_args()
 
     gen = mlct.load(args.model)
-    options = {"nfe": args.nfe} if gen.sampler == "consistency" else {}
+    options = {"nfe": args.nfe} if gen.sampler.steps_option == "nfe" else {}
     texts = [text for text, _ in PROMPTS]
     seconds = [s for _, s in PROMPTS]
     rows = {text: [] for text in texts}
@@ -81,7 +81,7 @@ def main() -> None:
         values = np.array([[r[k] for k in keys] for r in rows[text]])
         cells = " ".join(f"{m:+6.2f}±{s:4.2f}" for m, s in zip(values.mean(0), values.std(0)))
         print(f"{text[:58]:58s} {cells}")
-    print(f"(mean ± std over seeds {args.seeds}; metres; {gen.sampler}"
+    print(f"(mean ± std over seeds {args.seeds}; metres; {gen.sampler.name}"
           f"{', nfe %d' % args.nfe if options else ''})")
 
 

@@ -12,7 +12,7 @@ import torch
 
 from mlct.data.synth.build import synthesize_dataset
 from mlct.errors import MlctError
-from mlct.eval.action_classifier import (
+from mlct.eval.judge.action_classifier import (
     ClassifierSizes,
     accuracy_from_probabilities,
     action_targets,
@@ -74,6 +74,7 @@ def test_classes_of_a_benchmark(data_dir):
             assert family in families and side in ("left", "right", "both")
 
 
+@pytest.mark.slow
 def test_training_learns(trained, data_dir):
     losses = trained["losses"]
     assert len(losses) == 150 and np.mean(losses[-10:]) < 0.5 * np.mean(losses[:10])
@@ -83,6 +84,7 @@ def test_training_learns(trained, data_dir):
     assert trained["classes"] == trained["classifier"].classes
 
 
+@pytest.mark.slow
 def test_round_trip_and_batching(trained, data_dir):
     clf = trained["classifier"]
     loaded = load_action_classifier(trained["path"])
@@ -129,6 +131,7 @@ def test_accuracy_against_hand_computed_values():
         accuracy_from_probabilities(probs, classes, targets[:3] + [{"jump"}])
 
 
+@pytest.mark.slow
 def test_semantic_accuracy_matches_predictions(trained, data_dir):
     clf = trained["classifier"]
     names, motions = _features(data_dir, "test")
@@ -139,6 +142,7 @@ def test_semantic_accuracy_matches_predictions(trained, data_dir):
     assert result == accuracy_from_probabilities(clf.predict(motions), clf.classes, targets)
 
 
+@pytest.mark.slow
 def test_bad_inputs(trained, data_dir, tmp_path):
     clf = load_action_classifier(trained["path"])
     with pytest.raises(MlctError, match="reads 263-d humanml3d features; the motions are 251-d"):

@@ -15,6 +15,7 @@ def _run(*args: str) -> subprocess.CompletedProcess:
                           text=True, timeout=120)
 
 
+@pytest.mark.slow
 def test_unwritable_output_is_one_line_exit_2(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("not a directory")
@@ -58,6 +59,7 @@ def test_demo_prints_a_caption_and_a_gif(tmp_path, capsys):
     assert (tmp_path / "demo" / "000000.gif").stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_a_closed_pipe_is_not_an_error(tmp_path):
     """`mlct data stats DIR --no-write | head -1` had ended in 'mlct: error: Broken pipe'."""
     assert _run("data", "synth", "--out", str(tmp_path / "d"), "--num", "2").returncode == 0

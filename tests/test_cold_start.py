@@ -11,6 +11,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 # Not needed to write a .npy: Hugging Face stacks (the bundled MiniLM runs in plain torch),
 # scientific extras, plotting, the web server.
 HEAVY = ("sentence_transformers", "transformers", "sklearn", "scipy", "matplotlib", "fastapi",
@@ -27,6 +29,7 @@ print("heavy:", *sorted(m for m in {HEAVY} if m in sys.modules))
 """
 
 
+@pytest.mark.slow
 def test_api_and_cli_generate_import_no_heavy_library(tmp_path: Path) -> None:
     src = str(Path(__file__).resolve().parent.parent / "src")
     path = os.pathsep.join(p for p in (src, os.environ.get("PYTHONPATH")) if p)

@@ -25,7 +25,7 @@ from mlct.data.synth.build import synthesize_dataset
 from mlct.errors import MlctError
 from mlct.eval import Evaluator, EvaluatorSizes, LearnedWordVectors, build_networks
 from mlct.eval import write_evaluator_dir
-from mlct.eval.learned_words import build_vocabulary
+from mlct.eval.judge.learned_words import build_vocabulary
 from mlct.eval.metrics import CI_Z
 from mlct.eval.protocol import METRICS, Protocol, ProtocolConfig, check_model, open_protocol
 from mlct.eval.report import write_report
@@ -100,6 +100,7 @@ def protocol(data: Path, evaluator_dir: Path) -> Protocol:
 # --------------------------------------------------------------------------------- numbers
 
 
+@pytest.mark.slow
 def test_rows_configurations_and_nfe(report: dict) -> None:
     rows = report["rows"]
     assert [(r["kind"], r["nfe"], r["guidance"]) for r in rows] == [
@@ -118,6 +119,7 @@ def test_rows_configurations_and_nfe(report: dict) -> None:
             timing["text_ms"], timing["sampling_ms"], timing["decoding_ms"]) > 0
 
 
+@pytest.mark.slow
 def test_real_row(report: dict) -> None:
     real = report["real"]["metrics"]
     assert "multimodality" not in real and report["real"]["nfe"] is None
@@ -128,6 +130,7 @@ def test_real_row(report: dict) -> None:
     assert real["mm_dist"]["mean"] > 0 and real["diversity"]["mean"] > 0
 
 
+@pytest.mark.slow
 def test_confidence_interval_is_applied(report: dict) -> None:
     for row in [report["real"], *report["rows"]]:
         for metric in row["metrics"].values():
@@ -136,6 +139,7 @@ def test_confidence_interval_is_applied(report: dict) -> None:
             assert metric["ci"] == pytest.approx(CI_Z * values.std() / np.sqrt(len(values)))
 
 
+@pytest.mark.slow
 def test_same_seed_same_numbers(protocol: Protocol, models, data, evaluator_dir) -> None:
     gen = mlct.load(models[0])
     first = [protocol.replication(gen, r, nfe=2) for r in range(2)]
@@ -146,6 +150,7 @@ def test_same_seed_same_numbers(protocol: Protocol, models, data, evaluator_dir)
     assert other.replication(gen, 0, nfe=2) != first[0]
 
 
+@pytest.mark.slow
 def test_real_side_is_embedded_once_and_generation_is_batched(data, evaluator_dir, models,
                                                               monkeypatch) -> None:
     import mlct.eval.protocol as protocol_module
@@ -178,6 +183,7 @@ def test_real_side_is_embedded_once_and_generation_is_batched(data, evaluator_di
 # ---------------------------------------------------------------------------------- report
 
 
+@pytest.mark.slow
 def test_report_files(report: dict, tmp_path: Path) -> None:
     written = write_report(tmp_path / "out", report)
     names = sorted(path.name for path in written)
@@ -217,6 +223,7 @@ def no_work(monkeypatch):
     monkeypatch.setattr(protocol_module, "embed_real", fail)
 
 
+@pytest.mark.slow
 def test_bad_inputs_fail_before_any_work(data, evaluator_dir, models, tmp_path, no_work) -> None:
     model = models[0]
 
@@ -258,8 +265,10 @@ def test_bad_inputs_fail_before_any_work(data, evaluator_dir, models, tmp_path, 
                                     ProtocolConfig(diversity_times=40)))
 
 
+@pytest.mark.slow
 def test_a_model_too_short_for_the_split(protocol: Protocol) -> None:
-    short = SimpleNamespace(max_frames=64, sampler="consistency", check_nfe=lambda n: n)
+    short = SimpleNamespace(max_frames=64, sampler=SimpleNamespace(name="consistency"),
+                            check_nfe=lambda n: n)
     _one_line("makes at most 64 frames, the split has items of up to",
               lambda: check_model(protocol, short, [5], "short"))
 
@@ -277,6 +286,7 @@ def _exit_code(argv: list[str]) -> int:
         return int(exit_info.code or 0)
 
 
+@pytest.mark.slow
 def test_cli_eval_end_to_end_and_exit_2(models, data, evaluator_dir, tmp_path, capsys) -> None:
     from mlct.cli import main
 
@@ -320,7 +330,7 @@ def test_cli_train_parses_every_stage(monkeypatch, tmp_path, capsys) -> None:
     import importlib
 
     # the module (the package's attribute of that name is the function)
-    module = importlib.import_module("mlct.eval.train_evaluator")
+    module = importlib.import_module("mlct.eval.judge.train_evaluator")
     monkeypatch.setattr(module, "train_evaluator", fake)
     assert main(["train", "evaluator", "--data", "d", "--out", str(tmp_path / "ev"),
                  "--steps-decomp", "3", "--steps-match", "4", "--device", "cpu",
@@ -336,11 +346,12 @@ def test_cli_train_parses_every_stage(monkeypatch, tmp_path, capsys) -> None:
     assert "unrecognized arguments: a.b=1" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_semantic_accuracy_with_an_action_classifier(models, data, evaluator_dir,
                                                      tmp_path) -> None:
-    from mlct.eval.action_classifier import (ClassifierSizes, action_targets,
-                                             load_action_classifier, read_labels,
-                                             semantic_accuracy, train_action_classifier)
+    from mlct.eval.judge.action_classifier import (ClassifierSizes, action_targets,
+                                                   load_action_classifier, read_labels,
+                                                   semantic_accuracy, train_action_classifier)
     from mlct.eval.report import format_markdown
 
     sizes = ClassifierSizes(hidden=32, blocks=2)
@@ -379,6 +390,7 @@ def test_semantic_accuracy_with_an_action_classifier(models, data, evaluator_dir
                        classifier_dir=classifier_dir)
 
 
+@pytest.mark.slow
 def test_results_report_assembles_the_reproduction_tables(report, tmp_path) -> None:
     """tools/results_report.py: tables from mlct eval's JSON; MM merged; gaps say so."""
     import copy

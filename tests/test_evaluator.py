@@ -153,6 +153,7 @@ def test_a_kit_checkpoint_with_humanml3d_stats_says_so(tmp_path):
     one_line_error(path, r"movement_encoder\.main\.0\.weight .*251-d")
 
 
+@pytest.mark.slow
 def test_missing_entries_and_unreadable_files(tmp_path):
     one_line_error(save_variant(tmp_path, 263, lambda s: s.pop("motion_encoder")),
                    "'motion_encoder' is missing")
@@ -306,10 +307,11 @@ def test_word_vectorizer_files_are_checked(glove_dir, tmp_path):
         WordVectorizer(tmp_path)
 
 
+@pytest.mark.slow
 def test_official_files_import_to_an_evaluator_dir_unchanged(official_dir, glove_dir, evaluator,
                                                              tmp_path):
     from mlct.cli import main
-    from mlct.eval.evaluator_dir import import_official_evaluator, load_evaluator_dir
+    from mlct.eval.judge.evaluator_dir import import_official_evaluator, load_evaluator_dir
 
     mean, std = stats(HUMANML3D.feature_dim)
     np.save(tmp_path / "mean.npy", mean)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from mlct.cli import main
+from mlct.data.captions import pos_tag, tag_caption
 from mlct.data.check import check_dataset
 from mlct.data.importer import (
     guess_scale,
@@ -17,12 +18,10 @@ from mlct.data.importer import (
     read_captions,
     resample,
     split_clips,
-    tag_caption,
     windows,
 )
 from mlct.data.layout import DatasetLayout
 from mlct.data.synth.build import make_motion
-from mlct.data.synth.text import pos_tag
 from mlct.errors import MlctError
 from mlct.motion.bvh import write_bvh
 from mlct.motion.skeleton import HUMANML3D, KIT

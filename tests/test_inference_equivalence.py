@@ -13,7 +13,6 @@ import torch
 from torch import nn
 
 from mlct.generate.bundle import read_bundle
-from mlct.diffusion.parameterization import ConsistencyFunction
 from mlct.errors import MlctError
 from mlct.nn.build import build_autoencoder, build_denoiser
 from mlct.motion.features import recover_from_ric
@@ -39,8 +38,6 @@ def reference(meta: dict, tensors: dict) -> MotionGenerator:
     den = build_denoiser(gen.config, meta["text_dim"])
     den.load_state_dict(strip_prefix(tensors, "denoiser"))
     gen.ae, gen.denoiser = ae.eval().requires_grad_(False), den.eval().requires_grad_(False)
-    s = gen.config.schedule
-    gen.consistency = ConsistencyFunction(den, s.eta, s.time_scale)
     return gen
 
 

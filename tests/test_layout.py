@@ -8,13 +8,12 @@ import numpy as np
 import pytest
 from dataset_factory import CAPTIONS, make_dataset
 
+from mlct.data.captions import TextLineError, parse_text_line
 from mlct.data.layout import (
     BadFileError,
     DatasetLayout,
-    TextLineError,
     is_mirrored,
     load_npy,
-    parse_text_line,
     read_split,
     read_texts,
     resolve_skeleton,

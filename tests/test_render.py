@@ -12,7 +12,8 @@ from PIL import Image
 from mlct.cli import main
 from mlct.errors import MlctError
 from mlct.motion import render
-from mlct.motion.render import dataset_caption, limb_sides, render_file, render_motion
+from mlct.data.layout import dataset_caption
+from mlct.motion.render import limb_sides, render_file, render_motion
 from mlct.motion.skeleton import HUMANML3D, KIT, Skeleton
 
 
@@ -268,8 +269,9 @@ def test_caption_comes_from_the_dataset_texts(tmp_path, monkeypatch):
     titles = []
     monkeypatch.setattr(render, "render_motion",
                         lambda joints, out, skeleton, title=None, fps=None: titles.append(title))
-    render_file(path, tmp_path / "a.gif")
-    render_file(path, tmp_path / "b.gif", caption="given")
+    # mlct render titles with the dataset's caption unless --caption is given
+    main(["render", str(path), "--out", str(tmp_path / "a.gif")])
+    main(["render", str(path), "--out", str(tmp_path / "b.gif"), "--caption", "given"])
     assert titles == ["a person walks forward.", "given"]
 
 
@@ -278,7 +280,7 @@ def test_features_file_renders_through_recover_from_ric(tmp_path):
 
     motion = joints_to_features(walk(HUMANML3D, 13), HUMANML3D)
     path = _layout_motion(tmp_path, "new_joint_vecs", "000001", motion.features)
-    out = render_file(path, tmp_path / "features.gif")
+    out = render_file(path, tmp_path / "features.gif", caption=dataset_caption(path))
     with Image.open(out) as im:
         assert im.n_frames == 12  # T - 1 feature frames
     # The features draw the same body as the joints they came from.

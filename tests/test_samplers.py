@@ -6,7 +6,7 @@ import torch
 
 from mlct.diffusion.consistency import pseudo_huber
 from mlct.diffusion.losses import consistency_training_loss, diffusion_training_loss
-from mlct.diffusion.samplers import ddim_times, sample_consistency, sample_ddim
+from mlct.diffusion.samplers import ddim_times, draw_noise, sample_consistency, sample_ddim
 from mlct.diffusion.schedule import VPSchedule, append_dims, karras_time_grid, sampling_times
 
 SCHEDULE = VPSchedule()
@@ -26,7 +26,8 @@ def test_consistency_sampler_one_pass_per_step_and_exact_with_oracle() -> None:
         calls: list = []
         times = sampling_times(GRID, k)
         gen = torch.Generator().manual_seed(0)
-        out = sample_consistency(_oracle(x0, calls), x0.shape, times, SCHEDULE, gen)
+        out = sample_consistency(_oracle(x0, calls), draw_noise(x0.shape, gen, times), times,
+                                 SCHEDULE, gen)
         assert torch.equal(out, x0)
         assert len(calls) == k and calls[0] == 1.0 and calls == sorted(calls, reverse=True)
 
@@ -39,7 +40,8 @@ def test_consistency_sampler_clamps_and_renoises_with_fresh_noise() -> None:
         return torch.full_like(x, 3.0)  # out of range: must be clamped to 1
 
     times = sampling_times(GRID, 3)
-    out = sample_consistency(model, (1, 2, 2), times, SCHEDULE, torch.Generator().manual_seed(1))
+    gen = torch.Generator().manual_seed(1)
+    out = sample_consistency(model, draw_noise((1, 2, 2), gen, times), times, SCHEDULE, gen)
     assert torch.equal(out, torch.ones(1, 2, 2, dtype=out.dtype))
     # Between steps: x = alpha_s * clamp(x0) + sigma_s * z with a fresh z each time.
     z1 = (seen[1] - SCHEDULE.alpha(times[1])) / SCHEDULE.sigma(times[1])
@@ -51,9 +53,11 @@ def test_consistency_sampler_clamps_and_renoises_with_fresh_noise() -> None:
 def test_same_seed_same_sample() -> None:
     model = lambda x, t: torch.tanh(x * t[:, None, None])  # noqa: E731
     times = sampling_times(GRID, 4)
-    a = sample_consistency(model, (2, 3, 4), times, SCHEDULE, torch.Generator().manual_seed(7))
-    b = sample_consistency(model, (2, 3, 4), times, SCHEDULE, torch.Generator().manual_seed(7))
-    c = sample_consistency(model, (2, 3, 4), times, SCHEDULE, torch.Generator().manual_seed(8))
+    def sample(seed: int) -> torch.Tensor:
+        gen = torch.Generator().manual_seed(seed)
+        return sample_consistency(model, draw_noise((2, 3, 4), gen, times), times, SCHEDULE, gen)
+
+    a, b, c = sample(7), sample(7), sample(8)
     assert torch.equal(a, b) and not torch.equal(a, c)
 
 
@@ -62,8 +66,8 @@ def test_ddim_sampler_exact_with_oracle_and_lands_on_x0() -> None:
     calls: list = []
     times = ddim_times(50)
     assert times.shape == (51,) and times[0] == 1.0 and times[-1] == 0.0
-    out = sample_ddim(_oracle(x0, calls), x0.shape, times, SCHEDULE,
-                      torch.Generator().manual_seed(0))
+    noise = draw_noise(x0.shape, torch.Generator().manual_seed(0), times)
+    out = sample_ddim(_oracle(x0, calls), noise, times, SCHEDULE)
     assert len(calls) == 50
     assert torch.equal(out, x0)
 
@@ -164,3 +168,87 @@ def test_diffusion_loss_drops_the_condition_at_the_given_rate() -> None:
     assert 0.08 < dropped < 0.12
     assert seen["t"].min() >= 1e-3 and seen["t"].max() <= 1
     assert abs(out["mse"].item() - 1.0) < 0.1  # predicting 0 for unit Gaussian noise
+
+
+# ------------------------------------------------------------------------ the sampler objects
+
+
+def _config():
+    from mlct.config import load_config
+
+    return load_config("tiny")
+
+
+class _Net(torch.nn.Module):
+    """F(x_t, t, c) = tanh(x_t + t + c.mean()): depends on every input, records its calls."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.calls: list[int] = []
+
+    def forward(self, x: torch.Tensor, t: torch.Tensor, c: torch.Tensor) -> torch.Tensor:
+        self.calls.append(x.shape[0])
+        return torch.tanh(x + t[:, None, None] + c.mean(1)[:, None, None])
+
+
+def test_sampler_objects_wrap_the_pure_functions() -> None:
+    from mlct.diffusion.consistency import consistency_output
+    from mlct.diffusion.parameterization import x0_from_eps
+    from mlct.generate.samplers import ConsistencySampler, DDIMSampler
+
+    config = _config()
+    s = config.schedule
+    cond, null = torch.randn(2, 5), torch.zeros(1, 5)
+    net = _Net()
+    cm = ConsistencySampler(config)
+    assert (cm.default_steps, cm.max_steps, cm.passes_per_step) == (
+        config.consistency.nfe, s.num_steps, 1)
+    x = cm.noise((2, 3, 4), torch.Generator().manual_seed(0))
+    got = cm.sample(net, x, cond, 3, generator=torch.Generator().manual_seed(1))
+    want = sample_consistency(
+        lambda x_t, t: consistency_output(x_t, net(x_t, t, cond), t, s.eta, s.time_scale), x,
+        cm.times(3), cm.schedule, torch.Generator().manual_seed(1), cm.clamp)
+    assert torch.equal(got, want) and net.calls == [2] * 6
+    ddim = DDIMSampler(config)
+    assert ddim.cfg and ddim.passes_per_step == 2 and ddim.guidance() == config.diffusion.guidance
+    net.calls.clear()
+    got = ddim.sample(net, x, cond, 4, guidance=3.0, uncond=null)
+
+    def guided(x_t: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+        eps_c, eps_u = net(x_t, t, cond), net(x_t, t, null.expand_as(cond))
+        return x0_from_eps(x_t, eps_u + 3.0 * (eps_c - eps_u), t, ddim.schedule)
+
+    want = sample_ddim(guided, x, ddim.times(4), ddim.schedule, ddim.clamp)
+    assert torch.allclose(got, want, atol=1e-6) and net.calls[:4] == [4] * 4  # 2B a step
+    assert ddim.times(4).shape == (5,) and ddim.max_steps == 1000
+
+
+def test_a_sampler_starts_from_the_latent_it_is_given() -> None:
+    from mlct.generate.samplers import ConsistencySampler
+
+    sampler = ConsistencySampler(_config())
+    seen: list[torch.Tensor] = []
+
+    def net(x: torch.Tensor, t: torch.Tensor, c: torch.Tensor) -> torch.Tensor:
+        seen.append(x.clone())
+        return torch.zeros_like(x)
+
+    start = torch.full((1, 3, 4), 0.25)  # a partly known latent, not noise
+    sampler.sample(net, start, torch.zeros(1, 5), 1)
+    assert torch.equal(seen[0], start)
+
+
+def test_the_registry_names_every_sampler_and_fails_loudly() -> None:
+    import pytest
+
+    from mlct.errors import MlctError
+    from mlct.generate.samplers import SAMPLERS, sampler_class, sampler_for_stage
+
+    assert set(SAMPLERS) == {"consistency", "ddim"}  # the names bundles record
+    for name, cls in SAMPLERS.items():
+        assert sampler_class(name) is cls and sampler_for_stage(cls.stage) is cls
+    assert sampler_for_stage("ae") is None
+    with pytest.raises(MlctError, match="unknown sampler 'euler' \\(consistency, ddim\\)"):
+        sampler_class("euler")
+    with pytest.raises(MlctError, match="nfe must be within 1..10, got 11"):
+        sampler_class("consistency")(_config()).check_steps(11)  # tiny: 10

@@ -9,17 +9,15 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from mlct.data.captions import POS_TAGS, format_text_line, pos_tag
 from mlct.data.synth.text import (
     ACTION_PARAMS,
     FAMILIES,
     LOCOMOTION,
     OPTIONAL_PARAMS,
-    POS_TAGS,
     UPPER_BODY,
     canonical_label,
     describe,
-    format_text_line,
-    pos_tag,
 )
 
 

@@ -67,6 +67,7 @@ def test_names_and_sizes_are_those_of_the_sentence_transformers_path(lean, lean_
     assert load_text_encoder(" MiniLM ").name == "minilm"
 
 
+@pytest.mark.slow
 def test_pooled_embeddings_match_sentence_transformers(lean):
     reference = _reference(0)
     ours, theirs = lean.encode(TEXTS), reference.encode(TEXTS)
@@ -75,6 +76,7 @@ def test_pooled_embeddings_match_sentence_transformers(lean):
         assert (lean.encode([text]) - reference.encode([text])).abs().max() < PARITY
 
 
+@pytest.mark.slow
 def test_token_states_match_sentence_transformers(lean_tokens):
     reference = _reference(TOKEN_SLOTS)
     ours, theirs = lean_tokens.encode(TEXTS), reference.encode(TEXTS)
@@ -100,6 +102,7 @@ def test_unit_vectors_ordinary_tensors_frozen_model(lean):
     assert all(not p.requires_grad for p in lean.model.parameters())
 
 
+@pytest.mark.slow
 def test_loading_the_bundled_minilm_imports_no_hugging_face_library():
     """The point of the lean loader: none of the seconds-long imports on the way to an embedding."""
     code = ("import sys; from mlct.text import load_text_encoder; "

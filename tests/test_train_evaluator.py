@@ -15,16 +15,16 @@ from mlct.data.dataset import Text2MotionEvalDataset, collate
 from mlct.data.synth.build import synthesize_dataset
 from mlct.errors import MlctError
 from mlct.eval import Evaluator, euclidean_distance_matrix, r_precision_batched
-from mlct.eval.evaluator_dir import EvaluatorSizes, build_networks, load_evaluator_dir
-from mlct.eval.learned_words import LearnedWordVectors, build_vocabulary
-from mlct.eval.train_evaluator import (
+from mlct.eval.judge.evaluator_dir import EvaluatorSizes, build_networks, load_evaluator_dir
+from mlct.eval.judge.learned_words import LearnedWordVectors, build_vocabulary
+from mlct.eval.judge.train_evaluator import (
     EvaluatorTrainConfig,
     MovementConvDecoder,
     evaluator_mean_std,
     matching_loss,
     train_evaluator,
 )
-from mlct.eval.word_vectors import POS_ENUMERATOR
+from mlct.eval.judge.word_vectors import POS_ENUMERATOR
 from mlct.motion.skeleton import HUMANML3D
 
 # Small widths and a 10x learning rate: the real sizes take seconds per step on a CPU.
@@ -67,6 +67,7 @@ def embed(evaluator: Evaluator, batch: dict) -> tuple[np.ndarray, np.ndarray]:
     return text.numpy(), motion.numpy()
 
 
+@pytest.mark.slow
 def test_the_contrastive_loss_decreases(trained):
     losses = np.array(trained["match_losses"])
     assert len(losses) == STEPS["steps_match"] and np.isfinite(losses).all()
@@ -80,6 +81,7 @@ def test_the_contrastive_loss_decreases(trained):
     assert trained["train_items"] == 38 and trained["val_items"] == 2
 
 
+@pytest.mark.slow
 def test_the_directory_is_self_contained_and_reloads_identically(trained, data_dir):
     out = Path(trained["path"])
     names = {p.name for p in out.iterdir()}
@@ -106,6 +108,7 @@ def test_the_directory_is_self_contained_and_reloads_identically(trained, data_d
     assert "walk" in reloaded.vectorizer.words
 
 
+@pytest.mark.slow
 def test_matched_pairs_are_closer_after_training(trained, data_dir):
     evaluator = load_evaluator_dir(trained["path"])
     text, motion = embed(evaluator, train_items(evaluator, data_dir))
@@ -116,6 +119,7 @@ def test_matched_pairs_are_closer_after_training(trained, data_dir):
     assert top3 > 2 * 3 / 32  # chance is 3/32 in a group of 32
 
 
+@pytest.mark.slow
 def test_training_is_deterministic_under_the_seed(data_dir, tmp_path):
     config = EvaluatorTrainConfig(sizes=TINY.sizes, decomp_batch_size=8, val_every=2)
     runs = [train_evaluator(data_dir, tmp_path / name, seed=seed, steps_decomp=2, steps_match=3,
@@ -202,6 +206,7 @@ def test_bad_inputs_fail_in_one_line(data_dir, tmp_path):
     assert not (tmp_path / "out").exists()  # nothing is written before training succeeds
 
 
+@pytest.mark.slow
 def test_load_evaluator_dir_checks_its_input(trained, tmp_path):
     with pytest.raises(MlctError, match="no meta.json"):
         load_evaluator_dir(tmp_path)
@@ -219,6 +224,7 @@ def test_load_evaluator_dir_checks_its_input(trained, tmp_path):
         load_evaluator_dir(copy)
 
 
+@pytest.mark.slow
 def test_official_sizes_write_an_official_checkpoint(data_dir, tmp_path):
     """Untrained (0 steps) at the reference's sizes: finest.tar loads with load_official."""
     train_evaluator(data_dir, tmp_path / "ev", steps_decomp=0, steps_match=0, progress=False)

@@ -19,6 +19,8 @@ from mlct.errors import MlctError
 from mlct.train.checkpoint import latest_checkpoint, load_checkpoint
 from mlct.train.loop import train
 
+pytestmark = pytest.mark.slow  # trains every stage, DDP and torchrun: about a minute
+
 
 def _log(run: Path, stage: str) -> list[dict]:
     return [json.loads(line) for line in (run / stage / "log.jsonl").read_text().splitlines()]
@@ -85,7 +87,7 @@ def test_export_load_generate(trained: Path, tmp_path: Path) -> None:
 
     model_dir = export_run(trained, tmp_path / "model")
     gen = mlct.load(model_dir)
-    assert gen.sampler == "consistency"
+    assert gen.sampler.name == "consistency"
     texts = ["a person walks forward", "someone jumps", "a person waves"]
     out = gen.generate(texts, lengths=[7, 40, 64], nfe=3, seed=5)
     assert [m.features.shape for m in out] == [(7, 263), (40, 263), (64, 263)]
@@ -114,7 +116,7 @@ def test_diffusion_baseline_samples_with_ddim_cfg(trained: Path, tmp_path: Path)
     from mlct.train.export import export_run
 
     gen = mlct.load(export_run(trained, tmp_path / "ldm", stage="diffusion"))
-    assert gen.sampler == "ddim" and gen.default_nfe == 50
+    assert gen.sampler.name == "ddim" and gen.default_nfe == 50
     calls = []
     forward = gen.denoiser.forward
 

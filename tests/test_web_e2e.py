@@ -26,6 +26,8 @@ Image = pytest.importorskip("PIL.Image")
 import mlct
 from mlct.serve import ServeSettings, create_app, serve_in_thread
 
+pytestmark = pytest.mark.slow  # a browser against a live server
+
 # No sandbox (containers, root), no network beyond localhost, no GPU: WebGL runs on SwiftShader.
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",

@@ -6,7 +6,7 @@ import argparse
 import os
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from mlct.errors import MlctError
 
@@ -66,15 +66,19 @@ def _cmd_data_import(args: argparse.Namespace) -> int:
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
+    from mlct.data.layout import dataset_caption
     from mlct.motion.render import render_file
 
-    out = render_file(args.file, args.out, skeleton=args.skeleton, caption=args.caption,
+    # the title: --caption, else the dataset's first caption of the file (DIR/texts/NAME.txt)
+    caption = args.caption if args.caption is not None else dataset_caption(args.file)
+    out = render_file(args.file, args.out, skeleton=args.skeleton, caption=caption,
                       fps=args.fps)
     print(out)
     return 0
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
+    from mlct.data.layout import DatasetLayout, dataset_caption
     from mlct.data.synth.build import synthesize_dataset
     from mlct.motion.render import render_file
 
@@ -83,8 +87,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     name = f"{args.index:06d}"
     if args.index >= args.num:
         raise MlctError(f"--index {args.index} is beyond the {args.num} motions made")
-    caption = (data / "texts" / f"{name}.txt").read_text(encoding="utf-8").split("#", 1)[0]
-    gif = render_file(data / "new_joint_vecs" / f"{name}.npy", args.out / f"{name}.gif")
+    motion = DatasetLayout(data).features_path(name)
+    caption = dataset_caption(motion)
+    gif = render_file(motion, args.out / f"{name}.gif", caption=caption)
     print(f"{caption}")
     print(gif)
     return 0
@@ -117,10 +122,10 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
 
 def _cmd_train_evaluator(args: argparse.Namespace) -> int:
-    from mlct.eval.train_evaluator import train_evaluator
+    from mlct.eval.judge.train_evaluator import train_evaluator
 
-    from mlct.eval.evaluator import EVALUATOR_SIZES
-    from mlct.eval.train_evaluator import EvaluatorTrainConfig
+    from mlct.eval.judge.evaluator import EVALUATOR_SIZES
+    from mlct.eval.judge.train_evaluator import EvaluatorTrainConfig
 
     config = EvaluatorTrainConfig(sizes=EVALUATOR_SIZES[args.sizes])
     summary = train_evaluator(args.data, args.out, glove_dir=args.glove,
@@ -134,7 +139,7 @@ def _cmd_train_evaluator(args: argparse.Namespace) -> int:
 
 
 def _cmd_train_classifier(args: argparse.Namespace) -> int:
-    from mlct.eval.action_classifier import train_action_classifier
+    from mlct.eval.judge.action_classifier import train_action_classifier
 
     summary = train_action_classifier(args.data, args.out, steps=args.steps,
                                       batch_size=args.batch_size, seed=args.seed,
@@ -147,7 +152,7 @@ def _cmd_train_classifier(args: argparse.Namespace) -> int:
 
 
 def _cmd_import_evaluator(args: argparse.Namespace) -> int:
-    from mlct.eval.evaluator_dir import import_official_evaluator
+    from mlct.eval.judge.evaluator_dir import import_official_evaluator
 
     out = import_official_evaluator(args.checkpoint, args.mean, args.std, args.glove, args.out,
                                     skeleton=args.skeleton, overwrite=args.overwrite)
@@ -168,18 +173,18 @@ def _trainer_options(parser: argparse.ArgumentParser, what: str, batch_size: int
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-def _int_list(text: str) -> list[int]:
-    try:
-        return [int(item) for item in text.split(",") if item.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected integers like 1,3,5, got {text!r}") from None
+def _number_list(kind: type, example: str) -> Callable[[str], list]:
+    """An argparse type for comma-separated numbers of `kind` ("1,3,5")."""
+    def parse(text: str) -> list:
+        try:
+            return [kind(item) for item in text.split(",") if item.strip()]
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {example}, got {text!r}") from None
+    return parse
 
 
-def _float_list(text: str) -> list[float]:
-    try:
-        return [float(item) for item in text.split(",") if item.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected numbers like 0,1,2.5, got {text!r}") from None
+_int_list = _number_list(int, "integers like 1,3,5")
+_float_list = _number_list(float, "numbers like 0,1,2.5")
 
 
 def _cmd_eval(args: argparse.Namespace) -> int:

@@ -15,7 +15,7 @@ from typing import Any, Literal, Sequence
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from mlct.errors import MlctError
+from mlct.errors import MlctError, first_line
 
 PRESETS = ("humanml3d", "kit", "small", "tiny")
 STAGES = ("ae", "cm", "diffusion")
@@ -191,7 +191,7 @@ def _read_yaml(path: Path) -> dict[str, Any]:
     try:
         data = yaml.safe_load(text) or {}
     except yaml.YAMLError as err:
-        raise MlctError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
+        raise MlctError(f"{path}: not valid YAML ({first_line(err)})") from None
     if not isinstance(data, dict):
         raise MlctError(f"{path}: expected a mapping at the top level")
     return data

@@ -3,3 +3,12 @@
 
 class MlctError(Exception):
     """A problem with the user's input or files, explained in one line."""
+
+
+def first_line(error: BaseException, empty: str | None = None) -> str:
+    """The first line of an exception's message, to quote inside a one-line MlctError; for an
+    empty message, `empty` (by default the exception's type name)."""
+    lines = str(error).strip().splitlines()
+    if lines:
+        return lines[0]
+    return type(error).__name__ if empty is None else empty

@@ -25,17 +25,15 @@ from pathlib import Path
 
 import numpy as np
 
+from mlct.data.captions import TextLineError, TextRecord, parse_text_line
 from mlct.data.layout import (
     SPLITS,
     BadFileError,
     DatasetLayout,
-    TextLineError,
-    TextRecord,
     feature_problems,
     joints_problems,
     load_npy,
     mean_std_problems,
-    parse_text_line,
     read_text_lines,
     resolve_skeleton,
     width_problems,

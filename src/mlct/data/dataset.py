@@ -27,7 +27,8 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset, get_worker_info
 
-from mlct.data.layout import BadFileError, DatasetLayout, TextRecord
+from mlct.data.captions import TextRecord
+from mlct.data.layout import BadFileError, DatasetLayout
 from mlct.errors import MlctError
 from mlct.motion.skeleton import Skeleton
 

@@ -27,7 +27,6 @@ import io
 import json
 import math
 import os
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator
@@ -36,6 +35,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from mlct.data.captions import SEPARATOR, format_text_line, tag_caption
 from mlct.data.layout import (
     FEATURES_DIR,
     JOINTS_DIR,
@@ -46,7 +46,6 @@ from mlct.data.layout import (
     resolve_skeleton,
 )
 from mlct.data.stats import standard_mean_std
-from mlct.data.synth.text import format_text_line, pos_tag
 from mlct.errors import MlctError
 from mlct.io import atomic_dir, save_npy, write_text
 from mlct.motion.features import features_to_joints, joints_to_features
@@ -57,17 +56,6 @@ DEFAULT_SPLIT = (0.8, 0.1, 0.1)
 SCALE_GUESS_FILES = 20  # files read to guess the units
 SCALE_TOLERANCE = 2.0  # a guessed body may be this many times shorter or taller than the rest pose
 SUFFIXES = {"joints": ".npy", "bvh": ".bvh"}
-_WORDS = re.compile(r"[^\W_]+")
-# Closed-class words the benchmark's lexicon lacks (its captions never use them).
-_FUNCTION_WORDS = {
-    **dict.fromkeys("it they them he she him himself herself themselves its this".split(), "PRON"),
-    **dict.fromkeys("from through across behind toward towards onto off under like as near "
-                    "along against between".split(), "ADP"),
-    **dict.fromkeys("these those some another each every".split(), "DET"),
-    **dict.fromkeys("or but".split(), "CCONJ"),
-    **dict.fromkeys("are was were be been".split(), "AUX"),
-    "not": "PART",
-}
 
 
 @dataclass
@@ -89,52 +77,13 @@ class ImportSummary:
     notes: list[str] = field(default_factory=list)
 
 
-# ---------------------------------------------------------------------------------------------
-# Captions
-# ---------------------------------------------------------------------------------------------
-
-def tag_caption(caption: str) -> list[tuple[str, str]]:
-    """(word, POS) tokens of a caption: the benchmark's tagger, suffix rules for other words."""
-    try:
-        return pos_tag(caption)
-    except ValueError:
-        pass  # a word outside the benchmark's lexicon: tag word by word
-    tags: list[tuple[str, str]] = []
-    for word in _WORDS.findall(caption.lower().replace("-", "")):
-        if not word.isalpha():
-            continue  # numerals dropped, as HumanML3D drops non-alphabetic tokens
-        try:
-            tags.extend(pos_tag(word))
-        except ValueError:
-            tags.append(_guess_tag(word, tags[-1][1] if tags else ""))
-    return tags
-
-
-def _guess_tag(word: str, previous: str) -> tuple[str, str]:
-    """(lemma, POS) of a word outside the lexicon, by its suffix and the tag before it."""
-    if word in _FUNCTION_WORDS:
-        return word, _FUNCTION_WORDS[word]
-    if len(word) >= 4 and word.endswith("ly"):
-        return word, "ADV"
-    if (len(word) >= 6 and word.endswith("ing")) or (
-            len(word) >= 5 and word.endswith("ed") and not word.endswith("eed")):
-        return word, "VERB"
-    if previous in ("NOUN", "PRON", "CCONJ", "ADV") and word.endswith("s") and \
-            not word.endswith("ss"):
-        # "a person stumbles", "and then tosses": a third-person verb -> its lemma
-        if word == "goes" or word.endswith(("ches", "shes", "sses", "xes", "zes")):
-            return word[:-2], "VERB"
-        return (word[:-3] + "y" if word.endswith("ies") else word[:-1]), "VERB"
-    return word, "NOUN"
-
-
 def _clean_caption(text: Any, path: Path, line: int) -> str:
     if not isinstance(text, str):
         raise BadFileError(path, f"caption {text!r} is not text", line=line)
     caption = " ".join(text.split())  # newlines and runs of spaces -> one space
     if not caption:
         raise BadFileError(path, "empty caption", line=line)
-    if "#" in caption:
+    if SEPARATOR in caption:
         raise BadFileError(path, "a caption may not contain '#' (the texts/ field separator)",
                            line=line)
     if not tag_caption(caption):

@@ -17,7 +17,6 @@ checker (mlct.data.check) collects the same messages as problems.
 
 from __future__ import annotations
 
-import math
 import os
 from collections import Counter
 from dataclasses import dataclass
@@ -25,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mlct.data.captions import TextLineError, TextRecord, caption_field, parse_text_line
 from mlct.errors import MlctError
 from mlct.motion.skeleton import Skeleton, get_skeleton, skeleton_for_dim, skeleton_for_joints
 
@@ -45,76 +45,6 @@ class BadFileError(MlctError):
         self.line = line
         where = f"{path}:{line}" if line is not None else f"{path}"
         super().__init__(f"{where}: {detail}")
-
-
-class TextLineError(ValueError):
-    """A text line that breaks the `caption#tokens#start#end` format (message without location)."""
-
-
-@dataclass(frozen=True)
-class TextRecord:
-    """One caption line: the caption, its word/POS tokens and the annotated span in seconds."""
-
-    caption: str
-    tokens: tuple[str, ...]
-    start: float
-    end: float
-
-    @property
-    def whole_clip(self) -> bool:
-        """True when the caption describes the whole motion (`0.0#0.0`)."""
-        return self.start == 0.0 and self.end == 0.0
-
-    @property
-    def words(self) -> tuple[str, ...]:
-        """The words of the tokens, without their POS tags."""
-        return tuple(token.rsplit("/", 1)[0] for token in self.tokens)
-
-    def frame_span(self, fps: float) -> tuple[int, int] | None:
-        """[begin, end) frames of the sub-clip at `fps`, or None for the whole clip."""
-        if self.whole_clip:
-            return None
-        # int() truncates, as the reference's `motion[int(f_tag*20):int(to_tag*20)]`.
-        return int(self.start * fps), int(self.end * fps)
-
-
-def parse_text_line(line: str) -> TextRecord:
-    """Parse one `caption#word/POS ...#start#end` line; raise TextLineError if ill-formed."""
-    line = line.strip()
-    if not line:
-        raise TextLineError("empty line")
-    fields = line.split("#")
-    if len(fields) != 4:
-        raise TextLineError(f"expected 4 '#'-separated fields (caption#tokens#start#end), "
-                            f"found {len(fields)}")
-    caption, token_field, start_text, end_text = (field.strip() for field in fields)
-    if not caption:
-        raise TextLineError("empty caption")
-    tokens = tuple(token_field.split())
-    if not tokens:
-        raise TextLineError("no word/POS tokens")
-    for token in tokens:
-        word, slash, pos = token.rpartition("/")
-        if not slash or not word or not pos:
-            raise TextLineError(f"token {token!r} is not word/POS")
-    start = _parse_time(start_text, "start")
-    end = _parse_time(end_text, "end")
-    if not (start == 0.0 and end == 0.0) and end <= start:
-        raise TextLineError(f"end {end:g} s is not after start {start:g} s")
-    return TextRecord(caption=caption, tokens=tokens, start=start, end=end)
-
-
-def _parse_time(text: str, what: str) -> float:
-    """A start/end time in seconds; nan means 0.0 as in the reference."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise TextLineError(f"{what} time {text!r} is not a number") from None
-    if math.isnan(value):
-        return 0.0  # the reference maps nan to 0.0 (= whole clip when both are)
-    if math.isinf(value) or value < 0:
-        raise TextLineError(f"{what} time {text!r} is not a finite time >= 0")
-    return value
 
 
 def read_text_lines(path: str | os.PathLike) -> list[str]:
@@ -138,6 +68,24 @@ def read_texts(path: str | os.PathLike) -> list[TextRecord]:
         except TextLineError as error:
             raise BadFileError(path, str(error), line=number) from None
     return records
+
+
+def dataset_caption(path: str | os.PathLike) -> str | None:
+    """The first caption of a motion file in the standard layout, or None if there is none.
+
+    DIR/new_joint_vecs/NAME.npy and DIR/new_joints/NAME.npy have their captions in
+    DIR/texts/NAME.txt. Only the caption field is read: a title is a nicety, so an unreadable
+    texts file gives None rather than an error.
+    """
+    path = Path(path)
+    if path.parent.name not in (FEATURES_DIR, JOINTS_DIR):
+        return None
+    text_file = path.parent.parent / TEXTS_DIR / f"{path.stem}.txt"
+    try:
+        lines = text_file.read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError):
+        return None
+    return next((caption for caption in map(caption_field, lines) if caption), None)
 
 
 def read_split(path: str | os.PathLike) -> list[str]:

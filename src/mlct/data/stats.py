@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import os
-from typing import Any, Iterable, Iterator
+from typing import Any, Callable, Iterable, Iterator
 
 import numpy as np
 
@@ -84,6 +84,18 @@ def standard_mean_std(features: Iterable[np.ndarray],
     return running.mean.astype(np.float32), std.astype(np.float32), constant
 
 
+def _usable(names: list[str], load: Callable[[str, Skeleton], np.ndarray], skeleton: Skeleton,
+            notes: list[str]) -> Iterator[tuple[str, np.ndarray]]:
+    """(name, array) of each file `load` reads; an unusable file is skipped with a note."""
+    for name in names:
+        try:
+            array = load(name, skeleton)
+        except BadFileError as error:
+            notes.append(f"skipped {error}")
+            continue
+        yield name, array
+
+
 def dataset_statistics(directory: str | os.PathLike, skeleton: Skeleton | str | None = None,
                        write_mean_std: bool = True) -> dict[str, Any]:
     """Describe a dataset (counts, lengths, vocabulary, foot skating) and write its Mean/Std."""
@@ -101,12 +113,7 @@ def dataset_statistics(directory: str | os.PathLike, skeleton: Skeleton | str | 
     lengths: dict[str, int] = {}
 
     def usable_features() -> Iterator[np.ndarray]:
-        for name in layout.feature_names():
-            try:
-                array = layout.load_features(name, skel)
-            except BadFileError as error:
-                notes.append(f"skipped {error}")
-                continue
+        for name, array in _usable(layout.feature_names(), layout.load_features, skel, notes):
             lengths[name] = array.shape[0]
             yield array
 
@@ -193,14 +200,8 @@ def _split_statistics(layout: DatasetLayout, usable: set[str], skeleton: Skeleto
 def _skating_statistics(layout: DatasetLayout, skeleton: Skeleton,
                         notes: list[str]) -> dict[str, Any]:
     """Mean foot-skating ratio over the joint files (mlct.motion.physics.foot_skating_ratio)."""
-    ratios = []
-    for name in layout.joint_names():
-        try:
-            joints = layout.load_joints(name, skeleton)
-        except BadFileError as error:
-            notes.append(f"skipped {error}")
-            continue
-        ratios.append(foot_skating_ratio(joints, skeleton))
+    ratios = [foot_skating_ratio(joints, skeleton)
+              for _, joints in _usable(layout.joint_names(), layout.load_joints, skeleton, notes)]
     return {"joint_files": len(ratios),
             "foot_skating_ratio": float(np.mean(ratios)) if ratios else None}
 

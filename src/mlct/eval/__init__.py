@@ -1,66 +1,52 @@
-"""Evaluation: the standard text-motion matching evaluator (Guo et al. 2022) and the metrics."""
+"""Evaluation: the measuring (metrics, protocol, AITS, reports, read-outs) here, the judge
+(the matching evaluator, its networks and word vectors, the action classifier) in judge/.
 
-from mlct.eval.action_classifier import (
-    ActionClassifier,
-    action_targets,
-    load_action_classifier,
-    semantic_accuracy,
-    train_action_classifier,
-)
-from mlct.eval.evaluator import (EMBEDDING_DIM, UNIT_LENGTH, Evaluator, EvaluatorSizes,
-                                 build_networks)
-from mlct.eval.evaluator_dir import (import_official_evaluator, load_evaluator_dir,
-                                     write_evaluator_dir)
-from mlct.eval.learned_words import LearnedWordVectors
-from mlct.eval.metrics import (
-    activation_statistics,
-    confidence_interval,
-    diversity,
-    euclidean_distance_matrix,
-    fid,
-    frechet_distance,
-    matching_score,
-    multimodality,
-    r_precision,
-    r_precision_batched,
-    top_k_matches,
-)
-from mlct.eval.networks import MotionEncoderBiGRUCo, MovementConvEncoder, TextEncoderBiGRUCo
-from mlct.eval.train_evaluator import EvaluatorTrainConfig, train_evaluator
-from mlct.eval.word_vectors import POS_ENUMERATOR, VIP_WORDS, WordVectorizer
+- metrics.py: R-precision, FID, MM-Dist, Diversity, MultiModality, confidence intervals;
+- protocol.py: a test split measured by an evaluator, replications, the real side cached;
+- aits.py: inference time per sentence; run.py: `mlct eval`; report.py: results.json / .md;
+- readouts.py: what a motion does, read from its joints (the benchmark's label checks).
 
-__all__ = [
-    "ActionClassifier",
-    "EMBEDDING_DIM",
-    "POS_ENUMERATOR",
-    "UNIT_LENGTH",
-    "VIP_WORDS",
-    "Evaluator",
-    "EvaluatorSizes",
-    "EvaluatorTrainConfig",
-    "LearnedWordVectors",
-    "MotionEncoderBiGRUCo",
-    "MovementConvEncoder",
-    "TextEncoderBiGRUCo",
-    "WordVectorizer",
-    "action_targets",
-    "activation_statistics",
-    "build_networks",
-    "confidence_interval",
-    "diversity",
-    "euclidean_distance_matrix",
-    "fid",
-    "frechet_distance",
-    "import_official_evaluator",
-    "load_action_classifier",
-    "load_evaluator_dir",
-    "matching_score",
-    "multimodality",
-    "r_precision",
-    "r_precision_batched",
-    "semantic_accuracy",
-    "top_k_matches",
-    "train_action_classifier",
-    "train_evaluator",
-    "write_evaluator_dir",
-]
+Names are resolved on first use (PEP 562), so `import mlct.eval.metrics` or `import mlct` loads
+no evaluator network; `from mlct.eval import Evaluator` still works.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+# name -> the module that defines it
+_EXPORTS = {
+    **dict.fromkeys(("ActionClassifier", "action_targets", "load_action_classifier",
+                     "semantic_accuracy", "train_action_classifier"),
+                    "mlct.eval.judge.action_classifier"),
+    **dict.fromkeys(("EMBEDDING_DIM", "UNIT_LENGTH", "Evaluator", "EvaluatorSizes",
+                     "build_networks"), "mlct.eval.judge.evaluator"),
+    **dict.fromkeys(("import_official_evaluator", "load_evaluator_dir", "write_evaluator_dir"),
+                    "mlct.eval.judge.evaluator_dir"),
+    "LearnedWordVectors": "mlct.eval.judge.learned_words",
+    **dict.fromkeys(("activation_statistics", "confidence_interval", "diversity",
+                     "euclidean_distance_matrix", "fid", "frechet_distance", "matching_score",
+                     "multimodality", "r_precision", "r_precision_batched", "top_k_matches"),
+                    "mlct.eval.metrics"),
+    **dict.fromkeys(("MotionEncoderBiGRUCo", "MovementConvEncoder", "TextEncoderBiGRUCo"),
+                    "mlct.eval.judge.networks"),
+    **dict.fromkeys(("EvaluatorTrainConfig", "train_evaluator"),
+                    "mlct.eval.judge.train_evaluator"),
+    **dict.fromkeys(("POS_ENUMERATOR", "VIP_WORDS", "WordVectorizer"),
+                    "mlct.eval.judge.word_vectors"),
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'mlct.eval' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_EXPORTS[name]), name)
+    globals()[name] = value  # resolved once
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -42,11 +42,12 @@ import torch
 from mlct.data.dataset import MAX_MOTION_LENGTH, Text2MotionEvalDataset
 from mlct.data.layout import DatasetLayout
 from mlct.errors import MlctError
-from mlct.eval.action_classifier import (ActionClassifier, action_targets, load_action_classifier,
-                                         read_labels, semantic_accuracy)
+from mlct.eval.judge.action_classifier import (ActionClassifier, action_targets,
+                                               load_action_classifier, read_labels,
+                                               semantic_accuracy)
 from mlct.eval.aits import time_inference
-from mlct.eval.evaluator import Evaluator
-from mlct.eval.evaluator_dir import load_evaluator_dir, read_evaluator_meta
+from mlct.eval.judge.evaluator import Evaluator
+from mlct.eval.judge.evaluator_dir import load_evaluator_dir, read_evaluator_meta
 from mlct.eval.metrics import (
     DIVERSITY_TIMES,
     MULTIMODALITY_TIMES,
@@ -309,25 +310,24 @@ class Protocol:
                  model: str | None = None) -> RowResult:
         """A configuration (model, nfe, guidance) over all replications, then its AITS."""
         steps = gen.check_nfe(nfe)
-        ddim = gen.sampler == "ddim"
-        scale = (gen.config.diffusion.guidance if guidance is None else float(guidance)) \
-            if ddim else gen.config.consistency.guidance
+        sampler = gen.sampler
+        scale = sampler.guidance(guidance)  # consistency: the w trained in; DDIM: the CFG scale
         cfg = self.config
         started = time.perf_counter()
         reps = []
         for r in range(cfg.reps):
-            reps.append(self.replication(gen, r, steps, scale if ddim else None))
+            reps.append(self.replication(gen, r, steps, scale))
             self.log(f"{method}: replication {r + 1}/{cfg.reps} "
                      f"({time.perf_counter() - started:.1f} s)")
         seconds = time.perf_counter() - started
         timing = None
         if cfg.aits_runs > 0:
             timing = time_inference(gen, self.real.captions, nfe=steps,
-                                    guidance=scale if ddim else None,
+                                    guidance=scale,
                                     frames=min(cfg.aits_frames, gen.max_frames),
                                     runs=cfg.aits_runs, warmup=cfg.aits_warmup)
-        return RowResult(method, gen.sampler, model, steps, 2 * steps if ddim else steps, scale,
-                         summarize(reps), timing, seconds,
+        return RowResult(method, sampler.name, model, steps, sampler.passes_per_step * steps,
+                         scale, summarize(reps), timing, seconds,
                          mean_recall_per_class([r["per_class"] for r in reps
                                                 if "per_class" in r]))
 
@@ -450,5 +450,5 @@ def check_model(protocol: Protocol, gen: MotionGenerator, steps: Sequence[int | 
         try:
             gen.check_nfe(nfe)
         except MlctError as error:
-            raise MlctError(f"model {path} ({gen.sampler}): {error}") from None
+            raise MlctError(f"model {path} ({gen.sampler.name}): {error}") from None
 

@@ -17,6 +17,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
+from mlct.generate.samplers import sampler_class
 from mlct.io import atomic_path, check_writable_dir, write_text
 
 COLUMNS = [("R@1 ↑", "r_precision_top1"), ("R@2 ↑", "r_precision_top2"),
@@ -182,9 +183,9 @@ def _series_names(report: dict[str, Any]) -> list[dict[str, Any]]:
     out = []
     for row in report["rows"]:
         label = row["method"]
-        kind = "MLCT" if row["kind"] == "consistency" else "DDIM"
-        steps = f"{row['nfe']} NFE" if row["kind"] == "consistency" else f"{row['nfe']} steps"
-        out.append(row | {"by_model": label, "by_nfe": f"{kind} {steps}"})
+        sampler = sampler_class(row["kind"])  # a row's kind is its sampler's name
+        out.append(row | {"by_model": label,
+                          "by_nfe": f"{sampler.method} {row['nfe']} {sampler.steps_unit}"})
     return out
 
 

@@ -26,6 +26,7 @@ from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.eval.protocol import Log, ProtocolConfig, check_model, open_protocol
 from mlct.generate.pipeline import MotionGenerator
+from mlct.generate.samplers import sampler_class
 
 REPORT_FORMAT = "mlct-eval-report"
 REPORT_VERSION = 1
@@ -50,21 +51,14 @@ def _labels(models: Sequence[Path]) -> list[str]:
     return [name if names.count(name) == 1 else str(m) for name, m in zip(names, models)]
 
 
-def _grid(gen: MotionGenerator, nfe: Sequence[int] | None, ddim_steps: Sequence[int] | None,
+def _grid(gen: MotionGenerator, steps: dict[str, Sequence[int] | None],
           guidance: Sequence[float] | None) -> list[tuple[int | None, float | None]]:
-    """The (steps, guidance) configurations of one model; None means the model's default."""
-    if gen.sampler == "consistency":
-        return [(n, None) for n in (nfe or [None])]
-    if gen.sampler == "ddim":
-        return [(s, g) for s in (ddim_steps or [None]) for g in (guidance or [None])]
-    raise MlctError(f"unknown sampler {gen.sampler!r} (consistency, ddim)")
-
-
-def _method(label: str, gen: MotionGenerator, guidance: float | None) -> str:
-    if gen.sampler == "ddim":
-        scale = gen.config.diffusion.guidance if guidance is None else guidance
-        return f"{label} (DDIM, CFG {scale:g})"
-    return f"{label} (MLCT, w={gen.config.consistency.guidance:g})"
+    """The (steps, guidance) configurations of one model; None means the model's default.
+    steps: the step counts asked for, by the option that sweeps them (Sampler.steps_option);
+    a guidance scale is a sampling choice for a sampler with classifier-free guidance only."""
+    sampler = gen.sampler
+    scales = (guidance or [None]) if sampler.cfg else [None]
+    return [(n, g) for n in (steps[sampler.steps_option] or [None]) for g in scales]
 
 
 def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
@@ -90,12 +84,15 @@ def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
     if not paths:
         raise MlctError("no model to evaluate (pass --model MODEL_DIR)")
     bundles = [read_bundle(p) for p in paths]
-    samplers = {meta.get("sampler") for meta, _ in bundles}
-    if nfe and "consistency" not in samplers:
+    samplers = {sampler_class(meta.get("sampler")) for meta, _ in bundles}
+    steps = {"nfe": nfe, "ddim_steps": ddim_steps}  # by Sampler.steps_option
+    if nfe and not any(s.steps_option == "nfe" for s in samplers):
         raise MlctError("--nfe sets the steps of consistency (MLCT) models; none was given "
                         "(a DDIM model's steps are --ddim-steps)")
-    for given, flag in ((ddim_steps, "--ddim-steps"), (guidance, "--guidance")):
-        if given and "ddim" not in samplers:
+    for given, flag, applies in (
+            (ddim_steps, "--ddim-steps", any(s.steps_option == "ddim_steps" for s in samplers)),
+            (guidance, "--guidance", any(s.cfg for s in samplers))):
+        if given and not applies:
             raise MlctError(f"{flag} applies to DDIM (diffusion) models only; a consistency "
                             f"model's guidance w is set at training (consistency.guidance)")
     protocol = open_protocol(data_dir, evaluator_dir, split, config, dev, log,
@@ -103,9 +100,9 @@ def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
                              classifier_dir=classifier_dir)
     dataset = protocol.dataset
     gens = [MotionGenerator(meta, tensors, dev, dtype) for meta, tensors in bundles]
-    grids = [_grid(g, nfe, ddim_steps, guidance) for g in gens]
+    grids = [_grid(g, steps, guidance) for g in gens]
     for path, gen, grid in zip(paths, gens, grids):
-        check_model(protocol, gen, [steps for steps, _ in grid], path)
+        check_model(protocol, gen, [count for count, _ in grid], path)
 
     cfg = protocol.config
     log(f"{len(dataset)} items in {split!r}, {protocol.kept} kept per replication, "
@@ -114,10 +111,10 @@ def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
     rows = []
     total = sum(len(grid) for grid in grids)
     for path, label, gen, grid in zip(paths, _labels(paths), gens, grids):
-        for steps, scale in grid:
-            method = _method(label, gen, scale)
-            log(f"[{len(rows) + 1}/{total}] {method}, NFE {gen.check_nfe(steps)}")
-            rows.append(protocol.evaluate(gen, steps, scale, method=method, model=str(path)))
+        for count, scale in grid:
+            method = f"{label} ({gen.sampler.describe(scale)})"
+            log(f"[{len(rows) + 1}/{total}] {method}, NFE {gen.check_nfe(count)}")
+            rows.append(protocol.evaluate(gen, count, scale, method=method, model=str(path)))
     return {
         "format": REPORT_FORMAT, "version": REPORT_VERSION,
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),

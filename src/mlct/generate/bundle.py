@@ -6,7 +6,8 @@ A bundle is a directory:
   weights), the normalization ("norm.mean", "norm.std"), and the AE encoder ("ae_encoder.*"),
   which generation never reads: it is there so that `mlct train ae|cm --init MODEL_DIR`
   fine-tunes the model on a user's own data;
-- config.json: the full run config, the sampler kind, feature width, skeleton, text encoder;
+- config.json: the full run config, the sampler's name (mlct.generate.samplers), feature
+  width, skeleton, text encoder;
 - Mean.npy, Std.npy: the dataset statistics, in the standard layout's names.
 It holds no optimizer state and no text-encoder weights (the text encoder is named and loaded
 from its own package or directory).
@@ -21,12 +22,11 @@ from typing import Any
 import torch
 from safetensors.torch import load_file
 
-from mlct.errors import MlctError
+from mlct.errors import MlctError, first_line
 from mlct.io import read_format_json, strip_prefix
 
 BUNDLE_FORMAT = "mlct-model"
 BUNDLE_VERSION = 1
-SAMPLERS = {"cm": "consistency", "diffusion": "ddim"}
 ENCODER_PREFIXES = ("enc_in.", "enc_tokens", "enc_pos", "encoder.", "to_tokens.")
 ENCODER_KEY = "ae_encoder"  # the AE encoder's tensors in a bundle (since stage-1 fine-tuning)
 META_KEYS = ("sampler", "config", "feature_dim", "skeleton", "text_encoder", "text_dim")
@@ -59,5 +59,5 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
     try:
         tensors = load_file(str(weights))
     except Exception as err:  # safetensors raises several kinds on a damaged file
-        raise MlctError(f"{weights}: unreadable weights ({str(err).splitlines()[0]})") from None
+        raise MlctError(f"{weights}: unreadable weights ({first_line(err)})") from None
     return meta, {k: (v.float() if v.dtype == torch.float16 else v) for k, v in tensors.items()}

@@ -21,13 +21,11 @@ from torch import Tensor
 from mlct.generate.bundle import ENCODER_PREFIXES, read_bundle
 from mlct.io import strip_prefix
 from mlct.config import config_from_dict
-from mlct.diffusion.parameterization import ConsistencyFunction, x0_from_eps
-from mlct.diffusion.samplers import ddim_times, sample_consistency, sample_ddim
-from mlct.diffusion.schedule import VPSchedule, karras_time_grid, sampling_times
 from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.generate.generated import GeneratedMotion, Generation
-from mlct.nn.build import build_autoencoder, build_denoiser, latent_clamp
+from mlct.generate.samplers import Sampler, sampler_class
+from mlct.nn.build import build_autoencoder, build_denoiser
 from mlct.motion.features import recover_from_ric
 from mlct.motion.skeleton import get_skeleton
 from mlct.nn.inference import for_inference, weight_dtype
@@ -55,7 +53,8 @@ class MotionGenerator:
         self.config = config_from_dict(meta["config"], "model config")
         self.device = resolve_device("cpu" if device is None else device)
         self.skeleton = get_skeleton(meta["skeleton"])
-        self.sampler = meta["sampler"]
+        # the bundle names its sampler (config.json "sampler"); it owns steps, times, guidance
+        self.sampler: Sampler = sampler_class(meta["sampler"])(self.config, self.device)
         self.ae = build_autoencoder(self.config, meta["feature_dim"])
         missing, unexpected = self.ae.load_state_dict(strip_prefix(tensors, "decoder"),
                                                       strict=False)
@@ -70,11 +69,6 @@ class MotionGenerator:
         self.std = tensors["norm.std"].float()
         self.ae = for_inference(self.ae.to(self.device), self.dtype)
         self.denoiser = for_inference(self.denoiser.to(self.device), self.dtype)
-        s = self.config.schedule
-        self.schedule = VPSchedule(s.beta_min, s.beta_max)
-        self.consistency = ConsistencyFunction(self.denoiser, s.eta, s.time_scale)
-        self.grid = karras_time_grid(s.num_steps, s.eps, s.t_max, s.rho, device=self.device)
-        self.clamp = latent_clamp(self.config)
         self._text_encoder: TextEncoder | None = None
         self._text_memo: OrderedDict[str, Tensor] = OrderedDict()
 
@@ -90,8 +84,7 @@ class MotionGenerator:
 
     @property
     def default_nfe(self) -> int:
-        return self.config.consistency.nfe if self.sampler == "consistency" \
-            else self.config.diffusion.sample_steps
+        return self.sampler.default_steps
 
     @property
     def text_encoder(self) -> TextEncoder:
@@ -151,11 +144,7 @@ class MotionGenerator:
         """The step count to sample with (the default for None); MlctError when out of range."""
         if nfe is not None and not _is_int(nfe):
             raise MlctError(f"nfe must be a whole number of steps, got {nfe!r}")
-        steps = self.default_nfe if nfe is None else int(nfe)
-        top = len(self.grid) if self.sampler == "consistency" else 1000
-        if not 1 <= steps <= top:
-            raise MlctError(f"nfe must be within 1..{top}, got {steps}")
-        return steps
+        return self.sampler.check_steps(nfe)
 
     @torch.inference_mode()  # 4-6% faster than no_grad at batch 1 (docs/performance.md)
     def sample_latents(self, cond: Tensor, nfe: int | None = None,
@@ -176,26 +165,10 @@ class MotionGenerator:
         else:
             generator = [torch.Generator().manual_seed(int(s)) for s in seed]
         steps = self.check_nfe(nfe)
-        if self.sampler == "consistency":
-            times = sampling_times(self.grid, steps)
-
-            def model(x: Tensor, t: Tensor) -> Tensor:
-                return self.consistency(x, t, cond)  # guidance is baked in (one pass)
-
-            with self.denoiser.fixed_condition(cond, times):  # text, time terms once
-                return sample_consistency(model, shape, times, self.schedule, generator,
-                                          self.clamp)
-        scale = self.config.diffusion.guidance if guidance is None else float(guidance)
-        both = torch.cat([cond, self.encode_text([""]).expand_as(cond)])  # (2B, c): cond, null
-
-        def guided(x: Tensor, t: Tensor) -> Tensor:
-            # Classifier-free guidance: two passes (one batch of 2B) per step.
-            eps_c, eps_u = self.denoiser(torch.cat([x, x]), torch.cat([t, t]), both).chunk(2)
-            return x0_from_eps(x, eps_u + scale * (eps_c - eps_u), t, self.schedule)
-
-        times = ddim_times(steps, device=self.device)
-        with self.denoiser.fixed_condition(both, times):
-            return sample_ddim(guided, shape, times, self.schedule, generator, self.clamp)
+        uncond = self.encode_text([""]) if self.sampler.cfg else None  # (1, c) the null text
+        x = self.sampler.noise(shape, generator)  # x_T (B, n, d)
+        return self.sampler.sample(self.denoiser, x, cond, steps, generator=generator,
+                                   guidance=guidance, uncond=uncond)
 
     @torch.inference_mode()
     def decode(self, z: Tensor, lengths: Sequence[int]) -> list[np.ndarray]:

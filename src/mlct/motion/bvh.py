@@ -45,7 +45,7 @@ import numpy as np
 import torch
 from scipy.spatial.transform import Rotation
 
-from mlct.errors import MlctError
+from mlct.errors import MlctError, first_line
 from mlct.io import write_text
 from mlct.motion.quaternion import qbetween, quat_to_matrix
 from mlct.motion.skeleton import Skeleton
@@ -263,7 +263,7 @@ def read_bvh(path: str | os.PathLike) -> BvhClip:
     try:
         container = bvhio.readAsBvh(str(path))
     except (OSError, SyntaxError, ValueError, IndexError, TypeError) as error:
-        raise MlctError(f"{path}: not a readable BVH file ({_first_line(error)})") from None
+        raise MlctError(f"{path}: not a readable BVH file ({first_line(error)})") from None
     n_frames = int(container.FrameCount)
     if n_frames < 1 or not container.FrameTime > 0:
         raise MlctError(f"{path}: a BVH file needs frames and a positive Frame Time "
@@ -295,8 +295,3 @@ def read_bvh(path: str | os.PathLike) -> BvhClip:
         raise MlctError(f"{path}: the motion contains NaN or inf values")
     return BvhClip(joint_names=tuple(j.Name for j in layout), parents=tuple(parents),
                    positions=positions, frame_time=float(container.FrameTime))
-
-
-def _first_line(error: BaseException) -> str:
-    text = str(error).strip().splitlines()
-    return text[0] if text else type(error).__name__

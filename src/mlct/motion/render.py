@@ -22,7 +22,7 @@ from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d import Axes3D, proj3d
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-from mlct.errors import MlctError
+from mlct.errors import MlctError, first_line
 from mlct.io import atomic_path
 from mlct.motion.skeleton import (SKELETONS, Skeleton, get_skeleton, skeleton_for_dim,
                                   skeleton_for_joints)
@@ -88,8 +88,8 @@ def render_file(path: str | os.PathLike, out: str | os.PathLike,
                 fps: float | None = None) -> Path:
     """Render a features (T, 263|251) or joints (T, J, 3) .npy file; see `render_motion`.
 
-    The skeleton comes from the shape unless given; the caption, unless given, from the dataset
-    texts beside the file (DIR/new_joint_vecs/NAME.npy -> DIR/texts/NAME.txt).
+    The skeleton comes from the shape unless given; the caption is the title (`mlct render`
+    takes it from the dataset's texts beside the file: mlct.data.layout.dataset_caption).
     """
     path, out = Path(path), Path(out)
     _output_kind(out)  # fail on a bad --out before loading anything
@@ -132,8 +132,6 @@ def render_file(path: str | os.PathLike, out: str | os.PathLike,
             raise MlctError(f"{path} has {array.shape[1]} joints but the {skel.name} skeleton "
                             f"has {skel.n_joints}")
         joints = array
-    if caption is None:
-        caption = dataset_caption(path)
     return render_motion(joints, out, skel, title=caption, fps=fps)
 
 
@@ -155,27 +153,6 @@ def _render_bvh(path: Path, out: Path, skeleton: Skeleton | str | None, caption:
     raise MlctError(f"{path}: its joints are not those of a known skeleton ({names}); import it "
                     f"with `mlct data import --bvh DIR --joint-map MAP.json` and render the "
                     f"imported motion")
-
-
-def dataset_caption(path: str | os.PathLike) -> str | None:
-    """The first caption of a motion in the standard layout, or None if there is none.
-
-    DIR/new_joint_vecs/NAME.npy and DIR/new_joints/NAME.npy have their captions in
-    DIR/texts/NAME.txt, one `caption#tokens#start#end` per line.
-    """
-    path = Path(path)
-    if path.parent.name not in ("new_joint_vecs", "new_joints"):
-        return None
-    text_file = path.parent.parent / "texts" / f"{path.stem}.txt"
-    try:
-        lines = text_file.read_text(encoding="utf-8").splitlines()
-    except (OSError, UnicodeDecodeError):
-        return None  # a title is a nicety: never fail a render over the texts
-    for line in lines:
-        caption = line.split("#", 1)[0].strip()
-        if caption:
-            return caption
-    return None
 
 
 def limb_sides(skeleton: Skeleton) -> list[str]:
@@ -250,7 +227,7 @@ def _load_npy(path: Path) -> np.ndarray:
     except FileNotFoundError:
         raise MlctError(f"{path}: no such file") from None
     except (OSError, ValueError, EOFError) as error:
-        reason = str(error).splitlines()[0] if str(error) else type(error).__name__
+        reason = first_line(error)
         raise MlctError(f"cannot read {path} as .npy: {reason}") from None
     if not isinstance(array, np.ndarray):  # an .npz archive
         raise MlctError(f"{path} is not a single .npy array")

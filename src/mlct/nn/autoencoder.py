@@ -78,13 +78,22 @@ class _FrameUpsampler(nn.Module):
 
 
 class LatentAutoencoder(nn.Module):
-    """What every stage-1 network shares: the n x d latent's shape, the argument checks and
-    forward = decode(encode(x)). Subclasses set the attributes below and define encode/decode."""
+    """What every stage-1 network shares: the n x d latent's arguments and shape, the argument
+    checks and forward = decode(encode(x)). Subclasses define encode/decode."""
 
-    feature_dim: int
-    n_tokens: int
-    latent_dim: int
-    max_len: int
+    def __init__(self, feature_dim: int, latent_type: str, n_tokens: int, latent_dim: int,
+                 levels: int, max_len: int) -> None:
+        super().__init__()
+        if latent_type not in LATENT_TYPES:
+            raise ValueError(f"latent_type must be one of {LATENT_TYPES}, got {latent_type!r}")
+        if n_tokens < 1 or max_len < 1:
+            raise ValueError("n_tokens and max_len must be >= 1")
+        self.feature_dim = feature_dim
+        self.latent_type = latent_type
+        self.n_tokens = n_tokens
+        self.latent_dim = latent_dim
+        self.levels = levels
+        self.max_len = max_len
 
     @property
     def latent_shape(self) -> tuple[int, int]:
@@ -139,17 +148,7 @@ class MotionAutoencoder(LatentAutoencoder):
         max_len: int = 196,
         frame_upsampler: bool = False,
     ) -> None:
-        super().__init__()
-        if latent_type not in LATENT_TYPES:
-            raise ValueError(f"latent_type must be one of {LATENT_TYPES}, got {latent_type!r}")
-        if n_tokens < 1 or max_len < 1:
-            raise ValueError("n_tokens and max_len must be >= 1")
-        self.feature_dim = feature_dim
-        self.latent_type = latent_type
-        self.n_tokens = n_tokens
-        self.latent_dim = latent_dim
-        self.levels = levels
-        self.max_len = max_len
+        super().__init__(feature_dim, latent_type, n_tokens, latent_dim, levels, max_len)
         n_enc = 2 * n_tokens if latent_type == "vae" else n_tokens  # VAE: mean and log-variance
 
         # encoder E

@@ -23,7 +23,7 @@ from __future__ import annotations
 import torch
 from torch import Tensor, nn
 
-from mlct.nn.autoencoder import LATENT_TYPES, Latent, LatentAutoencoder, latent_of_tokens
+from mlct.nn.autoencoder import Latent, LatentAutoencoder, latent_of_tokens
 from mlct.nn.masks import lengths_to_mask
 
 FACTOR = 8  # three stride-2 stages
@@ -53,17 +53,9 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         channels: int = 128,
         max_len: int = 196,
     ) -> None:
-        super().__init__()
-        if latent_type not in LATENT_TYPES:
-            raise ValueError(f"latent_type must be one of {LATENT_TYPES}, got {latent_type!r}")
-        if n_tokens < 1 or max_len < 1 or channels < 1:
-            raise ValueError("n_tokens, channels and max_len must be >= 1")
-        self.feature_dim = feature_dim
-        self.latent_type = latent_type
-        self.n_tokens = n_tokens
-        self.latent_dim = latent_dim
-        self.levels = levels
-        self.max_len = max_len
+        if channels < 1:
+            raise ValueError("channels must be >= 1")
+        super().__init__(feature_dim, latent_type, n_tokens, latent_dim, levels, max_len)
         self.channels = channels
         self.coarse = -(-max_len // FACTOR)  # grid cells covering max_len frames
         n_enc = 2 * n_tokens if latent_type == "vae" else n_tokens

@@ -15,7 +15,6 @@ built per app, at runtime.)
 import asyncio
 import json
 import logging
-import re
 import secrets
 import time
 from collections.abc import AsyncIterator, Awaitable, Callable
@@ -35,6 +34,7 @@ from starlette.exceptions import HTTPException
 from mlct import __version__
 from mlct.errors import MlctError
 from mlct.generate.exports import export_bytes, motion_json
+from mlct.generate.files import slug
 from mlct.serve.batcher import Batcher, QueueFull, ServerClosing
 from mlct.serve.schemas import Limits, one_line, request_model
 from mlct.serve.settings import ServeSettings
@@ -127,7 +127,7 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
             return JSONResponse({"motions": motions, "timing": timing})
         data = await run_in_threadpool(export_bytes, result.motions[0], f".{body.format}")
         timing["server_ms"] = round((time.perf_counter() - received) * 1e3, 1)
-        name = f"{_slug(texts[0])}_seed{seeds[0]}.{body.format}"
+        name = f"{slug(texts[0])}_seed{seeds[0]}.{body.format}"
         return Response(data, media_type=MEDIA_TYPES[body.format], headers={
             "Content-Disposition": f'attachment; filename="{name}"',
             "X-Mlct-Seed": str(seeds[0]), "X-Mlct-Nfe": str(nfe),
@@ -170,11 +170,6 @@ def _model_info(generator: Any) -> dict[str, Any]:
             "fps": float(generator.skeleton.fps), "max_frames": generator.max_frames,
             "default_nfe": generator.default_nfe, "text_encoder": meta.get("text_encoder"),
             "step": meta.get("step")}
-
-
-def _slug(text: str, limit: int = 40) -> str:
-    """A file name from a prompt: 'A person walks!' -> 'a_person_walks'."""
-    return re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")[:limit].rstrip("_") or "motion"
 
 
 def _bearer_matches(header: str | None, token: str) -> bool:

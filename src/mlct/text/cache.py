@@ -20,7 +20,7 @@ import torch
 from torch import Tensor
 
 from mlct.errors import MlctError
-from mlct.text.encoders import TextEncoder
+from mlct.text.base import TextEncoder
 
 CACHE_FILENAME = "text_embeddings.sqlite3"
 SCHEMA_VERSION = 1  # stored as PRAGMA user_version

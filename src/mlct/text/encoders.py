@@ -14,14 +14,14 @@ from __future__ import annotations
 import json
 import os
 import re
-from abc import ABC, abstractmethod
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import torch
 from torch import Tensor
 
-from mlct.errors import MlctError
+from mlct.errors import MlctError, first_line
+from mlct.text.base import TextEncoder
 
 MINILM = "minilm"  # the spec (and cache name) of the bundled all-MiniLM-L6-v2
 # Suffix of a spec whose embedding also carries the token states: "minilm+tokens" gives
@@ -57,55 +57,6 @@ def _resolve_device(device: str | torch.device | None) -> torch.device:
     return torch.device("cpu" if device is None else device)
 
 
-class TextEncoder(ABC):
-    """A frozen text encoder: `encode(texts)` -> (B, dim) float32 CPU tensor, no grad.
-
-    `name` is a stable identity string (the embedding cache key, recorded in checkpoints): two
-    encoders with the same name must give the same embeddings.
-    """
-
-    name: str
-    dim: int
-    _null: Tensor | None = None
-
-    def encode(self, texts: Sequence[str]) -> Tensor:
-        """Embed a batch of captions: (B,) strings -> (B, dim) float32 on the CPU."""
-        texts = _text_list(texts)
-        if not texts:
-            return torch.zeros(0, self.dim)
-        out = self._encode(texts)
-        if out.shape != (len(texts), self.dim):  # a contract check on subclasses, cheap
-            raise MlctError(
-                f"text encoder {self.name!r} returned shape {tuple(out.shape)}, "
-                f"expected {(len(texts), self.dim)}"
-            )
-        return out
-
-    @abstractmethod
-    def _encode(self, texts: list[str]) -> Tensor:
-        """(B, dim) float32 CPU embeddings of a non-empty list of strings."""
-
-    def null_embedding(self) -> Tensor:
-        """The unconditional input of classifier-free guidance: the embedding of "" (dim,)."""
-        if self._null is None:
-            self._null = self.encode([""])[0]
-        return self._null.clone()  # a copy: callers may write into it
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}(name={self.name!r}, dim={self.dim})"
-
-
-def _text_list(texts: Sequence[str]) -> list[str]:
-    """Validate a batch of captions; a bare string would otherwise be encoded per character."""
-    if isinstance(texts, str):
-        raise MlctError("encode takes a list of texts, not a single string; wrap it in [...]")
-    texts = list(texts)
-    for t in texts:
-        if not isinstance(t, str):
-            raise MlctError(f"encode takes strings; got a {type(t).__name__}: {t!r}")
-    return texts
-
-
 class SentenceTransformerEncoder(TextEncoder):
     """Any sentence-transformers model directory, pooled as its own modules.json says."""
 
@@ -134,7 +85,7 @@ class SentenceTransformerEncoder(TextEncoder):
             )
         except (OSError, ValueError, KeyError, RuntimeError) as e:
             raise MlctError(
-                f"cannot load a sentence-transformers model from {path}: {_first_line(e)}"
+                f"cannot load a sentence-transformers model from {path}: {first_line(e)}"
             )
         self.model = model.eval().requires_grad_(False)
         self.name = name or f"st:{path}"
@@ -206,7 +157,7 @@ class ClipTextEncoder(TextEncoder):
                 str(path), local_files_only=True, dtype=torch.float32
             )
         except (OSError, ValueError, KeyError, RuntimeError) as e:
-            raise MlctError(f"cannot load a CLIP text model from {path}: {_first_line(e)}")
+            raise MlctError(f"cannot load a CLIP text model from {path}: {first_line(e)}")
         self.model = model.to(self.device).eval().requires_grad_(False)
         self.name = f"clip:{path}"
         self.path = path
@@ -344,8 +295,3 @@ def _check_model_dir(path: Path, kind: str) -> None:
             f"{path} has no model weights (*.safetensors or pytorch_model.bin); "
             "point at a directory that holds a downloaded model"
         )
-
-
-def _first_line(e: BaseException) -> str:
-    text = str(e).strip()
-    return text.splitlines()[0] if text else type(e).__name__

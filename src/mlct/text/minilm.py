@@ -19,9 +19,9 @@ from typing import Any
 import torch
 from torch import Tensor
 
-from mlct.errors import MlctError
+from mlct.errors import MlctError, first_line
 from mlct.text.bert import BertConfig, BertModel, mean_pool
-from mlct.text.encoders import TextEncoder
+from mlct.text.base import TextEncoder
 
 # The sentence-transformers pipeline this loader reproduces, module by module (modules.json).
 _PIPELINE = ("Transformer", "Pooling", "Normalize")
@@ -58,7 +58,7 @@ class MiniLMEncoder(TextEncoder):
             model = BertModel(config)
             model.load_checkpoint(load_file(str(path / "model.safetensors")))
         except Exception as e:  # noqa: BLE001 - tokenizers and safetensors raise their own kinds
-            raise MlctError(f"cannot load the MiniLM text encoder from {path}: {_first_line(e)}")
+            raise MlctError(f"cannot load the MiniLM text encoder from {path}: {first_line(e)}")
         # tokenizer.json pads and truncates to 128; sentence-transformers pads a batch to its
         # longest caption and truncates at the model's max_seq_length instead.
         tokenizer.no_padding()
@@ -127,8 +127,3 @@ def check_pipeline(path: Path) -> int:
 
 def _read_json(path: Path) -> Any:
     return json.loads(path.read_text(encoding="utf-8"))
-
-
-def _first_line(e: BaseException) -> str:
-    text = str(e).strip()
-    return text.splitlines()[0] if text else type(e).__name__

@@ -20,7 +20,7 @@ import torch
 from safetensors import SafetensorError
 from safetensors.torch import load_file, safe_open, save_file
 
-from mlct.errors import MlctError
+from mlct.errors import MlctError, first_line
 from mlct.io import atomic_dir, strip_prefix, write_text
 
 FORMAT = "mlct-checkpoint"
@@ -67,7 +67,7 @@ def read_weights(path: str | os.PathLike) -> tuple[dict[str, torch.Tensor], dict
         tensors = load_file(str(path))
     except (SafetensorError, OSError, ValueError, RuntimeError) as err:
         raise MlctError(f"{path}: not a readable safetensors file "
-                        f"({str(err).splitlines()[0] if str(err) else type(err).__name__})") from None
+                        f"({first_line(err)})") from None
     if header.get("format") != FORMAT:
         raise MlctError(f"{path}: not an mlct checkpoint (no '{FORMAT}' metadata)")
     if header.get("version") != VERSION:

@@ -11,10 +11,11 @@ import numpy as np
 from safetensors.torch import save_file
 
 from mlct.errors import MlctError
-from mlct.generate.bundle import (BUNDLE_FORMAT, BUNDLE_VERSION, ENCODER_KEY, ENCODER_PREFIXES,
-                                  SAMPLERS)
+from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION, ENCODER_KEY, ENCODER_PREFIXES
+from mlct.generate.samplers import sampler_for_stage
 from mlct.io import atomic_dir, strip_prefix
 from mlct.train.checkpoint import latest_checkpoint, load_checkpoint
+
 
 def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None = None,
                half: bool = False) -> Path:
@@ -22,7 +23,8 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
     run, out = Path(run), Path(out)
     if stage is None:
         stage = "cm" if (run / "cm").is_dir() or not (run / "diffusion").is_dir() else "diffusion"
-    if stage not in SAMPLERS:
+    sampler = sampler_for_stage(stage)  # the one that samples what this stage trains
+    if sampler is None:
         raise MlctError(f"cannot export stage '{stage}'; choose cm or diffusion")
     found = latest_checkpoint(run / stage / "checkpoints")
     if found is None:
@@ -46,7 +48,7 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
     if half:  # float16 storage halves the file; loading casts back to float32
         tensors = {k: (v.half() if v.is_floating_point() and not k.startswith("norm.") else v)
                    for k, v in tensors.items()}
-    meta = {"format": BUNDLE_FORMAT, "version": BUNDLE_VERSION, "sampler": SAMPLERS[stage],
+    meta = {"format": BUNDLE_FORMAT, "version": BUNDLE_VERSION, "sampler": sampler.name,
             "step": ckpt.meta["step"], "config": ckpt.meta["config"],
             "feature_dim": ckpt.meta["feature_dim"], "skeleton": ckpt.meta["skeleton"],
             "text_encoder": ckpt.meta["text_encoder"], "text_dim": ckpt.meta["text_dim"]}

@@ -210,14 +210,14 @@ class InitialWeights:
     @classmethod
     def read(cls, path: str | Path, stage: str) -> "InitialWeights":
         from mlct.generate.bundle import bundle_autoencoder_state, read_bundle
+        from mlct.generate.samplers import sampler_class
         from mlct.io import strip_prefix
 
         meta, tensors = read_bundle(path)
         if stage == "ae":
             weights = bundle_autoencoder_state(tensors, path)
         else:
-            wanted = {"cm": "consistency", "diffusion": "ddim"}[stage]
-            if meta["sampler"] != wanted:
+            if sampler_class(meta["sampler"]).stage != stage:
                 raise MlctError(f"{path}: a {meta['sampler']} model cannot start `train {stage}`")
             weights = strip_prefix(tensors, "denoiser")
         return cls(Path(path), meta["config"], tensors["norm.mean"], tensors["norm.std"],

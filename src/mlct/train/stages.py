@@ -19,8 +19,9 @@ from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
 from mlct.config import Config, config_from_dict
 from mlct.diffusion.losses import consistency_training_loss, diffusion_training_loss
 from mlct.diffusion.parameterization import ConsistencyFunction
-from mlct.diffusion.schedule import VPSchedule, karras_time_grid
+from mlct.diffusion.schedule import VPSchedule
 from mlct.errors import MlctError
+from mlct.generate.samplers import ConsistencySampler
 from mlct.nn.build import AnyAutoencoder, build_autoencoder, build_denoiser, latent_clamp
 from mlct.motion.features import recover_from_ric
 from mlct.nn.masks import lengths_to_mask
@@ -250,7 +251,8 @@ class ConsistencyStage(LatentStage):
         # Target network S_psi: the EMA of the online network (Eq. 15), or the online network
         # itself under stop-gradient (the loss calls it inside no_grad).
         self.target = self._ema(self.online) if c.target == "ema" else None
-        self.grid = karras_time_grid(s.num_steps, s.eps, s.t_max, s.rho, device=device)
+        # the time grid: Algorithm 1 trains on the one that Algorithm 2 samples from
+        self.grid = ConsistencySampler(self.config, device).grid
 
     @property
     def trainable(self) -> nn.Module:

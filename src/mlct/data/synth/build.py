@@ -18,12 +18,13 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from mlct.data.captions import format_text_line, pos_tag
 from mlct.data.stats import standard_mean_std
 from mlct.data.synth.actions import sample_script
 from mlct.data.synth.compose import compose
 from mlct.data.synth.motions import Style
 from mlct.data.synth.rig import Rig, make_rig
-from mlct.data.synth.text import canonical_label, describe, format_text_line, pos_tag
+from mlct.data.synth.text import canonical_label, describe
 from mlct.errors import MlctError
 from mlct.io import atomic_dir, save_npy, write_text
 from mlct.motion.features import joints_to_features, recover_from_ric

@@ -1,15 +1,11 @@
-"""Captions for procedural motions: HumanML3D-style paraphrases and their word/POS tokens.
+"""Captions for procedural motions: HumanML3D-style paraphrases.
 
 The language side of the synthetic benchmark. `describe` turns a sequence of actions (each with
 `.family: str` and `.params: dict`) into distinct paraphrases such as "a man walks forward
-quickly, then turns 90 degrees to the left."; `pos_tag` and `format_text_line` store them the
-way HumanML3D's texts/*.txt do. Captions are always truthful: a phrase may leave a parameter
-out, but never states a wrong side, count, angle, speed or order.
-
-Tokens follow HumanML3D's text_process.py (spaCy en_core_web_sm): hyphens removed, tokens that
-are not purely alphabetic dropped (so "90" and "2" vanish from the tokens, as they do there),
-only NOUN and VERB tokens lemmatized, and "left" never lemmatized. Our vocabulary is closed, so
-a lexicon plus three context rules replaces spaCy.
+quickly, then turns 90 degrees to the left."; mlct.data.captions tags them (`pos_tag`, whose
+lexicon is this vocabulary) and stores them the way HumanML3D's texts/*.txt do. Captions are
+always truthful: a phrase may leave a parameter out, but never states a wrong side, count,
+angle, speed or order.
 """
 
 from __future__ import annotations
@@ -21,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from mlct.data.captions import VERB_FORMS
 from mlct.data.synth.actions import FAMILY_PARAMS
 
 # ---------------------------------------------------------------------------------------------
@@ -70,41 +67,16 @@ def _checked(action: Any) -> tuple[str, dict[str, Any]]:
 
 
 # ---------------------------------------------------------------------------------------------
-# Verbs. Templates mark each verb as <lemma>; rendering makes it "walks" or "walking".
+# Verbs. Templates mark each verb as <lemma>; rendering makes it "walks" or "walking"
+# (the forms: mlct.data.captions.VERB_FORMS).
 # ---------------------------------------------------------------------------------------------
 
-_VERBS = (
-    "walk stroll pace move hurry jog run dash back step sidestep shuffle take turn rotate pivot "
-    "make circle jump leap do hop balance squat crouch bend stand sit get rise wave raise lift "
-    "put clap punch throw jab kick bow give straighten stretch lean reach spin kneel go drop "
-    "stay wait pause"
-).split()
-_DOUBLE_FINAL = frozenset("jog run step sidestep hop squat sit get put clap spin drop jab".split())
-
-
-def _third_person(lemma: str) -> str:
-    if lemma.endswith(("s", "sh", "ch", "x", "z", "o")):
-        return lemma + "es"
-    if lemma.endswith("y") and lemma[-2] not in "aeiou":
-        return lemma[:-1] + "ies"
-    return lemma + "s"
-
-
-def _gerund(lemma: str) -> str:
-    if lemma in _DOUBLE_FINAL:
-        return lemma + lemma[-1] + "ing"
-    if lemma.endswith("e") and not lemma.endswith("ee"):
-        return lemma[:-1] + "ing"
-    return lemma + "ing"
-
-
-_FORMS = {v: (_third_person(v), _gerund(v)) for v in _VERBS}
 _MARK = re.compile(r"<([a-z]+)>")
 
 
 def _render(template: str, gerund: bool) -> str:
     """Conjugate every <verb> in `template`: third person singular, or -ing when `gerund`."""
-    return _MARK.sub(lambda m: _FORMS[m.group(1)][gerund], template)
+    return _MARK.sub(lambda m: VERB_FORMS[m.group(1)][gerund], template)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -490,90 +462,3 @@ def canonical_label(actions: Sequence[Any], concurrent: Any = None,
         at = _concurrent_index([_checked(a)[0] for a in actions], concurrent, concurrent_with)
         parts[at] += " + " + one(concurrent)
     return " > ".join(parts)
-
-
-# ---------------------------------------------------------------------------------------------
-# Tokens as HumanML3D stores them: word -> (lemma, Universal POS) plus three context rules.
-# ---------------------------------------------------------------------------------------------
-
-_POS_WORDS = {
-    "DET": "a an the both all his her their",
-    "PRON": "someone that",
-    "NOUN": "person man woman figure human hand arm leg foot knee fist shoulder head chest waist "
-            "side place spot air pace line reverse chair seat moment degree time way front quarter",
-    "ADJ": "slow normal steady leisurely brisk invisible imaginary single slight sharp deep "
-           "full half same idle motionless",
-    "ADV": "forward backward backwards straight fast ahead sideways around back forth together "
-           "again briefly politely high upward overhead there still quietly slightly sharply once "
-           "twice then first finally slowly quickly briskly rapidly counterclockwise clockwise "
-           "left right",
-    "NUM": "one two three four five forty ninety hundred thirty eighty sixty",
-    "ADP": "up down out on in with to by into at of for over above before after",
-    "CCONJ": "and",
-    "SCONJ": "while",
-    "AUX": "is",
-}
-_PLURALS = {"hands": "hand", "arms": "arm", "legs": "leg", "feet": "foot", "knees": "knee",
-            "times": "time", "degrees": "degree"}
-# Words spaCy reads as a noun after a determiner, number or adjective ("does two squats",
-# "a quarter turn") and as a verb elsewhere ("squats twice").
-_NOUN_OR_VERB = frozenset(
-    "turn kick punch jump squat bow wave step hop circle spin clap jog".split())
-# Adjective right before a noun ("his left hand", "a fast pace"), noun after a determiner
-# ("to the left"), otherwise the listed tag ("turns left", "walks fast").
-_MODIFIERS = frozenset("left right forward straight fast counterclockwise clockwise".split())
-
-_LEXICON: dict[str, tuple[str, str]] = {
-    w: (w, pos) for pos, ws in _POS_WORDS.items() for w in ws.split()}
-_LEXICON.update({w: (lemma, "NOUN") for w, lemma in _PLURALS.items()})
-for _v, (_s, _g) in _FORMS.items():
-    _LEXICON[_s] = _LEXICON[_g] = (_v, "VERB")
-for _v in _NOUN_OR_VERB:
-    _LEXICON[_v] = (_v, "NOUN")
-_NOUN_LIKE = frozenset(w for w, (_, pos) in _LEXICON.items() if pos == "NOUN") | {
-    _FORMS[v][0] for v in _NOUN_OR_VERB}
-_AMBIGUOUS_NV = _NOUN_OR_VERB | {_FORMS[v][0] for v in _NOUN_OR_VERB}
-_TOKEN = re.compile(r"[a-z0-9]+|[^\sa-z0-9]")
-POS_TAGS = ("NOUN", "VERB", "ADJ", "ADV", "ADP", "DET", "NUM", "PRON", "CCONJ", "SCONJ", "PART",
-            "AUX", "PROPN")
-
-
-def pos_tag(caption: str) -> list[tuple[str, str]]:
-    """(token, POS) pairs as in HumanML3D texts: NOUN/VERB lemmatized, punctuation and numerals
-    dropped; ValueError for a word outside the closed vocabulary."""
-    words = _TOKEN.findall(caption.lower().replace("-", ""))
-    tags: list[str] = []
-    for i, w in enumerate(words):
-        if w.isdigit():
-            tags.append("NUM")  # kept for context, dropped below as HumanML3D drops non-alpha
-            continue
-        if not w.isalpha():
-            tags.append("PUNCT")
-            continue
-        if w not in _LEXICON:
-            raise ValueError(f"word {w!r} in {caption!r} is not in the caption lexicon")
-        pos = _LEXICON[w][1]
-        prev = tags[-1] if tags else ""
-        if w in _MODIFIERS:
-            if i + 1 < len(words) and words[i + 1] in _NOUN_LIKE:
-                pos = "ADJ"
-            elif prev == "DET" and w in SIDES:
-                pos = "NOUN"
-        elif w in _AMBIGUOUS_NV:
-            noun = prev in ("DET", "NUM", "ADJ") or (i > 0 and words[i - 1] == "quarter")
-            pos = "NOUN" if noun else "VERB"
-        tags.append(pos)
-    return [(_LEXICON[w][0] if pos in ("NOUN", "VERB") else w, pos)
-            for w, pos in zip(words, tags) if w.isalpha()]
-
-
-def format_text_line(caption: str, tags: Sequence[tuple[str, str]], start: float = 0.0,
-                     end: float = 0.0) -> str:
-    """One line of a HumanML3D texts/*.txt file: caption#word/POS ...#start#end."""
-    if "#" in caption or "\n" in caption:
-        raise ValueError(f"caption may not contain '#' or a newline: {caption!r}")
-    for word, pos in tags:
-        if not word.isalpha() or pos not in POS_TAGS:
-            raise ValueError(f"bad token {word!r}/{pos!r}")
-    tokens = " ".join(f"{w}/{p}" for w, p in tags)
-    return f"{caption}#{tokens}#{float(start)}#{float(end)}"

@@ -35,9 +35,9 @@ from torch import Tensor, nn
 from torch.nn import functional as F
 
 from mlct.data.dataset import MAX_MOTION_LENGTH
-from mlct.errors import MlctError
-from mlct.eval.networks import MotionEncoderBiGRUCo, MovementConvEncoder, TextEncoderBiGRUCo
-from mlct.eval.word_vectors import POS_ENUMERATOR, WORD_DIM, WordVectorizer
+from mlct.errors import MlctError, first_line
+from mlct.eval.judge.networks import MotionEncoderBiGRUCo, MovementConvEncoder, TextEncoderBiGRUCo
+from mlct.eval.judge.word_vectors import POS_ENUMERATOR, WORD_DIM, WordVectorizer
 from mlct.io import atomic_path
 
 UNIT_LENGTH = 4  # frames per movement step (two stride-2 convolutions)
@@ -188,9 +188,8 @@ class Evaluator:
         try:
             state = torch.load(source, map_location="cpu", weights_only=True)
         except Exception as error:  # noqa: BLE001 - any unreadable file gets the same one line
-            first_line = str(error).strip().splitlines()[0] if str(error).strip() else ""
             raise MlctError(f"{source}: not a readable weights-only torch checkpoint "
-                            f"({type(error).__name__}: {first_line})") from None
+                            f"({type(error).__name__}: {first_line(error, '')})") from None
         if not isinstance(state, Mapping):
             raise MlctError(f"{source}: expected a dict with {', '.join(NETWORK_KEYS)}")
         for key in NETWORK_KEYS:

@@ -33,8 +33,8 @@ from torch import Tensor, nn
 
 from mlct.data.layout import DatasetLayout, load_npy
 from mlct.devices import resolve_device
-from mlct.errors import MlctError
-from mlct.eval.evaluator_dir import prepare_target
+from mlct.errors import MlctError, first_line
+from mlct.eval.judge.evaluator_dir import prepare_target
 from mlct.io import atomic_dir, read_format_json, save_npy, write_text
 
 FORMAT = "mlct-action-classifier"
@@ -393,6 +393,6 @@ def load_action_classifier(directory: str | os.PathLike) -> ActionClassifier:
         net.load_state_dict(state)
     except RuntimeError as error:
         raise MlctError(f"{root / WEIGHTS_FILE}: weights do not fit classifier.json "
-                        f"({str(error).splitlines()[0]})") from None
+                        f"({first_line(error)})") from None
     return ActionClassifier(net, classes, mean, std, skeleton, sizes,
                             {"training": meta.get("training", {})})

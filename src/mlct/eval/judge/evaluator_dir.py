@@ -26,7 +26,7 @@ import torch
 
 from mlct.data.layout import load_npy
 from mlct.errors import MlctError
-from mlct.eval.evaluator import (
+from mlct.eval.judge.evaluator import (
     NETWORK_KEYS,
     UNIT_LENGTH,
     Evaluator,
@@ -34,8 +34,8 @@ from mlct.eval.evaluator import (
     build_networks,
     load_state_checked,
 )
-from mlct.eval.learned_words import LearnedWordVectors
-from mlct.eval.word_vectors import UNKNOWN_WORD, WordVectorizer
+from mlct.eval.judge.learned_words import LearnedWordVectors
+from mlct.eval.judge.word_vectors import UNKNOWN_WORD, WordVectorizer
 from mlct.io import atomic_dir, read_format_json, save_npy, write_text
 from mlct.motion.skeleton import get_skeleton, skeleton_for_dim
 

@@ -26,7 +26,7 @@ the end, when a val split exists; otherwise the last weights are kept); the shif
 [1, B - 1] (the reference's randint(0, B - 1) can draw 0 and pair each text with its own motion as
 a "negative"), and a negative whose caption equals its text's caption is skipped (the negative
 term is the mean over the kept pairs). Without GloVe files, word vectors are learned (see
-mlct.eval.learned_words). Network sizes can be reduced (`EvaluatorSizes`) for tests.
+mlct.eval.judge.learned_words). Network sizes can be reduced (`EvaluatorSizes`) for tests.
 """
 
 from __future__ import annotations
@@ -46,8 +46,8 @@ from mlct.data.dataset import Text2MotionEvalDataset, collate
 from mlct.data.layout import BadFileError, DatasetLayout
 from mlct.devices import resolve_device
 from mlct.errors import MlctError
-from mlct.eval.evaluator import FOOT_CONTACT_DIMS, UNIT_LENGTH, Evaluator
-from mlct.eval.evaluator_dir import (
+from mlct.eval.judge.evaluator import FOOT_CONTACT_DIMS, UNIT_LENGTH, Evaluator
+from mlct.eval.judge.evaluator_dir import (
     GLOVE_PREFIX,
     EvaluatorSizes,
     build_networks,
@@ -55,9 +55,9 @@ from mlct.eval.evaluator_dir import (
     prepare_target,
     write_evaluator_dir,
 )
-from mlct.eval.learned_words import LearnedWordVectors, build_vocabulary
-from mlct.eval.networks import LEAK
-from mlct.eval.word_vectors import WORD_DIM, WordVectorizer
+from mlct.eval.judge.learned_words import LearnedWordVectors, build_vocabulary
+from mlct.eval.judge.networks import LEAK
+from mlct.eval.judge.word_vectors import WORD_DIM, WordVectorizer
 from mlct.motion.skeleton import Skeleton
 
 __all__ = [  # load_evaluator_dir is re-exported: what train_evaluator writes, it reads

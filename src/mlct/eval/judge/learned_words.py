@@ -21,7 +21,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from mlct.errors import MlctError
-from mlct.eval.word_vectors import (
+from mlct.eval.judge.word_vectors import (
     POS_ENUMERATOR,
     UNKNOWN_WORD,
     VIP_WORDS,

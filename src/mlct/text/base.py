@@ -1,0 +1,60 @@
+"""The text-encoder interface: what every frozen text encoder (encoders.py, minilm.py) offers."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import Sequence
+
+import torch
+from torch import Tensor
+
+from mlct.errors import MlctError
+
+
+class TextEncoder(ABC):
+    """A frozen text encoder: `encode(texts)` -> (B, dim) float32 CPU tensor, no grad.
+
+    `name` is a stable identity string (the embedding cache key, recorded in checkpoints): two
+    encoders with the same name must give the same embeddings.
+    """
+
+    name: str
+    dim: int
+    _null: Tensor | None = None
+
+    def encode(self, texts: Sequence[str]) -> Tensor:
+        """Embed a batch of captions: (B,) strings -> (B, dim) float32 on the CPU."""
+        texts = _text_list(texts)
+        if not texts:
+            return torch.zeros(0, self.dim)
+        out = self._encode(texts)
+        if out.shape != (len(texts), self.dim):  # a contract check on subclasses, cheap
+            raise MlctError(
+                f"text encoder {self.name!r} returned shape {tuple(out.shape)}, "
+                f"expected {(len(texts), self.dim)}"
+            )
+        return out
+
+    @abstractmethod
+    def _encode(self, texts: list[str]) -> Tensor:
+        """(B, dim) float32 CPU embeddings of a non-empty list of strings."""
+
+    def null_embedding(self) -> Tensor:
+        """The unconditional input of classifier-free guidance: the embedding of "" (dim,)."""
+        if self._null is None:
+            self._null = self.encode([""])[0]
+        return self._null.clone()  # a copy: callers may write into it
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(name={self.name!r}, dim={self.dim})"
+
+
+def _text_list(texts: Sequence[str]) -> list[str]:
+    """Validate a batch of captions; a bare string would otherwise be encoded per character."""
+    if isinstance(texts, str):
+        raise MlctError("encode takes a list of texts, not a single string; wrap it in [...]")
+    texts = list(texts)
+    for t in texts:
+        if not isinstance(t, str):
+            raise MlctError(f"encode takes strings; got a {type(t).__name__}: {t!r}")
+    return texts

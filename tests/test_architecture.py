@@ -1,0 +1,159 @@
+"""The import architecture of src/mlct (docs/architecture.md): layers, and no cycles.
+
+Every import statement under src/mlct is read with ast: at module level, inside functions (the
+lazy ones) and under TYPE_CHECKING alike, since each is a dependency someone must keep in mind.
+A package may import its own modules and any layer below its own; never a layer above, nor a
+sibling of its own layer. A package that is in no layer fails the test until it is placed.
+"""
+
+from __future__ import annotations
+
+import ast
+from dataclasses import dataclass
+from pathlib import Path
+
+import mlct
+
+SRC = Path(mlct.__file__).resolve().parent  # src/mlct
+
+# Lowest first. A unit is a subpackage of mlct (motion) or a top-level module (errors);
+# the units of one layer are siblings and do not import each other.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("errors",),  # MlctError and the one-line helper
+    ("io", "devices", "config"),  # files written atomically, device choice, the typed config
+    ("motion",),  # skeletons, features <-> joints, BVH, rendering
+    ("data",),  # the dataset layout, captions, statistics, torch datasets, the benchmark
+    ("text",),  # frozen text encoders and their cache
+    ("nn",),  # the networks, and building them from a config
+    ("diffusion",),  # schedule, parameterization, losses, samplers as pure functions
+    ("generate",),  # the inference wing: bundles, sampler objects, the pipeline, exports
+    ("mlct",),  # the package root, the public API: mlct.load (generate's), __version__
+    ("train", "eval", "serve"),  # training runs; measuring models; the HTTP API
+    ("cli",),  # the command line, over everything
+)
+
+
+@dataclass(frozen=True)
+class Import:
+    module: str  # the importing module, mlct.eval.run
+    line: int
+    target: str  # the imported module, mlct.generate.pipeline
+
+
+def rank(unit: str) -> int:
+    return next(i for i, layer in enumerate(LAYERS) if unit in layer)
+
+
+def unit_of(module: str) -> str:
+    """mlct.eval.judge.evaluator -> eval; mlct.errors -> errors; mlct -> mlct."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else parts[0]
+
+
+def module_names(src: Path) -> dict[str, Path]:
+    out = {}
+    for path in sorted(src.rglob("*.py")):
+        parts = (src.name, *path.relative_to(src).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = path
+    return out
+
+
+def imports(src: Path) -> list[Import]:
+    """Every import of an mlct module by an mlct module under src, resolved to the module
+    (`from mlct.text import encoders` -> mlct.text.encoders; a name that is not a module ->
+    the module that holds it)."""
+    modules = module_names(src)
+    found = []
+    for module, path in modules.items():
+        package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                targets = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:  # relative: from .x import y
+                    parts = package.split(".")[: len(package.split(".")) - node.level + 1]
+                    base = ".".join(parts + ([node.module] if node.module else []))
+                targets = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in modules else base
+                           for alias in node.names]
+            else:
+                continue
+            for target in targets:
+                while target and target not in modules:  # mlct.x.Name -> mlct.x
+                    target = target.rpartition(".")[0]
+                if target and target != module:
+                    found.append(Import(module, node.lineno, target))
+    return found
+
+
+def layer_violations(src: Path) -> list[str]:
+    """One line per import that points up the layers or across to a sibling."""
+    out = []
+    for imp in imports(src):
+        here, there = unit_of(imp.module), unit_of(imp.target)
+        if here != there and rank(there) >= rank(here):
+            side = "a sibling of" if rank(there) == rank(here) else "above"
+            out.append(f"{imp.module}:{imp.line} imports {imp.target}: {there} is {side} {here}")
+    return out
+
+
+def cycles(src: Path) -> list[list[str]]:
+    """The import cycles between modules (strongly connected components of 2 or more)."""
+    graph: dict[str, set[str]] = {m: set() for m in module_names(src)}
+    for imp in imports(src):
+        graph[imp.module].add(imp.target)
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found = []
+
+    def visit(v: str) -> None:  # Tarjan
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while not component or component[-1] != v:
+                component.append(stack.pop())
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_every_package_is_in_a_layer() -> None:
+    placed = {unit for layer in LAYERS for unit in layer}
+    units = {unit_of(m) for m in module_names(SRC)}
+    assert units - placed == set(), "place the new package in LAYERS and docs/architecture.md"
+    assert placed - units == set()  # and no layer names a package that is gone
+
+
+def test_no_import_points_up_or_across_the_layers() -> None:
+    assert layer_violations(SRC) == []
+
+
+def test_no_import_cycle_between_modules() -> None:
+    assert cycles(SRC) == []
+
+
+def test_the_checks_catch_an_upward_import_and_a_cycle(tmp_path: Path) -> None:
+    src = tmp_path / "mlct"
+    for package in ("motion", "generate"):
+        (src / package).mkdir(parents=True)
+        (src / package / "__init__.py").write_text("")
+    (src / "__init__.py").write_text("__version__ = '0'\n")
+    (src / "motion" / "a.py").write_text("def f():\n    from mlct.generate import b\n")
+    (src / "generate" / "b.py").write_text("from mlct.motion.a import f\n")
+    assert layer_violations(src) == [
+        "mlct.motion.a:2 imports mlct.generate.b: generate is above motion"]
+    assert cycles(src) == [["mlct.generate.b", "mlct.motion.a"]]
