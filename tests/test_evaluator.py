@@ -191,7 +191,9 @@ def test_motion_embeddings_are_in_input_order(evaluator):
                                rtol=1e-4, atol=1e-5)
     single = torch.cat([evaluator.embed_motion(motions[i:i + 1, :n], m_lens[i:i + 1])
                         for i, n in enumerate(lengths)])
-    torch.testing.assert_close(single, emb, rtol=1e-4, atol=1e-5)
+    # Another batch shape runs other float32 kernels: ~3e-5 apart on some AVX-512 CPUs. A mixed-up
+    # order or a padding leak moves embeddings by orders of magnitude more.
+    torch.testing.assert_close(single, emb, rtol=1e-3, atol=1e-4)
     assert not torch.allclose(emb[0], emb[1], atol=1e-3)  # different motions, different codes
 
 
@@ -203,7 +205,7 @@ def test_frames_past_the_length_do_not_matter(evaluator):
     noisy[1, 30:] = torch.randn(30, 263)
     torch.testing.assert_close(evaluator.embed_motion(noisy, m_lens), clean, rtol=0, atol=1e-6)
     torch.testing.assert_close(evaluator.embed_motion(noisy[1:, :30], m_lens[1:]), clean[1:],
-                               rtol=1e-4, atol=1e-5)
+                               rtol=1e-3, atol=1e-4)  # another batch shape: see above
 
 
 def test_motion_input_is_checked(evaluator):
