@@ -78,11 +78,14 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     from mlct.data.synth.build import synthesize_dataset
     from mlct.motion.render import render_file
 
+    if args.num < 1:
+        raise MlctError(f"--num must be at least 1, got {args.num}")
+    if not 0 <= args.index < args.num:  # before any work: nothing is written for a bad index
+        raise MlctError(f"--index {args.index} is not one of the {args.num} motions made "
+                        f"(0..{args.num - 1})")
     data = args.out / "data"
     synthesize_dataset(data, num=args.num, seed=args.seed, progress=False, overwrite=True)
     name = f"{args.index:06d}"
-    if args.index >= args.num:
-        raise MlctError(f"--index {args.index} is beyond the {args.num} motions made")
     caption = (data / "texts" / f"{name}.txt").read_text(encoding="utf-8").split("#", 1)[0]
     gif = render_file(data / "new_joint_vecs" / f"{name}.npy", args.out / f"{name}.gif")
     print(f"{caption}")
