@@ -185,6 +185,17 @@ def _float_list(text: str) -> list[float]:
         raise argparse.ArgumentTypeError(f"expected numbers like 0,1,2.5, got {text!r}") from None
 
 
+def _port(text: str) -> int:
+    # Checked here: uvicorn would take 99999 and fail with an OverflowError once the model loaded.
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid int value: {text!r}") from None
+    if not 0 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"a TCP port is 0..65535, got {port}")
+    return port
+
+
 def _cmd_eval(args: argparse.Namespace) -> int:
     import shlex
 
@@ -445,7 +456,7 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--model", type=Path, default=None,
                        help="model directory (default: the bundled model)")
     serve.add_argument("--host", default="127.0.0.1", help="default 127.0.0.1 (this machine)")
-    serve.add_argument("--port", type=int, default=8000, help="default 8000")
+    serve.add_argument("--port", type=_port, default=8000, help="default 8000")
     serve.add_argument("--device", default=None, help="cpu or cuda (default: cuda if available)")
     serve.add_argument("--token", default=None,
                        help="require 'Authorization: Bearer TOKEN' on POST /generate "
