@@ -1,63 +1,17 @@
-"""The Python API refuses bad arguments with mlct's own one-line error naming the argument
-(issue 15): nothing deep inside torch or numpy reaches the caller, nothing is silently cut."""
+"""The Python API around its bad arguments (issue 15). The bad arguments themselves, each
+refused with mlct's one-line error naming the argument, are tables in test_bad_inputs.py; here:
+a valid call at the edges still works, and the text memo stays bounded."""
 
 from __future__ import annotations
-
-import math
 
 import pytest
 
 import mlct
-from mlct.errors import MlctError
 
 
 @pytest.fixture(scope="module")
 def pipe():
     return mlct.load()
-
-
-@pytest.mark.parametrize("kwargs, names", [
-    ({"texts": None}, "texts"),
-    ({"texts": 123}, "texts"),
-    ({"texts": {"a": 1}}, "texts"),
-    ({"texts": ["a person walks", 5]}, "prompt"),
-    ({"lengths": 1.5}, "lengths"),
-    ({"lengths": math.nan}, "lengths"),
-    ({"lengths": "40"}, "lengths"),
-    ({"lengths": True}, "lengths"),
-    ({"lengths": [40, "x"]}, "lengths"),
-    ({"lengths": 0}, "length"),
-    ({"lengths": 10**9}, "length"),
-    ({"seconds": "3"}, "seconds"),
-    ({"seconds": -1.0}, "seconds"),
-    ({"seconds": 12.0}, "several prompts.*chained"),
-    ({"seconds": math.inf}, "seconds"),
-    ({"seconds": [2.0, None]}, "seconds"),
-    ({"nfe": 2.7}, "nfe"),
-    ({"nfe": "5"}, "nfe"),
-    ({"nfe": 0}, "nfe"),
-    ({"nfe": 10**6}, "nfe"),
-    ({"seed": 1.5}, "seed"),
-    ({"seed": 2**70}, "seed"),
-    ({"seed": -1}, "seed"),
-    ({"seed": "abc"}, "seed"),
-    ({"seed": [1, 2.5]}, "seed"),
-    ({"seed": [1, 2]}, "seeds"),
-])
-def test_generate_names_the_bad_argument(pipe, kwargs: dict, names: str) -> None:
-    texts = kwargs.pop("texts", "a person walks forward")
-    with pytest.raises(MlctError, match=names):
-        pipe.generate(texts, **kwargs)
-
-
-@pytest.mark.parametrize("args, kwargs, names", [
-    ((123,), {}, "path"),
-    ((), {"device": "bogus"}, "device"),
-    ((), {"dtype": "int4"}, "dtype"),
-])
-def test_load_names_the_bad_argument(args: tuple, kwargs: dict, names: str) -> None:
-    with pytest.raises(MlctError, match=names):
-        mlct.load(*args, **kwargs)
 
 
 def test_a_valid_call_still_works(pipe) -> None:

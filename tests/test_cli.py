@@ -1,11 +1,10 @@
-"""The command line as a user calls it: one-line errors with exit 2, never a traceback."""
+"""The command line as a user calls it: one-line errors with exit 2, never a traceback (the
+bad-input tables are in test_bad_inputs.py)."""
 
 from __future__ import annotations
 
 import subprocess
 import sys
-
-import pytest
 
 from mlct.cli import main
 
@@ -24,32 +23,6 @@ def test_unwritable_output_is_one_line_exit_2(tmp_path):
     assert "Traceback" not in result.stderr
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("mlct: error:")
-
-
-@pytest.mark.parametrize("argv", [
-    ["data", "check", "/no/such/dir"],
-    ["data", "stats", "/no/such/dir"],
-    ["render", "/no/such/file.npy", "--out", "x.gif"],
-    ["data", "synth", "--out", "x", "--num", "0"],
-    ["data", "synth", "--out", "x", "--skeleton", "smpl"],
-    ["frobnicate"],
-    # 10^9 variations: refused at once, before a name per motion is built (it ran out of memory)
-    ["generate", "a person walks", "--num", "1000000000", "--out", "x.npy"],
-    ["generate", "a", "b", "c", "--num", "40000", "--out-dir", "x", "--format", "npy"],
-    # issue 15: raw Overflow / torch device errors had reached the user
-    ["generate", "a person walks", "--seed", "18446744073709551616", "--out", "x.npy"],
-    ["generate", "a person walks", "--seed", "-3", "--out", "x.npy"],
-    ["generate", "a person walks", "--device", "bogus", "--out", "x.npy"],
-    ["train", "ae", "--data", "/no/such/dir", "--out", "x", "--device", "bogus"],
-    ["train", "cm", "--data", "/no/such/dir", "--out", "x", "--init", "/no/such/model"],
-])
-def test_bad_usage_exits_2_with_one_line(argv, capsys):
-    with pytest.raises(SystemExit) as exit_info:
-        code = main(argv)
-        raise SystemExit(code)
-    assert exit_info.value.code == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("mlct: error:")
 
 
 def test_demo_prints_a_caption_and_a_gif(tmp_path, capsys):

@@ -82,11 +82,14 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     from mlct.data.synth.build import synthesize_dataset
     from mlct.motion.render import render_file
 
+    if args.num < 1:
+        raise MlctError(f"--num must be at least 1, got {args.num}")
+    if not 0 <= args.index < args.num:  # before any work: nothing is written for a bad index
+        raise MlctError(f"--index {args.index} is not one of the {args.num} motions made "
+                        f"(0..{args.num - 1})")
     data = args.out / "data"
     synthesize_dataset(data, num=args.num, seed=args.seed, progress=False, overwrite=True)
     name = f"{args.index:06d}"
-    if args.index >= args.num:
-        raise MlctError(f"--index {args.index} is beyond the {args.num} motions made")
     motion = DatasetLayout(data).features_path(name)
     caption = dataset_caption(motion)
     gif = render_file(motion, args.out / f"{name}.gif", caption=caption)
@@ -185,6 +188,17 @@ def _number_list(kind: type, example: str) -> Callable[[str], list]:
 
 _int_list = _number_list(int, "integers like 1,3,5")
 _float_list = _number_list(float, "numbers like 0,1,2.5")
+
+
+def _port(text: str) -> int:
+    # Checked here: uvicorn would take 99999 and fail with an OverflowError once the model loaded.
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid int value: {text!r}") from None
+    if not 0 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"a TCP port is 0..65535, got {port}")
+    return port
 
 
 def _cmd_eval(args: argparse.Namespace) -> int:
@@ -447,7 +461,7 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--model", type=Path, default=None,
                        help="model directory (default: the bundled model)")
     serve.add_argument("--host", default="127.0.0.1", help="default 127.0.0.1 (this machine)")
-    serve.add_argument("--port", type=int, default=8000, help="default 8000")
+    serve.add_argument("--port", type=_port, default=8000, help="default 8000")
     serve.add_argument("--device", default=None, help="cpu or cuda (default: cuda if available)")
     serve.add_argument("--token", default=None,
                        help="require 'Authorization: Bearer TOKEN' on POST /generate "

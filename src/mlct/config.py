@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any, Literal, Sequence
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from mlct.errors import MlctError, first_line
 
@@ -33,6 +33,13 @@ class DataConfig(_Section):
     unit_length: int = Field(4, ge=1)  # crops are multiples of this
     num_workers: int = Field(0, ge=0)  # DataLoader workers
     on_bad_file: Literal["strict", "skip"] = "strict"
+
+    @model_validator(mode="after")
+    def _crop_fits(self) -> DataConfig:
+        if self.unit_length > self.max_motion_length:  # else the dataset refuses with a traceback
+            raise ValueError(f"unit_length ({self.unit_length}) exceeds max_motion_length "
+                             f"({self.max_motion_length})")
+        return self
 
 
 class TextConfig(_Section):
@@ -130,7 +137,9 @@ class TrainConfig(_Section):
     val_every: int = Field(500, ge=1)
     val_batches: int = Field(8, ge=1)  # validation loss over this many fixed batches
     ckpt_every: int = Field(500, ge=1)
-    seed: int = 0
+    # torch seeds with seed * 1000 + rank, which must fit its 64 bits; negative seeds are
+    # refused as everywhere else in mlct.
+    seed: int = Field(0, ge=0, le=2**53 - 1)
     precision: Literal["auto", "fp32", "bf16"] = "auto"  # auto: bf16 autocast on CUDA only
 
 
@@ -164,7 +173,8 @@ def _format_error(err: ValidationError, source: str) -> str:
     if kind == "extra_forbidden":
         return f"{source}: unknown config key '{where}'"
     value = first.get("input")
-    return f"{source}: bad value for '{where}': {first['msg']} (got {value!r})"
+    message = first["msg"].removeprefix("Value error, ")  # a cross-field check's own words
+    return f"{source}: bad value for '{where}': {message} (got {value!r})"
 
 
 def config_from_dict(data: dict[str, Any], source: str = "config") -> Config:

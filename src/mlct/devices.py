@@ -6,6 +6,8 @@ import torch
 
 from mlct.errors import MlctError
 
+DEVICE_TYPES = ("cpu", "cuda")  # what mlct's models are built and tested on
+
 
 def resolve_device(device: str | torch.device | None) -> torch.device:
     """`device`, checked (one line when unknown or unusable); None: cuda when available, else cpu."""
@@ -15,6 +17,13 @@ def resolve_device(device: str | torch.device | None) -> torch.device:
         dev = torch.device(device)
     except (RuntimeError, TypeError) as error:
         raise MlctError(f"unknown device {device!r} ({error})") from None
+    # torch names more device types than this build can use ("mps", "meta", "xla", ...): moving
+    # a model there fails deep inside torch, or ("meta") computes nothing at all.
+    if dev.type not in DEVICE_TYPES:
+        raise MlctError(f"device {device!r}: mlct runs on {' or '.join(DEVICE_TYPES)}")
     if dev.type == "cuda" and not torch.cuda.is_available():
         raise MlctError(f"device {device!r}: CUDA is not available")
+    if dev.type == "cuda" and dev.index is not None and dev.index >= torch.cuda.device_count():
+        raise MlctError(f"device {device!r}: this machine has {torch.cuda.device_count()} CUDA "
+                        f"device(s)")
     return dev

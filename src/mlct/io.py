@@ -37,6 +37,28 @@ def _fsync(path: Path) -> None:
         os.close(fd)
 
 
+def _make_parents(directory: Path) -> list[Path]:
+    """mkdir -p directory; returns the directories it created, deepest first, so that a failed
+    write can remove them again (a failed command leaves no empty folders behind)."""
+    created = []
+    for folder in (directory, *directory.parents):
+        if folder.exists():
+            if not folder.is_dir():  # else mkdir's "File exists: afile" names no problem
+                raise MlctError(f"cannot write in {directory}: {folder} is not a directory")
+            break
+        created.append(folder)
+    directory.mkdir(parents=True, exist_ok=True)
+    return created
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    for folder in folders:  # deepest first; stop at one that something else has filled
+        try:
+            folder.rmdir()
+        except OSError:
+            return
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
     """Yield a temporary path beside `path`; on success it replaces `path`, on error it is removed.
@@ -45,7 +67,7 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     (matplotlib, numpy) behave as they would on the final name.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    created = _make_parents(path.parent)
     # The temporary name starts with a dot and keeps the final extension: dataset readers skip
     # dot-files, and format-sniffing writers see the right extension.
     if suffix is None:
@@ -64,6 +86,7 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
         _fsync(path.parent)
     except BaseException:
         tmp_path.unlink(missing_ok=True)
+        _remove_empty(created)
         raise
 
 
@@ -72,7 +95,7 @@ def atomic_dir(path: str | os.PathLike) -> Iterator[Path]:
     """Yield an empty hidden directory beside `path`; on success it replaces `path` (an old
     directory is removed only then), on error it is removed and `path` is untouched."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    created = _make_parents(path.parent)
     work = Path(tempfile.mkdtemp(prefix=f".{path.name}.partial-", dir=path.parent))
     try:
         yield work
@@ -87,6 +110,7 @@ def atomic_dir(path: str | os.PathLike) -> Iterator[Path]:
         _fsync(path.parent)
     except BaseException:
         shutil.rmtree(work, ignore_errors=True)
+        _remove_empty(created)
         raise
 
 

@@ -36,6 +36,7 @@ from mlct.data.layout import (
     mean_std_problems,
     read_text_lines,
     resolve_skeleton,
+    split_name_problem,
     width_problems,
 )
 from mlct.motion.skeleton import Skeleton, skeleton_for_dim
@@ -219,6 +220,10 @@ class _Checker:
                              "duplicate", number)
                     continue
                 first_line[name] = number
+                problem = split_name_problem(name)
+                if problem:  # never joined to the dataset's folders
+                    self.add(path, problem, "split_entry", number)
+                    continue
                 # A missing directory is reported once; its files are not listed per entry.
                 missing = [str(path_) for path_, have, directory in (
                     (layout.features_path(name), name in features, layout.features_dir),

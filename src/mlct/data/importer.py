@@ -56,6 +56,10 @@ DEFAULT_SPLIT = (0.8, 0.1, 0.1)
 SCALE_GUESS_FILES = 20  # files read to guess the units
 SCALE_TOLERANCE = 2.0  # a guessed body may be this many times shorter or taller than the rest pose
 SUFFIXES = {"joints": ".npy", "bvh": ".bvh"}
+# Bounds of --scale (mm to m is 1e-3, m to mm 1e3) and of the input frame rate: past them a
+# clip resamples to billions of frames (0.001 fps) or its positions overflow (scale 1e300).
+SCALE_RANGE = (1e-6, 1e6)
+FPS_RANGE = (1.0, 10_000.0)
 
 
 @dataclass
@@ -346,9 +350,11 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike, *,
     assert skel is not None
     kind = "joints" if joints_dir is not None else "bvh"
     files = _motion_files(Path(joints_dir if joints_dir is not None else bvh_dir), SUFFIXES[kind])
-    for name, value in (("--scale", scale), ("--fps", fps)):
+    for name, value, (low, high) in (("--scale", scale, SCALE_RANGE), ("--fps", fps, FPS_RANGE)):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise MlctError(f"{name} must be a positive number, got {value}")
+        if value is not None and not low <= value <= high:
+            raise MlctError(f"{name} {value:g} is outside {low:g}..{high:g}")
     if seed < 0:
         raise MlctError(f"--seed must be a non-negative integer, got {seed}")
     split = check_split(tuple(split))
@@ -381,6 +387,9 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike, *,
             return loaded.pop(path)
         if kind == "bvh":
             positions, file_fps = _load_bvh(path, skel, mapping)
+            if fps is None and not FPS_RANGE[0] <= file_fps <= FPS_RANGE[1]:
+                raise MlctError(f"{path}: its Frame Time makes {file_fps:g} fps, outside "
+                                f"{FPS_RANGE[0]:g}..{FPS_RANGE[1]:g} (--fps overrides it)")
             return positions, fps or file_fps
         return _load_joints(path, skel), fps or skel.fps
 

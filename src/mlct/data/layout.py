@@ -88,18 +88,26 @@ def dataset_caption(path: str | os.PathLike) -> str | None:
     return next((caption for caption in map(caption_field, lines) if caption), None)
 
 
+def split_name_problem(name: str) -> str | None:
+    """Why a split file's entry is not a motion name, or None. A name is joined to the dataset's
+    folders, so one that could leave them (a separator, '..', a leading dot) is refused."""
+    if "/" in name or "\\" in name or name.startswith(".") or "\x00" in name:
+        return (f"{name[:60]!r} is not a motion name (names are file stems: no '/', '\\' or "
+                f"leading '.')")
+    return None
+
+
 def read_split(path: str | os.PathLike) -> list[str]:
-    """The names listed in a split file, in order (blank lines ignored, duplicates kept).
-    A name is joined to the dataset's folders, so one that could leave them (a separator,
-    '..', a leading dot) is refused, naming the line."""
+    """The names listed in a split file, in order (blank lines ignored, duplicates kept); a
+    name that could leave the dataset's folders raises MlctError naming the line."""
     names = []
     for number, line in enumerate(read_text_lines(path), start=1):
         name = line.strip()
         if not name:
             continue
-        if "/" in name or "\\" in name or name.startswith(".") or "\x00" in name:
-            raise MlctError(f"{path}, line {number}: {name[:60]!r} is not a motion name (names "
-                            f"are file stems: no '/', '\\' or leading '.')")
+        problem = split_name_problem(name)
+        if problem:
+            raise MlctError(f"{path}, line {number}: {problem}")
         names.append(name)
     return names
 

@@ -131,14 +131,13 @@ def dataset_statistics(directory: str | os.PathLike, skeleton: Skeleton | str | 
         notes.append(f"feature group {group!r} is constant over the dataset: its std is set to 1")
     stats["mean_std"] = {"written": False, "constant_groups": constant,
                          "mean_path": str(layout.mean_path), "std_path": str(layout.std_path)}
-    if write_mean_std:
-        save_npy(layout.mean_path, mean)
-        save_npy(layout.std_path, std)
-        stats["mean_std"]["written"] = True
-
     stats.update(_text_statistics(layout, notes))
     stats["splits"] = _split_statistics(layout, set(lengths), skel, lengths)
     stats.update(_skating_statistics(layout, skel, notes))
+    if write_mean_std:  # last: a dataset that fails a check above (a bad split) is left as it was
+        save_npy(layout.mean_path, mean)
+        save_npy(layout.std_path, std)
+        stats["mean_std"]["written"] = True
     return stats
 
 

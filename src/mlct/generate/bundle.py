@@ -43,6 +43,31 @@ def bundle_autoencoder_state(tensors: dict[str, torch.Tensor], path: str | os.Pa
     return {**strip_prefix(tensors, "decoder"), **encoder}
 
 
+def _check_meta(meta: dict[str, Any], config_path: Path) -> None:
+    """The values the loader builds from, checked: a damaged config.json is one line naming
+    the key, not a ValueError from the skeleton table or a TypeError from a layer's width."""
+    from mlct.motion.skeleton import SKELETONS
+
+    def bad(key: str, expected: str) -> MlctError:
+        return MlctError(f"{config_path}: '{key}' is {meta[key]!r}, expected {expected}")
+
+    if meta["sampler"] not in SAMPLERS.values():
+        raise bad("sampler", " or ".join(repr(s) for s in SAMPLERS.values()))
+    if meta["skeleton"] not in SKELETONS:
+        raise bad("skeleton", " or ".join(repr(s) for s in SKELETONS))
+    for key in ("feature_dim", "text_dim"):
+        value = meta[key]
+        if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+            raise bad(key, "a positive integer")
+    if meta["feature_dim"] != SKELETONS[meta["skeleton"]].feature_dim:
+        raise bad("feature_dim", f"{SKELETONS[meta['skeleton']].feature_dim} for the "
+                  f"{meta['skeleton']} skeleton")
+    if not isinstance(meta["text_encoder"], str):
+        raise bad("text_encoder", "the text encoder's name (a string)")
+    if not isinstance(meta["config"], dict):
+        raise bad("config", "the run's config (a mapping)")
+
+
 def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
     """config.json and the tensors of a bundle; one-line MlctError when it is not one."""
     path = Path(path)
@@ -56,6 +81,7 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
     missing = [k for k in META_KEYS if k not in meta]
     if missing:
         raise MlctError(f"{config_path}: incomplete model config (no {', '.join(missing)})")
+    _check_meta(meta, config_path)
     try:
         tensors = load_file(str(weights))
     except Exception as err:  # safetensors raises several kinds on a damaged file

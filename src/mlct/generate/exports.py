@@ -64,10 +64,14 @@ def motion_json(motion: GeneratedMotion) -> dict[str, Any]:
 
 def save_motion(motion: GeneratedMotion, path: str | os.PathLike, features: bool = False) -> Path:
     """Write motion to path in the format its extension names; returns the path."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise MlctError(f"path must be a file name (str or Path), not {type(path).__name__}")
     path = Path(path)
     suffix = check_format(path)
     if features and suffix != ".npy":
         raise MlctError(f"features can only be saved as .npy, not {suffix}")
+    if path.is_dir():  # else the error would name the temporary file that cannot replace it
+        raise MlctError(f"cannot save to {path}: it is a directory")
     skeleton = get_skeleton(motion.skeleton)
     if suffix == ".npy":
         save_npy(path, motion.features if features else motion.joints)

@@ -58,6 +58,8 @@ def output_paths(names: Sequence[str], out: Path | None, out_dir: Path | None,
         if fmt is not None:
             raise MlctError("--format goes with --out-dir; with --out the extension names it")
         check_format(out)
+        if out.is_dir():
+            raise MlctError(f"--out {out} is a directory; name a file, or use --out-dir")
         check_writable_dir(out.parent)
         if len(names) == 1:
             return [out]
@@ -74,13 +76,25 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     """Generate the request's motions and write each to its path; returns the paths.
 
     `load` makes the model: it is called only after every argument has been checked."""
-    generator = load()
+    from mlct.generate.pipeline import MAX_SEED  # what load() imports anyway
+
+    # Every check that needs no model comes first: a mistake costs no loading, no progress bar.
+    count = len(request.prompts) * request.num  # motion (or part) i uses seed + i
+    if request.seed is not None and not 0 <= request.seed <= MAX_SEED - (count - 1):
+        raise MlctError(f"seeds must lie in 0..{MAX_SEED}: --seed {request.seed} with "
+                        f"{count} motion(s), each using seed + i")
+    for path in paths:
+        if features and path.suffix.lower() != ".npy":
+            raise MlctError(f"--features writes .npy files, not {path.suffix}")
     if request.long:
         from mlct.generate.long_motion import generate_long
 
         if request.seconds is None:
             raise MlctError("a long motion needs one duration a prompt: --seconds 3 2 2")
-        motion = generate_long(generator, request.prompts, request.seconds, request.nfe,
+        if len(request.seconds) != len(request.prompts):
+            raise MlctError(f"{len(request.prompts)} prompts but {len(request.seconds)} "
+                            f"durations; give one each")
+        motion = generate_long(load(), request.prompts, request.seconds, request.nfe,
                                request.seed)
         motion.save(paths[0], features)
         return [paths[0]]
@@ -88,6 +102,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     seeds = None if request.seed is None else [request.seed + i for i in range(len(texts))]
     lengths = _per_text(request.lengths, request.prompts, request.num, "--length")
     seconds = _per_text(request.seconds, request.prompts, request.num, "--seconds")
+    generator = load()
     written = []
     # The text encoder loads on first use (a CLIP one takes seconds): load it and embed the first
     # batch's prompts before the bar starts, so that the bar's first step and its ETA time

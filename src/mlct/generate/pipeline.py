@@ -201,6 +201,8 @@ class MotionGenerator:
             return Generation([])
         frames = self._lengths(len(texts), lengths, seconds)
         self.check_nfe(nfe)  # before the (slow) text encoder loads
+        if guidance is not None and not _is_scale(guidance):  # a consistency model ignores it
+            raise MlctError(f"guidance must be a number >= 0, got {guidance!r}")
         seeds = self._seeds(len(texts), seed)
         z = self.sample_latents(self.encode_text(texts), nfe, seeds, guidance)
         out = []
@@ -234,6 +236,13 @@ MAX_SEED = 2**63 - 1  # torch.Generator.manual_seed takes 64 bits; kept signed f
 def _is_int(value: object) -> bool:
     """A whole number given as an int (not a bool, a float or a string)."""
     return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def _is_scale(value: object) -> bool:
+    """A finite real number >= 0 (a guidance scale), not a bool or a string."""
+    return (isinstance(value, (int, float, np.integer, np.floating))
+            and not isinstance(value, (bool, np.bool_)) and bool(np.isfinite(value))
+            and value >= 0)
 
 
 def _numbers(value: object, count: int, name: str) -> list[float]:

@@ -37,6 +37,7 @@ from __future__ import annotations
 import io
 import math
 import os
+import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -231,21 +232,27 @@ class BvhClip:
         return 1.0 / self.frame_time
 
 
-def _check_bvh_shape(path: Path) -> None:
-    """A one-line error unless the file has a BVH's two sections: bvhio's parser loops forever
-    on an empty file, so nothing without them is handed to it."""
+_END_OF_FILE = "%mlct-end-of-file%"  # read_bvh's last line: no BVH rule accepts it
+
+
+def _check_bvh_shape(path: Path) -> str:
+    """The file's text; a one-line error unless it has a BVH's two sections."""
     try:
         with open(path, "rb") as handle:
             head = handle.read(64).lstrip()
             handle.seek(0)
-            text = handle.read().decode("utf-8", errors="replace")
+            text = handle.read().decode("utf-8")
     except OSError as error:
         raise MlctError(f"{path}: cannot read ({error.strerror})") from None
+    except UnicodeDecodeError as error:
+        raise MlctError(f"{path}: not a readable BVH file (not UTF-8 text: byte "
+                        f"0x{error.object[error.start]:02x} at offset {error.start})") from None
     if not head:
         raise MlctError(f"{path}: not a readable BVH file (it is empty)")
     if not head.upper().startswith(b"HIERARCHY") or "MOTION" not in text or "Frames:" not in text:
         raise MlctError(f"{path}: not a readable BVH file (it needs a HIERARCHY section, then "
                         f"MOTION with Frames: and Frame Time:)")
+    return text
 
 
 def read_bvh(path: str | os.PathLike) -> BvhClip:
@@ -259,11 +266,20 @@ def read_bvh(path: str | os.PathLike) -> BvhClip:
     import bvhio  # the BVH reader of `mlct data import --bvh`; export needs no package
 
     path = Path(path)
-    _check_bvh_shape(path)
-    try:
-        container = bvhio.readAsBvh(str(path))
-    except (OSError, SyntaxError, ValueError, IndexError, TypeError) as error:
-        raise MlctError(f"{path}: not a readable BVH file ({first_line(error)})") from None
+    text = _check_bvh_shape(path)
+    # bvhio's parser skips blank lines by reading on until one has a token, and at the end of
+    # the file it reads "" forever: a file that ends early (fewer frames than `Frames:` says, a
+    # cut hierarchy) would hang it. It parses a copy ending in a line that no rule accepts.
+    with tempfile.TemporaryDirectory(prefix="mlct-bvh-") as tmp:
+        copy = Path(tmp) / "clip.bvh"
+        copy.write_text(f"{text}\n{_END_OF_FILE}\n", encoding="utf-8")
+        try:
+            container = bvhio.readAsBvh(str(copy))
+        except (OSError, SyntaxError, ValueError, IndexError, TypeError) as error:
+            if _END_OF_FILE in (getattr(error, "text", None) or ""):
+                raise MlctError(f"{path}: not a readable BVH file (it ends early: fewer lines "
+                                f"than its hierarchy or its Frames: count needs)") from None
+            raise MlctError(f"{path}: not a readable BVH file ({first_line(error)})") from None
     n_frames = int(container.FrameCount)
     if n_frames < 1 or not container.FrameTime > 0:
         raise MlctError(f"{path}: a BVH file needs frames and a positive Frame Time "

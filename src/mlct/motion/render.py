@@ -28,6 +28,7 @@ from mlct.motion.skeleton import (SKELETONS, Skeleton, get_skeleton, skeleton_fo
                                   skeleton_for_joints)
 
 FORMATS = (".gif", ".mp4", ".png")
+MIN_FPS, MAX_FPS = 0.01, 1000.0  # what a GIF's delays and ffmpeg's frame rates can hold
 T = TypeVar("T")
 
 # Animation frame: small enough that a 196-frame GIF renders in seconds on 2 cores.
@@ -75,6 +76,8 @@ def render_motion(joints: np.ndarray, out: str | os.PathLike, skeleton: Skeleton
     fps = skeleton.fps if fps is None else float(fps)
     if not np.isfinite(fps) or fps <= 0:
         raise MlctError(f"fps must be a positive number, got {fps}")
+    if not MIN_FPS <= fps <= MAX_FPS:  # a GIF's frame delay is a 16-bit count of 1/100 s
+        raise MlctError(f"fps {fps:g} is outside {MIN_FPS:g}..{MAX_FPS:g} frames per second")
     scene = _Scene(joints, skeleton)
     if kind == ".png":
         _render_filmstrip(scene, out, title, fps)

@@ -4,9 +4,10 @@
     GET  /health    model, limits, queue and batching figures
     GET  /docs      the OpenAPI page;  GET /  the web page (static/, plotly.js from its wheel)
 
-Every error is JSON {"detail": "one line"}: 400 malformed JSON, 413 body too large, 415 not
-JSON, 422 a value out of bounds, 503 queue full. Requests are checked before they are queued;
-generation runs on the batcher's one worker thread (batcher.py).
+Every error is JSON {"detail": "one line"}: 400 malformed JSON, 401 no or a wrong token (with
+--token), 413 body too large, 415 not JSON, 422 a value out of bounds, 503 queue full. Requests
+are checked before they are queued; generation runs on the batcher's one worker thread
+(batcher.py).
 
 (No `from __future__ import annotations` here: FastAPI reads the route's body annotation, a class
 built per app, at runtime.)
@@ -23,7 +24,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from fastapi import FastAPI, Header
+from fastapi import FastAPI
 from fastapi_offline import FastAPIOffline
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, JSONResponse, Response
@@ -55,6 +56,7 @@ EXAMPLES = (  # families the bundled model does best by its read-outs (docs/mode
     "the person puts both their arms up in the air.",
     "the woman stands quietly.",
 )
+FASTAPI_BODY_ERROR = "There was an error parsing the body"  # FastAPI's words, e.g. for bad UTF-8
 MEDIA_TYPES = {"npy": "application/octet-stream", "bvh": "text/plain; charset=utf-8",
                "gif": "image/gif"}
 
@@ -88,18 +90,17 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
                          "Training). The web page is at /.")
     app.state.batcher = batcher
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
+    if settings.token is not None:  # added last: it runs first, before the body is read
+        app.add_middleware(BearerAuth, token=settings.token)
     _add_error_handlers(app)
 
     @app.post("/generate", summary="Text to motion",
               responses={200: {"description": "motions as JSON, or one motion as a file"},
+                         401: {"description": "the server needs 'Authorization: Bearer "
+                               "<token>' (mlct serve --token)"},
                          503: {"description": "the queue is full; retry shortly"}})
-    async def generate(body: GenerateRequest,  # type: ignore[valid-type]
-                       authorization: str | None = Header(default=None)) -> Response:
+    async def generate(body: GenerateRequest) -> Response:  # type: ignore[valid-type]
         received = time.perf_counter()
-        if settings.token is not None and not _bearer_matches(authorization, settings.token):
-            return _error(401, "this server needs 'Authorization: Bearer <token>' "
-                          "(mlct serve --token); the web page takes it as #token=... in its URL",
-                          {"WWW-Authenticate": "Bearer"})
         texts = body.prompts
         seeds = body.seeds(draw=secrets.randbelow(2**31))
         try:
@@ -200,7 +201,10 @@ def _add_error_handlers(app: FastAPI) -> None:
 
     @app.exception_handler(HTTPException)
     async def http_error(request: Any, error: HTTPException) -> JSONResponse:
-        return _error(error.status_code, str(error.detail), getattr(error, "headers", None))
+        detail = str(error.detail)
+        if error.status_code == 400 and detail == FASTAPI_BODY_ERROR:  # a body json.loads
+            detail = "the request body cannot be read as JSON (not UTF-8 text?)"  # can't decode
+        return _error(error.status_code, detail, getattr(error, "headers", None))
 
     @app.exception_handler(MlctError)
     async def user_error(request: Any, error: MlctError) -> JSONResponse:
@@ -248,9 +252,34 @@ class BodyLimit:
         await self.app(scope, limited, send)
 
 
-async def _send_json(send: Send, status: int, content: dict[str, Any]) -> None:
+class BearerAuth:
+    """401 for POST /generate without the server's bearer token (mlct serve --token), before
+    its body is read: a client without the token learns nothing of how a request is checked
+    (a 422 naming a limit, a 413) and makes the server parse nothing."""
+
+    def __init__(self, app: Callable[..., Awaitable[None]], token: str) -> None:
+        self.app = app
+        self.token = token
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] == "http" and scope["path"] == "/generate" and scope["method"] == "POST":
+            header = dict(scope.get("headers", ())).get(b"authorization")
+            given = header.decode("latin-1") if header is not None else None
+            if not _bearer_matches(given, self.token):
+                await _send_json(send, 401, {"detail": UNAUTHORIZED},
+                                 [(b"www-authenticate", b"Bearer")])
+                return
+        await self.app(scope, receive, send)
+
+
+UNAUTHORIZED = ("this server needs 'Authorization: Bearer <token>' (mlct serve --token); the web "
+                "page takes it as #token=... in its URL")
+
+
+async def _send_json(send: Send, status: int, content: dict[str, Any],
+                     headers: list[tuple[bytes, bytes]] | None = None) -> None:
     body = json.dumps(content).encode()
     await send({"type": "http.response.start", "status": status,
                 "headers": [(b"content-type", b"application/json"),
-                            (b"content-length", str(len(body)).encode())]})
+                            (b"content-length", str(len(body)).encode()), *(headers or [])]})
     await send({"type": "http.response.body", "body": body})

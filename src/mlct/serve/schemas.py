@@ -57,7 +57,8 @@ def request_model(limits: Limits) -> type[BaseModel]:
     Text = Annotated[str, Field(strict=True),
                      AfterValidator(lambda text: check_text(text, limits.max_text_chars))]
     Frames = Annotated[int, Field(strict=True, ge=1, le=limits.max_frames)]
-    Seconds = Annotated[float, Field(gt=0, le=round(limits.max_seconds, 6),
+    # strict: a number (an int is one), not "3" or true (which lax parsing read as 1 s)
+    Seconds = Annotated[float, Field(strict=True, gt=0, le=round(limits.max_seconds, 6),
                                      allow_inf_nan=False)]
     Seed = Annotated[int, Field(strict=True, ge=0, le=MAX_SEED)]
 

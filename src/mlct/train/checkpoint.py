@@ -122,7 +122,8 @@ def latest_checkpoint(directory: str | os.PathLike) -> Path | None:
     pointer = Path(directory) / "latest"
     if not pointer.is_file():
         return None
-    name = pointer.read_text(encoding="utf-8").strip()
+    # Undecodable bytes are read as U+FFFD: such a name is refused below like any other.
+    name = pointer.read_bytes().decode("utf-8", errors="replace").strip()
     if not CHECKPOINT_NAME.fullmatch(name):  # never joined to a path: it could point outside
         raise MlctError(f"{pointer} holds {name[:40]!r}, not a checkpoint name like "
                         f"step-00001000{_intact_hint(directory)}")

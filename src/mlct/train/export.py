@@ -16,6 +16,8 @@ from mlct.generate.samplers import sampler_for_stage
 from mlct.io import atomic_dir, strip_prefix
 from mlct.train.checkpoint import latest_checkpoint, load_checkpoint
 
+META_KEYS = ("step", "config", "feature_dim", "skeleton", "text_encoder", "text_dim")
+
 
 def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None = None,
                half: bool = False) -> Path:
@@ -30,7 +32,15 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
     if found is None:
         raise MlctError(f"{run / stage}: no checkpoint to export (train it first)")
     ckpt = load_checkpoint(found, with_state=False)
-    ae = strip_prefix(ckpt.tensors, "ae")
+    # A checkpoint another tool (or a damaged run) wrote may lack what a bundle needs: one
+    # line naming it, not a KeyError.
+    missing = [k for k in META_KEYS if k not in ckpt.meta]
+    if missing:
+        raise MlctError(f"{found}: not a {stage} checkpoint (no {', '.join(missing)} in its "
+                        f"metadata)")
+    if not {"mean", "std"} <= ckpt.module_state("norm").keys():
+        raise MlctError(f"{found}: holds no normalization (norm.mean, norm.std)")
+    ae = ckpt.module_state("ae")
     decoder = {k: v for k, v in ae.items() if not k.startswith(ENCODER_PREFIXES)}
     target = strip_prefix(ckpt.tensors, "target")
     if stage == "cm":
@@ -39,6 +49,8 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
                     else strip_prefix(ckpt.tensors, "denoiser"))
     else:
         denoiser = strip_prefix(target, "module")
+    if not denoiser:
+        raise MlctError(f"{found}: holds no {stage} denoiser weights")
     encoder = {k: v for k, v in ae.items() if k.startswith(ENCODER_PREFIXES)}
     tensors = {**{f"decoder.{k}": v for k, v in decoder.items()},
                # shipped for `mlct train ae --init MODEL_DIR` (fine-tuning); generation skips it

@@ -155,6 +155,16 @@ def train(stage: str, data_dir: str | Path, out: str | Path, config: Config | No
     """
     if stage not in STAGE_NAMES:
         raise MlctError(f"unknown stage '{stage}'; choose one of {', '.join(STAGE_NAMES)}")
+    if config is not None and not isinstance(config, Config):
+        raise TypeError(f"config must be a Config (mlct.config.load_config), not "
+                        f"{type(config).__name__}")
+    if isinstance(overrides, str):  # a string would be read as one override per character
+        raise TypeError("overrides must be a list of 'key=value' strings, not one string")
+    if resume and init is not None:
+        raise MlctError("--init starts a new run from a model; --resume continues a run: "
+                        "pass one of them")
+    if stop_at is not None and stop_at < 1:
+        raise MlctError(f"stop_at must be a step >= 1, got {stop_at}")
     run = Path(out)
     stage_dir = run / stage
     ckpt_dir = stage_dir / "checkpoints"
@@ -190,9 +200,6 @@ def train(stage: str, data_dir: str | Path, out: str | Path, config: Config | No
             else:
                 base = config.to_dict() if config is not None else Config().to_dict()
             config = config_from_dict(apply_overrides(base, overrides), "config + overrides")
-        if resume and init is not None:
-            raise MlctError("--init starts a new run from a model; --resume continues a run: "
-                            "pass one of them")
         return _train(stage, Path(data_dir), run, config, checkpoint, info, ae_path, progress,
                       stop_at, initial if init is not None else None)
     finally:

@@ -26,7 +26,7 @@ from mlct.data.synth.motions import Style
 from mlct.data.synth.rig import Rig, make_rig
 from mlct.data.synth.text import canonical_label, describe
 from mlct.errors import MlctError
-from mlct.io import atomic_dir, save_npy, write_text
+from mlct.io import atomic_dir, check_writable_dir, save_npy, write_text
 from mlct.motion.features import joints_to_features, recover_from_ric
 from mlct.motion.physics import foot_skating_ratio
 from mlct.motion.skeleton import Skeleton, get_skeleton
@@ -37,6 +37,7 @@ SPLIT_FRACTIONS = {"train": 0.80, "val": 0.05, "test": 0.15}  # as HumanML3D's s
 #    the swing ankle eases in (v1 snapped it 50 degrees at toe-off).
 BENCHMARK_VERSION = 2
 MAX_TRIES = 50
+MAX_MOTIONS = 100_000  # a benchmark's motions: past HumanML3D's size, and within memory
 
 
 @dataclass
@@ -136,6 +137,7 @@ def _make_motion_star(args: tuple[int, int, str]) -> SynthMotion:
 def _prepare_target(out: Path, overwrite: bool) -> None:
     if out.exists() and not out.is_dir():
         raise MlctError(f"{out} exists and is not a directory")
+    check_writable_dir(out)  # a file on the way ('afile/sub') is named, not mkdir's "File exists"
     if out.is_dir() and any(out.iterdir()) and not overwrite:
         raise MlctError(f"{out} exists and is not empty: choose a new directory or pass --overwrite")
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -149,6 +151,9 @@ def synthesize_dataset(out: str | os.PathLike, num: int, seed: int = 0,
     """Write `num` procedural motions in the standard layout to `out`; returns a summary."""
     if num < 1:
         raise MlctError(f"--num must be at least 1, got {num}")
+    if num > MAX_MOTIONS:  # every motion's features stay in memory for Mean/Std
+        raise MlctError(f"--num {num} is more than the {MAX_MOTIONS:,} motions a benchmark "
+                        f"holds here (HumanML3D has 29,228 with its mirrors)")
     if seed < 0:
         raise MlctError(f"--seed must be a non-negative integer, got {seed}")
     if workers < 1:
