@@ -23,6 +23,7 @@ import torch
 from safetensors.torch import load_file
 
 from mlct.errors import MlctError, first_line
+from mlct.generate.samplers import SAMPLERS
 from mlct.io import read_format_json, strip_prefix
 
 BUNDLE_FORMAT = "mlct-model"
@@ -51,8 +52,8 @@ def _check_meta(meta: dict[str, Any], config_path: Path) -> None:
     def bad(key: str, expected: str) -> MlctError:
         return MlctError(f"{config_path}: '{key}' is {meta[key]!r}, expected {expected}")
 
-    if meta["sampler"] not in SAMPLERS.values():
-        raise bad("sampler", " or ".join(repr(s) for s in SAMPLERS.values()))
+    if meta["sampler"] not in SAMPLERS:
+        raise bad("sampler", " or ".join(repr(s) for s in SAMPLERS))
     if meta["skeleton"] not in SKELETONS:
         raise bad("skeleton", " or ".join(repr(s) for s in SKELETONS))
     for key in ("feature_dim", "text_dim"):
