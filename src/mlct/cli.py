@@ -268,7 +268,7 @@ def _cmd_generate(args: argparse.Namespace) -> int:
         raise MlctError("--num makes variations of one prompt; several prompts make one long "
                         "motion")
     request = generate_files.Request(prompts, args.seconds, args.length, args.num, args.nfe,
-                                     args.seed, long)
+                                     args.seed, long, split_actions=not args.whole_prompt)
     names = ["_".join(prompts)] if long else [p for p in prompts for _ in range(args.num)]
     paths = generate_files.output_paths(names, args.out, args.out_dir, args.format)
     def load() -> Any:
@@ -489,6 +489,9 @@ def build_parser() -> argparse.ArgumentParser:
     generate.add_argument("--device", default=None)
     generate.add_argument("--dtype", default="float32", choices=["float32", "bfloat16"],
                           help="precision of the networks' products (docs/performance.md)")
+    generate.add_argument("--whole-prompt", action="store_true",
+                          help="give the model a prompt that names actions in sequence ('walks, "
+                               "then waves') as one text, instead of one part per action, chained")
     generate.add_argument("--features", action="store_true",
                           help=".npy holds the features (T x 263) instead of joints (T x J x 3)")
     where = generate.add_mutually_exclusive_group()

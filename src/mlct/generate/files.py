@@ -40,6 +40,7 @@ class Request:
     nfe: int | None = None
     seed: int | None = None
     long: bool = False
+    split_actions: bool = True  # a prompt naming actions in sequence: one part each, chained
 
 
 def slug(text: str, limit: int = 40) -> str:
@@ -115,7 +116,8 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
             motions: Sequence[GeneratedMotion] = generator.generate(
                 texts[start:stop], lengths=None if lengths is None else lengths[start:stop],
                 seconds=None if seconds is None else seconds[start:stop], nfe=request.nfe,
-                seed=None if seeds is None else seeds[start:stop])
+                seed=None if seeds is None else seeds[start:stop],
+                split_actions=request.split_actions)
             for motion, path in zip(motions, paths[start:stop]):
                 written.append(motion.save(path, features))
                 bar.update(1)

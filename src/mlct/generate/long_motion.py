@@ -15,7 +15,7 @@ of the segments themselves, as the model generated them.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Sequence
+from typing import Any, Protocol, Sequence
 
 import numpy as np
 
@@ -23,8 +23,21 @@ from mlct.errors import MlctError
 from mlct.generate.generated import GeneratedMotion
 from mlct.motion.skeleton import Skeleton
 
-if TYPE_CHECKING:
-    from mlct.generate.pipeline import MotionGenerator
+
+
+class SegmentMaker(Protocol):
+    """What chaining needs of a generator (pipeline.MotionGenerator, which also calls
+    generate_long for prompts that name actions in sequence: a Protocol, not an import)."""
+
+    skeleton: Skeleton
+
+    @property
+    def max_frames(self) -> int: ...
+
+    def _lengths(self, count: int, lengths: Any, seconds: Any) -> list[int]: ...
+
+    def generate(self, texts: Any, lengths: Any = None, seconds: Any = None, nfe: Any = None,
+                 seed: Any = None, guidance: Any = None, split_actions: bool = True) -> Any: ...
 
 BLEND_SECONDS = 0.75  # the shortest that kept seam speeds within the segments' (bench/long_motion.py)
 
@@ -114,9 +127,10 @@ def chain_segments(segments: Sequence[np.ndarray], blend: int, skeleton: Skeleto
     return _compose(root, angle, local), seams
 
 
-def generate_long(generator: MotionGenerator, texts: Sequence[str], seconds: Sequence[float],
+def generate_long(generator: SegmentMaker, texts: Sequence[str], seconds: Sequence[float],
                   nfe: int | None = None, seed: int | None = None,
-                  blend_seconds: float = BLEND_SECONDS) -> LongMotion:
+                  blend_seconds: float = BLEND_SECONDS, guidance: float | None = None
+                  ) -> LongMotion:
     """One continuous motion doing texts[k] for seconds[k], in order."""
     if len(texts) != len(seconds):
         raise MlctError(f"{len(texts)} prompts but {len(seconds)} durations; give one each")
@@ -128,7 +142,8 @@ def generate_long(generator: MotionGenerator, texts: Sequence[str], seconds: Seq
     if max(lengths) > generator.max_frames:
         raise MlctError(f"a segment may last at most {(generator.max_frames - blend) / fps:.1f} s "
                         f"(the model's window, less the {blend / fps:.1f} s blend); split it")
-    parts = generator.generate(list(texts), lengths=lengths, nfe=nfe, seed=seed)
+    parts = generator.generate(list(texts), lengths=lengths, nfe=nfe, seed=seed,
+                               guidance=guidance, split_actions=False)
     joints, seams = chain_segments([p.joints for p in parts], blend, generator.skeleton)
     from mlct.motion.features import joints_to_features
 

@@ -9,6 +9,7 @@ Built from an inference bundle (bundle.py); needs no training code.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections import OrderedDict
 from pathlib import Path
@@ -29,6 +30,7 @@ from mlct.nn.build import build_autoencoder, build_denoiser
 from mlct.motion.features import recover_from_ric
 from mlct.motion.skeleton import get_skeleton
 from mlct.nn.inference import for_inference, weight_dtype
+from mlct.generate.compose import split_actions as split_actions_of
 from mlct.generate.prompts import clean_prompt
 
 if TYPE_CHECKING:
@@ -182,9 +184,13 @@ class MotionGenerator:
 
     def generate(self, texts: str | Sequence[str], lengths: int | Sequence[int] | None = None,
                  seconds: float | Sequence[float] | None = None, nfe: int | None = None,
-                 seed: int | Sequence[int] | None = None, guidance: float | None = None
-                 ) -> Generation:
+                 seed: int | Sequence[int] | None = None, guidance: float | None = None,
+                 split_actions: bool = True) -> Generation:
         """Motions for texts: one per text, each of its own length.
+
+        split_actions: a text that names actions in sequence ("walks forward, then waves") is
+        made as one motion per action, chained (generate/compose.py), when each part gets at
+        least MIN_PART_SECONDS; False gives the model the whole text at once.
 
         seed: an int s gives item i the seed s + i, a sequence one seed per item; either way an
         item's motion depends only on its text, length, nfe and seed, not on the rest of the
@@ -204,13 +210,33 @@ class MotionGenerator:
         if guidance is not None and not _is_scale(guidance):  # a consistency model ignores it
             raise MlctError(f"guidance must be a number >= 0, got {guidance!r}")
         seeds = self._seeds(len(texts), seed)
-        z = self.sample_latents(self.encode_text(texts), nfe, seeds, guidance)
-        out = []
-        for text, feats, item_seed in zip(texts, self.decode(z, frames), seeds):
-            joints = recover_from_ric(torch.from_numpy(feats)).numpy()
-            out.append(GeneratedMotion(text, feats, joints, self.skeleton.fps, self.skeleton.name,
-                                       item_seed))
-        return Generation(out)
+        plans = [split_actions_of(t) if split_actions else [t] for t in texts]
+        min_part = self.frames_for(MIN_PART_SECONDS)
+        whole = [i for i, (parts, n) in enumerate(zip(plans, frames))
+                 if len(parts) == 1 or n // len(parts) < min_part]
+        out: list[GeneratedMotion | None] = [None] * len(texts)
+        if whole:
+            z = self.sample_latents(self.encode_text([texts[i] for i in whole]), nfe,
+                                    [seeds[i] for i in whole], guidance)
+            for i, feats in zip(whole, self.decode(z, [frames[i] for i in whole])):
+                joints = recover_from_ric(torch.from_numpy(feats)).numpy()
+                out[i] = GeneratedMotion(texts[i], feats, joints, self.skeleton.fps,
+                                         self.skeleton.name, seeds[i])
+        for i in sorted(set(range(len(texts))) - set(whole)):
+            out[i] = self._chained(texts[i], plans[i], frames[i], nfe, seeds[i], guidance)
+        return Generation(out)  # type: ignore[arg-type]
+
+    def _chained(self, text: str, parts: list[str], frames: int, nfe: int | None, seed: int,
+                 guidance: float | None) -> GeneratedMotion:
+        """One motion of `frames` doing parts[k] in turn, equal shares, under the whole text."""
+        from mlct.generate.long_motion import generate_long
+
+        share = [frames // len(parts)] * len(parts)
+        share[-1] += frames - sum(share)
+        fps = self.skeleton.fps
+        made = generate_long(self, parts, [n / fps for n in share], nfe=nfe, seed=seed,
+                             guidance=guidance)
+        return dataclasses.replace(made, text=text)
 
     @staticmethod
     def _seeds(count: int, seed: int | Sequence[int] | None) -> list[int]:
@@ -229,6 +255,8 @@ class MotionGenerator:
         return seeds
 
 
+# The shortest share of a sequence's part: below it the blend (0.75 s) would be most of the part.
+MIN_PART_SECONDS = 1.0
 TEXT_MEMO_SIZE = 2048  # texts whose embeddings a generator keeps (LRU): <= 64 MB with tokens
 MAX_SEED = 2**63 - 1  # torch.Generator.manual_seed takes 64 bits; kept signed for portability
 
