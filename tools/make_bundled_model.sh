@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Rebuild the bundled model (docs/model_card.md) from scratch, on a CPU:
 #   bash tools/make_bundled_model.sh [WORK_DIR] [CM_SEED]
-# About 55 minutes on 2 cores: the data 1 min, the autoencoder 30 min (10,000 steps), the
-# consistency model 20 min. Resumable: run it again with the same WORK_DIR after an
+# About 80 minutes on 2 cores: the data 1 min, the autoencoder 40 min (10,000 steps), the
+# consistency model 35-40 min (7,000 steps). Resumable: run it again with the same WORK_DIR after an
 # interruption and each stage continues from its last checkpoint. The result replaces
 # src/mlct/assets/model (float16 weights). CM_SEED (default 0) seeds stage 2 only, for the
 # seed spread the model card reports.
