@@ -130,8 +130,6 @@ def variant(meta: dict[str, Any], tensors: dict[str, Any], layers: str, text_onc
     nn.TransformerEncoderLayer, nn.Linear), "fast" (mlct.nn.inference, plain products) or
     "packed" (the default); text_once=False recomputes the text and time terms every step;
     inference_mode=False samples and decodes under no_grad instead."""
-    from contextlib import nullcontext
-
     import torch
 
     from mlct.nn.build import build_autoencoder, build_denoiser
@@ -150,7 +148,7 @@ def variant(meta: dict[str, Any], tensors: dict[str, Any], layers: str, text_onc
             for_inference(gen.ae, dtype, prepack=False)
             for_inference(gen.denoiser, dtype, prepack=False)
     if not text_once:
-        gen.denoiser.fixed_condition = lambda text_emb, times: nullcontext()
+        gen.denoiser.condition_terms = None  # the samplers then call it without a cache
     if not inference_mode:
         for name in ("sample_latents", "decode"):
             plain = getattr(MotionGenerator, name).__wrapped__  # under the decorator

@@ -5,10 +5,14 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
+import numpy as np
 import pytest
+from PIL import Image
 
 from mlct.cli import main
+from mlct.data.layout import DatasetLayout
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:
@@ -28,10 +32,25 @@ def test_unwritable_output_is_one_line_exit_2(tmp_path):
 
 
 def test_demo_prints_a_caption_and_a_gif(tmp_path, capsys):
-    assert main(["demo", "--out", str(tmp_path / "demo"), "--num", "2"]) == 0
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out), "--num", "2"]) == 0
     caption, path = capsys.readouterr().out.strip().splitlines()
     assert caption.endswith(".") and path.endswith(".gif")
-    assert (tmp_path / "demo" / "000000.gif").stat().st_size > 1000
+    assert (out / "000000.gif").stat().st_size > 1000
+    assert Path(path) == out / "000000.gif"  # the motion --index names (default 0)
+    # the caption printed is the first line's caption (caption#tokens#start#end) of the
+    # motion's texts file in the dataset the demo wrote
+    data = DatasetLayout(out / "data")
+    first_line = (data.texts_dir / "000000.txt").read_text(encoding="utf-8").splitlines()[0]
+    assert caption == first_line.split("#")[0]
+    # a real animated GIF: one frame per frame of that motion, and the figure moves
+    frames = len(np.load(data.features_path("000000")))
+    with Image.open(path) as gif:
+        assert gif.format == "GIF" and gif.n_frames == frames > 1
+        first = np.asarray(gif.convert("RGB"))
+        gif.seek(frames - 1)
+        last = np.asarray(gif.convert("RGB"))
+    assert first.shape == last.shape and not np.array_equal(first, last)
 
 
 @pytest.mark.slow

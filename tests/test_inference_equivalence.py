@@ -124,7 +124,7 @@ def test_for_inference_swaps_in_place_and_shares_fp32_weights():
         for_inference(net, "int4")
 
 
-def test_fixed_condition_computes_the_terms_once_within_its_block_only(bundle):
+def test_the_condition_cache_computes_the_terms_once_for_the_calls_given_it(bundle):
     gen = MotionGenerator(*bundle)
     den = gen.denoiser
     times = torch.tensor([0.9, 0.5, 0.2])
@@ -136,12 +136,14 @@ def test_fixed_condition_computes_the_terms_once_within_its_block_only(bundle):
         want = [den(x, t.expand(2), cond) for t in times]
         other_t = den(x, torch.tensor([0.9, 0.2]), cond)
         del text_calls[:], time_calls[:]
-        with den.fixed_condition(cond, times):
-            got = [den(x, t.expand(2), cond) for t in times]
-            assert (len(text_calls), len(time_calls)) == (1, 1)  # all on entry
-            mixed = den(x, torch.tensor([0.9, 0.2]), cond)  # items at two times: computed
-            clone = den(x, times[0].expand(2), cond.clone())  # another tensor: its own terms
-        after = den(x, times[0].expand(2), cond)
+        cache = den.condition_terms(cond, times)
+        got = [den(x, t.expand(2), cond, cache) for t in times]
+        assert (len(text_calls), len(time_calls)) == (1, 1)  # all in condition_terms
+        mixed = den(x, torch.tensor([0.9, 0.2]), cond, cache)  # items at two times: computed
+        clone = den(x, times[0].expand(2), cond.clone())  # another tensor: its own terms
+        after = den(x, times[0].expand(2), cond)  # no cache given: computed
+        with pytest.raises(ValueError, match="another text_emb"):
+            den(x, times[0].expand(2), cond.clone(), cache)  # a cache of another condition
     for hook in hooks:
         hook.remove()
     assert (len(text_calls), len(time_calls)) == (3, 4)

@@ -275,10 +275,17 @@ def test_seeded_construction_is_deterministic() -> None:
 def test_state_dict_round_trip(kind: str) -> None:
     src = _ae("quantized", seed=4) if kind == "ae" else _den(seed=4)
     dst = _ae("quantized", seed=5) if kind == "ae" else _den(seed=5)
+    want = src.state_dict()
+    # the two differ before loading, so that equal values after it are the load's doing
+    assert any(not torch.equal(v, dst.state_dict()[k]) for k, v in want.items())
     buf = io.BytesIO()
-    torch.save(src.state_dict(), buf)
+    torch.save(want, buf)
     buf.seek(0)
     dst.load_state_dict(torch.load(buf, weights_only=True))
+    got = dst.state_dict()
+    assert list(got) == list(want)  # the same entries, in the same order
+    for key, value in want.items():  # every parameter and buffer: value, dtype and shape
+        assert got[key].dtype == value.dtype and torch.equal(got[key], value), key
     src.eval(), dst.eval()
     if kind == "ae":
         x = _batch()

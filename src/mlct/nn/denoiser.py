@@ -24,8 +24,7 @@ not the condition token alone: a short CPU run learns the text far faster (docs/
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
-from contextlib import contextmanager
+from dataclasses import dataclass
 
 import torch
 import torch.nn.functional as F
@@ -44,6 +43,16 @@ def timestep_embedding(t: Tensor, dim: int, max_period: float = 10000.0) -> Tens
     if dim % 2:
         emb = F.pad(emb, (0, 1))
     return emb  # (B, dim), float32
+
+
+@dataclass(frozen=True)
+class ConditionCache:
+    """The condition's terms of one sampling run, computed once (Denoiser.condition_terms) and
+    handed to every step's forward, rather than recomputed at each step (docs/performance.md)."""
+
+    text_emb: Tensor  # (B, text_dim) the condition the terms were computed for
+    text: list[Tensor]  # W_c,i LN(c) of every block i: `layers` x (B, width)
+    times: dict[float, list[Tensor]]  # t -> W_t,i sinusoid(t), `layers` x (1, width); CPU only
 
 
 class Denoiser(nn.Module):
@@ -97,8 +106,6 @@ class Denoiser(nn.Module):
         self.head = nn.Sequential(
             nn.Linear(width, latent_dim), nn.GELU(), nn.Linear(latent_dim, latent_dim)
         )
-        # set by fixed_condition: (text_emb, its text terms, {time: its time terms})
-        self._fixed: tuple[Tensor, list[Tensor], dict[float, list[Tensor]]] | None = None
 
     def text_terms(self, text_emb: Tensor) -> list[Tensor]:
         """W_c,i LN(c) of every block i: `layers` tensors (B, width)."""
@@ -125,14 +132,11 @@ class Denoiser(nn.Module):
         t_emb = t_emb.to(dtype)
         return [tp(t_emb) for tp in self.time_proj]
 
-    @contextmanager
-    def fixed_condition(self, text_emb: Tensor, times: Tensor) -> Iterator[None]:
-        """Within the block, forward calls given this very tensor as text_emb reuse its text
-        terms, and, when t is one of `times` for every item (as samplers call it), that time's
-        terms: both computed once here, not at every step (docs/performance.md). Inference
-        only: the terms carry no gradient. The time lookup reads t, so it is done on the CPU
-        only (on a GPU it would wait for the device at every step). A call from another
-        thread, with another tensor, misses the memo and computes its own terms."""
+    def condition_terms(self, text_emb: Tensor, times: Tensor) -> ConditionCache:
+        """The text terms of text_emb and the time terms of each of `times` (the times a
+        sampler evaluates the network at), for forward's `cache`. Inference only: the terms
+        carry no gradient. The time terms are looked up by reading t, so they are kept on the
+        CPU only (on a GPU the lookup would wait for the device at every step)."""
         times = times.reshape(-1)
         with torch.no_grad():
             text = self.text_terms(text_emb)
@@ -141,14 +145,14 @@ class Denoiser(nn.Module):
                 terms = self.time_terms(times, text[0].dtype)  # `layers` x (K, width)
                 steps = {v: [term[k : k + 1] for term in terms]
                          for k, v in enumerate(times.tolist())}
-        self._fixed = (text_emb, text, steps)
-        try:
-            yield
-        finally:
-            self._fixed = None
+        return ConditionCache(text_emb, text, steps)
 
-    def forward(self, x_t: Tensor, t: Tensor, text_emb: Tensor) -> Tensor:
-        """x_t (B, n, d), t (B,) or scalar in [0, 1], text_emb (B, text_dim) -> F (B, n, d)."""
+    def forward(self, x_t: Tensor, t: Tensor, text_emb: Tensor,
+                cache: ConditionCache | None = None) -> Tensor:
+        """x_t (B, n, d), t (B,) or scalar in [0, 1], text_emb (B, text_dim) -> F (B, n, d).
+
+        cache: condition_terms(text_emb, times), whose terms are used instead of computed: the
+        text terms, and the time terms when every item's t is one of `times`."""
         if x_t.ndim != 3 or tuple(x_t.shape[1:]) != (self.n_tokens, self.latent_dim):
             raise ValueError(
                 f"x_t must be (B, {self.n_tokens}, {self.latent_dim}), got {tuple(x_t.shape)}"
@@ -158,12 +162,13 @@ class Denoiser(nn.Module):
             raise ValueError(
                 f"text_emb must be ({b}, {self.text_dim}), got {tuple(text_emb.shape)}"
             )
+        if cache is not None and cache.text_emb is not text_emb:
+            raise ValueError("the condition cache was computed for another text_emb")
         t = torch.as_tensor(t, device=x_t.device).reshape(-1).expand(b)  # (B,)
-        fixed = self._fixed if self._fixed is not None and self._fixed[0] is text_emb else None
-        text = fixed[1] if fixed else self.text_terms(text_emb.to(x_t.dtype))
+        text = cache.text if cache is not None else self.text_terms(text_emb.to(x_t.dtype))
         time = None
-        if fixed and fixed[2] and bool((t == t[0]).all()):
-            time = fixed[2].get(float(t[0]))  # (1, w) each, broadcast over the batch
+        if cache is not None and cache.times and bool((t == t[0]).all()):
+            time = cache.times.get(float(t[0]))  # (1, w) each, broadcast over the batch
         if time is None:
             time = self.time_terms(t, x_t.dtype)
         if self.condition_all_tokens:

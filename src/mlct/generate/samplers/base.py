@@ -10,8 +10,8 @@ editing) as well as the noise of `noise()`. Samplers never load or save anything
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from contextlib import nullcontext
-from typing import Any, ClassVar, ContextManager
+from functools import partial
+from typing import Any, Callable, ClassVar
 
 import torch
 from torch import Tensor, nn
@@ -89,8 +89,9 @@ class Sampler(ABC):
         return draw_noise(shape, generator, torch.empty(0, device=self.device))
 
 
-def fixed_condition(model: Any, cond: Tensor, times: Tensor) -> ContextManager[None]:
-    """The network's per-call memo of the condition's and the times' terms, where it has one
-    (mlct.nn.denoiser.Denoiser.fixed_condition); a no-op context otherwise."""
-    fixed = getattr(model, "fixed_condition", None)
-    return fixed(cond, times) if fixed is not None else nullcontext()
+def with_condition_terms(model: Any, cond: Tensor, times: Tensor) -> Callable[..., Tensor]:
+    """The network F(x_t, t, c) of one sampling run under the condition `cond` at `times`: with
+    the condition's terms computed once and passed to every step (the ConditionCache of
+    mlct.nn.denoiser.Denoiser.condition_terms) where the network has them; as it is otherwise."""
+    terms = getattr(model, "condition_terms", None)
+    return model if terms is None else partial(model, cache=terms(cond, times))

@@ -13,7 +13,7 @@ from mlct.config import Config
 from mlct.diffusion.consistency import consistency_output
 from mlct.diffusion.samplers import Generators, sample_consistency
 from mlct.diffusion.schedule import karras_time_grid, sampling_times
-from mlct.generate.samplers.base import Sampler, fixed_condition
+from mlct.generate.samplers.base import Sampler, with_condition_terms
 
 
 class ConsistencySampler(Sampler):
@@ -53,9 +53,9 @@ class ConsistencySampler(Sampler):
                uncond: Tensor | None = None) -> Tensor:
         times = self.times(self.check_steps(steps))
 
-        def consistency(x_t: Tensor, t: Tensor) -> Tensor:  # S(x_t, t, c), Eq. 11
-            return consistency_output(x_t, model(x_t, t, cond), t, self.eta, self.time_scale)
+        network = with_condition_terms(model, cond, times)  # the text and time terms, once
 
-        with fixed_condition(model, cond, times):  # the text and time terms, once
-            return sample_consistency(consistency, x, times, self.schedule, generator,
-                                      self.clamp)
+        def consistency(x_t: Tensor, t: Tensor) -> Tensor:  # S(x_t, t, c), Eq. 11
+            return consistency_output(x_t, network(x_t, t, cond), t, self.eta, self.time_scale)
+
+        return sample_consistency(consistency, x, times, self.schedule, generator, self.clamp)

@@ -12,7 +12,7 @@ from torch import Tensor, nn
 from mlct.config import Config
 from mlct.diffusion.parameterization import x0_from_eps
 from mlct.diffusion.samplers import Generators, ddim_times, sample_ddim
-from mlct.generate.samplers.base import Sampler, fixed_condition
+from mlct.generate.samplers.base import Sampler, with_condition_terms
 
 # The smallest time the baseline is trained and sampled at (t ~ U(t_min, 1),
 # diffusion_training_loss); a step shorter than it is finer than anything the model has seen,
@@ -60,11 +60,11 @@ class DDIMSampler(Sampler):
         times = self.times(self.check_steps(steps))
         scale = self.guidance(guidance)
         both = torch.cat([cond, uncond.expand_as(cond)])  # (2B, c): cond, null
+        network = with_condition_terms(model, both, times)
 
         def guided(x_t: Tensor, t: Tensor) -> Tensor:
             # Classifier-free guidance: two passes (one batch of 2B) per step.
-            eps_c, eps_u = model(torch.cat([x_t, x_t]), torch.cat([t, t]), both).chunk(2)
+            eps_c, eps_u = network(torch.cat([x_t, x_t]), torch.cat([t, t]), both).chunk(2)
             return x0_from_eps(x_t, eps_u + scale * (eps_c - eps_u), t, self.schedule)
 
-        with fixed_condition(model, both, times):
-            return sample_ddim(guided, x, times, self.schedule, self.clamp)
+        return sample_ddim(guided, x, times, self.schedule, self.clamp)

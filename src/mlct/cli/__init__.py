@@ -1,0 +1,70 @@
+"""The `mlct` command: parse, call the library, print. No logic lives here.
+
+Each command group is a module that holds its sub-parsers beside their handlers (data.py:
+`mlct data ...`; train.py: `mlct train ...`; ...), each with `add_parser(commands)`; this file
+puts them together and turns the errors a user can cause into one line and an exit code. A
+handler imports what it runs when it runs, so that `mlct --help` stays fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from mlct.cli import data, demo, export, generate, render, serve, train
+from mlct.cli import eval as evaluate  # (not the builtin)
+from mlct.cli.parser import Parser
+from mlct.errors import MlctError
+
+# in the order `mlct --help` lists their commands
+COMMANDS = (data, demo, train, evaluate, export, serve, generate, render)
+
+
+def _version() -> str:
+    from mlct import __version__
+
+    return f"mlct {__version__}"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(prog="mlct", description="Real-time text-to-motion generation (MLCT).")
+    parser.add_argument("--version", action="version", version=_version())
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
+    for module in COMMANDS:
+        module.add_parser(commands)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    # key=value overrides may come anywhere after `mlct train STAGE` (argparse would only take
+    # them right after the stage); anything else left over is an error, as parse_args makes it.
+    overrides = [item for item in extra if "=" in item and not item.startswith("-")]
+    unknown = [item for item in extra if item not in overrides]
+    if overrides and not hasattr(args, "overrides"):  # only `mlct train ae|cm|diffusion`
+        unknown = extra
+    if unknown:
+        parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    if overrides:
+        args.overrides = list(args.overrides) + overrides
+    args.argv = list(sys.argv[1:] if argv is None else argv)  # reports record the command
+    try:
+        return args.func(args)
+    except MlctError as error:
+        print(f"mlct: error: {error}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        # `mlct ... | head`: the reader left; that is not an error. Point stdout at devnull so
+        # that the interpreter's final flush does not raise again.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+    except OSError as error:
+        # A file the user named cannot be read or written: say which, in one line.
+        where = f": {error.filename}" if error.filename else ""
+        print(f"mlct: error: {error.strerror or error}{where}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("mlct: interrupted", file=sys.stderr)
+        return 130

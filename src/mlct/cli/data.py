@@ -1,0 +1,102 @@
+"""`mlct data synth|stats|check|import`: make, check and describe datasets."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from mlct.cli.parser import Commands, Parser
+
+
+def run_synth(args: argparse.Namespace) -> int:
+    from mlct.data.synth.build import synthesize_dataset
+
+    summary = synthesize_dataset(args.out, num=args.num, seed=args.seed, skeleton=args.skeleton,
+                                 workers=args.workers, progress=not args.quiet,
+                                 overwrite=args.overwrite)
+    print(f"wrote {summary['motions']} motions ({summary['frames']} frames, "
+          f"skating ratio {summary['skating_ratio']:.4f}) to {args.out}")
+    return 0
+
+
+def run_stats(args: argparse.Namespace) -> int:
+    from mlct.data.stats import dataset_statistics, format_statistics
+
+    stats = dataset_statistics(args.dir, skeleton=args.skeleton, write_mean_std=not args.no_write)
+    print(format_statistics(stats))
+    return 0
+
+
+def run_check(args: argparse.Namespace) -> int:
+    from mlct.data.check import check_dataset
+
+    problems = check_dataset(args.dir, skeleton=args.skeleton)
+    for problem in problems:
+        print(problem)
+    if problems:
+        print(f"{len(problems)} problem(s) found in {args.dir}")
+        return 1
+    print(f"{args.dir}: no problems found")
+    return 0
+
+
+def run_import(args: argparse.Namespace) -> int:
+    from mlct.data.importer import format_summary, import_dataset, parse_split
+
+    summary = import_dataset(args.out, args.captions, joints_dir=args.joints, bvh_dir=args.bvh,
+                             skeleton=args.skeleton, joint_map=args.joint_map, scale=args.scale,
+                             fps=args.fps, split=parse_split(args.split), seed=args.seed,
+                             skip_uncaptioned=args.skip_uncaptioned, overwrite=args.overwrite,
+                             progress=not args.quiet)
+    print(format_summary(summary))
+    return 0
+
+
+def add_parser(commands: Commands) -> None:
+    data = commands.add_parser("data", help="make, check and describe datasets")
+    data_commands = data.add_subparsers(dest="data_command", required=True, parser_class=Parser)
+
+    synth = data_commands.add_parser("synth", help="write a procedural text-motion benchmark")
+    synth.add_argument("--out", required=True, type=Path, help="dataset directory to create")
+    synth.add_argument("--num", type=int, default=1000, help="number of motions (default 1000)")
+    synth.add_argument("--seed", type=int, default=0)
+    synth.add_argument("--skeleton", default="humanml3d", choices=["humanml3d", "kit"])
+    synth.add_argument("--workers", type=int, default=1, help="processes (default 1)")
+    synth.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
+    synth.add_argument("--quiet", action="store_true", help="no progress bar")
+    synth.set_defaults(func=run_synth)
+
+    stats = data_commands.add_parser("stats", help="write Mean/Std and print dataset statistics")
+    stats.add_argument("dir", type=Path)
+    stats.add_argument("--skeleton", default=None, help="humanml3d or kit (default: from width)")
+    stats.add_argument("--no-write", action="store_true", help="print only; keep Mean/Std")
+    stats.set_defaults(func=run_stats)
+
+    check = data_commands.add_parser("check", help="validate a dataset; exit 1 if problems")
+    check.add_argument("dir", type=Path)
+    check.add_argument("--skeleton", default=None, help="humanml3d or kit (default: from width)")
+    check.set_defaults(func=run_check)
+
+    imported = data_commands.add_parser(
+        "import", help="turn your own motion capture (joints .npy or BVH) and captions into a "
+                       "dataset in the standard layout (docs/custom_data.md)")
+    source = imported.add_mutually_exclusive_group(required=True)
+    source.add_argument("--joints", type=Path, help="directory of (T, J, 3) .npy joints, y up")
+    source.add_argument("--bvh", type=Path, help="directory of .bvh files")
+    imported.add_argument("--captions", required=True, type=Path,
+                          help="CSV (name,caption) or JSONL ({name, caption|captions})")
+    imported.add_argument("--skeleton", default="humanml3d", choices=["humanml3d", "kit"])
+    imported.add_argument("--out", required=True, type=Path, help="dataset directory to create")
+    imported.add_argument("--joint-map", type=Path, default=None,
+                          help="JSON {BVH joint: skeleton joint} (default: same names)")
+    imported.add_argument("--scale", type=float, default=None,
+                          help="factor to the skeleton's units, m or mm (default: guessed)")
+    imported.add_argument("--fps", type=float, default=None,
+                          help="input frame rate (default: BVH Frame Time; skeleton fps for .npy)")
+    imported.add_argument("--split", default="0.8,0.1,0.1", help="train,val,test fractions")
+    imported.add_argument("--seed", type=int, default=0, help="seed of the split shuffle")
+    imported.add_argument("--skip-uncaptioned", action="store_true",
+                          help="skip motion files without a caption instead of stopping")
+    imported.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
+    imported.add_argument("--quiet", action="store_true", help="no progress bar")
+    imported.set_defaults(func=run_import)

@@ -1,0 +1,25 @@
+"""`mlct export`: a training run -> an inference bundle."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from mlct.cli.parser import Commands
+
+
+def run(args: argparse.Namespace) -> int:
+    from mlct.train.export import export_run
+
+    print(export_run(args.run, args.out, stage=args.stage, half=args.half))
+    return 0
+
+
+def add_parser(commands: Commands) -> None:
+    export = commands.add_parser("export", help="write an inference bundle from a training run")
+    export.add_argument("run", type=Path)
+    export.add_argument("--out", required=True, type=Path, help="model directory to write")
+    export.add_argument("--stage", default=None, choices=["cm", "diffusion"],
+                        help="which stage-2 model (default cm)")
+    export.add_argument("--half", action="store_true", help="store weights in float16")
+    export.set_defaults(func=run)

@@ -1,0 +1,98 @@
+"""`mlct generate`: text to motion files (GIF, MP4, PNG, NPY, JSON, BVH)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from mlct.cli.parser import Commands
+from mlct.errors import MlctError
+
+MAX_MOTIONS = 100_000  # motions one `mlct generate` makes (files and names are listed first)
+
+
+def run(args: argparse.Namespace) -> int:
+    import mlct
+    from mlct.generate import files as generate_files
+    from mlct.generate.prompts import clean_prompt, read_prompts
+
+    if args.prompts is not None and args.text:
+        raise MlctError("give prompts on the command line or with --prompts FILE, not both")
+    if args.num < 1:
+        raise MlctError(f"--num must be at least 1, got {args.num}")
+    if args.num > MAX_MOTIONS:  # checked before a name per motion is built (10^9 ran out of memory)
+        raise MlctError(f"--num {args.num} is more than the {MAX_MOTIONS:,} motions one command "
+                        f"makes; split the work over several commands")
+    prompts = (read_prompts(args.prompts) if args.prompts is not None
+               else [clean_prompt(t) for t in args.text])
+    if len(prompts) * args.num > MAX_MOTIONS:
+        raise MlctError(f"{len(prompts)} prompts x --num {args.num} make more than the "
+                        f"{MAX_MOTIONS:,} motions one command makes")
+    if not prompts:
+        raise MlctError("no prompt: mlct generate \"a person walks forward\" --out walk.gif")
+    long = args.prompts is None and len(prompts) > 1
+    if long and args.num > 1:
+        raise MlctError("--num makes variations of one prompt; several prompts make one long "
+                        "motion")
+    request = generate_files.Request(prompts, args.seconds, args.length, args.num, args.nfe,
+                                     args.seed, long, split_actions=not args.whole_prompt)
+    names = ["_".join(prompts)] if long else [p for p in prompts for _ in range(args.num)]
+    paths = generate_files.output_paths(names, args.out, args.out_dir, args.format)
+    def load() -> Any:
+        # A status line while the model and the text encoder load (a second or more cold),
+        # on a terminal only: scripts and pipes keep a clean stderr.
+        status = not args.quiet and sys.stderr.isatty()
+        if status:
+            print("mlct: loading the model and the text encoder ...", end="\r", file=sys.stderr,
+                  flush=True)
+        generator = mlct.load(args.model, device=args.device, dtype=args.dtype)
+        generator.text_encoder  # noqa: B018 - loads it now, under the status line
+        if status:
+            print(" " * 50, end="\r", file=sys.stderr, flush=True)
+        return generator
+
+    written = generate_files.run(load, request, paths, features=args.features,
+                                 progress=not args.quiet)
+    for path in written:
+        print(path)
+    return 0
+
+
+def add_parser(commands: Commands) -> None:
+    generate = commands.add_parser(
+        "generate", help="text to motion: GIF, MP4, PNG filmstrip, NPY, JSON or BVH",
+        description="One prompt: one motion (--num for variations). Several prompts with one "
+                    "duration each: one continuous long motion doing them in order. --prompts "
+                    "FILE: one motion per line.")
+    generate.add_argument("text", nargs="*", help="what the person does")
+    generate.add_argument("--prompts", type=Path, default=None,
+                          help="a UTF-8 file, one prompt per line (batched)")
+    generate.add_argument("--model", type=Path, default=None,
+                          help="model directory (default: the bundled model)")
+    length = generate.add_mutually_exclusive_group()
+    length.add_argument("--seconds", type=float, nargs="+", default=None,
+                        help="duration; one per prompt for a long motion (default 5)")
+    length.add_argument("--length", type=int, nargs="+", default=None, help="frames")
+    generate.add_argument("--nfe", type=int, default=None, help="sampling steps (default 5)")
+    generate.add_argument("--seed", type=int, default=None,
+                          help="motion i gets seed + i (default: random)")
+    generate.add_argument("--num", type=int, default=1, help="variations per prompt (default 1)")
+    generate.add_argument("--device", default=None)
+    generate.add_argument("--dtype", default="float32", choices=["float32", "bfloat16"],
+                          help="precision of the networks' products (docs/performance.md)")
+    generate.add_argument("--whole-prompt", action="store_true",
+                          help="give the model a prompt that names actions in sequence ('walks, "
+                               "then waves') as one text, instead of one part per action, chained")
+    generate.add_argument("--features", action="store_true",
+                          help=".npy holds the features (T x 263) instead of joints (T x J x 3)")
+    where = generate.add_mutually_exclusive_group()
+    where.add_argument("--out", type=Path, default=None,
+                       help="FILE.gif, .mp4, .png, .npy, .json or .bvh (several: FILE_000.gif, ...)")
+    where.add_argument("--out-dir", type=Path, default=None,
+                       help="directory; files named after the prompts")
+    generate.add_argument("--format", default=None,
+                          help="with --out-dir: gif (default), mp4, png, npy, json or bvh")
+    generate.add_argument("--quiet", action="store_true", help="no progress bar")
+    generate.set_defaults(func=run)

@@ -1,0 +1,128 @@
+"""`mlct train ae|cm|diffusion|evaluator|classifier`: the model's stages, and the judges."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from mlct.cli.parser import Commands, Parser
+from mlct.errors import MlctError
+
+
+def run_stage(args: argparse.Namespace) -> int:
+    from mlct.config import load_config
+    from mlct.train.loop import train
+
+    if args.resume and args.config is not None:
+        raise MlctError("--resume continues the run's saved config; drop --config")
+    if args.init is not None and args.config is not None:
+        raise MlctError("--init takes the model's own config; drop --config (key=value "
+                        "overrides still apply)")
+    if args.init == "bundled":
+        from mlct.generate.pipeline import bundled_model_dir
+
+        args.init = bundled_model_dir()
+    saved = args.resume or args.init is not None  # the config comes from the run or the model
+    config = None if saved else load_config(args.config or "small", args.overrides)
+    summary = train(args.stage, args.data, args.out, config=config,
+                    overrides=args.overrides if saved else [], resume=args.resume,
+                    ae_path=args.ae, device=args.device, progress=not args.quiet,
+                    init=args.init)
+    if summary.get("is_main", True):
+        last = ", ".join(f"{k} {v:.4g}" for k, v in summary["last"].items())
+        print(f"{args.stage}: step {summary['step']}, {last}; "
+              f"{summary['samples_per_s']:.1f} samples/s; {summary['checkpoint']}")
+    return 0
+
+
+def run_evaluator(args: argparse.Namespace) -> int:
+    from mlct.eval.judge.train_evaluator import train_evaluator
+
+    from mlct.eval.judge.evaluator import EVALUATOR_SIZES
+    from mlct.eval.judge.train_evaluator import EvaluatorTrainConfig
+
+    config = EvaluatorTrainConfig(sizes=EVALUATOR_SIZES[args.sizes])
+    summary = train_evaluator(args.data, args.out, glove_dir=args.glove,
+                              steps_decomp=args.steps_decomp, steps_match=args.steps_match,
+                              batch_size=args.batch_size, seed=args.seed, device=args.device,
+                              progress=not args.quiet, config=config, overwrite=args.overwrite)
+    print(f"evaluator: {summary['vocabulary']} word vectors ({summary['vocabulary_size']}), "
+          f"{summary['train_items']} train items, best step {summary['best_step']}; "
+          f"{summary['path']}")
+    return 0
+
+
+def run_classifier(args: argparse.Namespace) -> int:
+    from mlct.eval.judge.action_classifier import train_action_classifier
+
+    summary = train_action_classifier(args.data, args.out, steps=args.steps,
+                                      batch_size=args.batch_size, seed=args.seed,
+                                      device=args.device,
+                                      progress=not args.quiet, overwrite=args.overwrite)
+    test = summary["accuracy"]["test"]
+    print(f"action classifier: {len(summary['classes'])} classes; test exact-set accuracy "
+          f"{test['exact_set_accuracy']:.3f}, mean recall {test['mean_recall']:.3f}; {args.out}")
+    return 0
+
+
+def _trainer_options(parser: argparse.ArgumentParser, what: str, batch_size: int) -> None:
+    """The options the evaluator and the action classifier trainers share."""
+    parser.add_argument("--data", required=True, type=Path, help="dataset directory")
+    parser.add_argument("--out", required=True, type=Path, help=f"{what} directory to write")
+    parser.add_argument("--batch-size", type=int, default=batch_size)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--device", default=None,
+                        help="cpu or cuda (default: cuda if available)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help=f"replace an existing {what} directory")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def add_parser(commands: Commands) -> None:
+    train = commands.add_parser("train", help="train a stage: ae, then cm (or diffusion); "
+                                "or the evaluator")
+    stages = train.add_subparsers(dest="stage", required=True, parser_class=Parser,
+                                  metavar="{ae,cm,diffusion,evaluator,classifier}")
+    for stage, help_text in (("ae", "stage 1: the motion autoencoder"),
+                             ("cm", "stage 2: latent consistency training (MLCT)"),
+                             ("diffusion", "stage 2 baseline: latent diffusion (DDIM + CFG)")):
+        parser_ = stages.add_parser(stage, help=help_text)
+        parser_.add_argument("--data", required=True, type=Path, help="dataset directory")
+        parser_.add_argument("--out", required=True, type=Path,
+                             help="run directory (all stages)")
+        parser_.add_argument("--config", default=None, help="preset (humanml3d, kit, small, "
+                             "tiny) or YAML file; default small")
+        parser_.add_argument("overrides", nargs="*", metavar="key=value",
+                             help="config overrides, e.g. train.cm.max_steps=2000 "
+                             "consistency.guidance=2")
+        parser_.add_argument("--resume", action="store_true",
+                             help="continue from the latest checkpoint")
+        parser_.add_argument("--ae", default=None, help="AE checkpoint for cm/diffusion "
+                             "(default: RUN/ae's latest)")
+        parser_.add_argument("--init", default=None, metavar="MODEL_DIR",
+                             help="fine-tune: start from a model's config, normalization and "
+                             "weights; 'bundled' = the model that ships with mlct")
+        parser_.add_argument("--device", default=None,
+                             help="cpu or cuda (default: cuda if available)")
+        parser_.add_argument("--quiet", action="store_true", help="no progress bar")
+        parser_.set_defaults(func=run_stage)
+
+    evaluator = stages.add_parser("evaluator", help="the text-motion matching evaluator of "
+                                  "the standard metrics (Guo et al. 2022)")
+    _trainer_options(evaluator, "evaluator", batch_size=32)
+    evaluator.add_argument("--glove", default=None, type=Path,
+                           help="GloVe directory (our_vab_*); default: learn word vectors")
+    evaluator.add_argument("--steps-decomp", type=int, default=5000,
+                           help="movement autoencoder steps (default 5000)")
+    evaluator.add_argument("--steps-match", type=int, default=15000,
+                           help="text-motion co-embedding steps (default 15000)")
+    evaluator.add_argument("--sizes", choices=["official", "compact"], default="official",
+                           help="network widths: the official evaluator's (default) or compact "
+                           "ones, about 10x faster to train on a CPU")
+    evaluator.set_defaults(func=run_evaluator)
+
+    classifier = stages.add_parser("classifier", help="the action classifier of the semantic "
+                                   "accuracy (procedural benchmarks: labels.jsonl)")
+    _trainer_options(classifier, "classifier", batch_size=64)
+    classifier.add_argument("--steps", type=int, default=1500, help="default 1500")
+    classifier.set_defaults(func=run_classifier)
