@@ -122,6 +122,8 @@ def main() -> None:
     parser.add_argument("--limit", type=int, default=None, help="first N motions of the split")
     parser.add_argument("--classifier", type=Path, default=None)
     parser.add_argument("--skip-generation", action="store_true", help="only (a) and (b)")
+    parser.add_argument("--whole-prompt", action="store_true",
+                        help="(c) and (d) give the model whole prompts: no split into actions")
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
     torch.manual_seed(0)
@@ -166,7 +168,8 @@ def main() -> None:
         generated, made_features, targets = Tally(), [], []
         start = time.perf_counter()
         for seed in range(args.seeds):
-            out = pipe.generate(captions, lengths=lengths, nfe=args.nfe, seed=seed * 100_000)
+            out = pipe.generate(captions, lengths=lengths, nfe=args.nfe, seed=seed * 100_000,
+                                split_actions=not args.whole_prompt)
             for name, motion in zip(names, out):
                 generated.add(labels[name], evaluate_label(motion.joints, labels[name]))
                 made_features.append(motion.features)
@@ -175,7 +178,8 @@ def main() -> None:
         prompts = json.loads(PROMPTS.read_text(encoding="utf-8"))
         # "two actions" as a user gets them (each action made alone and chained,
         # generate/compose.py), and "... whole": the model given the whole prompt at once.
-        for key, title, seconds, split in (("paraphrases", "paraphrases", 4.0, True),
+        for key, title, seconds, split in (("paraphrases", "paraphrases", 4.0,
+                                            not args.whole_prompt),
                                            ("two_actions", "two actions", 7.0, True),
                                            ("two_actions", "two, whole", 7.0, False)):
             tally = Tally()
