@@ -233,14 +233,28 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 def _cmd_export(args: argparse.Namespace) -> int:
     from mlct.train.export import export_run
 
-    print(export_run(args.run, args.out, stage=args.stage, half=args.half))
+    print(export_run(args.run, args.out, stage=args.stage, half=args.half, onnx=args.onnx))
+    return 0
+
+
+def _cmd_convert(args: argparse.Namespace) -> int:
+    from mlct.generate.onnx_bundle import convert_to_onnx
+    from mlct.generate.pipeline import bundled_model_dir
+
+    if not args.onnx:
+        raise MlctError("say what to convert the model to: --onnx (ONNX graphs for "
+                        "--backend onnx)")
+    bundled = str(args.model) == "bundled"
+    print(convert_to_onnx(bundled_model_dir() if bundled else args.model, args.out,
+                          read_only=bundled))
     return 0
 
 
 def _cmd_serve(args: argparse.Namespace) -> int:
     from mlct.serve import run_server
 
-    run_server(args.model, host=args.host, port=args.port, device=args.device, token=args.token)
+    run_server(args.model, host=args.host, port=args.port, device=args.device, token=args.token,
+               backend=args.backend)
     return 0
 
 
@@ -278,7 +292,8 @@ def _cmd_generate(args: argparse.Namespace) -> int:
         if status:
             print("mlct: loading the model and the text encoder ...", end="\r", file=sys.stderr,
                   flush=True)
-        generator = mlct.load(args.model, device=args.device, dtype=args.dtype)
+        generator = mlct.load(args.model, device=args.device, dtype=args.dtype,
+                              backend=args.backend)
         generator.text_encoder  # noqa: B018 - loads it now, under the status line
         if status:
             print(" " * 50, end="\r", file=sys.stderr, flush=True)
@@ -454,7 +469,20 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("--stage", default=None, choices=["cm", "diffusion"],
                         help="which stage-2 model (default cm)")
     export.add_argument("--half", action="store_true", help="store weights in float16")
+    export.add_argument("--onnx", action="store_true",
+                        help="also write the networks as ONNX graphs (for --backend onnx)")
     export.set_defaults(func=_cmd_export)
+
+    convert = commands.add_parser("convert", help="add ONNX graphs to a model directory "
+                                  "(for --backend onnx)")
+    convert.add_argument("model", type=Path,
+                         help="model directory, or 'bundled' (the model inside mlct)")
+    convert.add_argument("--onnx", action="store_true",
+                         help="write the text encoder, denoiser and decoder as ONNX graphs")
+    convert.add_argument("--out", type=Path, default=None,
+                         help="copy the model here with its graphs (default: MODEL/onnx/; "
+                         "needed for 'bundled')")
+    convert.set_defaults(func=_cmd_convert)
 
     serve = commands.add_parser("serve", help="the JSON API and the web page (real-time "
                                 "generation in the browser)")
@@ -463,6 +491,9 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--host", default="127.0.0.1", help="default 127.0.0.1 (this machine)")
     serve.add_argument("--port", type=_port, default=8000, help="default 8000")
     serve.add_argument("--device", default=None, help="cpu or cuda (default: cuda if available)")
+    serve.add_argument("--backend", default="torch",
+                       help="torch (default) or onnx: ONNX Runtime on the CPU, after "
+                       "`mlct convert MODEL --onnx`")
     serve.add_argument("--token", default=None,
                        help="require 'Authorization: Bearer TOKEN' on POST /generate "
                        "(default: $MLCT_TOKEN; the page takes it as #token=TOKEN)")
@@ -489,6 +520,9 @@ def build_parser() -> argparse.ArgumentParser:
     generate.add_argument("--device", default=None)
     generate.add_argument("--dtype", default="float32", choices=["float32", "bfloat16"],
                           help="precision of the networks' products (docs/performance.md)")
+    generate.add_argument("--backend", default="torch",
+                          help="torch (default) or onnx: ONNX Runtime on the CPU, after "
+                          "`mlct convert MODEL --onnx`")
     generate.add_argument("--whole-prompt", action="store_true",
                           help="give the model a prompt that names actions in sequence ('walks, "
                                "then waves') as one text, instead of one part per action, chained")
