@@ -8,7 +8,8 @@ dependent control flow), which tracing records exactly, and sizes read from an i
 stay symbolic along the axes named dynamic. Torch deprecates this exporter; its warning is
 silenced here, in the one call.
 
-Running needs `onnxruntime` (the `[onnx]` extra); `session` reports its absence in one line.
+Writing needs the `onnx` package (torch.onnx serializes with it), running needs `onnxruntime`:
+the `[onnx]` extra holds both, and each function reports a missing one in one line.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ if TYPE_CHECKING:
     import onnxruntime
 
 OPSET = 17  # LayerNormalization is one operator from opset 17 (ONNX Runtime >= 1.14)
-INSTALL = "pip install 'mlct[onnx]' (or: pip install onnxruntime)"
+INSTALL = "pip install 'mlct[onnx]' (or: pip install onnxruntime==1.32.0 onnx==1.23.2)"
 
 
 def export_graph(module: nn.Module, args: tuple[torch.Tensor, ...], path: str | os.PathLike,
@@ -36,6 +37,11 @@ def export_graph(module: nn.Module, args: tuple[torch.Tensor, ...], path: str | 
     """Trace module(*args) and write it to path as an ONNX graph; `dynamic` names the axes
     (of inputs and outputs) left free, {"x": {0: "batch"}}; all others keep args' sizes."""
     path = Path(path)
+    try:
+        import onnx  # noqa: F401 - torch.onnx writes the file with it
+    except ImportError:
+        raise MlctError(f"writing ONNX graphs needs the onnx package, which is not installed: "
+                        f"{INSTALL}") from None
     with warnings.catch_warnings(), torch.no_grad():
         # the exporter's deprecation notice, and the tracer's notes on the Python-side checks
         # (lengths' range, shapes) that it evaluates once on args and leaves out of the graph
