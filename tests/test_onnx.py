@@ -104,11 +104,18 @@ def test_cli_generate_with_the_onnx_backend(converted, tmp_path) -> None:
     assert np.abs(a - b).max() < JOINTS_M
 
 
-def test_the_server_runs_on_the_onnx_backend(backends) -> None:
+def test_the_server_runs_on_the_onnx_backend(backends, converted, monkeypatch) -> None:
+    import uvicorn
     from fastapi.testclient import TestClient
 
+    from mlct.serve import run_server
     from mlct.serve.app import ServeSettings, create_app
 
+    apps = []
+    monkeypatch.setattr(uvicorn, "run", lambda app, **kwargs: apps.append(app))
+    run_server(converted, backend="onnx", settings=ServeSettings(warmup=False))
+    with TestClient(apps[0]) as client:  # `mlct serve --model DIR --backend onnx`
+        assert client.get("/health").json()["model"]["backend"] == "onnx"
     torch_gen, onnx_gen = backends
     with TestClient(create_app(onnx_gen, ServeSettings(warmup=False))) as client:
         assert client.get("/health").json()["model"]["backend"] == "onnx"
