@@ -1,7 +1,8 @@
 """Inference speed: AITS split, throughput, peak memory, and the machine's limit (issue 6).
 
     python bench/inference_speed.py [--quick] [--device cpu|cuda] [--dtypes float32,bfloat16]
-                                    [--threads N] [--runs 20] [--json OUT.json]
+                                    [--backends torch,onnx] [--threads N] [--runs 20]
+                                    [--json OUT.json]
 
 Models: the bundled small consistency model ("small CM"); the paper-size networks of the
 humanml3d preset ("paper CM"); the latent diffusion baseline at both sizes ("... LDM": 50 DDIM
@@ -21,6 +22,11 @@ here, each the best of 10 or more runs: peak matmul FLOP/s of a large GEMM in th
 threads, and read bandwidth over a buffer the size of each part's weights (cache-resident when
 they fit, as they would be). A part's best time is max(FLOPs / peak, bytes / bandwidth); the
 limit sums the parts (no term for per-operation overhead: that is what the ratio shows).
+
+Backends (mlct.load's): torch, eager PyTorch through mlct.nn.inference's layers, in every dtype;
+onnx, the same pipeline with the three networks as ONNX graphs run by ONNX Runtime (CPU,
+float32 only; the model is written to a temporary directory and converted first, untimed). The
+limit is the model's, whichever backend runs it.
 
 Each model runs in its own process, so peak memory is its own. --device cuda runs the networks
 in bfloat16 under torch.compile (not run in this repository's CI; needs a GPU).
@@ -163,6 +169,25 @@ def in_memory_generator(preset: str, sampler: str, device: str, dtype: str) -> A
     return MotionGenerator(meta, tensors, device, dtype)
 
 
+def onnx_generator(preset: str, sampler: str, folder: str, threads: int | None = None) -> Any:
+    """The model of bundle_in_memory written to folder as a bundle, converted (mlct convert
+    --onnx) and loaded with the onnx backend; threads: ONNX Runtime's (None: torch's)."""
+    from pathlib import Path
+
+    from safetensors.torch import save_file
+
+    from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION
+    from mlct.generate.onnx_backend import OnnxMotionGenerator
+    from mlct.generate.onnx_bundle import convert_to_onnx
+
+    meta, tensors = bundle_in_memory(preset, sampler)
+    save_file({k: v.contiguous() for k, v in tensors.items()},
+              str(Path(folder) / "model.safetensors"))
+    (Path(folder) / "config.json").write_text(json.dumps(
+        {**meta, "format": BUNDLE_FORMAT, "version": BUNDLE_VERSION}), encoding="utf-8")
+    return OnnxMotionGenerator.load(convert_to_onnx(folder), threads=threads)
+
+
 def _compile_for_cuda(gen: Any) -> None:
     """Fewer launches on the GPU: the two transformer stacks compiled with CUDA graphs
     ("reduce-overhead"); the condition terms and the heads stay eager (a few launches)."""
@@ -265,7 +290,9 @@ def _free_mb(device: Any) -> float:
 
 
 def run_model(spec: dict[str, Any]) -> dict[str, Any]:
-    """One model in one dtype: AITS per NFE, throughput, part costs and the limit."""
+    """One model in one dtype on one backend: AITS per NFE, throughput, part costs, limit."""
+    import tempfile
+
     import torch
 
     from mlct.eval.aits import time_inference
@@ -281,7 +308,11 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
         gen._text_encoder = load_text_encoder(gen.meta["text_encoder"], device=device)
         _compile_for_cuda(gen)
     gen.encode_text([""])  # loads the text encoder: loading is not timed
-    costs = part_costs(gen)
+    costs = part_costs(gen)  # the model's, counted on its torch modules
+    if spec["backend"] == "onnx":
+        folder = tempfile.mkdtemp(prefix="mlct-bench-onnx-")
+        gen = onnx_generator(preset, sampler, folder)
+        gen.encode_text([""])
     bandwidth = {part: read_bandwidth(int(c["bytes"]), device) for part, c in costs.items()}
     peak = spec["peak_flops"][spec["dtype"] if device.type == "cpu" else "bfloat16"]
     text_peak = spec["peak_flops"]["float32"]  # the text encoder runs in fp32
@@ -307,20 +338,29 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
                      "limit_warm_ms": limit_warm, "limit_cold_ms": limit_warm + best("text"),
                      "limit_parts_ms": {"text": best("text"), "step": best("step"),
                                         "decode": best("decode")}})
-        print(f"  {spec['model']} {spec['dtype']} nfe {nfe}: warm {warm:.1f} ms "
+        print(f"  {spec['model']} {spec['backend']} {spec['dtype']} nfe {nfe}: warm {warm:.1f} ms "
               f"(limit {limit_warm:.1f} ms)", file=sys.stderr, flush=True)
     tput = throughput(gen, spec["throughput_budget_s"], sync)
-    return {"model": spec["model"], "dtype": spec["dtype"], "device": str(device),
-            "threads": torch.get_num_threads(), "aits": rows, "throughput": tput,
+    if spec["backend"] == "onnx":
+        import shutil
+
+        shutil.rmtree(folder, ignore_errors=True)
+    return {"model": spec["model"], "dtype": spec["dtype"], "backend": spec["backend"],
+            "device": str(device), "threads": torch.get_num_threads(), "aits": rows, "throughput": tput,
             "costs": costs, "bandwidth_gb_s": {k: v / 1e9 for k, v in bandwidth.items()}}
 
 
-def ablations(reps: int) -> list[dict[str, Any]]:
+def ablations(reps: int, onnx: bool = False) -> list[dict[str, Any]]:
     """Each optimization of the inference path on and off, interleaved run by run so that a
-    busy machine disturbs all variants alike: medians at batch 1, 5 NFE, 196 frames, warm text."""
+    busy machine disturbs all variants alike: medians at batch 1, 5 NFE, 196 frames, warm text.
+    onnx: the onnx backend too (ONNX Runtime's threads follow torch.set_num_threads)."""
+    import shutil
+    import tempfile
+
     import numpy as np
     import torch
 
+    from mlct.generate.onnx_backend import OnnxMotionGenerator
     from mlct.generate.pipeline import MotionGenerator
 
     threads = torch.get_num_threads()
@@ -342,6 +382,13 @@ def ablations(reps: int) -> list[dict[str, Any]]:
              MotionGenerator(meta, tensors, dtype="bfloat16"), threads)]
         if threads > 1:
             variants.append(("  the float32 default on 1 thread", default, 1))
+        if onnx:  # the other backend, interleaved with the rest: a busy machine hits all alike
+            folder = tempfile.mkdtemp(prefix="mlct-bench-onnx-")
+            onnx_gen = onnx_generator(*MODELS[model][:2], folder)
+            variants.append(("  the onnx backend (ONNX Runtime, float32)", onnx_gen, threads))
+            if threads > 1:  # ONNX Runtime's threads are set when its sessions are made
+                variants.append(("  the onnx backend on 1 thread",
+                                 OnnxMotionGenerator.load(folder, threads=1), 1))
         cond = torch.randn(1, TEXT_DIM, generator=torch.Generator().manual_seed(0))
         cond = cond / cond.norm()
         times = np.zeros((len(variants), reps, 2))
@@ -356,6 +403,8 @@ def ablations(reps: int) -> list[dict[str, Any]]:
                 if rep >= 2:  # two warm-up rounds
                     times[i, rep - 2] = (mid - start, end - mid)
         torch.set_num_threads(threads)
+        if onnx:
+            shutil.rmtree(folder, ignore_errors=True)
         medians = np.median(times, axis=1) * 1000.0
         before = medians[0].sum()
         for (name, *_), (sampling, decoding) in zip(variants, medians):
@@ -411,16 +460,17 @@ def quality_bf16() -> dict[str, float]:
 
 def targets(results: list[dict[str, Any]], device: str) -> list[tuple[str, str, bool]]:
     """(target, measured, met) for each of issue 6's targets that this run measured."""
-    def row(model: str, dtype: str, nfe: int) -> dict[str, Any] | None:
+    def row(model: str, kind: tuple[str, str], nfe: int) -> dict[str, Any] | None:
         for r in results:
-            if r["model"] == model and r["dtype"] == dtype:
+            if r["model"] == model and (r["backend"], r["dtype"]) == kind:
                 return next((a for a in r["aits"] if a["nfe"] == nfe), None)
         return None
 
     out = []
-    for dtype in sorted({r["dtype"] for r in results}):
-        cm, small, ldm = row("paper CM", dtype, 5), row("small CM", dtype, 5), \
-            row("paper LDM", dtype, 50)
+    for kind in sorted({(r["backend"], r["dtype"]) for r in results}):
+        dtype = " ".join(kind)  # "torch float32", "onnx float32": the targets' label
+        cm, small, ldm = row("paper CM", kind, 5), row("small CM", kind, 5), \
+            row("paper LDM", kind, 50)
         if device == "cpu":
             for name, r, goal in (("paper CM", cm, 40.0), ("small CM", small, 15.0)):
                 if r:
@@ -455,35 +505,39 @@ def report(results: list[dict[str, Any]], info: dict[str, Any], device: str) -> 
                                       for k, v in info["peak_flops"].items()))
     print("\nAITS at batch 1, 196 frames, medians in ms (warm: text from the memo; cold: "
           "encoder run)")
-    head = (f"{'model':<10} {'dtype':<8} {'NFE':>3} {'text':>6} {'sampl':>7} {'decode':>6} "
+    head = (f"{'model':<10} {'backend':<7} {'dtype':<8} {'NFE':>3} {'text':>6} {'sampl':>7} {'decode':>6} "
             f"{'warm':>7} {'cold':>7} {'limit':>6} {'x lim':>5}")
     print(head)
     print("-" * len(head))
     for r in results:
         for a in r["aits"]:
-            print(f"{r['model']:<10} {r['dtype']:<8} {a['nfe']:>3} {a['text_ms']:>6.1f} "
+            print(f"{r['model']:<10} {r['backend']:<7} {r['dtype']:<8} {a['nfe']:>3} "
+                  f"{a['text_ms']:>6.1f} "
                   f"{a['sampling_ms']:>7.1f} {a['decoding_ms']:>6.1f} {a['warm_ms']:>7.1f} "
                   f"{a['cold_ms']:>7.1f} {a['limit_warm_ms']:>6.2f} "
                   f"{a['warm_ms'] / a['limit_warm_ms']:>5.1f}")
-    by = {(r["model"], r["dtype"]): r for r in results}
+    by = {(r["model"], r["backend"], r["dtype"]): r for r in results}
     for size in ("paper", "small"):
-        for dtype in sorted({r["dtype"] for r in results}):
-            cm, ldm = by.get((f"{size} CM", dtype)), by.get((f"{size} LDM", dtype))
+        for backend, dtype in sorted({(r["backend"], r["dtype"]) for r in results}):
+            cm = by.get((f"{size} CM", backend, dtype))
+            ldm = by.get((f"{size} LDM", backend, dtype))
             if cm and ldm:
                 base = ldm["aits"][0]
                 ratios = ", ".join(f"NFE {a['nfe']} {base['warm_ms'] / a['warm_ms']:.1f}x"
                                    for a in cm["aits"])
-                print(f"{size} LDM (50 DDIM + CFG) / {size} CM, {dtype}, warm: {ratios}")
+                print(f"{size} LDM (50 DDIM + CFG) / {size} CM, {backend} {dtype}, warm: "
+                      f"{ratios}")
     print("\nthroughput: sampling + decoding at the default NFE, 196 frames")
     for r in results:
         cells = [f"B={t['batch']}: {t['motions_per_s']:.1f}/s, peak {t['peak_mb']:.0f} MB"
                  if "motions_per_s" in t else f"B={t['batch']}: skipped ({t['skipped']})"
                  for t in r["throughput"]]
-        print(f"{r['model']:<10} {r['dtype']:<8} " + "; ".join(cells))
+        print(f"{r['model']:<10} {r['backend']:<7} {r['dtype']:<8} " + "; ".join(cells))
     print("\nlimit parts (ms at batch 1): text / one step / decoding; FLOPs and weight MB")
     for r in results:
         a, c = r["aits"][0]["limit_parts_ms"], r["costs"]
-        print(f"{r['model']:<10} {r['dtype']:<8} {a['text']:.2f} / {a['step']:.3f} / "
+        print(f"{r['model']:<10} {r['backend']:<7} {r['dtype']:<8} {a['text']:.2f} / "
+              f"{a['step']:.3f} / "
               f"{a['decode']:.2f} ms; " + ", ".join(
                   f"{k} {v['flops'] / 1e9:.3f} GFLOP {v['bytes'] / 2**20:.1f} MB "
                   f"@ {r['bandwidth_gb_s'][k]:.0f} GB/s" for k, v in c.items()))
@@ -506,6 +560,9 @@ def main() -> None:
                              "bfloat16 on CUDA; --quick: float32)")
     parser.add_argument("--models", default=",".join(MODELS),
                         help=f"comma-separated, of: {', '.join(MODELS)}")
+    parser.add_argument("--backends", default=None,
+                        help="comma-separated: torch,onnx (default: both where onnxruntime is "
+                             "installed; onnx runs float32 on the CPU only)")
     parser.add_argument("--threads", type=int, default=0, help="intra-op threads (0: torch's)")
     parser.add_argument("--runs", type=int, default=20, help="timed runs per AITS figure (at "
                         "most; fewer where a run is slow)")
@@ -528,10 +585,11 @@ def main() -> None:
     default = "bfloat16" if args.device == "cuda" else (
         "float32" if args.quick else "float32,bfloat16")
     dtypes = (args.dtypes or default).split(",")
+    backends = _backends(args.backends, args.device, parser)
     if args.threads:
         torch.set_num_threads(args.threads)
     if args.ablations:
-        rows = ablations(args.ablations)
+        rows = ablations(args.ablations, onnx="onnx" in backends)
         print_ablations(rows)
         if args.json:
             _write_json(args.json, {"machine": machine("cpu"), "ablations": rows})
@@ -542,10 +600,11 @@ def main() -> None:
     info["peak_flops"] = {d: peak_matmul_flops(getattr(torch, d), dev)
                           for d in sorted({"float32", "bfloat16"})}
     results = []
-    for dtype in dtypes:
+    for backend, dtype in [(b, d) for b in backends for d in dtypes
+                           if b == "torch" or d == "float32"]:
         for model in models:
-            print(f"measuring {model} ({dtype}) ...", file=sys.stderr, flush=True)
-            spec = {"model": model, "dtype": dtype, "device": args.device,
+            print(f"measuring {model} ({backend}, {dtype}) ...", file=sys.stderr, flush=True)
+            spec = {"model": model, "dtype": dtype, "backend": backend, "device": args.device,
                     "threads": args.threads, "quick": args.quick, "runs": args.runs,
                     "aits_budget_s": 20.0,
                     "throughput_budget_s": 1.0 if args.quick else 15.0,
@@ -553,13 +612,30 @@ def main() -> None:
             proc = subprocess.run([sys.executable, __file__, "--child", json.dumps(spec)],
                                   stdout=subprocess.PIPE, text=True, check=False)
             if proc.returncode != 0:
-                sys.exit(f"{model} ({dtype}) failed (exit {proc.returncode})")
+                sys.exit(f"{model} ({backend}, {dtype}) failed (exit {proc.returncode})")
             results.append(json.loads(proc.stdout.strip().splitlines()[-1]))
     if "bfloat16" in dtypes and args.device == "cpu":
         info["quality_bf16"] = quality_bf16()
     report(results, info, args.device)
     if args.json:
         _write_json(args.json, {"machine": info, "results": results})
+
+
+def _backends(text: str | None, device: str, parser: argparse.ArgumentParser) -> list[str]:
+    """The backends to measure: --backends, or torch and (when installed, on the CPU) onnx."""
+    import importlib.util
+
+    installed = importlib.util.find_spec("onnxruntime") is not None
+    if text is None:
+        return ["torch", "onnx"] if installed and device == "cpu" else ["torch"]
+    backends = [b.strip() for b in text.split(",") if b.strip()]
+    for backend in backends:
+        if backend not in ("torch", "onnx"):
+            parser.error(f"unknown backend {backend!r}; choose from torch, onnx")
+    if "onnx" in backends and (device != "cpu" or not installed):
+        parser.error("--backends onnx: runs on the CPU, with onnxruntime installed "
+                     "(pip install 'mlct[onnx]')")
+    return backends
 
 
 def _write_json(path: str, data: dict[str, Any]) -> None:

@@ -20,7 +20,8 @@ SRC = Path(mlct.__file__).resolve().parent  # src/mlct
 # the units of one layer are siblings and do not import each other.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("errors",),  # MlctError and the one-line helper
-    ("io", "devices", "config"),  # files written atomically, device choice, the typed config
+    # files written atomically, device choice, the typed config, ONNX graphs written and run
+    ("io", "devices", "config", "onnx_io"),
     ("motion",),  # skeletons, features <-> joints, BVH, rendering
     ("data",),  # the dataset layout, captions, statistics, torch datasets, the benchmark
     ("text",),  # frozen text encoders and their cache

@@ -112,6 +112,21 @@ def test_export_load_generate(trained: Path, tmp_path: Path) -> None:
     assert (model_dir / "Mean.npy").is_file() and (model_dir / "Std.npy").is_file()
 
 
+def test_export_with_onnx_graphs(trained: Path, tmp_path: Path) -> None:
+    """`mlct export RUN --out DIR --onnx`: the bundle with its graphs; the backends agree."""
+    pytest.importorskip("onnxruntime")
+    pytest.importorskip("onnx")
+    from mlct.cli import main
+
+    assert main(["export", str(trained), "--out", str(tmp_path / "model"), "--onnx"]) == 0
+    texts, lengths = ["a person walks forward", "someone jumps"], [64, 23]
+    made = [mlct.load(tmp_path / "model", backend=backend).generate(texts, lengths=lengths,
+                                                                     nfe=2, seed=3)
+            for backend in ("torch", "onnx")]
+    for a, b in zip(*made):
+        assert np.abs(a.joints - b.joints).max() < 1e-3
+
+
 def test_diffusion_baseline_samples_with_ddim_cfg(trained: Path, tmp_path: Path) -> None:
     from mlct.train.export import export_run
 

@@ -10,9 +10,11 @@ if TYPE_CHECKING:
     from mlct.generate.pipeline import MotionGenerator
 
 
-def load(path: Any = None, device: Any = None, dtype: Any = "float32") -> "MotionGenerator":
+def load(path: Any = None, device: Any = None, dtype: Any = "float32",
+         backend: str = "torch") -> "MotionGenerator":
     """Load a model: `mlct.load()` the bundled one, `mlct.load(DIR)` any `mlct export` bundle;
-    dtype "bfloat16" for faster, slightly rounded matrix products (docs/performance.md)."""
-    from mlct.generate.pipeline import load as _load  # lazy: `import mlct` stays light
+    dtype "bfloat16" for faster, slightly rounded matrix products (docs/performance.md);
+    backend "onnx" runs the networks with ONNX Runtime (after `mlct convert DIR --onnx`)."""
+    from mlct.generate.backends import load as _load  # lazy: `import mlct` stays light
 
-    return _load(path, device, dtype)
+    return _load(path, device, dtype, backend)

@@ -47,7 +47,8 @@ def run(args: argparse.Namespace) -> int:
         if status:
             print("mlct: loading the model and the text encoder ...", end="\r", file=sys.stderr,
                   flush=True)
-        generator = mlct.load(args.model, device=args.device, dtype=args.dtype)
+        generator = mlct.load(args.model, device=args.device, dtype=args.dtype,
+                              backend=args.backend)
         generator.text_encoder  # noqa: B018 - loads it now, under the status line
         if status:
             print(" " * 50, end="\r", file=sys.stderr, flush=True)
@@ -82,6 +83,9 @@ def add_parser(commands: Commands) -> None:
     generate.add_argument("--device", default=None)
     generate.add_argument("--dtype", default="float32", choices=["float32", "bfloat16"],
                           help="precision of the networks' products (docs/performance.md)")
+    generate.add_argument("--backend", default="torch",
+                          help="torch (default) or onnx: ONNX Runtime on the CPU, after "
+                          "`mlct convert MODEL --onnx`")
     generate.add_argument("--whole-prompt", action="store_true",
                           help="give the model a prompt that names actions in sequence ('walks, "
                                "then waves') as one text, instead of one part per action, chained")

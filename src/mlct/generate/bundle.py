@@ -8,7 +8,8 @@ A bundle is a directory:
   fine-tunes the model on a user's own data;
 - config.json: the full run config, the sampler's name (mlct.generate.samplers), feature
   width, skeleton, text encoder;
-- Mean.npy, Std.npy: the dataset statistics, in the standard layout's names.
+- Mean.npy, Std.npy: the dataset statistics, in the standard layout's names;
+- optionally onnx/: the networks as ONNX graphs for the onnx backend (onnx_bundle.py owns them).
 It holds no optimizer state and no text-encoder weights (the text encoder is named and loaded
 from its own package or directory).
 """
@@ -31,6 +32,8 @@ BUNDLE_VERSION = 1
 ENCODER_PREFIXES = ("enc_in.", "enc_tokens", "enc_pos", "encoder.", "to_tokens.")
 ENCODER_KEY = "ae_encoder"  # the AE encoder's tensors in a bundle (since stage-1 fine-tuning)
 META_KEYS = ("sampler", "config", "feature_dim", "skeleton", "text_encoder", "text_dim")
+CONFIG, WEIGHTS = "config.json", "model.safetensors"
+BUNDLE_FILES = (CONFIG, WEIGHTS, "Mean.npy", "Std.npy")  # a bundle's files (its onnx/ aside)
 
 
 
@@ -74,7 +77,7 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
     path = Path(path)
     if not path.is_dir():
         raise MlctError(f"{path}: no such model directory")
-    config_path, weights = path / "config.json", path / "model.safetensors"
+    config_path, weights = path / CONFIG, path / WEIGHTS
     if not config_path.is_file() or not weights.is_file():
         raise MlctError(f"{path}: not an mlct model (needs config.json and model.safetensors; "
                         f"make one with `mlct export RUN --out {path}`)")

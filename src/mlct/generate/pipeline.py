@@ -13,7 +13,7 @@ import dataclasses
 import os
 from collections import OrderedDict
 from pathlib import Path
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 import torch
@@ -21,12 +21,14 @@ from torch import Tensor
 
 from mlct.generate.bundle import ENCODER_PREFIXES, read_bundle
 from mlct.io import strip_prefix
-from mlct.config import config_from_dict
+from mlct.config import Config, config_from_dict
 from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.generate.generated import GeneratedMotion, Generation
 from mlct.generate.samplers import Sampler, sampler_class
+from mlct.nn.autoencoder import LatentAutoencoder
 from mlct.nn.build import build_autoencoder, build_denoiser
+from mlct.nn.denoiser import Denoiser
 from mlct.motion.features import recover_from_ric
 from mlct.motion.skeleton import get_skeleton
 from mlct.nn.inference import for_inference, weight_dtype
@@ -44,6 +46,8 @@ class MotionGenerator:
     (about 1.3-1.7x faster on CPUs with AVX512-BF16, joints a few mm off fp32's:
     docs/performance.md). Either way the networks run through mlct.nn.inference's layers."""
 
+    backend = "torch"  # the name mlct.load(..., backend=) gives it (generate/backends.py)
+
     def __init__(self, meta: dict, tensors: dict[str, Tensor],
                  device: torch.device | str | None = None,
                  dtype: str | torch.dtype = "float32") -> None:
@@ -57,22 +61,18 @@ class MotionGenerator:
         self.skeleton = get_skeleton(meta["skeleton"])
         # the bundle names its sampler (config.json "sampler"); it owns steps, times, guidance
         self.sampler: Sampler = sampler_class(meta["sampler"])(self.config, self.device)
-        self.ae = build_autoencoder(self.config, meta["feature_dim"])
-        missing, unexpected = self.ae.load_state_dict(strip_prefix(tensors, "decoder"),
-                                                      strict=False)
-        if unexpected or any(not k.startswith(ENCODER_PREFIXES) for k in missing):
-            raise MlctError("model weights do not match its config (decoder)")
-        self.denoiser = build_denoiser(self.config, meta["text_dim"])
-        try:
-            self.denoiser.load_state_dict(strip_prefix(tensors, "denoiser"))
-        except RuntimeError:
-            raise MlctError("model weights do not match its config (denoiser)") from None
+        self.ae, self.denoiser = self._networks(tensors)
         self.mean = tensors["norm.mean"].float()
         self.std = tensors["norm.std"].float()
-        self.ae = for_inference(self.ae.to(self.device), self.dtype)
-        self.denoiser = for_inference(self.denoiser.to(self.device), self.dtype)
         self._text_encoder: TextEncoder | None = None
         self._text_memo: OrderedDict[str, Tensor] = OrderedDict()
+
+    def _networks(self, tensors: dict[str, Tensor]) -> tuple[Any, Any]:
+        """The AE decoder and the denoiser that sample_latents and decode run: the bundle's
+        modules through mlct.nn.inference's layers (another backend returns its own)."""
+        ae, denoiser = bundle_networks(self.config, self.meta, tensors)
+        return (for_inference(ae.to(self.device), self.dtype),
+                for_inference(denoiser.to(self.device), self.dtype))
 
     @classmethod
     def load(cls, path: str | os.PathLike, device: torch.device | str | None = None,
@@ -255,6 +255,22 @@ class MotionGenerator:
         return seeds
 
 
+def bundle_networks(config: Config, meta: dict, tensors: dict[str, Tensor]
+                    ) -> tuple[LatentAutoencoder, Denoiser]:
+    """The bundle's AE (its decoder's weights) and denoiser as plain modules in eval mode;
+    MlctError when the weights do not fit the config."""
+    ae = build_autoencoder(config, meta["feature_dim"])
+    missing, unexpected = ae.load_state_dict(strip_prefix(tensors, "decoder"), strict=False)
+    if unexpected or any(not k.startswith(ENCODER_PREFIXES) for k in missing):
+        raise MlctError("model weights do not match its config (decoder)")
+    denoiser = build_denoiser(config, meta["text_dim"])
+    try:
+        denoiser.load_state_dict(strip_prefix(tensors, "denoiser"))
+    except RuntimeError:
+        raise MlctError("model weights do not match its config (denoiser)") from None
+    return ae.eval().requires_grad_(False), denoiser.eval().requires_grad_(False)
+
+
 # The shortest share of a sequence's part: below it the blend (0.75 s) would be most of the part.
 MIN_PART_SECONDS = 1.0
 TEXT_MEMO_SIZE = 2048  # texts whose embeddings a generator keeps (LRU): <= 64 MB with tokens
@@ -288,12 +304,3 @@ def _numbers(value: object, count: int, name: str) -> list[float]:
 def bundled_model_dir() -> Path:
     """The model shipped inside the package (docs/model_card.md): small preset, MiniLM text."""
     return Path(__file__).resolve().parent.parent / "assets" / "model"
-
-
-def load(path: str | os.PathLike | None = None, device: torch.device | str | None = None,
-         dtype: str | torch.dtype = "float32") -> MotionGenerator:
-    """Load an inference bundle written by `mlct export`; with no path, the bundled model.
-    dtype: "float32" or "bfloat16" matrix products (MotionGenerator)."""
-    if path is not None and not isinstance(path, (str, os.PathLike)):
-        raise MlctError(f"path must be a model directory (str or Path), not {type(path).__name__}")
-    return MotionGenerator.load(bundled_model_dir() if path is None else path, device, dtype)

@@ -170,7 +170,7 @@ def _model_info(generator: Any) -> dict[str, Any]:
     return {"sampler": meta.get("sampler"), "skeleton": generator.skeleton.name,
             "fps": float(generator.skeleton.fps), "max_frames": generator.max_frames,
             "default_nfe": generator.default_nfe, "text_encoder": meta.get("text_encoder"),
-            "step": meta.get("step")}
+            "step": meta.get("step"), "backend": getattr(generator, "backend", "torch")}
 
 
 def _bearer_matches(header: str | None, token: str) -> bool:

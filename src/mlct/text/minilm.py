@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import torch
-from torch import Tensor
+from torch import Tensor, nn
 
 from mlct.errors import MlctError, first_line
 from mlct.text.bert import BertConfig, BertModel, mean_pool
@@ -47,17 +47,31 @@ class MiniLMEncoder(TextEncoder):
     ) -> None:
         path = Path(path)
         try:
-            from tokenizers import Tokenizer
             from safetensors.torch import load_file
+        except ImportError as e:
+            raise MlctError(f"the MiniLM text encoder needs {e.name}: pip install {e.name}")
+        config = self._load_tokenizer(path, name, device, batch_size, token_slots)
+        try:
+            model = BertModel(config)
+            model.load_checkpoint(load_file(str(path / "model.safetensors")))
+        except Exception as e:  # noqa: BLE001 - safetensors raises its own kinds
+            raise MlctError(f"cannot load the MiniLM text encoder from {path}: {first_line(e)}")
+        self.model = model.to(self.device).eval().requires_grad_(False)
+        self.network = SentenceNetwork(self.model)
+
+    def _load_tokenizer(self, path: Path, name: str, device: str | torch.device | None,
+                        batch_size: int, token_slots: int) -> BertConfig:
+        """Everything but the network: the tokenizer, the sizes and the settings; returns the
+        BERT sizes (config.json)."""
+        try:
+            from tokenizers import Tokenizer
         except ImportError as e:
             raise MlctError(f"the MiniLM text encoder needs {e.name}: pip install {e.name}")
         try:
             config = BertConfig.from_file(path / "config.json")
             max_length = min(check_pipeline(path), config.max_position_embeddings)
             tokenizer = Tokenizer.from_file(str(path / "tokenizer.json"))
-            model = BertModel(config)
-            model.load_checkpoint(load_file(str(path / "model.safetensors")))
-        except Exception as e:  # noqa: BLE001 - tokenizers and safetensors raise their own kinds
+        except Exception as e:  # noqa: BLE001 - tokenizers raises its own kinds
             raise MlctError(f"cannot load the MiniLM text encoder from {path}: {first_line(e)}")
         # tokenizer.json pads and truncates to 128; sentence-transformers pads a batch to its
         # longest caption and truncates at the model's max_seq_length instead.
@@ -65,12 +79,12 @@ class MiniLMEncoder(TextEncoder):
         tokenizer.enable_truncation(max_length)
         self.tokenizer = tokenizer
         self.device = torch.device("cpu" if device is None else device)
-        self.model = model.to(self.device).eval().requires_grad_(False)
         self.name = name
         self.path = path
         self.batch_size = batch_size
         self.token_slots = token_slots
         self.dim = (1 + token_slots) * config.hidden_size
+        return config
 
     @torch.no_grad()  # not inference_mode: its tensors would be refused later by autograd
     def _encode(self, texts: list[str]) -> Tensor:
@@ -81,12 +95,15 @@ class MiniLMEncoder(TextEncoder):
         for start in range(0, len(order), self.batch_size):
             batch = order[start : start + self.batch_size]
             ids, mask = self._pad([encodings[i].ids for i in batch])
-            states = self.model(ids, mask)  # (b, L, D)
-            pooled = torch.nn.functional.normalize(mean_pool(states, mask), dim=-1)
+            pooled, states = self._run(ids, mask)  # (b, D), (b, L, D)
             out = self._with_tokens(pooled, states, mask) if self.token_slots else pooled
             for i, row in zip(batch, out.float().cpu()):
                 rows[i] = row
         return torch.stack(rows)
+
+    def _run(self, ids: Tensor, mask: Tensor) -> tuple[Tensor, Tensor]:
+        """Token ids and mask (b, L) -> the unit sentence vectors (b, D), the states (b, L, D)."""
+        return self.network(ids, mask)
 
     def _pad(self, ids: list[list[int]]) -> tuple[Tensor, Tensor]:
         """Right-pad token ids to the batch's longest: (b, L) ids and (b, L) 0/1 mask."""
@@ -105,6 +122,19 @@ class MiniLMEncoder(TextEncoder):
         # Right padding: a caption's real tokens come first, so masking keeps exactly them.
         slots[:, :kept] = states[:, :kept] * mask[:, :kept, None].to(states.dtype)
         return torch.cat([pooled, slots.flatten(1)], dim=1)
+
+
+class SentenceNetwork(nn.Module):
+    """BERT, mean pooling and normalisation: ids, mask (b, L) -> the unit sentence vectors
+    (b, D) and the last token states (b, L, D). The graph text/minilm_onnx.py writes."""
+
+    def __init__(self, bert: BertModel) -> None:
+        super().__init__()
+        self.bert = bert
+
+    def forward(self, ids: Tensor, mask: Tensor) -> tuple[Tensor, Tensor]:
+        states = self.bert(ids, mask)  # (b, L, D)
+        return torch.nn.functional.normalize(mean_pool(states, mask), dim=-1), states
 
 
 def check_pipeline(path: Path) -> int:

@@ -12,6 +12,7 @@ from safetensors.torch import save_file
 
 from mlct.errors import MlctError
 from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION, ENCODER_KEY, ENCODER_PREFIXES
+from mlct.generate.onnx_bundle import ONNX_DIR, write_onnx_graphs
 from mlct.generate.samplers import sampler_for_stage
 from mlct.io import atomic_dir, strip_prefix
 from mlct.train.checkpoint import latest_checkpoint, load_checkpoint
@@ -20,8 +21,9 @@ META_KEYS = ("step", "config", "feature_dim", "skeleton", "text_encoder", "text_
 
 
 def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None = None,
-               half: bool = False) -> Path:
-    """Write the inference bundle of RUN's latest `cm` (default) or `diffusion` checkpoint."""
+               half: bool = False, onnx: bool = False) -> Path:
+    """Write the inference bundle of RUN's latest `cm` (default) or `diffusion` checkpoint;
+    onnx: with its networks as ONNX graphs too (generate/onnx_bundle.py)."""
     run, out = Path(run), Path(out)
     if stage is None:
         stage = "cm" if (run / "cm").is_dir() or not (run / "diffusion").is_dir() else "diffusion"
@@ -73,4 +75,7 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
         (tmp / "config.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
         np.save(tmp / "Mean.npy", ckpt.tensors["norm.mean"].numpy())
         np.save(tmp / "Std.npy", ckpt.tensors["norm.std"].numpy())
+        if onnx:  # inside: a failed export leaves no bundle behind
+            (tmp / ONNX_DIR).mkdir()
+            write_onnx_graphs(tmp, tmp / ONNX_DIR)
     return out

@@ -1,0 +1,35 @@
+"""`mlct convert MODEL|bundled --onnx`: add ONNX graphs to a model directory."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from mlct.cli.parser import Commands
+from mlct.errors import MlctError
+
+
+def run(args: argparse.Namespace) -> int:
+    from mlct.generate.onnx_bundle import convert_to_onnx
+    from mlct.generate.pipeline import bundled_model_dir
+
+    if not args.onnx:
+        raise MlctError("say what to convert the model to: --onnx (ONNX graphs for "
+                        "--backend onnx)")
+    bundled = str(args.model) == "bundled"
+    print(convert_to_onnx(bundled_model_dir() if bundled else args.model, args.out,
+                          read_only=bundled))
+    return 0
+
+
+def add_parser(commands: Commands) -> None:
+    convert = commands.add_parser("convert", help="add ONNX graphs to a model directory "
+                                  "(for --backend onnx)")
+    convert.add_argument("model", type=Path,
+                         help="model directory, or 'bundled' (the model inside mlct)")
+    convert.add_argument("--onnx", action="store_true",
+                         help="write the text encoder, denoiser and decoder as ONNX graphs")
+    convert.add_argument("--out", type=Path, default=None,
+                         help="copy the model here with its graphs (default: MODEL/onnx/; "
+                         "needed for 'bundled')")
+    convert.set_defaults(func=run)

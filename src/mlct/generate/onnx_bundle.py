@@ -1,0 +1,192 @@
+"""A bundle's ONNX graphs: `mlct convert MODEL_DIR --onnx` and `mlct export RUN --onnx` write
+them, the onnx backend (onnx_backend.py) reads them; this module owns their format.
+
+MODEL_DIR/onnx/ holds
+- text_encoder.onnx: the MiniLM network, (ids, mask) -> (embedding, states)
+  (text/minilm_onnx.py; the tokenizer stays the `tokenizers` library);
+- denoiser.onnx: the network F of Eq. 11, (x_t (B, n, d), t (B,), text (B, c)) -> F (B, n, d).
+  F, not the consistency function S: the sampler objects (generate/samplers) apply the
+  parameterization (Eq. 11, or DDIM's noise prediction), the clamp and the re-noising around it,
+  as they do around the torch network. One sampler code for both backends, and its noise drawn
+  from the same torch.Generator, so a seed gives the same motion on either;
+- decoder.onnx: the AE decoder, (latent (B, n, d), valid (B, T) bool) -> normalized features
+  (B, T, D), T free (the longest length asked for); the pipeline divides by latent_scale before
+  it and denormalizes after it, as for the torch decoder;
+- onnx.json: format and version, the sha256 of the model.safetensors the graphs were made from
+  (graphs of another model are refused, not run), the text encoder, the opset.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from torch import Tensor, nn
+
+from mlct.config import config_from_dict
+from mlct.errors import MlctError
+from mlct.generate.bundle import BUNDLE_FILES, CONFIG, WEIGHTS, read_bundle
+from mlct.generate.pipeline import bundle_networks, bundled_model_dir
+from mlct.io import atomic_dir, check_writable_dir, read_format_json
+from mlct.nn.autoencoder import LatentAutoencoder
+from mlct.nn.inference import for_inference
+from mlct.onnx_io import OPSET, export_graph, onnxruntime_module, session
+from mlct.text.minilm_onnx import check_onnx_spec, write_minilm_graph
+
+ONNX_DIR = "onnx"  # in the model directory
+MANIFEST = "onnx.json"
+ONNX_FORMAT, ONNX_VERSION = "mlct-onnx", 1
+TEXT_ENCODER, DENOISER, DECODER = "text_encoder.onnx", "denoiser.onnx", "decoder.onnx"
+DENOISER_IO = (("x_t", "t", "text"), ("f",))
+DECODER_IO = (("latent", "valid"), ("features",))
+PARITY = 1e-3  # the most a graph's output may differ from the torch module's when written
+
+
+@dataclass(frozen=True)
+class OnnxGraphs:
+    """The graph files of a model directory, checked against its weights (read_onnx)."""
+
+    text_encoder: Path
+    denoiser: Path
+    decoder: Path
+    manifest: dict[str, Any]
+
+
+class DecoderGraph(nn.Module):
+    """The AE decoder with the frame count read from the mask's shape, so that it stays free in
+    the graph: (latent (B, n, d), valid (B, T) bool) -> normalized features (B, T, D)."""
+
+    def __init__(self, ae: LatentAutoencoder) -> None:
+        super().__init__()
+        self.ae = ae
+
+    def forward(self, latent: Tensor, valid: Tensor) -> Tensor:
+        return self.ae.decode(latent, valid.sum(1), valid.shape[1])
+
+
+def weights_digest(model_dir: Path) -> str:
+    """The sha256 of the bundle's model.safetensors (hex)."""
+    digest = hashlib.sha256()
+    with open(model_dir / WEIGHTS, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike) -> Path:
+    """Write the ONNX graphs of the bundle in model_dir into the (empty) directory `into`,
+    each checked against its torch module on a probe; returns `into`."""
+    model_dir, into = Path(model_dir), Path(into)
+    meta, tensors = read_bundle(model_dir)
+    spec = check_onnx_spec(meta["text_encoder"])  # before any work
+    onnxruntime_module()  # the graphs are checked with it: its absence is said first
+    config = config_from_dict(meta["config"], "model config")
+    ae, denoiser = bundle_networks(config, meta, tensors)
+    # plain products (no oneDNN packing): the layers that sample in torch, as graph operators
+    ae, denoiser = for_inference(ae, prepack=False), for_inference(denoiser, prepack=False)
+    n, d = ae.latent_shape
+    probe = torch.Generator().manual_seed(0)
+    x = torch.randn(2, n, d, generator=probe)
+    t = torch.tensor([0.9, 0.05])
+    text = torch.randn(2, meta["text_dim"], generator=probe)
+    batch = {0: "batch"}
+    export_graph(denoiser, (x, t, text), into / DENOISER, *DENOISER_IO,
+                 {name: batch for name in (*DENOISER_IO[0], *DENOISER_IO[1])})
+    frames = min(ae.max_len, 40)
+    valid = torch.arange(frames)[None, :] < torch.tensor([frames, frames // 2])[:, None]
+    latent = torch.rand(2, n, d, generator=probe) * 2 - 1
+    free = {0: "batch", 1: "frames"}
+    export_graph(DecoderGraph(ae), (latent, valid), into / DECODER, *DECODER_IO,
+                 {"latent": batch, "valid": free, "features": free})
+    write_minilm_graph(spec, into / TEXT_ENCODER)
+    with torch.no_grad():  # the graphs against the modules, on other sizes than traced
+        x3, t3, text3 = (torch.cat([v, v[:1]]) for v in (x, t, text))
+        _check(into / DENOISER, {"x_t": x3, "t": t3, "text": text3}, denoiser(x3, t3, text3))
+        valid = torch.arange(ae.max_len)[None, :] < torch.tensor([ae.max_len, 7, 60])[:, None]
+        latent3 = torch.cat([latent, latent[:1]])
+        _check(into / DECODER, {"latent": latent3, "valid": valid},
+               DecoderGraph(ae)(latent3, valid))
+    manifest = {"format": ONNX_FORMAT, "version": ONNX_VERSION,
+                "weights_sha256": weights_digest(model_dir), "text_encoder": spec,
+                "opset": OPSET, "torch": torch.__version__,
+                "graphs": {"text_encoder": TEXT_ENCODER, "denoiser": DENOISER,
+                           "decoder": DECODER}}
+    (into / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+    return into
+
+
+def _check(graph: Path, inputs: dict[str, Tensor], expected: Tensor) -> None:
+    """MlctError unless the graph gives what the module gave (within PARITY)."""
+    (out,) = session(graph).run(None, {k: v.numpy() for k, v in inputs.items()})
+    gap = float(np.abs(out - expected.numpy()).max()) if out.shape == expected.shape else np.inf
+    if not gap <= PARITY:
+        raise MlctError(f"{graph.name}: the ONNX graph differs from the torch network by {gap:.3g}"
+                        f" (more than {PARITY:g}); this model cannot run on the onnx backend")
+
+
+def convert_to_onnx(model_dir: str | os.PathLike, out: str | os.PathLike | None = None,
+                    read_only: bool = False) -> Path:
+    """`mlct convert MODEL_DIR --onnx [--out DIR]`: the bundle with its ONNX graphs.
+
+    Without out, the graphs go into MODEL_DIR/onnx/ (replacing older ones); with out, the
+    bundle is copied to out and the graphs written there. read_only: MODEL_DIR must not be
+    written (the model inside the package). Returns the directory that now holds both."""
+    model_dir = Path(model_dir)
+    read_bundle(model_dir)  # a bundle, or one line saying what is wrong, before any work
+    target = model_dir if out is None else Path(out)
+    in_place = target.exists() and target.resolve() == model_dir.resolve()
+    if in_place and (read_only or not os.access(model_dir, os.W_OK | os.X_OK)):
+        why = ("lives inside the mlct package" if read_only else "is not writable")
+        raise MlctError(f"{model_dir} {why}: give --out DIR, and the model is copied there "
+                        f"with its ONNX graphs")
+    if in_place:
+        with atomic_dir(model_dir / ONNX_DIR) as tmp:
+            write_onnx_graphs(model_dir, tmp)
+        return model_dir
+    check_writable_dir(target)
+    if target.exists() and (not target.is_dir() or (any(target.iterdir())
+                                                    and not (target / CONFIG).is_file())):
+        raise MlctError(f"{target} exists and is not a model directory; give a new or empty "
+                        f"directory to --out")
+    with atomic_dir(target) as tmp:
+        for name in BUNDLE_FILES:
+            if (model_dir / name).is_file():
+                shutil.copy2(model_dir / name, tmp / name)
+        (tmp / ONNX_DIR).mkdir()
+        write_onnx_graphs(tmp, tmp / ONNX_DIR)
+    return target
+
+
+def read_onnx(model_dir: str | os.PathLike, text_encoder: str) -> OnnxGraphs:
+    """The ONNX graphs of a bundle, checked: present, of this format, made from its weights and
+    for its text encoder; a one-line MlctError naming the problem and the fix otherwise."""
+    model_dir = Path(model_dir)
+    folder = model_dir / ONNX_DIR
+    make = f"make them with `mlct convert {model_dir} --onnx`"
+    if model_dir.resolve() == bundled_model_dir():  # inside the package: not written there
+        make = ("make a copy that has them with `mlct convert bundled --onnx --out DIR`, "
+                "then load DIR")
+    if not (folder / MANIFEST).is_file():
+        raise MlctError(f"{model_dir}: no ONNX graphs ({ONNX_DIR}/{MANIFEST}); {make}")
+    manifest = read_format_json(folder / MANIFEST, ONNX_FORMAT, ONNX_VERSION,
+                                "the description of a model's ONNX graphs")
+    graphs = {k: folder / v for k, v in (manifest.get("graphs") or {}).items()
+              if isinstance(v, str)}
+    missing = [name for name in ("text_encoder", "denoiser", "decoder")
+               if name not in graphs or not graphs[name].is_file()]
+    if missing:
+        raise MlctError(f"{folder}: the {', '.join(missing)} graph is missing; {make}")
+    if manifest.get("weights_sha256") != weights_digest(model_dir):
+        raise MlctError(f"{folder}: the ONNX graphs were made from another {WEIGHTS}; {make}")
+    if manifest.get("text_encoder") != text_encoder.strip().lower():
+        raise MlctError(f"{folder}: the ONNX graphs were made for the text encoder "
+                        f"{manifest.get('text_encoder')!r}, the model uses {text_encoder!r}; "
+                        f"{make}")
+    return OnnxGraphs(graphs["text_encoder"], graphs["denoiser"], graphs["decoder"], manifest)

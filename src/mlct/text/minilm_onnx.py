@@ -1,0 +1,59 @@
+"""The bundled MiniLM as an ONNX graph: written from minilm.py's network, run by ONNX Runtime.
+
+Only the network (BERT, mean pooling, normalisation: minilm.SentenceNetwork) is the graph; the
+tokenizer stays the `tokenizers` library and the batching, padding and token slots stay
+minilm.py's, so the embeddings are the torch encoder's up to float rounding (tested).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import torch
+from torch import Tensor
+
+from mlct.errors import MlctError
+from mlct.onnx_io import export_graph, session
+from mlct.text.encoders import MINILM, TOKENS_SUFFIX, bundled_minilm_path, token_slots_of
+from mlct.text.minilm import MiniLMEncoder
+
+ONNX_SPECS = (MINILM, MINILM + TOKENS_SUFFIX)  # the text encoders that have an ONNX graph
+INPUTS = ("ids", "mask")  # (B, L) int64 each: token ids, 1 for a real token and 0 for padding
+OUTPUTS = ("embedding", "states")  # (B, D) unit vectors, (B, L, D) last token states
+
+
+def check_onnx_spec(spec: str) -> str:
+    """The normalised spec of a text encoder that can run as an ONNX graph; MlctError else."""
+    name = spec.strip().lower() if isinstance(spec, str) else spec
+    if name not in ONNX_SPECS:
+        raise MlctError(f"the onnx backend runs the bundled MiniLM text encoders "
+                        f"({', '.join(ONNX_SPECS)}); this model uses {spec!r}")
+    return name
+
+
+def write_minilm_graph(spec: str, path: str | os.PathLike) -> Path:
+    """Write the network of text encoder `spec` ('minilm' or 'minilm+tokens') to path."""
+    encoder = MiniLMEncoder(bundled_minilm_path(), name=check_onnx_spec(spec))
+    ids, mask = encoder._pad([[101, 1037, 2711, 7365, 102], [101, 102]])  # two lengths: padding
+    tokens = {0: "batch", 1: "tokens"}
+    return export_graph(encoder.network, (ids, mask), path, INPUTS, OUTPUTS,
+                        {"ids": tokens, "mask": tokens, "embedding": {0: "batch"},
+                         "states": tokens})
+
+
+class OnnxMiniLMEncoder(MiniLMEncoder):
+    """MiniLMEncoder whose network is an ONNX graph (write_minilm_graph) run on the CPU."""
+
+    def __init__(self, graph: str | os.PathLike, spec: str, threads: int | None = None,
+                 batch_size: int = 256) -> None:
+        name = check_onnx_spec(spec)
+        self._load_tokenizer(bundled_minilm_path(), name, "cpu", batch_size,
+                             token_slots_of(name))
+        self.graph = Path(graph)
+        self.session = session(self.graph, threads)
+
+    def _run(self, ids: Tensor, mask: Tensor) -> tuple[Tensor, Tensor]:
+        pooled, states = self.session.run(list(OUTPUTS), {"ids": ids.numpy(),
+                                                          "mask": mask.numpy()})
+        return torch.from_numpy(pooled), torch.from_numpy(states)

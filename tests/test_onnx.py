@@ -1,0 +1,234 @@
+"""The onnx backend (generate/onnx_backend.py) against the torch backend: same seeds, same motions.
+
+The bundled model is converted once (`mlct convert bundled --onnx --out DIR`); a random tiny
+model covers what the bundled one does not use: the transformer decoder (frames free in the
+graph), the DDIM sampler (two passes per step) and the "+tokens" text condition.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+import mlct
+from mlct.cli import main
+from mlct.errors import MlctError
+from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION, ENCODER_KEY, ENCODER_PREFIXES
+from mlct.generate.onnx_bundle import MANIFEST, ONNX_DIR, convert_to_onnx
+from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
+
+pytest.importorskip("onnxruntime")
+pytest.importorskip("onnx")
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+JOINTS_M = 1e-3  # the most a joint may move between the backends, in metres
+TEXTS = ["a person walks forward", "a person jumps up high", "someone waves with the left hand"]
+
+
+@pytest.fixture(scope="module")
+def converted(tmp_path_factory) -> Path:
+    return convert_to_onnx(bundled_model_dir(), tmp_path_factory.mktemp("onnx") / "model",
+                           read_only=True)
+
+
+@pytest.fixture(scope="module")
+def backends(converted) -> tuple[MotionGenerator, MotionGenerator]:
+    return mlct.load(converted), mlct.load(converted, backend="onnx")
+
+
+def largest_gap(a, b) -> float:
+    assert [m.joints.shape for m in a] == [m.joints.shape for m in b]
+    return max(float(np.abs(x.joints - y.joints).max()) for x, y in zip(a, b))
+
+
+def test_convert_copies_the_bundle_and_writes_three_graphs(converted) -> None:
+    names = sorted(p.name for p in converted.iterdir())
+    assert names == ["Mean.npy", "Std.npy", "config.json", "model.safetensors", ONNX_DIR]
+    assert sorted(p.name for p in (converted / ONNX_DIR).iterdir()) == [
+        "decoder.onnx", "denoiser.onnx", MANIFEST, "text_encoder.onnx"]
+
+
+@pytest.mark.parametrize("nfe", [1, 2, 5])
+def test_same_seeds_give_the_same_motions(backends, nfe) -> None:
+    torch_gen, onnx_gen = backends
+    assert (torch_gen.backend, onnx_gen.backend) == ("torch", "onnx")
+    lengths = [196, 60, 13]
+    a = torch_gen.generate(TEXTS, lengths=lengths, nfe=nfe, seed=11)
+    b = onnx_gen.generate(TEXTS, lengths=lengths, nfe=nfe, seed=11)
+    assert [m.joints.shape[0] for m in b] == lengths
+    assert largest_gap(a, b) < JOINTS_M
+    for x, y in zip(a, b):
+        np.testing.assert_allclose(y.features, x.features, atol=1e-3)
+    other = onnx_gen.generate(TEXTS[:1], lengths=[60], nfe=nfe, seed=12)
+    assert np.abs(other[0].joints - b[0].joints[:60]).max() > 0.01  # the seed matters
+
+
+def test_text_embeddings_match_the_torch_encoder(backends) -> None:
+    from mlct.text import load_text_encoder
+    from mlct.text.minilm_onnx import OnnxMiniLMEncoder
+
+    _, onnx_gen = backends
+    texts = [*TEXTS, "", "café naïve 北京", "step " * 300]  # empty, unicode, truncated
+    ours = onnx_gen.text_encoder.encode(texts)
+    torch.testing.assert_close(ours, load_text_encoder("minilm").encode(texts), rtol=0,
+                               atol=1e-5)
+    # the same graph serves "minilm+tokens": the token slots are filled around it
+    tokens = OnnxMiniLMEncoder(onnx_gen.graphs.text_encoder, "minilm+tokens")
+    torch.testing.assert_close(tokens.encode(texts), load_text_encoder("minilm+tokens").encode(
+        texts), rtol=0, atol=1e-4)
+
+
+def test_chained_prompt_and_batch_independence(backends) -> None:
+    torch_gen, onnx_gen = backends
+    text = "a person walks forward, then sits down"  # made as two parts, chained
+    assert largest_gap(torch_gen.generate(text, seconds=6, nfe=2, seed=3),
+                       onnx_gen.generate(text, seconds=6, nfe=2, seed=3)) < JOINTS_M
+    pair = onnx_gen.generate(TEXTS[:2], lengths=[40, 40], nfe=2, seed=[4, 5])
+    alone = onnx_gen.generate(TEXTS[1:2], lengths=[40], nfe=2, seed=[5])
+    np.testing.assert_allclose(pair[1].joints, alone[0].joints, atol=1e-4)
+
+
+def test_cli_generate_with_the_onnx_backend(converted, tmp_path) -> None:
+    args = ["generate", "a person jumps", "--model", str(converted), "--seconds", "2",
+            "--nfe", "2", "--seed", "5", "--quiet"]
+    assert main([*args, "--backend", "onnx", "--out", str(tmp_path / "onnx.npy")]) == 0
+    assert main([*args, "--out", str(tmp_path / "torch.npy")]) == 0
+    a, b = np.load(tmp_path / "torch.npy"), np.load(tmp_path / "onnx.npy")
+    assert a.shape == b.shape == (40, 22, 3)
+    assert np.abs(a - b).max() < JOINTS_M
+
+
+def test_the_server_runs_on_the_onnx_backend(backends, converted, monkeypatch) -> None:
+    import uvicorn
+    from fastapi.testclient import TestClient
+
+    from mlct.serve import run_server
+    from mlct.serve.app import ServeSettings, create_app
+
+    apps = []
+    monkeypatch.setattr(uvicorn, "run", lambda app, **kwargs: apps.append(app))
+    run_server(converted, backend="onnx", settings=ServeSettings(warmup=False))
+    with TestClient(apps[0]) as client:  # `mlct serve --model DIR --backend onnx`
+        assert client.get("/health").json()["model"]["backend"] == "onnx"
+    torch_gen, onnx_gen = backends
+    with TestClient(create_app(onnx_gen, ServeSettings(warmup=False))) as client:
+        assert client.get("/health").json()["model"]["backend"] == "onnx"
+        reply = client.post("/generate", json={"text": "a person runs.", "seconds": 2,
+                                               "nfe": 2, "seed": 7})
+    assert reply.status_code == 200, reply.text
+    expected = torch_gen.generate(["a person runs."], lengths=[40], nfe=2, seed=[7])[0].joints
+    assert np.abs(np.array(reply.json()["motions"][0]["joints"]) - expected).max() < JOINTS_M
+
+
+# --- a random tiny model: transformer decoder, DDIM, "+tokens" ---------------------------------
+
+def random_bundle(path: Path, sampler: str, text_encoder: str) -> Path:
+    """A bundle of untrained tiny-preset networks (transformer AE), written as `mlct export`
+    writes one."""
+    from safetensors.torch import save_file
+
+    from mlct.config import load_config
+    from mlct.nn.build import build_autoencoder, build_denoiser
+    from mlct.text.encoders import token_slots_of
+
+    torch.manual_seed(0)
+    config = load_config("tiny", [f"text.encoder={text_encoder}"])
+    text_dim = 384 * (1 + token_slots_of(text_encoder))
+    ae, denoiser = build_autoencoder(config, 263), build_denoiser(config, text_dim)
+    ae_state = ae.state_dict()
+    tensors = {**{f"decoder.{k}": v for k, v in ae_state.items()
+                  if not k.startswith(ENCODER_PREFIXES)},
+               **{f"{ENCODER_KEY}.{k}": v for k, v in ae_state.items()
+                  if k.startswith(ENCODER_PREFIXES)},
+               **{f"denoiser.{k}": v for k, v in denoiser.state_dict().items()},
+               "norm.mean": torch.randn(263) * 0.1, "norm.std": torch.rand(263) + 0.5}
+    path.mkdir(parents=True)
+    save_file({k: v.contiguous() for k, v in tensors.items()}, str(path / "model.safetensors"))
+    meta = {"format": BUNDLE_FORMAT, "version": BUNDLE_VERSION, "sampler": sampler, "step": 0,
+            "config": config.to_dict(), "feature_dim": 263, "skeleton": "humanml3d",
+            "text_encoder": text_encoder, "text_dim": text_dim}
+    (path / "config.json").write_text(json.dumps(meta), encoding="utf-8")
+    return path
+
+
+@pytest.mark.slow
+def test_transformer_decoder_ddim_and_token_condition(tmp_path) -> None:
+    model = convert_to_onnx(random_bundle(tmp_path / "tiny", "ddim", "minilm+tokens"))
+    torch_gen, onnx_gen = mlct.load(model), mlct.load(model, backend="onnx")
+    for lengths in ([64, 9], [33]):  # frames free in the decoder's graph
+        a = torch_gen.generate(TEXTS[: len(lengths)], lengths=lengths, nfe=3, seed=1)
+        b = onnx_gen.generate(TEXTS[: len(lengths)], lengths=lengths, nfe=3, seed=1)
+        assert largest_gap(a, b) < JOINTS_M
+
+
+# --- bad input: one line naming the problem and the fix ----------------------------------------
+
+def test_a_model_without_graphs_says_how_to_make_them(tmp_path) -> None:
+    with pytest.raises(MlctError, match=r"no ONNX graphs .*mlct convert bundled --onnx --out"):
+        mlct.load(backend="onnx")
+    plain = random_bundle(tmp_path / "plain", "consistency", "minilm")
+    with pytest.raises(MlctError, match=rf"{plain}: no ONNX graphs .*mlct convert {plain} --onnx"):
+        mlct.load(plain, backend="onnx")
+    assert main(["generate", "a person walks", "--model", str(plain), "--backend", "onnx",
+                 "--out", str(tmp_path / "a.npy")]) == 2
+
+
+def test_graphs_of_other_weights_are_refused(converted, tmp_path) -> None:
+    import shutil
+
+    copy = Path(shutil.copytree(converted, tmp_path / "copy"))
+    manifest = json.loads((copy / ONNX_DIR / MANIFEST).read_text())
+    (copy / ONNX_DIR / MANIFEST).write_text(json.dumps({**manifest, "weights_sha256": "0" * 64}))
+    with pytest.raises(MlctError, match="made from another model.safetensors; make them with"):
+        mlct.load(copy, backend="onnx")
+    (copy / ONNX_DIR / "decoder.onnx").unlink()
+    with pytest.raises(MlctError, match="the decoder graph is missing"):
+        mlct.load(copy, backend="onnx")
+
+
+def test_missing_onnxruntime_is_one_line_with_the_install_command(converted, monkeypatch
+                                                                  ) -> None:
+    with monkeypatch.context() as patch:
+        patch.setitem(sys.modules, "onnxruntime", None)  # import onnxruntime -> ImportError
+        with pytest.raises(MlctError, match=r"needs ONNX Runtime, which is not installed: "
+                                            r"pip install 'mlct\[onnx\]'"):
+            mlct.load(converted, backend="onnx")
+    with monkeypatch.context() as patch:
+        patch.setitem(sys.modules, "onnx", None)
+        with pytest.raises(MlctError, match=r"writing ONNX graphs needs the onnx package, which "
+                                            r"is not installed: pip install 'mlct\[onnx\]'"):
+            convert_to_onnx(converted, converted.parent / "again")
+    assert not (converted.parent / "again").exists()
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"backend": "tensorrt"}, "unknown backend 'tensorrt'; choose one of torch, onnx"),
+    ({"backend": "onnx", "dtype": "bfloat16"}, "onnx backend runs float32 graphs"),
+    ({"backend": "onnx", "device": "cuda"}, "CUDA is not available|runs on the CPU"),
+])
+def test_backend_options_that_cannot_work(converted, kwargs, message) -> None:
+    with pytest.raises(MlctError, match=message):
+        mlct.load(converted, **kwargs)
+
+
+def test_convert_refuses_what_it_should_not_write(tmp_path, capsys) -> None:
+    assert main(["convert", "bundled", "--onnx"]) == 2
+    assert "lives inside the mlct package: give --out DIR" in capsys.readouterr().err
+    assert main(["convert", "bundled"]) == 2
+    assert "say what to convert the model to: --onnx" in capsys.readouterr().err
+    busy = tmp_path / "busy"
+    busy.mkdir()
+    (busy / "notes.txt").write_text("mine")
+    assert main(["convert", "bundled", "--onnx", "--out", str(busy)]) == 2
+    assert "exists and is not a model directory" in capsys.readouterr().err
+    assert (busy / "notes.txt").read_text() == "mine"
+    clip = random_bundle(tmp_path / "clip", "consistency", "clip:/nowhere")
+    with pytest.raises(MlctError, match=r"runs the bundled MiniLM text encoders .*'clip:/nowhere'"):
+        convert_to_onnx(clip)
+    assert not (clip / ONNX_DIR).exists()
