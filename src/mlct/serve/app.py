@@ -53,7 +53,8 @@ EXAMPLES = (  # families the bundled model does best by its read-outs (docs/mode
     "the figure sits down on an invisible chair and stands back up.",
     "a man bows politely.",
     "a person reaches up high and leans to one side.",
-    "the person puts both their arms up in the air.",
+    "a person walks backward.",
+    "a man walks forward, then bows.",
     "the woman stands quietly.",
 )
 FASTAPI_BODY_ERROR = "There was an error parsing the body"  # FastAPI's words, e.g. for bad UTF-8
