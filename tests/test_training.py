@@ -135,9 +135,9 @@ def test_diffusion_baseline_samples_with_ddim_cfg(trained: Path, tmp_path: Path)
     calls = []
     forward = gen.denoiser.forward
 
-    def counting(x, t, c):
+    def counting(x, t, c, cache=None):
         calls.append(x.shape[0])
-        return forward(x, t, c)
+        return forward(x, t, c, cache=cache)
 
     gen.denoiser.forward = counting
     out = gen.generate(["a person walks forward"], lengths=40, nfe=10, seed=0)
