@@ -477,15 +477,6 @@ CLI_CASES = [
 ]
 
 
-@pytest.mark.parametrize("argv, fragment", CLI_CASES, ids=ids(CLI_CASES))
-def test_cli(ws: Path, capsys: pytest.CaptureFixture[str], argv: list[str],
-             fragment: str) -> None:
-    with untouched(ws):
-        code, out, err = run_cli(argv, capsys)
-    assert_one_line_exit_2(code, err, fragment)
-    assert out == ""
-
-
 # --- data: stats, check, import, synth -----------------------------------------------------------
 
 IMPORT = ["data", "import", "--captions", "captions.csv", "--out", "imp"]
@@ -593,15 +584,6 @@ DATA_CLI_CASES = [
 ]
 
 
-@pytest.mark.parametrize("argv, fragment", DATA_CLI_CASES, ids=ids(DATA_CLI_CASES))
-def test_data_cli(ws: Path, capsys: pytest.CaptureFixture[str], argv: list[str],
-                  fragment: str) -> None:
-    with untouched(ws):
-        code, out, err = run_cli(argv, capsys)
-    assert_one_line_exit_2(code, err, fragment)
-    assert out == ""
-
-
 # `mlct data check` of a broken dataset is no usage error: it lists the problems and exits 1.
 DATA_CHECK_CASES = [
     ("escape_rel", "train.txt:2: '../data/new_joint_vecs/000001' is not a motion name"),
@@ -698,13 +680,6 @@ def assert_names_the_problem(call: Callable[[], Any], error: type[Exception],
     assert "\n" not in str(raised.value)
 
 
-@pytest.mark.parametrize("call, error, fragment", DATA_API_CASES, ids=api_ids(DATA_API_CASES))
-def test_data_api(ws: Path, call: Callable[[], Any], error: type[Exception],
-                  fragment: str) -> None:
-    with untouched(ws):
-        assert_names_the_problem(call, error, fragment)
-
-
 # --- training -------------------------------------------------------------------------------------
 
 TRAIN = ["train", "ae", "--data", "data", "--out", "r"]  # "r" must not appear: nothing is written
@@ -798,13 +773,6 @@ TRAIN_CLI_CASES = [
 ]
 
 
-@pytest.mark.parametrize("argv, fragment", TRAIN_CLI_CASES, ids=ids(TRAIN_CLI_CASES))
-def test_train_cli(ws: Path, capsys: pytest.CaptureFixture[str], argv: list[str],
-                   fragment: str) -> None:
-    with untouched(ws):
-        code, out, err = run_cli(argv, capsys)
-    assert_one_line_exit_2(code, err, fragment)
-    assert out == ""
 
 
 def _train(*args: Any, **kwargs: Any) -> Callable[[], Any]:
@@ -830,10 +798,27 @@ TRAIN_API_CASES = [
 ]
 
 
-@pytest.mark.parametrize("call, error, fragment", TRAIN_API_CASES,
-                         ids=api_ids(TRAIN_API_CASES))
-def test_train_api(ws: Path, call: Callable[[], Any], error: type[Exception],
-                   fragment: str) -> None:
+# One test for the command-line tables of every section above (general, data, training).
+ALL_CLI_CASES = CLI_CASES + DATA_CLI_CASES + TRAIN_CLI_CASES
+
+
+@pytest.mark.parametrize("argv, fragment", ALL_CLI_CASES, ids=ids(ALL_CLI_CASES))
+def test_cli(ws: Path, capsys: pytest.CaptureFixture[str], argv: list[str],
+             fragment: str) -> None:
+    with untouched(ws):
+        code, out, err = run_cli(argv, capsys)
+    assert_one_line_exit_2(code, err, fragment)
+    assert out == ""
+
+
+# One test for the Python tables of the data and training sections.
+DATA_AND_TRAIN_API_CASES = DATA_API_CASES + TRAIN_API_CASES
+
+
+@pytest.mark.parametrize("call, error, fragment", DATA_AND_TRAIN_API_CASES,
+                         ids=api_ids(DATA_AND_TRAIN_API_CASES))
+def test_data_and_train_api(ws: Path, call: Callable[[], Any], error: type[Exception],
+                            fragment: str) -> None:
     with untouched(ws):
         assert_names_the_problem(call, error, fragment)
 
