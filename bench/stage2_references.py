@@ -86,11 +86,11 @@ def main() -> None:
     mean = latents.mean(0)
     print(f"{len(test)} test captions of {args.data}; autoencoder {args.ae}")
     print(f"retrieval (nearest caption, ground-truth joints): pass {retrieval:.3f}")
+    test_frames = [min(len(layout.load_features(name)), MAX_FRAMES) for name in test]
     for scale in (float(s) for s in args.scales.split(",")):
         z = (mean + scale * (predicted - mean)).clamp(-1, 1)
         rate = []
-        for i, name in enumerate(test):
-            frames = min(len(layout.load_features(name)), MAX_FRAMES)
+        for i, (name, frames) in enumerate(zip(test, test_frames)):
             with torch.no_grad():
                 made = norm.denormalize(ae.decode(z[i : i + 1], torch.tensor([frames])))[0]
             rate.append(passes(features_to_joints(made.numpy()), labels[name]))
