@@ -22,14 +22,18 @@ from torch import Tensor
 
 from mlct.errors import MlctError, first_line
 from mlct.text.base import TextEncoder
+from mlct.text.sides import SIDES_SUFFIX
 
 MINILM = "minilm"  # the spec (and cache name) of the bundled all-MiniLM-L6-v2
 # Suffix of a spec whose embedding also carries the token states: "minilm+tokens" gives
 # [pooled (384), TOKEN_SLOTS x token state (384), zero rows past the caption's end].
 TOKENS_SUFFIX = "+tokens"
 TOKEN_SLOTS = 20  # wordpieces kept, [CLS] included; a two-action caption takes ~15
+# The bundled MiniLM's specs: pooled, pooled + token states, pooled with the sides contrasted
+# (text/sides.py).
+MINILM_SPECS = (MINILM, MINILM + TOKENS_SUFFIX, MINILM + SIDES_SUFFIX)
 CLIP_MAX_LENGTH = 77  # CLIP's context length; longer captions are truncated as in the paper
-SPEC_FORMS = ("'minilm', 'minilm+tokens', 'clip:/path/to/dir', 'st:/path/to/dir' or a model "
+SPEC_FORMS = ("'minilm', 'minilm+tokens', 'minilm+sides', 'clip:/path/to/dir', 'st:/path/to/dir' or a model "
               "directory path")
 
 # Files any of which means "the weights are here" (plain, sharded, or legacy PyTorch pickles).
@@ -200,7 +204,7 @@ def load_text_encoder(spec: str = MINILM, device: str | torch.device | None = No
     if not isinstance(spec, str) or not spec.strip():
         raise MlctError(f"empty text encoder spec; use {SPEC_FORMS}")
     spec = spec.strip()
-    if spec.lower() in (MINILM, MINILM + TOKENS_SUFFIX):
+    if spec.lower() in MINILM_SPECS:
         # The lean loader (minilm.py): the same embeddings without importing sentence-transformers.
         from mlct.text.minilm import MiniLMEncoder
 

@@ -22,6 +22,7 @@ from torch import Tensor, nn
 from mlct.errors import MlctError, first_line
 from mlct.text.bert import BertConfig, BertModel, mean_pool
 from mlct.text.base import TextEncoder
+from mlct.text.sides import SIDES_SUFFIX, contrast_sides
 
 # The sentence-transformers pipeline this loader reproduces, module by module (modules.json).
 _PIPELINE = ("Transformer", "Pooling", "Normalize")
@@ -33,7 +34,7 @@ _DEFAULT_MAX_SEQ_LENGTH = 256  # sentence-transformers' default when the model n
 class MiniLMEncoder(TextEncoder):
     """A BERT sentence-transformers directory with mean pooling and normalisation, in plain torch.
 
-    encode -> (B, D) unit vectors, or with `token_slots` K > 0, (B, (1 + K) D): the pooled vector
+    encode -> (B, D) unit vectors (side-contrasted by text/sides.py for 'minilm+sides'), or with `token_slots` K > 0, (B, (1 + K) D): the pooled vector
     then the first K token states ([CLS] first), zero rows past the caption's end.
     """
 
@@ -88,6 +89,13 @@ class MiniLMEncoder(TextEncoder):
 
     @torch.no_grad()  # not inference_mode: its tensors would be refused later by autograd
     def _encode(self, texts: list[str]) -> Tensor:
+        embeddings = self._embed(texts)
+        if self.name.endswith(SIDES_SUFFIX):
+            embeddings = contrast_sides(texts, embeddings, self._embed)
+        return embeddings
+
+    def _embed(self, texts: list[str]) -> Tensor:
+        """The network's embeddings, pooled (and token states), before any side contrast."""
         encodings = self.tokenizer.encode_batch(texts)
         # Longest first, as sentence-transformers batches: similar lengths pad little.
         order = sorted(range(len(texts)), key=lambda i: -len(encodings[i].ids))

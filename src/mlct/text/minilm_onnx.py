@@ -15,10 +15,10 @@ from torch import Tensor
 
 from mlct.errors import MlctError
 from mlct.onnx_io import export_graph, session
-from mlct.text.encoders import MINILM, TOKENS_SUFFIX, bundled_minilm_path, token_slots_of
+from mlct.text.encoders import MINILM_SPECS, bundled_minilm_path, token_slots_of
 from mlct.text.minilm import MiniLMEncoder
 
-ONNX_SPECS = (MINILM, MINILM + TOKENS_SUFFIX)  # the text encoders that have an ONNX graph
+ONNX_SPECS = MINILM_SPECS  # the text encoders that have an ONNX graph
 INPUTS = ("ids", "mask")  # (B, L) int64 each: token ids, 1 for a real token and 0 for padding
 OUTPUTS = ("embedding", "states")  # (B, D) unit vectors, (B, L, D) last token states
 
@@ -33,7 +33,7 @@ def check_onnx_spec(spec: str) -> str:
 
 
 def write_minilm_graph(spec: str, path: str | os.PathLike) -> Path:
-    """Write the network of text encoder `spec` ('minilm' or 'minilm+tokens') to path."""
+    """Write the network of text encoder `spec` (one of MINILM_SPECS) to path."""
     encoder = MiniLMEncoder(bundled_minilm_path(), name=check_onnx_spec(spec))
     ids, mask = encoder._pad([[101, 1037, 2711, 7365, 102], [101, 102]])  # two lengths: padding
     tokens = {0: "batch", 1: "tokens"}
