@@ -49,11 +49,18 @@ class Tally:
         self.family: dict[str, list[int]] = defaultdict(lambda: [0, 0])
         self.sided: list[int] = [0, 0]
         self.motions: list[int] = [0, 0]
+        # one action / a sequence / locomotion with a concurrent arm action: the autoencoder
+        # keeps the first two and drops the third's arms (docs/training.md)
+        self.kind: dict[str, list[int]] = defaultdict(lambda: [0, 0])
 
     def add(self, label: dict[str, Any], results: list[tuple[str, bool]]) -> bool:
         ok = all(passed for _, passed in results)
         self.motions[0] += ok
         self.motions[1] += 1
+        kind = ("+ concurrent" if label.get("concurrent")
+                else "sequence" if len(label["actions"]) > 1 else "one action")
+        self.kind[kind][0] += ok
+        self.kind[kind][1] += 1
         tagged = [(f"{i}:", a) for i, a in enumerate(label["actions"])]
         if label.get("concurrent"):
             tagged.append(("+:", label["concurrent"]))
@@ -76,6 +83,7 @@ class Tally:
     def summary(self) -> dict[str, Any]:
         return {"overall": self.rate(self.motions), "motions": self.motions[1],
                 "named_side": self.rate(self.sided), "named_side_n": self.sided[1],
+                "kinds": {k: self.rate(v) for k, v in sorted(self.kind.items())},
                 "families": {f: self.rate(v) for f, v in sorted(self.family.items())}}
 
 
@@ -108,6 +116,9 @@ def print_table(title: str, columns: dict[str, dict[str, Any]]) -> None:
                                       for c in columns.values()))
     print(f"{'OVERALL':<16}" + "".join(f"{c['overall']:>14.3f}" for c in columns.values()))
     print(f"{'named side':<16}" + "".join(f"{c['named_side']:>14.3f}" for c in columns.values()))
+    for kind in sorted({k for c in columns.values() for k in c["kinds"]}):
+        print(f"{kind:<16}" + "".join(f"{c['kinds'].get(kind, float('nan')):>14.3f}"
+                                      for c in columns.values()))
     print(f"{'motions':<16}" + "".join(f"{c['motions']:>14d}" for c in columns.values()))
 
 
