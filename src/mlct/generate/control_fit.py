@@ -52,15 +52,18 @@ def offset_curve(frames: np.ndarray, values: np.ndarray, length: int,
     order = np.argsort(frames)
     frames, values = np.asarray(frames, dtype=np.float64)[order], values[order]
     if reach is not None:
-        knots, vals = [frames[0] - reach], [np.zeros_like(values[0])]
+        # zero knots in pairs one frame apart: PCHIP's slope is 0 at a knot next to a flat
+        # interval, so a correction eases in and out with zero velocity (no kink)
+        zero = np.zeros_like(values[0])
+        knots, vals = [frames[0] - reach - 1, frames[0] - reach], [zero, zero]
         for k in range(len(frames)):
             knots.append(frames[k])
             vals.append(values[k])
             if k + 1 < len(frames) and frames[k + 1] - frames[k] > 2 * reach:
                 knots += [frames[k] + reach, frames[k + 1] - reach]
-                vals += [np.zeros_like(values[k])] * 2
-        knots.append(frames[-1] + reach)
-        vals.append(np.zeros_like(values[0]))
+                vals += [zero, zero]
+        knots += [frames[-1] + reach, frames[-1] + reach + 1]
+        vals += [zero, zero]
         frames, values = np.array(knots), np.stack(vals)
     t = np.arange(length, dtype=np.float64)
     if len(frames) == 1:
@@ -166,7 +169,96 @@ def fit_keyframes(joints: np.ndarray, keys: Sequence[tuple[int, Mapping[int, Seq
     out = joints.copy()
     for j, (frames, deltas) in moved.items():
         out[:, j] += offset_curve(np.array(frames), np.stack(deltas), len(joints), reach)
+    # Joints moved apart by different offsets stretch their bones between the keys: give every
+    # bone its length back, eased like the offsets from the motion's own to the key pose's.
+    own = bone_lengths(joints, skeleton)  # (T, J)
+    key_frames = np.array(sorted(by_frame))
+    at_keys = bone_lengths(out[key_frames], skeleton)
+    lengths = own + offset_curve(key_frames, at_keys - own[key_frames], len(joints), reach)
+    return with_bone_lengths(out, lengths, skeleton)
+
+
+def bone_lengths(joints: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """(..., J, 3) -> (..., J): each joint's distance to its parent (0 for the root)."""
+    parents = [max(p, 0) for p in skeleton.parents]
+    return np.linalg.norm(joints - joints[..., parents, :], axis=-1)
+
+
+def with_bone_lengths(joints: np.ndarray, lengths: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """(T, J, 3) re-built from the root outwards: each bone points as in joints, with the length
+    lengths (T, J) gives it."""
+    out = joints.copy()
+    for j in range(1, skeleton.n_joints):  # parents come first in the skeleton's order
+        parent = skeleton.parents[j]
+        bone = joints[:, j] - joints[:, parent]
+        norm = np.maximum(np.linalg.norm(bone, axis=-1, keepdims=True), 1e-9)
+        out[:, j] = out[:, parent] + lengths[:, j:j + 1] * bone / norm
     return out
+
+
+def two_bone(hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, goal: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 3) each: the knee and ankle of a leg whose hip stays and whose ankle goes to goal
+    (as near as the leg reaches), bone lengths kept, bending in the plane of the old knee."""
+    upper = np.linalg.norm(knee - hip, axis=-1, keepdims=True)
+    lower = np.linalg.norm(ankle - knee, axis=-1, keepdims=True)
+    axis = goal - hip
+    dist = np.linalg.norm(axis, axis=-1, keepdims=True)
+    dist_ok = np.clip(dist, np.abs(upper - lower) + 1e-4, upper + lower - 1e-4)
+    axis = axis / np.maximum(dist, 1e-9)
+    ankle_new = hip + axis * dist_ok
+    along = (upper ** 2 - lower ** 2 + dist_ok ** 2) / (2 * dist_ok)
+    radius = np.sqrt(np.maximum(upper ** 2 - along ** 2, 0.0))
+    pole = knee - hip
+    pole = pole - (pole * axis).sum(-1, keepdims=True) * axis
+    pole = pole / np.maximum(np.linalg.norm(pole, axis=-1, keepdims=True), 1e-9)
+    return hip + axis * along + pole * radius, ankle_new
+
+
+def lock_feet(joints: np.ndarray, before: np.ndarray, skeleton: Skeleton,
+              fade: int = 3) -> np.ndarray:
+    """Feet that stood on the floor in `before` (the motion as the model made it) held still in
+    `joints` (the corrected motion) for as long as they stood, by moving the ankle and toe and
+    bending the knee (two-bone IK); eased over `fade` frames at each end of a stance."""
+    out = joints.copy()
+    floor = before[..., 1].min()
+    for ankle, toe in (skeleton.foot_left, skeleton.foot_right):
+        knee, hip = skeleton.parents[ankle], skeleton.parents[skeleton.parents[ankle]]
+        step = np.linalg.norm(np.diff(before[:, toe, [0, 2]], axis=0), axis=-1)  # (T-1,)
+        low = before[:, toe, 1] - floor < STANCE_HEIGHT
+        stance = np.concatenate([[False], (step < STANCE_STEP) & low[1:] & low[:-1]])
+        stance[0] = stance[1] if len(stance) > 1 else False
+        shift = np.zeros((len(joints), 3))
+        weight = np.zeros(len(joints))
+        t = 0
+        while t < len(joints):
+            if not stance[t]:
+                t += 1
+                continue
+            end = t
+            while end + 1 < len(joints) and stance[end + 1]:
+                end += 1
+            hold = out[t:end + 1, toe, [0, 2]].mean(axis=0)  # where this stance plants the foot
+            for f in range(max(0, t - fade), min(len(joints), end + fade + 1)):
+                inside = min(f, end) if f > end else max(f, t)
+                w = 1.0 if t <= f <= end else 1.0 - abs(f - inside) / (fade + 1)
+                if w > weight[f]:
+                    weight[f] = w
+                    shift[f, [0, 2]] = w * (hold - out[inside, toe, [0, 2]])
+            t = end + 1
+        moved = weight > 0
+        if not moved.any():
+            continue
+        goal = out[moved, ankle] + shift[moved]
+        new_knee, new_ankle = two_bone(out[moved, hip], out[moved, knee], out[moved, ankle], goal)
+        carried = new_ankle - out[moved, ankle]
+        out[moved, knee], out[moved, ankle] = new_knee, new_ankle
+        out[moved, toe] += carried
+    return out
+
+
+STANCE_HEIGHT = 0.05  # m above the motion's floor: a toe this low ...
+STANCE_STEP = 0.02  # m per frame: ... and this slow (0.4 m/s at 20 fps) is standing
 
 
 def reattach(made: np.ndarray, kept: np.ndarray, parts: Sequence[int],
@@ -178,7 +270,7 @@ def reattach(made: np.ndarray, kept: np.ndarray, parts: Sequence[int],
     turn = hip_heading(kept, skeleton) - hip_heading(made, skeleton)  # (T,)
     for j in sorted(parts):  # parents before children: the skeleton's joint order
         parent = skeleton.parents[j]
-        bone = turn_y(made[:, j] - made[:, parent], turn[:, None])
+        bone = turn_y(made[:, j] - made[:, parent], turn)
         length = np.linalg.norm(kept[:, j] - kept[:, parent], axis=-1, keepdims=True)
         out[:, j] = out[:, parent] + length * bone / np.maximum(
             np.linalg.norm(bone, axis=-1, keepdims=True), 1e-9)

@@ -31,7 +31,7 @@ from torch import Tensor
 from mlct.errors import MlctError
 from mlct.generate.control import Control
 from mlct.generate.control_fit import (REACH_SECONDS, fit_heading, fit_keyframes, fit_path,
-                                       reattach, turn_y)
+                                       lock_feet, reattach, turn_y)
 from mlct.generate.generated import GeneratedMotion, Generation
 from mlct.motion.features import joints_to_features, recover_from_ric
 
@@ -49,6 +49,7 @@ class ControlMethod:
     final_iterations: int = 4  # gradient steps on the last step's x0 (nothing re-noises it)
     step: float = 0.9  # Gauss-Newton-like step: a fraction of the way to zero error
     reach_seconds: float = REACH_SECONDS
+    lock_feet: bool = True  # feet that stood in the model's motion stand after the correction
 
 
 DEFAULT_METHOD = ControlMethod()
@@ -226,6 +227,8 @@ def project(joints: np.ndarray, control: Control, anchor: Anchor, skeleton: Any,
             free = np.isfinite(control.heading)
             out = fit_heading(out, control.path_frames[free],
                               control.heading[free] - anchor.angle, skeleton)
+        if method.lock_feet:
+            out = lock_feet(out, joints, skeleton)
     keys = keyframe_list(control, anchor)
     if keys:
         reach = max(1, int(round(method.reach_seconds * skeleton.fps)))
