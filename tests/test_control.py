@@ -207,3 +207,28 @@ def test_cli_generate_along_a_path_and_an_edit(tmp_path: Path, capsys, walk) -> 
                  str(tmp_path / "x.npy")]) == 2
     err = capsys.readouterr().err.strip()
     assert "unknown joint 'nose'" in err and err.count("\n") == 0
+
+
+def test_http_generate_follows_a_path_and_answers_bad_controls_with_422(pipe) -> None:
+    from fastapi.testclient import TestClient
+
+    from mlct.serve import ServeSettings, create_app
+
+    with TestClient(create_app(pipe, ServeSettings(warmup=False))) as client:
+        reply = client.post("/generate", json={"text": "a person walks forward", "lengths": 120,
+                                               "seed": 3, "control": {"path": PATH}})
+        assert reply.status_code == 200, reply.text
+        joints = np.array(reply.json()["motions"][0]["joints"])
+        frames = [p[2] for p in PATH]
+        assert np.linalg.norm(joints[frames, 0][:, [0, 2]] - np.array(PATH)[:, :2],
+                              axis=1).max() < 0.01
+        for body, message in [
+                ({"text": "a person walks", "lengths": 40,
+                  "control": {"path": [[0, 0, 0], [1, 1, 99]]}}, "outside 0..39"),
+                ({"texts": ["a", "b"], "control": {"path": [[0, 0]]}}, "one text"),
+                ({"text": "a person waves", "control": {"keyframes": [{"frame": 1}]}},
+                 "no joint positions"),
+                ({"text": "a person waves", "control": {"path": "left"}}, "path")]:
+            reply = client.post("/generate", json=body)
+            assert reply.status_code == 422, (body, reply.text)
+            assert message in reply.json()["detail"], reply.json()
