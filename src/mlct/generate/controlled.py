@@ -220,16 +220,23 @@ def project(joints: np.ndarray, control: Control, anchor: Anchor, skeleton: Any,
             method: ControlMethod) -> np.ndarray:
     """The motion (network frame) corrected to meet every control exactly."""
     out = joints.astype(np.float64)
+    keys = keyframe_list(control, anchor)
+    # The root's xz of the path and of the keyframes that pin the root: one smooth correction
+    # of the whole track (feet then held in stance), so that a keyframe's local blend only has
+    # the pose itself to change, not the body's place on the floor (which skated the feet).
+    track = {int(f): pose[0][[0, 2]] for f, pose in keys if 0 in pose}
     if control.path is not None:
         xyz = np.stack([control.path[:, 0], np.zeros(len(control.path)), control.path[:, 1]], 1)
-        out = fit_path(out, control.path_frames, anchor.to_model(xyz)[:, [0, 2]])
+        track.update(zip(control.path_frames.tolist(), anchor.to_model(xyz)[:, [0, 2]]))
+    if track:
+        frames = np.array(sorted(track))
+        out = fit_path(out, frames, np.stack([track[f] for f in frames]))
         if control.heading is not None:
             free = np.isfinite(control.heading)
             out = fit_heading(out, control.path_frames[free],
                               control.heading[free] - anchor.angle, skeleton)
         if method.lock_feet:
             out = lock_feet(out, joints, skeleton)
-    keys = keyframe_list(control, anchor)
     if keys:
         reach = max(1, int(round(method.reach_seconds * skeleton.fps)))
         out = fit_keyframes(out, keys, skeleton, reach)
