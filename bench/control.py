@@ -118,7 +118,7 @@ def main() -> None:
         start = time.perf_counter()
         made = generate_controlled(pipe, cap, len(joints), control, args.nfe, args.seed).joints
         edit_ms.append(1e3 * (time.perf_counter() - start))
-        edit_err.append(np.linalg.norm(made[:, kept] - joints[:, kept], axis=-1).max())
+        edit_err.append(float(np.linalg.norm(made[:, kept] - joints[:, kept], axis=-1).max()))
     data_skate = float(np.mean([foot_skating_ratio(j, skel) for j in real]))
 
     print(f"{len(names)} motions of {args.data} ({args.split}), nfe {pipe.check_nfe(args.nfe)}, "

@@ -216,10 +216,13 @@ def two_bone(hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, goal: np.ndar
 
 
 def lock_feet(joints: np.ndarray, before: np.ndarray, skeleton: Skeleton,
-              fade: int = 3) -> np.ndarray:
+              keyed: Mapping[int, set[int]] | None = None, fade: int = 3) -> np.ndarray:
     """Feet that stood on the floor in `before` (the motion as the model made it) held still in
     `joints` (the corrected motion) for as long as they stood, by moving the ankle and toe and
-    bending the knee (two-bone IK); eased over `fade` frames at each end of a stance."""
+    bending the knee (two-bone IK); eased over `fade` frames at each end of a stance.
+    keyed: {frame: joints a keyframe pins there}: a leg with a pinned joint is not moved at
+    that frame, and a stance ends there."""
+    keyed = keyed or {}
     out = joints.copy()
     floor = before[..., 1].min()
     for ankle, toe in (skeleton.foot_left, skeleton.foot_right):
@@ -228,6 +231,10 @@ def lock_feet(joints: np.ndarray, before: np.ndarray, skeleton: Skeleton,
         low = before[:, toe, 1] - floor < STANCE_HEIGHT
         stance = np.concatenate([[False], (step < STANCE_STEP) & low[1:] & low[:-1]])
         stance[0] = stance[1] if len(stance) > 1 else False
+        # a frame whose leg a keyframe pins is no stance: the key decides where that foot is
+        leg = {hip, knee, ankle, toe}
+        pinned = [f for f, js in keyed.items() if leg & set(js) and 0 <= f < len(joints)]
+        stance[pinned] = False
         shift = np.zeros((len(joints), 3))
         weight = np.zeros(len(joints))
         t = 0
@@ -246,6 +253,8 @@ def lock_feet(joints: np.ndarray, before: np.ndarray, skeleton: Skeleton,
                     weight[f] = w
                     shift[f, [0, 2]] = w * (hold - out[inside, toe, [0, 2]])
             t = end + 1
+        for f in pinned:
+            weight[f] = 0.0  # a keyframe's leg stays exactly where it pins it
         moved = weight > 0
         if not moved.any():
             continue

@@ -22,7 +22,7 @@ from __future__ import annotations
 import copy
 import weakref
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import torch
@@ -35,8 +35,8 @@ from mlct.generate.control_fit import (REACH_SECONDS, fit_heading, fit_keyframes
 from mlct.generate.generated import GeneratedMotion, Generation
 from mlct.motion.features import joints_to_features, recover_from_ric
 
-if TYPE_CHECKING:
-    from mlct.generate.pipeline import MotionGenerator
+# pipeline.MotionGenerator, which calls generate_with_control: named, not imported (a cycle)
+MotionGenerator = Any
 
 
 @dataclass(frozen=True)
@@ -235,11 +235,14 @@ def project(joints: np.ndarray, control: Control, anchor: Anchor, skeleton: Any,
             free = np.isfinite(control.heading)
             out = fit_heading(out, control.path_frames[free],
                               control.heading[free] - anchor.angle, skeleton)
-        if method.lock_feet:
-            out = lock_feet(out, joints, skeleton)
     if keys:
         reach = max(1, int(round(method.reach_seconds * skeleton.fps)))
         out = fit_keyframes(out, keys, skeleton, reach)
+    if method.lock_feet and (track or keys):
+        keyed: dict[int, set[int]] = {}
+        for f, pose in keys:
+            keyed.setdefault(int(f), set()).update(pose)
+        out = lock_feet(out, joints, skeleton, keyed)
     if control.edit is not None:
         out = reattach(out, anchor.to_model(control.edit), control.parts, skeleton)
     return out
