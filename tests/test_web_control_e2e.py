@@ -49,8 +49,19 @@ def test_draw_a_path_and_the_motion_walks_it(page, tmp_path):  # noqa: F811
     assert _distance_to_polyline(root, waypoints).max() < 0.15  # on the path in between
     assert "error" not in (page.get_attribute("#status", "class") or "")
 
-    # pin the pose at frame 30, then generate from another prompt: the pose stays at frame 30
+    # the screenshot: paused half-way along the drawn path
     page.click("#play")
+    page.locator("#scrub").fill("40")
+    page.wait_for_function("window.mlct.state.frame === 40", timeout=5_000)
+    page.wait_for_timeout(300)  # control.js redraws the floor view on the next frames
+    shot = tmp_path / "web_control.png"
+    page.screenshot(path=str(shot))
+    if os.environ.get("MLCT_WEB_CONTROL_SCREENSHOT"):
+        target = Path(os.environ["MLCT_WEB_CONTROL_SCREENSHOT"])
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(shot, target)
+
+    # pin the pose at frame 30, then generate from another prompt: the pose stays at frame 30
     page.locator("#scrub").fill("30")
     page.wait_for_function("window.mlct.state.frame === 30", timeout=5_000)
     pinned = joints[30]
@@ -62,10 +73,3 @@ def test_draw_a_path_and_the_motion_walks_it(page, tmp_path):  # noqa: F811
     again = np.array(page.evaluate("window.mlct.state.motion.joints"))
     assert np.linalg.norm(again[30] - pinned, axis=-1).max() < 0.01
     assert "frame 30" in page.inner_text("#pins")
-
-    shot = tmp_path / "web_control.png"
-    page.screenshot(path=str(shot))
-    if os.environ.get("MLCT_WEB_CONTROL_SCREENSHOT"):
-        target = Path(os.environ["MLCT_WEB_CONTROL_SCREENSHOT"])
-        target.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copyfile(shot, target)
