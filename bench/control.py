@@ -38,9 +38,11 @@ from mlct.motion.physics import foot_skating_ratio
 sys.path.insert(0, str(Path(__file__).parent))
 from motion_quality import MAX_FRAMES, Tally  # noqa: E402  (the read-outs' tally, reused)
 
-METHODS = {"guide": ControlMethod(project=False), "project": ControlMethod(guide=False),
-           "both": ControlMethod(guide=True),
-           "light": ControlMethod(guide=True, iterations=1, final_iterations=2)}
+METHODS = {"guide": ControlMethod(guide=True, project=False, candidates=1),
+           "project": ControlMethod(guide=False, candidates=1),
+           "both": ControlMethod(guide=True, candidates=1),
+           "best4": ControlMethod(guide=False, candidates=4),
+           "best8": ControlMethod(guide=False, candidates=8)}
 
 
 def path_control(joints: np.ndarray) -> tuple[Control, np.ndarray]:

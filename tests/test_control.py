@@ -113,9 +113,11 @@ def test_path_is_met_and_guidance_brings_the_motion_near_it(pipe) -> None:
                                    None, 3, method).joints
         return np.linalg.norm(made[frames, 0][:, [0, 2]] - target, axis=1)
 
-    plain = error(ControlMethod(guide=False, project=False))
-    guided = error(ControlMethod(project=False))
+    plain = error(ControlMethod(guide=False, project=False, candidates=1))
+    guided = error(ControlMethod(guide=True, project=False, candidates=1))
     assert guided.mean() < 0.6 * plain.mean(), (guided, plain)
+    best = error(ControlMethod(guide=False, project=False, candidates=4))
+    assert best.mean() <= plain.mean()  # the seed's own motion is one of the candidates
     both = pipe.generate("a person walks forward", lengths=120, seed=3,
                          control={"path": PATH})[0].joints
     assert np.linalg.norm(both[frames, 0][:, [0, 2]] - target, axis=1).max() < 0.01
@@ -171,7 +173,8 @@ def test_prefix_is_continued_and_between_poses_are_met(pipe, walk) -> None:
                          control={"prefix": walk[:40].tolist()})[0].joints
     assert made.shape == (100, 22, 3)
     assert np.linalg.norm(made[:40] - walk[:40], axis=-1).max() < 0.01
-    assert np.abs(np.diff(made[35:50], axis=0)).max() < 0.15  # no jump at the seam
+    speed = np.linalg.norm(np.diff(made, axis=0), axis=-1).max(axis=1)  # (T-1,) m per frame
+    assert speed[37:43].max() < 1.2 * speed[25:37].max()  # no jump at the seam (frame 40)
     ends = pipe.generate("a person walks forward", lengths=80, seed=2,
                          control={"start_pose": walk[0].tolist(),
                                   "end_pose": walk[79].tolist()})[0].joints

@@ -253,8 +253,11 @@ def lock_feet(joints: np.ndarray, before: np.ndarray, skeleton: Skeleton,
                     weight[f] = w
                     shift[f, [0, 2]] = w * (hold - out[inside, toe, [0, 2]])
             t = end + 1
-        for f in pinned:
-            weight[f] = 0.0  # a keyframe's leg stays exactly where it pins it
+        if pinned:  # a keyframe's leg stays exactly where it pins it, and the lock eases in
+            near = np.abs(np.arange(len(joints))[:, None] - np.array(pinned)[None]).min(axis=1)
+            eased = np.minimum(weight, near / (fade + 1))
+            shift *= (eased / np.maximum(weight, 1e-12))[:, None]
+            weight = eased
         moved = weight > 0
         if not moved.any():
             continue

@@ -41,13 +41,15 @@ MotionGenerator = Any
 
 @dataclass(frozen=True)
 class ControlMethod:
-    """How controls are met: guidance (iterations per step, step size) and/or projection."""
+    """How controls are met: candidates (best of N, one batch), guidance, projection. The
+    default is the one bench/control.py picked (docs/control.md)."""
 
-    guide: bool = True
-    project: bool = True
-    iterations: int = 2  # gradient steps on x0 per sampling step
-    final_iterations: int = 4  # gradient steps on the last step's x0 (nothing re-noises it)
-    step: float = 0.9  # Gauss-Newton-like step: a fraction of the way to zero error
+    guide: bool = False  # decoder guidance inside the sampling steps
+    project: bool = True  # the motion-space correction that makes the controls exact
+    candidates: int = 4  # motions sampled in one batch; the one nearest the controls is kept
+    iterations: int = 1  # guidance: gradient steps on x0 per sampling step
+    final_iterations: int = 2  # guidance: gradient steps on the last step's x0 (not re-noised)
+    step: float = 0.9  # guidance: a Gauss-Newton-like step, a fraction of the way to zero error
     reach_seconds: float = REACH_SECONDS
     lock_feet: bool = True  # feet that stood in the model's motion stand after the correction
 
@@ -179,19 +181,34 @@ def differentiable_decoder(pipe: MotionGenerator) -> torch.nn.Module | None:
     return _DECODERS[pipe]
 
 
-def _joints(pipe: MotionGenerator, decoder: torch.nn.Module, z: Tensor, frames: int) -> Tensor:
-    feats = decoder.decode(z / pipe.config.schedule.latent_scale, torch.tensor([frames]), frames)
-    return recover_from_ric(feats[0].float() * pipe.std + pipe.mean)  # (T, J, 3)
+def _joints(pipe: MotionGenerator, decoder: Any, z: Tensor, frames: int) -> Tensor:
+    """(B, T, J, 3) joints of latents z (B, n, d) through `decoder`."""
+    lengths = torch.full((len(z),), frames)
+    feats = decoder.decode(z / pipe.config.schedule.latent_scale, lengths, frames)
+    return recover_from_ric(feats.float() * pipe.std + pipe.mean)
+
+
+def candidate_seeds(seed: int, count: int) -> list[int]:
+    """The noises a best-of-`count` draws: the seed's own first (count 1 is plain sampling)."""
+    return [(int(seed) + k * CANDIDATE_STRIDE) % (2**63) for k in range(count)]
+
+
+CANDIDATE_STRIDE = 1_000_003  # far apart from the seeds a batch's neighbours use (seed + i)
 
 
 def guided_latent(pipe: MotionGenerator, text: str, frames: int, seed: int, nfe: int | None,
                   targets: Targets, method: ControlMethod) -> Tensor:
-    """(1, n, d) latent sampled with the control's gradient applied to every step's x0."""
+    """(1, n, d): the best of method.candidates latents for the control, each sampled with the
+    control's gradient applied to every step's x0 when method.guide."""
     decoder = differentiable_decoder(pipe) if method.guide else None
-    cond = pipe.encode_text([text])
-    generator = torch.Generator().manual_seed(int(seed))
+    count = max(1, method.candidates)
+    cond = pipe.encode_text([text]).expand(count, -1)
+    generators = [torch.Generator().manual_seed(s) for s in candidate_seeds(seed, count)]
     steps = pipe.check_nfe(nfe)
     uncond = pipe.encode_text([""]) if pipe.sampler.cfg else None
+
+    def losses(joints: Tensor) -> Tensor:  # (B,) one control loss per candidate
+        return torch.stack([control_loss(j, targets, pipe.skeleton) for j in joints])
 
     calls = [0]
 
@@ -202,18 +219,22 @@ def guided_latent(pipe: MotionGenerator, text: str, frames: int, seed: int, nfe:
             z = x0.detach().clone()
             for _ in range(method.final_iterations if last else method.iterations):
                 z.requires_grad_(True)
-                loss = control_loss(_joints(pipe, decoder, z, frames), targets, pipe.skeleton)
-                (grad,) = torch.autograd.grad(loss, z)
+                loss = losses(_joints(pipe, decoder, z, frames))  # (B,)
+                (grad,) = torch.autograd.grad(loss.sum(), z)
                 # A Gauss-Newton step along the gradient: for a loss ~ |e|^2, the step that
                 # would remove `step` of it if the decoder were linear along this direction.
-                norm2 = (grad ** 2).sum().clamp_min(1e-12)
-                z = (z - method.step * loss.detach() / norm2 * grad).detach()
+                norm2 = (grad ** 2).sum(dim=(1, 2), keepdim=True).clamp_min(1e-12)
+                z = (z - method.step * loss.detach()[:, None, None] / norm2 * grad).detach()
         return z
 
-    x = pipe.sampler.noise((1, *pipe.ae.latent_shape), generator)
+    x = pipe.sampler.noise((count, *pipe.ae.latent_shape), generators)
     with torch.no_grad():
-        return pipe.sampler.sample(pipe.denoiser, x, cond, steps, generator=generator,
-                                   uncond=uncond, guide=guide if decoder is not None else None)
+        z = pipe.sampler.sample(pipe.denoiser, x, cond, steps, generator=generators,
+                                uncond=uncond, guide=guide if decoder is not None else None)
+        if count == 1:
+            return z
+        best = int(torch.argmin(losses(_joints(pipe, pipe.ae, z, frames))))
+    return z[best:best + 1]
 
 
 def project(joints: np.ndarray, control: Control, anchor: Anchor, skeleton: Any,
