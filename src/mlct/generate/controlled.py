@@ -1,15 +1,19 @@
-"""Controlled generation: guidance through the decoder inside the consistency steps, then a
-motion-space correction that makes the controls exact (control_fit.py).
+"""Controlled generation: the best of a few sampled motions, made exact in motion space.
 
-Why this method (docs/control.md, bench/control.py): training is not needed, and a consistency
-model takes 1-10 steps, so each step can afford a few gradient steps on its clean estimate x0:
-decode x0 (the conv decoder, differentiable), read the joints, and move x0 down the gradient
-of the control error (in m^2). The next step re-noises the moved x0, so the network pulls it
-back towards motions it knows: the text keeps its say, and the motion stays one the model
-makes (feet plant, arms swing). What guidance leaves (a few cm) the correction closes, smoothly
-and with a small change, so the foot contacts barely move. Either alone is worse: projection
-alone drags feet over the floor when the gap is large; guidance alone leaves errors of
-decimetres at the waypoints.
+The method, chosen by measurement (bench/control.py, docs/control.md), without training:
+1. candidates: `ControlMethod.candidates` motions for the text are sampled in one batch (the
+   seed's own motion first) and the one whose decoded joints are nearest the controls is kept.
+   A consistency model samples in a few steps, so a batch of 4 costs well under 4 times one,
+   and every candidate is a motion the model makes: feet plant, arms swing, the text is done;
+2. guidance (optional, off by default): inside each sampling step, gradient steps on the clean
+   estimate x0 through the decoder (differentiable) and the joints, down the control error;
+   the next step re-noises the moved x0. It pulls the motion towards far controls, but off
+   the model's motions (an arm thrown up, a sudden slide), and costs 3-5x plain generation;
+   the candidates do better for less (docs/control.md);
+3. the correction (control_fit.py): root path, heading and the keyframes' root places by one
+   smooth low-frequency shift; keyframes by eased per-joint offsets with bone lengths restored
+   (FABRIK for single joints); feet that stood in the model's motion held in stance (two-bone
+   IK); body-part edits by copying the kept joints and re-attaching the edited bones.
 
 The control's world: the result starts where the prefix or edited motion does, or a full pose
 at frame 0, or the path's frame-0 waypoint (facing its heading when given); the network makes
