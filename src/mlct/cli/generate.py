@@ -68,11 +68,14 @@ def _control(args: argparse.Namespace) -> Any:
     from mlct.generate.control import control_from_files
     from mlct.motion.skeleton import get_skeleton
 
+    given = (args.control, args.path, args.keyframes, args.edit, args.parts, args.prefix)
+    if all(value is None for value in given):
+        return None
     skeleton = get_skeleton("humanml3d")  # controls need its 22 joints (checked again later)
-    frames = None
+    frames = None  # the length an end_pose needs; a bad --seconds is reported by generation
     if args.length is not None and len(args.length) == 1:
         frames = args.length[0]
-    elif args.seconds is not None and len(args.seconds) == 1:
+    elif args.seconds is not None and len(args.seconds) == 1 and 0 < args.seconds[0] < 1e6:
         frames = int(round(args.seconds[0] * skeleton.fps))
     return control_from_files(skeleton, control=args.control, path=args.path,
                               keyframes=args.keyframes, edit=args.edit, parts=args.parts,
