@@ -105,18 +105,16 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
         texts = body.prompts
         seeds = body.seeds(draw=secrets.randbelow(2**31))
         try:
-            if body.control is not None:  # one motion, not batched (generate/controlled.py)
-                result = await run_in_threadpool(_controlled, generator, body, seeds[0],
-                                                 default_frames)
-            else:
-                future = batcher.submit(texts, body.frames(default_frames), body.nfe, seeds)
+            frames, control = body.frames(default_frames), None
+            if body.control is not None:  # one motion, generated alone (generate/controlled.py)
+                frames, control = _control_of(generator, body, default_frames)
+            future = batcher.submit(texts, frames, body.nfe, seeds, control)
         except QueueFull as error:
             return _error(503, str(error), {"Retry-After": "1"})
         except MlctError as error:
             return _error(422, str(error))
         try:
-            if body.control is None:
-                result = await asyncio.wrap_future(future)
+            result = await asyncio.wrap_future(future)
         except MlctError as error:
             return _error(422, str(error))
         except ServerClosing as error:
@@ -188,23 +186,16 @@ def _bearer_matches(header: str | None, token: str) -> bool:
                                                                  token.encode())
 
 
-def _controlled(generator: Any, body: Any, seed: int, default_frames: int) -> Any:
-    """POST /generate with a control: the motion and timing fields the batcher's results have;
-    MlctError (422) for a control that does not fit."""
-    from types import SimpleNamespace
-
+def _control_of(generator: Any, body: Any, default_frames: int) -> tuple[list[int], Any]:
+    """The frames and the Control of a request's "control" field (the length an edit implies
+    when none was asked); MlctError (422) for a control that does not fit."""
     from mlct.generate.control import control_from_dict
 
-    asked = body.lengths is not None or body.seconds is not None
     frames = body.frames(default_frames)[0]
     control = control_from_dict(body.control, generator.skeleton, "control", frames)
-    if not asked and control.natural_length() is not None:
+    if body.lengths is None and body.seconds is None and control.natural_length() is not None:
         frames = control.natural_length()
-    start = time.perf_counter()
-    motions = generator.generate(body.prompts[0], lengths=frames, nfe=body.nfe, seed=seed,
-                                 control=control)
-    return SimpleNamespace(motions=list(motions), queue_s=0.0,
-                           generate_s=time.perf_counter() - start, batch_size=1)
+    return [frames], control.check(frames, generator.skeleton)
 
 
 def _error(status: int, detail: str, headers: dict[str, str] | None = None) -> JSONResponse:
