@@ -12,8 +12,8 @@ import pytest
 import mlct
 from mlct.cli import main
 from mlct.errors import MlctError
-from mlct.generate.control import Control, Keyframe, control_from_dict, part_joints, \
-    read_path_file
+from mlct.generate.control import Control, Keyframe, control_from_dict, part_joints
+from mlct.generate.control_files import read_path_file
 from mlct.generate.control_fit import fabrik, offset_curve
 from mlct.generate.controlled import ControlMethod, generate_controlled
 from mlct.motion.skeleton import get_skeleton

@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
 def _control(args: argparse.Namespace) -> Any:
     """The control of --control/--path/--keyframes/--edit/--parts/--prefix, read before the
     model loads (generate/control.py); None when none is given."""
-    from mlct.generate.control import control_from_files
+    from mlct.generate.control_files import control_from_files
     from mlct.motion.skeleton import get_skeleton
 
     given = (args.control, args.path, args.keyframes, args.edit, args.parts, args.prefix)
