@@ -39,6 +39,9 @@ def test_draw_a_path_and_the_motion_walks_it(page, tmp_path):  # noqa: F811
     waypoints = np.array(page.evaluate("window.mlctControl.waypoints()"))
     assert len(waypoints) >= 5
     assert waypoints[-1, 0] > waypoints[0, 0] + 1 and waypoints[-1, 1] > waypoints[0, 1] + 1
+    length = np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum()
+    seconds = float(page.input_value("#seconds"))  # grown to walk the path at 0.45 m/s
+    assert seconds == pytest.approx(min(9.8, np.ceil(length / 0.45 * 10) / 10), abs=0.11)
     page.fill("#prompt", "a person walks forward")
     page.press("#prompt", "Enter")
     page.wait_for_function("window.mlct.firstFrameMs.length === 2", timeout=60_000)

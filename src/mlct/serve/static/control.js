@@ -8,6 +8,7 @@
   const HALF_SPAN = 3.0; // metres from the centre to each edge of the floor view
   const STEP = 0.3; // metres between the waypoints sent (the drawn line is resampled)
   const MAX_WAYPOINTS = 24;
+  const WALK_PACE = 0.45; // m/s: the length slider grows to walk a drawn path at this pace
   const cs = { drawn: [], pins: [], drawing: false };
   const $ = (id) => document.getElementById(id);
 
@@ -106,7 +107,20 @@
     canvas.addEventListener("pointermove", (event) => {
       if (cs.drawing) cs.drawn.push(toFloor(canvas, event));
     });
-    canvas.addEventListener("pointerup", () => { cs.drawing = false; });
+    canvas.addEventListener("pointerup", () => {
+      cs.drawing = false;
+      // Long enough to walk the path at the bundled model's pace (its walks cover about
+      // 2.3 m in 6 s; a path asking for more is met by sliding: docs/control.md)
+      const path = waypoints();
+      let length = 0;
+      for (let i = 1; i < path.length; i++) length += Math.hypot(path[i][0] - path[i - 1][0], path[i][1] - path[i - 1][1]);
+      const slider = $("seconds");
+      const wanted = Math.min(Number(slider.max), Math.ceil((length / WALK_PACE) * 10) / 10);
+      if (wanted > Number(slider.value)) {
+        slider.value = String(wanted);
+        slider.dispatchEvent(new Event("input"));
+      }
+    });
     $("clear-path").addEventListener("click", () => { cs.drawn = []; });
     $("pin-pose").addEventListener("click", () => {
       const state = window.mlct.state;
