@@ -79,4 +79,6 @@ def control_from_files(skeleton: Skeleton, *, control: str | os.PathLike | None 
             data[name] = value
     if data:
         found = found.merged(control_from_dict(data, skeleton, "command line", frames))
-    return None if found.empty and not found.parts else found
+    if found.parts and found.edit is None:  # before the model loads
+        raise MlctError("parts name what an edit changes; give the motion to edit (--edit)")
+    return None if found.empty else found
