@@ -330,6 +330,12 @@ CLI_CASES = [
     (["generate", W, "--num", "0", "--out", "x.npy"], "--num must be at least 1"),
     (["generate", W, "--num", "-5", "--out", "x.npy"], "--num must be at least 1"),
     (["generate", W, "--num", "many", "--out", "x.npy"], "argument --num: invalid int value"),
+    # controls (docs/control.md; their schema's errors: tests/test_control.py)
+    (["generate", W, "--path", "nowhere.csv", "--out", "x.npy"], "cannot read path nowhere.csv"),
+    (["generate", W, "--path", "path.txt", "--out", "x.npy"], "give a .json or .csv file"),
+    (["generate", W, "--parts", "upper", "--out", "x.npy"], "give the motion to edit (--edit)"),
+    (["generate", W, "--edit", "nowhere.npy", "--parts", "upper", "--out", "x.npy"],
+     "cannot read the edit motion nowhere.npy"),
     (["generate", "a", "b", "--num", "2", "--seconds", "2", "2", "--out", "x.npy"],
      "--num makes variations"),
     # generate: seed, device, dtype, steps

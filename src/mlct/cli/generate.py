@@ -37,7 +37,8 @@ def run(args: argparse.Namespace) -> int:
         raise MlctError("--num makes variations of one prompt; several prompts make one long "
                         "motion")
     request = generate_files.Request(prompts, args.seconds, args.length, args.num, args.nfe,
-                                     args.seed, long, split_actions=not args.whole_prompt)
+                                     args.seed, long, split_actions=not args.whole_prompt,
+                                     control=_control(args))
     names = ["_".join(prompts)] if long else [p for p in prompts for _ in range(args.num)]
     paths = generate_files.output_paths(names, args.out, args.out_dir, args.format)
     def load() -> Any:
@@ -59,6 +60,26 @@ def run(args: argparse.Namespace) -> int:
     for path in written:
         print(path)
     return 0
+
+
+def _control(args: argparse.Namespace) -> Any:
+    """The control of --control/--path/--keyframes/--edit/--parts/--prefix, read before the
+    model loads (generate/control.py); None when none is given."""
+    from mlct.generate.control_files import control_from_files
+    from mlct.motion.skeleton import get_skeleton
+
+    given = (args.control, args.path, args.keyframes, args.edit, args.parts, args.prefix)
+    if all(value is None for value in given):
+        return None
+    skeleton = get_skeleton("humanml3d")  # controls need its 22 joints (checked again later)
+    frames = None  # the length an end_pose needs; a bad --seconds is reported by generation
+    if args.length is not None and len(args.length) == 1:
+        frames = args.length[0]
+    elif args.seconds is not None and len(args.seconds) == 1 and 0 < args.seconds[0] < 1e6:
+        frames = int(round(args.seconds[0] * skeleton.fps))
+    return control_from_files(skeleton, control=args.control, path=args.path,
+                              keyframes=args.keyframes, edit=args.edit, parts=args.parts,
+                              prefix=args.prefix, frames=frames)
 
 
 def add_parser(commands: Commands) -> None:
@@ -89,6 +110,22 @@ def add_parser(commands: Commands) -> None:
     generate.add_argument("--whole-prompt", action="store_true",
                           help="give the model a prompt that names actions in sequence ('walks, "
                                "then waves') as one text, instead of one part per action, chained")
+    control = generate.add_argument_group(
+        "controls", "one prompt that also follows a path, keyframes, an edit or a prefix "
+        "(docs/control.md)")
+    control.add_argument("--control", type=Path, default=None,
+                         help="a JSON file with any of the control fields below")
+    control.add_argument("--path", type=Path, default=None,
+                         help="root path: .json [[x, z] or [x, z, frame], ...] or .csv x,z[,frame]")
+    control.add_argument("--keyframes", type=Path, default=None,
+                         help="JSON list of {frame, pose | joint + position | joints}")
+    control.add_argument("--edit", type=Path, default=None,
+                         help="a motion .npy (joints or features) to keep all but --parts of")
+    control.add_argument("--parts", default=None,
+                         help="what --edit makes anew: upper, lower, arms, left_arm, right_arm, "
+                              "left_leg, right_leg, head, or joint names (comma-separated)")
+    control.add_argument("--prefix", type=Path, default=None,
+                         help="a motion .npy to continue (the result starts with it)")
     generate.add_argument("--features", action="store_true",
                           help=".npy holds the features (T x 263) instead of joints (T x J x 3)")
     where = generate.add_mutually_exclusive_group()

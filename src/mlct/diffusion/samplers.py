@@ -18,6 +18,7 @@ from mlct.diffusion.schedule import VPSchedule
 from mlct.diffusion.solver import dpm_solver_1_step
 
 DenoiseFn = Callable[[Tensor, Tensor], Tensor]  # (x (B, n, d), t (B,)) -> x0 estimate
+GuideFn = Callable[[Tensor], Tensor]  # x0 (B, n, d) -> x0 moved towards a control
 
 
 # one generator for the batch, or one per batch item
@@ -39,8 +40,10 @@ def draw_noise(shape: tuple[int, ...], generator: Generators, like: Tensor) -> T
 
 
 def sample_consistency(model: DenoiseFn, x: Tensor, times: Tensor, schedule: VPSchedule,
-                       generator: Generators = None, clamp: float | None = 1.0) -> Tensor:
-    """Multistep consistency sampling from x at T down through `times` (Algorithm 2); NFE = K."""
+                       generator: Generators = None, clamp: float | None = 1.0,
+                       guide: GuideFn | None = None) -> Tensor:
+    """Multistep consistency sampling from x at T down through `times` (Algorithm 2); NFE = K.
+    guide: a correction of each step's clean estimate x0 (sampling-time control)."""
     # x: (B, n, d), N(0, I) as Algorithm 2 (whatever alpha_T is) unless the caller knows more
     shape = tuple(x.shape)
     x0 = x
@@ -48,6 +51,8 @@ def sample_consistency(model: DenoiseFn, x: Tensor, times: Tensor, schedule: VPS
         x0 = model(x, t.expand(shape[0]))
         if clamp is not None:
             x0 = x0.clamp(-clamp, clamp)
+        if guide is not None:
+            x0 = guide(x0) if clamp is None else guide(x0).clamp(-clamp, clamp)
         if k + 1 < len(times):  # re-noise to the next, lower time with fresh noise
             s = times[k + 1]
             x = schedule.alpha(s) * x0 + schedule.sigma(s) * draw_noise(shape, generator, times)
@@ -62,12 +67,15 @@ def ddim_times(steps: int, t_max: float = 1.0, t_min: float = 1e-3,
 
 
 def sample_ddim(model: DenoiseFn, x: Tensor, times: Tensor, schedule: VPSchedule,
-                clamp: float | None = 1.0) -> Tensor:
-    """Deterministic DDIM (first-order, Eq. 12) from x at times[0] to times[-1] = 0."""
+                clamp: float | None = 1.0, guide: GuideFn | None = None) -> Tensor:
+    """Deterministic DDIM (first-order, Eq. 12) from x at times[0] to times[-1] = 0.
+    guide: a correction of each step's clean estimate x0 (sampling-time control)."""
     x0 = x
     for t, s in zip(times[:-1], times[1:]):
         x0 = model(x, t.expand(x.shape[0]))
         if clamp is not None:
             x0 = x0.clamp(-clamp, clamp)
+        if guide is not None:
+            x0 = guide(x0) if clamp is None else guide(x0).clamp(-clamp, clamp)
         x = x0 if s == 0 else dpm_solver_1_step(x, x0, t, s, schedule)
     return x0

@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 from tqdm import tqdm
 
@@ -41,6 +41,7 @@ class Request:
     seed: int | None = None
     long: bool = False
     split_actions: bool = True  # a prompt naming actions in sequence: one part each, chained
+    control: Any = None  # a generate.control.Control: path, keyframes, edit, prefix
 
 
 def slug(text: str, limit: int = 40) -> str:
@@ -87,6 +88,8 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     for path in paths:
         if features and path.suffix.lower() != ".npy":
             raise MlctError(f"--features writes .npy files, not {path.suffix}")
+    if request.long and request.control is not None:
+        raise MlctError("controls go with one prompt, not a long motion of several")
     if request.long:
         from mlct.generate.long_motion import generate_long
 
@@ -113,7 +116,12 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     with bar:
         for start in range(0, len(texts), BATCH):
             stop = start + BATCH
-            motions: Sequence[GeneratedMotion] = generator.generate(
+            motions: Sequence[GeneratedMotion] = [m for i in range(start, min(stop, len(texts)))
+                for m in generator.generate(
+                    texts[i], lengths=None if lengths is None else lengths[i],
+                    seconds=None if seconds is None else seconds[i], nfe=request.nfe,
+                    seed=None if seeds is None else seeds[i], control=request.control)
+            ] if request.control is not None else generator.generate(
                 texts[start:stop], lengths=None if lengths is None else lengths[start:stop],
                 seconds=None if seconds is None else seconds[start:stop], nfe=request.nfe,
                 seed=None if seeds is None else seeds[start:stop],

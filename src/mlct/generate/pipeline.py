@@ -185,8 +185,11 @@ class MotionGenerator:
     def generate(self, texts: str | Sequence[str], lengths: int | Sequence[int] | None = None,
                  seconds: float | Sequence[float] | None = None, nfe: int | None = None,
                  seed: int | Sequence[int] | None = None, guidance: float | None = None,
-                 split_actions: bool = True) -> Generation:
+                 split_actions: bool = True, control: Any = None) -> Generation:
         """Motions for texts: one per text, each of its own length.
+
+        control: a generate.control.Control (or its JSON dict): a root path, keyframes, a
+        body-part edit, a prefix to continue; one text; generate/controlled.py meets it.
 
         split_actions: a text that names actions in sequence ("walks forward, then waves") is
         made as one motion per action, chained (generate/compose.py), when each part gets at
@@ -205,6 +208,10 @@ class MotionGenerator:
                  for i, t in enumerate(texts)]
         if not texts:
             return Generation([])
+        if control is not None:
+            from mlct.generate.controlled import generate_with_control
+
+            return generate_with_control(self, texts, lengths, seconds, nfe, seed, control)
         frames = self._lengths(len(texts), lengths, seconds)
         self.check_nfe(nfe)  # before the (slow) text encoder loads
         if guidance is not None and not _is_scale(guidance):  # a consistency model ignores it

@@ -105,9 +105,14 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
         texts = body.prompts
         seeds = body.seeds(draw=secrets.randbelow(2**31))
         try:
-            future = batcher.submit(texts, body.frames(default_frames), body.nfe, seeds)
+            frames, control = body.frames(default_frames), None
+            if body.control is not None:  # one motion, generated alone (generate/controlled.py)
+                frames, control = _control_of(generator, body, default_frames)
+            future = batcher.submit(texts, frames, body.nfe, seeds, control)
         except QueueFull as error:
             return _error(503, str(error), {"Retry-After": "1"})
+        except MlctError as error:
+            return _error(422, str(error))
         try:
             result = await asyncio.wrap_future(future)
         except MlctError as error:
@@ -179,6 +184,18 @@ def _bearer_matches(header: str | None, token: str) -> bool:
     scheme, _, given = (header or "").partition(" ")
     return scheme.lower() == "bearer" and secrets.compare_digest(given.strip().encode(),
                                                                  token.encode())
+
+
+def _control_of(generator: Any, body: Any, default_frames: int) -> tuple[list[int], Any]:
+    """The frames and the Control of a request's "control" field (the length an edit implies
+    when none was asked); MlctError (422) for a control that does not fit."""
+    from mlct.generate.control import control_from_dict
+
+    frames = body.frames(default_frames)[0]
+    control = control_from_dict(body.control, generator.skeleton, "control", frames)
+    if body.lengths is None and body.seconds is None and control.natural_length() is not None:
+        frames = control.natural_length()
+    return [frames], control.check(frames, generator.skeleton)
 
 
 def _error(status: int, detail: str, headers: dict[str, str] | None = None) -> JSONResponse:

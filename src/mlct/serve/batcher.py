@@ -25,10 +25,12 @@ log = logging.getLogger(__name__)
 
 
 class Generator(Protocol):
-    """What the batcher needs of a MotionGenerator (tests pass a fake)."""
+    """What the batcher needs of a MotionGenerator (tests pass a fake); `control` is passed only
+    for a request that has one."""
 
-    def generate(self, texts: Sequence[str], lengths: Sequence[int] | None = None, *,
-                 nfe: int | None = None, seed: Sequence[int] | None = None) -> list[Any]: ...
+    def generate(self, texts: Sequence[str], lengths: Any = None, *,
+                 nfe: int | None = None, seed: Sequence[int] | None = None,
+                 control: Any = None) -> list[Any]: ...
 
 
 class QueueFull(Exception):
@@ -57,6 +59,7 @@ class _Job:
     seeds: list[int]
     future: concurrent.futures.Future = field(default_factory=concurrent.futures.Future)
     submitted: float = field(default_factory=time.perf_counter)
+    control: Any = None  # a generate.control.Control: one text, run alone (never merged)
 
 
 _STOP = object()
@@ -97,11 +100,13 @@ class Batcher:
             self._thread = None
 
     def submit(self, texts: list[str], lengths: list[int], nfe: int | None,
-               seeds: list[int]) -> concurrent.futures.Future:
-        """Queue a request; its future gets a Result. QueueFull when the queue is full."""
+               seeds: list[int], control: Any = None) -> concurrent.futures.Future:
+        """Queue a request; its future gets a Result. QueueFull when the queue is full.
+        control: a Control for one text; such a request is generated alone, on this worker
+        thread like every other (the model is never called from two threads)."""
         if len(texts) > self.max_batch:
             raise MlctError(f"{len(texts)} texts exceed the batch limit of {self.max_batch}")
-        job = _Job(list(texts), list(lengths), nfe, list(seeds))
+        job = _Job(list(texts), list(lengths), nfe, list(seeds), control=control)
         try:
             self._queue.put_nowait(job)
         except queue.Full:
@@ -139,6 +144,8 @@ class Batcher:
         if first is _STOP:
             return None
         jobs, items = [first], len(first.texts)
+        if first.control is not None:
+            return jobs
         deadline = time.perf_counter() + self.wait_s
         while items < self.max_batch:
             left = deadline - time.perf_counter()
@@ -146,7 +153,7 @@ class Batcher:
                 job = self._queue.get(timeout=left) if left > 0 else self._queue.get_nowait()
             except queue.Empty:
                 break
-            if job is _STOP or items + len(job.texts) > self.max_batch:
+            if job is _STOP or job.control is not None or items + len(job.texts) > self.max_batch:
                 self._carry = job
                 break
             jobs.append(job)
@@ -161,15 +168,21 @@ class Batcher:
         texts = [text for job in live for text in job.texts]
         started = time.perf_counter()
         try:
-            motions = self.generator.generate(
-                texts, lengths=[n for job in live for n in job.lengths], nfe=live[0].nfe,
-                seed=[s for job in live for s in job.seeds])
+            if live[0].control is not None:  # alone in its batch (_next_batch)
+                motions = self.generator.generate(texts, lengths=live[0].lengths[0],
+                                                  nfe=live[0].nfe, seed=live[0].seeds,
+                                                  control=live[0].control)
+            else:
+                motions = self.generator.generate(
+                    texts, lengths=[n for job in live for n in job.lengths], nfe=live[0].nfe,
+                    seed=[s for job in live for s in job.seeds])
         except MlctError as error:
             if len(live) == 1:
                 live[0].future.set_exception(error)
                 return
             for job in live:  # one bad request must not fail the others
-                retry = _Job(job.texts, job.lengths, job.nfe, job.seeds, submitted=job.submitted)
+                retry = _Job(job.texts, job.lengths, job.nfe, job.seeds, submitted=job.submitted,
+                             control=job.control)
                 self._run([retry])
                 _forward(retry.future, job.future)
             return

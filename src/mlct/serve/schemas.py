@@ -80,6 +80,8 @@ def request_model(limits: Limits) -> type[BaseModel]:
         seed: Annotated[list[Seed] | None, BeforeValidator(_as_list)] = Field(
             None, min_length=1, max_length=limits.max_texts)
         format: Format = "json"
+        # path, keyframes, edit + parts, prefix, start/end pose (mlct.generate.control); one text
+        control: dict[str, Any] | None = None
 
         @model_validator(mode="after")
         def _consistent(self) -> GenerateRequest:
@@ -95,6 +97,8 @@ def request_model(limits: Limits) -> type[BaseModel]:
                 if given is not None and len(given) not in (1, count):
                     raise ValueError(f"{len(given)} values of '{name}' for {count} texts: "
                                      "give one, or one per text")
+            if self.control is not None and count != 1:
+                raise ValueError(f"a control goes with one text, got {count}")
             if self.format != "json" and count != 1:
                 raise ValueError(f"format '{self.format}' is a file of one motion; "
                                  f"got {count} texts (use format 'json' for several)")
@@ -145,7 +149,8 @@ def one_line(error: ValidationError | list[dict[str, Any]]) -> str:
     if first.get("type") == "missing" and not where:
         message = "the request body is empty; send a JSON object such as {\"text\": \"...\"}"
     elif first.get("type") == "extra_forbidden":
-        message = "unknown field (expected texts or text, lengths or seconds, nfe, seed, format)"
+        message = ("unknown field (expected texts or text, lengths or seconds, nfe, seed, format, "
+                   "control)")
     line = f"{where}: {message}" if where else message
     if len(errors) > 1:
         line += f" (and {len(errors) - 1} more)"

@@ -17,7 +17,7 @@ import torch
 from torch import Tensor, nn
 
 from mlct.config import Config
-from mlct.diffusion.samplers import Generators, draw_noise
+from mlct.diffusion.samplers import Generators, GuideFn, draw_noise
 from mlct.diffusion.schedule import VPSchedule
 from mlct.errors import MlctError
 from mlct.nn.build import latent_clamp
@@ -67,11 +67,12 @@ class Sampler(ABC):
     @abstractmethod
     def sample(self, model: nn.Module, x: Tensor, cond: Tensor, steps: int | None = None, *,
                generator: Generators = None, guidance: float | None = None,
-               uncond: Tensor | None = None) -> Tensor:
+               uncond: Tensor | None = None, guide: GuideFn | None = None) -> Tensor:
         """Clean latents (B, n, d) from x (B, n, d) at T, for conditions cond (B, c).
 
         model: the network F(x_t, t, c); uncond: the null condition (1, c), needed when `cfg`;
-        generator: the noise that a stochastic sampler draws after x."""
+        generator: the noise that a stochastic sampler draws after x; guide: moves each step's
+        clean estimate towards a control (generate/controlled.py)."""
 
     def describe(self, scale: float | None = None) -> str:
         """The sampler and its guidance, for a report's method name: 'MLCT, w=1'."""

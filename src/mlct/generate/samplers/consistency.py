@@ -11,7 +11,7 @@ from torch import Tensor, nn
 
 from mlct.config import Config
 from mlct.diffusion.consistency import consistency_output
-from mlct.diffusion.samplers import Generators, sample_consistency
+from mlct.diffusion.samplers import Generators, GuideFn, sample_consistency
 from mlct.diffusion.schedule import karras_time_grid, sampling_times
 from mlct.generate.samplers.base import Sampler, with_condition_terms
 
@@ -50,7 +50,7 @@ class ConsistencySampler(Sampler):
 
     def sample(self, model: nn.Module, x: Tensor, cond: Tensor, steps: int | None = None, *,
                generator: Generators = None, guidance: float | None = None,
-               uncond: Tensor | None = None) -> Tensor:
+               uncond: Tensor | None = None, guide: GuideFn | None = None) -> Tensor:
         times = self.times(self.check_steps(steps))
 
         network = with_condition_terms(model, cond, times)  # the text and time terms, once
@@ -58,4 +58,5 @@ class ConsistencySampler(Sampler):
         def consistency(x_t: Tensor, t: Tensor) -> Tensor:  # S(x_t, t, c), Eq. 11
             return consistency_output(x_t, network(x_t, t, cond), t, self.eta, self.time_scale)
 
-        return sample_consistency(consistency, x, times, self.schedule, generator, self.clamp)
+        return sample_consistency(consistency, x, times, self.schedule, generator, self.clamp,
+                                  guide)

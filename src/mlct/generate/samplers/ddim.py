@@ -11,7 +11,7 @@ from torch import Tensor, nn
 
 from mlct.config import Config
 from mlct.diffusion.parameterization import x0_from_eps
-from mlct.diffusion.samplers import Generators, ddim_times, sample_ddim
+from mlct.diffusion.samplers import Generators, GuideFn, ddim_times, sample_ddim
 from mlct.generate.samplers.base import Sampler, with_condition_terms
 
 # The smallest time the baseline is trained and sampled at (t ~ U(t_min, 1),
@@ -54,7 +54,7 @@ class DDIMSampler(Sampler):
 
     def sample(self, model: nn.Module, x: Tensor, cond: Tensor, steps: int | None = None, *,
                generator: Generators = None, guidance: float | None = None,
-               uncond: Tensor | None = None) -> Tensor:
+               uncond: Tensor | None = None, guide: GuideFn | None = None) -> Tensor:
         if uncond is None:
             raise ValueError("classifier-free guidance needs the null condition (uncond)")
         times = self.times(self.check_steps(steps))
@@ -67,4 +67,4 @@ class DDIMSampler(Sampler):
             eps_c, eps_u = network(torch.cat([x_t, x_t]), torch.cat([t, t]), both).chunk(2)
             return x0_from_eps(x_t, eps_u + scale * (eps_c - eps_u), t, self.schedule)
 
-        return sample_ddim(guided, x, times, self.schedule, self.clamp)
+        return sample_ddim(guided, x, times, self.schedule, self.clamp, guide)

@@ -165,6 +165,8 @@ function requestBody() {
   const body = { text: $("prompt").value, seconds: Number($("seconds").value), nfe: Number($("nfe").value) };
   const seed = $("seed").value.trim();
   if (seed !== "") body.seed = Number(seed);
+  const control = window.mlctControl && window.mlctControl.control(); // control.js: path, pins
+  if (control) body.control = control;
   return body;
 }
 
@@ -206,6 +208,7 @@ async function generate() {
     state.motion = motion;
     state.frames = prepare(motion);
     state.request = { text: motion.text, lengths: motion.frames, nfe: motion.nfe, seed: motion.seed };
+    if (body.control) state.request.control = body.control;
     state.clock = 0;
     state.frame = 0;
     state.drawing = true; // the first frame is drawn here, not by tick

@@ -1,0 +1,165 @@
+"""Controlled generation on held-out benchmark motions: control error, text read-outs, foot
+skating, time, for each way of meeting the controls.
+
+    python -m mlct.cli data synth --out /tmp/synth --num 400 --seed 0 --workers 1
+    python bench/control.py --data /tmp/synth [--limit N] [--nfe 5] [--json OUT]
+
+Each test motion of the benchmark gives its own controls and its first caption the text:
+- path: its root's (x, z) at every second and at its last frame (the path it really walks);
+- keys: its full pose at a third and two thirds of its length;
+- edit: its lower body kept, the upper body made anew from its caption.
+Methods: none (plain generation, same seeds), guide (decoder guidance only), project
+(motion-space correction only), both (guidance then correction: the default). Reported: path
+error at the waypoints (mean, max, cm), keyframe joint error (mean, cm), the read-out pass rate
+of bench/motion_quality.py's checks (its Tally, on the same labels), the GMD foot-skating ratio
+(the data's in the last row), and ms per motion at batch 1 (the ratio to plain generation).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import mlct
+from mlct.data.layout import DatasetLayout
+from mlct.eval.judge.action_classifier import read_labels
+from mlct.eval.readouts import evaluate_label
+from mlct.generate.control import Control, Keyframe, part_joints
+from mlct.generate.controlled import ControlMethod, generate_controlled
+from mlct.motion.features import features_to_joints
+from mlct.motion.physics import foot_skating_ratio
+
+sys.path.insert(0, str(Path(__file__).parent))
+from motion_quality import MAX_FRAMES, Tally  # noqa: E402  (the read-outs' tally, reused)
+
+METHODS = {"guide": ControlMethod(guide=True, project=False, candidates=1),
+           "project": ControlMethod(guide=False, candidates=1),
+           "both": ControlMethod(guide=True, candidates=1),
+           "best4": ControlMethod(guide=False, candidates=4),
+           "best8": ControlMethod(guide=False, candidates=8)}
+
+
+def path_control(joints: np.ndarray) -> tuple[Control, np.ndarray]:
+    frames = np.unique(np.r_[np.arange(0, len(joints), 20), len(joints) - 1])
+    return Control(path=joints[frames, 0][:, [0, 2]], path_frames=frames), frames
+
+
+def key_control(joints: np.ndarray) -> tuple[Control, list[int]]:
+    frames = [len(joints) // 3, 2 * len(joints) // 3]
+    return Control(keyframes=tuple(Keyframe(f, {j: tuple(p) for j, p in enumerate(joints[f])})
+                                   for f in frames)), frames
+
+
+def acceleration(joints: np.ndarray, fps: float) -> float:
+    """Mean joint acceleration (m/s^2): corrections that add kinks or jitter raise it."""
+    return float(np.linalg.norm(np.diff(joints, n=2, axis=0), axis=-1).mean() * fps ** 2)
+
+
+def record(st: dict[str, list], label: dict[str, Any], made: np.ndarray, seconds: float,
+           skel: Any) -> None:
+    st["tally"][0].add(label, evaluate_label(made, label))
+    st["skate"].append(foot_skating_ratio(made, skel))
+    st["acc"].append(acceleration(made, skel.fps))
+    st["ms"].append(seconds)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--data", type=Path, required=True)
+    parser.add_argument("--model", type=Path, default=None)
+    parser.add_argument("--split", default="test")
+    parser.add_argument("--limit", type=int, default=None)
+    parser.add_argument("--nfe", type=int, default=None)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args()
+
+    layout = DatasetLayout.existing(args.data)
+    labels = read_labels(args.data)
+    names = [n for n in layout.read_split(args.split) if n in labels][: args.limit]
+    real = [features_to_joints(layout.load_features(n)[:MAX_FRAMES]) for n in names]
+    captions = [layout.read_texts(n)[0].caption for n in names]
+    pipe = mlct.load(args.model)
+    skel = pipe.skeleton
+    upper = part_joints("upper", skel)
+    kept = [j for j in range(skel.n_joints) if j not in upper]
+    pipe.encode_text(captions)  # every caption's embedding memoised: the times are sampling's
+    pipe.generate(captions[0], lengths=len(real[0]), nfe=args.nfe, seed=0)  # warm-up
+    generate_controlled(pipe, captions[0], len(real[0]), path_control(real[0])[0], args.nfe, 0)
+
+    # Per motion, plain generation and every method in turn, so that the machine's load at
+    # that moment weighs on all of them alike (the times are ratios).
+    stats: dict[str, dict[str, list]] = {m: {"tally": [Tally()], "skate": [], "ms": [],
+                                             "path": [], "key": [], "acc": []}
+                                         for m in ("none", *METHODS)}
+    for name, cap, joints in zip(names, captions, real):
+        start = time.perf_counter()
+        made = pipe.generate(cap, lengths=len(joints), nfe=args.nfe, seed=args.seed,
+                             split_actions=False)[0].joints
+        record(stats["none"], labels[name], made, time.perf_counter() - start, skel)
+        for method_name, method in METHODS.items():
+            for task in ("path", "keys"):
+                control, frames = (path_control if task == "path" else key_control)(joints)
+                start = time.perf_counter()
+                made = generate_controlled(pipe, cap, len(joints), control, args.nfe, args.seed,
+                                           method).joints
+                record(stats[method_name], labels[name], made, time.perf_counter() - start, skel)
+                if task == "path":
+                    stats[method_name]["path"].append(np.linalg.norm(
+                        made[frames, 0][:, [0, 2]] - joints[frames, 0][:, [0, 2]], axis=-1))
+                else:
+                    stats[method_name]["key"].append(
+                        np.linalg.norm(made[frames] - joints[frames], axis=-1).mean())
+    rows: dict[str, dict[str, Any]] = {}
+    for method_name, st in stats.items():
+        rows[method_name] = {"pass": st["tally"][0].summary()["overall"],
+                             "skating": float(np.mean(st["skate"])),
+                             "acc": float(np.mean(st["acc"])), "ms": 1e3 * float(np.mean(st["ms"]))}
+        if st["path"]:
+            errs = np.concatenate(st["path"])
+            rows[method_name].update(path_mean_cm=100 * float(errs.mean()),
+                                     path_max_cm=100 * float(errs.max()),
+                                     key_cm=100 * float(np.mean(st["key"])))
+    plain_ms = rows["none"]["ms"]
+    # body-part edits: keep the lower body of each motion, make the upper body from its caption
+    edit_err, edit_ms = [], []
+    for cap, joints in zip(captions, real):
+        control = Control(edit=joints, parts=upper)
+        start = time.perf_counter()
+        made = generate_controlled(pipe, cap, len(joints), control, args.nfe, args.seed).joints
+        edit_ms.append(1e3 * (time.perf_counter() - start))
+        edit_err.append(float(np.linalg.norm(made[:, kept] - joints[:, kept], axis=-1).max()))
+    data_skate = float(np.mean([foot_skating_ratio(j, skel) for j in real]))
+    data_acc = float(np.mean([acceleration(j, skel.fps) for j in real]))
+
+    print(f"{len(names)} motions of {args.data} ({args.split}), nfe {pipe.check_nfe(args.nfe)}, "
+          f"seed {args.seed}, batch 1; controls: own path (1 s waypoints), own poses at T/3 "
+          f"and 2T/3")
+    head = (f"{'method':<9}{'path mean':>10}{'path max':>10}{'key err':>9}{'pass':>7}"
+            f"{'skating':>9}{'acc':>7}{'ms':>8}{'x plain':>9}")
+    print(head)
+    for method_name, r in rows.items():
+        cells = [f"{r[k]:>9.1f}" if k in r else f"{'-':>9}" for k in
+                 ("path_mean_cm", "path_max_cm", "key_cm")]
+        print(f"{method_name:<9}{cells[0]:>10}{cells[1]:>10}{cells[2]:>9}{r['pass']:>7.3f}"
+              f"{r['skating']:>9.3f}{r['acc']:>7.2f}{r['ms']:>8.1f}{r['ms'] / plain_ms:>9.2f}")
+    print(f"{'data':<9}{'':>10}{'':>10}{'':>9}{'':>7}{data_skate:>9.3f}{data_acc:>7.2f}")
+    print(f"edit (upper body anew, lower kept): untouched joints max error "
+          f"{100 * max(edit_err):.4f} cm, {np.mean(edit_ms):.1f} ms")
+    print("(errors in cm; pass: read-out pass rate; skating: GMD foot-skating ratio; acc: mean "
+          "joint acceleration, m/s^2)")
+    if args.json is not None:
+        report = {"rows": rows, "data_skating": data_skate, "data_acc": data_acc,
+                  "motions": len(names),
+                  "edit_untouched_max_cm": 100 * max(edit_err)}
+        args.json.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+
+
+if __name__ == "__main__":
+    main()
