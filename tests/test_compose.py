@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import mlct
-from mlct.generate.compose import split_actions
+from mlct.generate.compose import split_actions, split_concurrent
 from mlct.generate.long_motion import LongMotion
 
 
@@ -66,3 +66,49 @@ def test_whole_prompt_and_short_motions_are_not_split(pipe) -> None:
     assert not isinstance(whole, LongMotion) and whole.joints.shape[0] == 120
     short = pipe.generate(text, seconds=1.5, seed=0)[0]  # 0.75 s a part: below the minimum
     assert not isinstance(short, LongMotion) and short.joints.shape[0] == 30
+
+
+@pytest.mark.parametrize("text, body, arms", [
+    ("a man walks forward while waving his right hand twice", "a man walks forward",
+     "a man waves his right hand twice"),
+    ("a person waves his left hand while walking forward", "a person walks forward",
+     "a person waves his left hand"),
+    ("a woman jogs forward and claps her hands at the same time", "a woman jogs forward",
+     "a woman claps her hands"),
+    ("a man walks forward while raising his right arm and waving, then turns left",
+     "a man walks forward, then turns left", "a man raises his right arm and waves"),
+    ("a person turns left, then walks forward while clapping",
+     "a person turns left, then walks forward", "a person claps"),
+    ("walks backward while punching with the left hand", "walks backward",
+     "a person punches with the left hand"),
+])
+def test_an_arm_action_at_the_same_time_is_split_off(text: str, body: str, arms: str) -> None:
+    assert split_concurrent(text) == (body, arms)
+
+
+@pytest.mark.parametrize("text", [
+    "a person walks forward", "a person waves while smiling",  # an unknown verb: one action
+    "a person walks while thinking", "a person waves while clapping",  # both or neither arms
+    "a person walks forward, then waves",  # a sequence, not at the same time
+])
+def test_no_concurrent_arm_action(text: str) -> None:
+    assert split_concurrent(text) is None
+
+
+def test_a_concurrent_arm_action_is_grafted_on_the_body(pipe) -> None:
+    text = "a person walks forward while waving his right hand"
+    made = pipe.generate(text, seconds=5, seed=0)[0]
+    body = pipe.generate("a person walks forward", seconds=5, seed=0)[0]
+    arms = [pipe.skeleton.index(n) for n in ("left_shoulder", "right_shoulder", "left_elbow",
+                                             "right_elbow", "left_wrist", "right_wrist")]
+    rest = [j for j in range(pipe.skeleton.n_joints) if j not in arms
+            and pipe.skeleton.joint_names[j] not in ("left_collar", "right_collar")]
+    assert made.text == text and made.joints.shape == body.joints.shape
+    np.testing.assert_allclose(made.joints[:, rest], body.joints[:, rest], atol=1e-5)
+    # the arms are the wave's: the right wrist goes above the head, which walking never does
+    head = pipe.skeleton.index("head")
+    wrist = pipe.skeleton.index("right_wrist")
+    assert (made.joints[:, wrist, 1] - made.joints[:, head, 1]).max() > 0.0
+    assert (body.joints[:, wrist, 1] - body.joints[:, head, 1]).max() < -0.2
+    whole = pipe.generate(text, seconds=5, seed=0, split_actions=False)[0]
+    assert not np.allclose(whole.joints, made.joints, atol=1e-3)

@@ -12,11 +12,20 @@ that", "afterwards". These do not: "while" (two actions at once), "and" alone (o
 noun follows: "followed by a bow") and "after"/"before" with a clause (whose order would need
 parsing). A part without its own subject gets the first part's ("a person" when none is found),
 so every part reads like a caption.
+
+Actions at the same time ("walks forward while waving the right hand", "... and claps at the
+same time") are split too when one of the two is an arm action (split_concurrent): the
+autoencoder's three latent tokens hold a gait or an arm action, not both (the "+ concurrent"
+row of bench/motion_quality.py: 0.02 of such motions survive reconstruction), so the body is
+made from the rest of the prompt and the arms from the arm action alone, grafted on
+(generate/control_fit.py's reattach, a body-part edit).
 """
 
 from __future__ import annotations
 
 import re
+
+from mlct.data.captions import VERB_FORMS
 
 # The sequencing words, with the punctuation and "and" that may come with them.
 _SEQUENCE = re.compile(
@@ -38,3 +47,87 @@ def split_actions(text: str) -> list[str]:
     found = _SUBJECT.match(parts[0])
     subject = found.group(0) if found else DEFAULT_SUBJECT
     return [parts[0]] + [p if _SUBJECT.match(p) else f"{subject} {p}" for p in parts[1:]]
+
+
+# Verbs of an arm action (lemmas): a "while" clause led by one of them is made on the arms alone.
+ARM_VERBS = frozenset({"wave", "clap", "punch", "jab", "throw", "box", "raise", "lift", "put"})
+_THIRD_PERSON = {forms[0]: lemma for lemma, forms in VERB_FORMS.items()}
+_GERUND = {forms[1]: lemma for lemma, forms in VERB_FORMS.items()}
+_WHILE = re.compile(r"\s*,?\s*\bwhile\b\s*", re.IGNORECASE)
+_SAME_TIME = re.compile(r"\s*,?\s*\b(?:at\s+the\s+same\s+time|simultaneously)\s*$",
+                        re.IGNORECASE)
+_AND = re.compile(r"\s+and\s+", re.IGNORECASE)
+
+
+def _lemma(word: str) -> str | None:
+    word = word.lower()
+    return _THIRD_PERSON.get(word) or _GERUND.get(word) or (word if word in VERB_FORMS else None)
+
+
+def _without_subject(phrase: str) -> tuple[str, str]:
+    """(subject or "", the rest) of a phrase."""
+    found = _SUBJECT.match(phrase)
+    if not found:
+        return "", phrase
+    return found.group(0), phrase[found.end():].strip()
+
+
+def _first_verb(phrase: str) -> str | None:
+    words = _without_subject(phrase)[1].split()
+    return _lemma(words[0]) if words else None
+
+
+def _is_arm_action(phrase: str) -> bool:
+    return _first_verb(phrase) in ARM_VERBS
+
+
+def _finite(phrase: str) -> str:
+    """A gerund phrase made finite: "waving his hand and clapping" -> "waves his hand and claps"."""
+    def verb(match: re.Match[str]) -> str:
+        lemma = _GERUND.get(match.group(0).lower())
+        return VERB_FORMS[lemma][0] if lemma else match.group(0)
+    return re.sub(r"\b[a-z]+ing\b", verb, phrase, flags=re.IGNORECASE)
+
+
+def _split_phrase(phrase: str) -> tuple[str, str] | None:
+    """(the body's phrase, the arms' phrase) of one phrase naming two actions at once, or None."""
+    pairs = []
+    if _WHILE.search(phrase):
+        first, second = _WHILE.split(phrase, maxsplit=1)
+        pairs.append((first, _finite(second)))
+    elif _SAME_TIME.search(phrase):
+        both = _SAME_TIME.sub("", phrase)
+        pairs += [(both[:m.start()], both[m.end():]) for m in _AND.finditer(both)]
+    for first, second in pairs:
+        first, second = first.strip(" ,;."), second.strip(" ,;.")
+        if not first or not second:
+            continue
+        # both sides must start with a verb we know: "waves while smiling" is one action
+        if _first_verb(first) is None or _first_verb(second) is None:
+            continue
+        if _is_arm_action(second) and not _is_arm_action(first):
+            return first, second
+        if _is_arm_action(first) and not _is_arm_action(second):
+            subject = _without_subject(first)[0]
+            return (f"{subject} {second}" if subject else second), first
+    return None
+
+
+def split_concurrent(text: str) -> tuple[str, str] | None:
+    """(the body's prompt, the arms' prompt) of a prompt that names an arm action done at the
+    same time as another action, or None. The body's prompt is the text without the arm action
+    (it may still be a sequence); the arms' prompt gets the text's subject."""
+    pieces = re.split(f"({_SEQUENCE.pattern})", text, flags=re.IGNORECASE)
+    for k in range(0, len(pieces), 2):  # the phrases; odd indices are the separators
+        split = _split_phrase(pieces[k])
+        if split is None:
+            continue
+        body, arms = split
+        found = _SUBJECT.match(text.strip())
+        subject = found.group(0) if found else DEFAULT_SUBJECT
+        if not _SUBJECT.match(arms):
+            arms = f"{subject} {arms}"
+        if k > 0 and body.startswith(subject):  # a later phrase keeps the sequence's wording
+            body = body[len(subject):].strip()
+        return "".join(pieces[:k] + [body] + pieces[k + 1:]).strip(), arms
+    return None

@@ -33,6 +33,7 @@ from mlct.motion.features import recover_from_ric
 from mlct.motion.skeleton import get_skeleton
 from mlct.nn.inference import for_inference, weight_dtype
 from mlct.generate.compose import split_actions as split_actions_of
+from mlct.generate.compose import split_concurrent
 from mlct.generate.prompts import clean_prompt
 
 if TYPE_CHECKING:
@@ -217,11 +218,15 @@ class MotionGenerator:
         if guidance is not None and not _is_scale(guidance):  # a consistency model ignores it
             raise MlctError(f"guidance must be a number >= 0, got {guidance!r}")
         seeds = self._seeds(len(texts), seed)
+        out: list[GeneratedMotion | None] = [None] * len(texts)
+        if split_actions:
+            for i, t in enumerate(texts):
+                if (pair := split_concurrent(t)) is not None:
+                    out[i] = self._concurrent(t, *pair, frames[i], nfe, seeds[i], guidance)
         plans = [split_actions_of(t) if split_actions else [t] for t in texts]
         min_part = self.frames_for(MIN_PART_SECONDS)
-        whole = [i for i, (parts, n) in enumerate(zip(plans, frames))
-                 if len(parts) == 1 or n // len(parts) < min_part]
-        out: list[GeneratedMotion | None] = [None] * len(texts)
+        whole = [i for i, (parts, n) in enumerate(zip(plans, frames)) if out[i] is None
+                 and (len(parts) == 1 or n // len(parts) < min_part)]
         if whole:
             z = self.sample_latents(self.encode_text([texts[i] for i in whole]), nfe,
                                     [seeds[i] for i in whole], guidance)
@@ -229,7 +234,7 @@ class MotionGenerator:
                 joints = recover_from_ric(torch.from_numpy(feats)).numpy()
                 out[i] = GeneratedMotion(texts[i], feats, joints, self.skeleton.fps,
                                          self.skeleton.name, seeds[i])
-        for i in sorted(set(range(len(texts))) - set(whole)):
+        for i in sorted(i for i in set(range(len(texts))) - set(whole) if out[i] is None):
             out[i] = self._chained(texts[i], plans[i], frames[i], nfe, seeds[i], guidance)
         return Generation(out)  # type: ignore[arg-type]
 
@@ -244,6 +249,15 @@ class MotionGenerator:
         made = generate_long(self, parts, [n / fps for n in share], nfe=nfe, seed=seed,
                              guidance=guidance)
         return dataclasses.replace(made, text=text)
+
+    def _concurrent(self, text: str, body: str, arms: str, frames: int, nfe: int | None,
+                    seed: int, guidance: float | None) -> GeneratedMotion:
+        """An arm action done during another: the body made from `body` (split into its actions
+        as any prompt), the arms from `arms` alone, grafted on as a body-part edit."""
+        made = self.generate(body, lengths=frames, nfe=nfe, seed=seed, guidance=guidance)[0]
+        grafted = self.generate(arms, lengths=frames, nfe=nfe, seed=seed,
+                                control={"edit": made.joints, "parts": "arms"})[0]
+        return dataclasses.replace(grafted, text=text)
 
     @staticmethod
     def _seeds(count: int, seed: int | Sequence[int] | None) -> list[int]:
