@@ -15,7 +15,8 @@ positions. The file is fitted to the positions so that forward kinematics gives 
 
 Units: centimetres, the de facto BVH unit (mocap exports, MotionBuilder, game-engine importers).
 HumanML3D metres are multiplied by 100, KIT-ML millimetres divided by 10. In Blender's BVH
-importer set Scale to 0.01 to get metres.
+importer set Scale to 0.01 to get metres. A rig preset (`rig=`, rigs.py) gives the file that
+rig's joint names, rest pose, up axis and unit instead.
 
 Exactness: the file gives back the fitted skeleton's joints (to the 1e-4 cm of the text). Those
 are the motion's own wherever its bones keep their length and each multi-child group keeps its
@@ -42,6 +43,7 @@ import torch
 from mlct.errors import MlctError, first_line
 from mlct.io import write_text
 from mlct.motion.rigfit import check_joints, children_of, fit_rig
+from mlct.motion.rigs import Rig, get_rig
 from mlct.motion.skeleton import Skeleton
 
 BVH_UNIT = "cm"
@@ -64,27 +66,40 @@ class BvhPose:
     euler: np.ndarray  # (T, J, 3) local rotations, degrees, in EULER_ORDER
 
 
-def fit_bvh(joints: np.ndarray, skeleton: Skeleton) -> BvhPose:
-    """Fit (T, J, 3) joint positions (skeleton units) to a rigid BVH skeleton (module doc)."""
-    fit = fit_rig(check_joints(joints, skeleton, "BVH export"), skeleton)
-    scale = TO_CENTIMETRES[skeleton.unit]
+def bvh_frame(skeleton: Skeleton, rig: Rig | None) -> tuple[np.ndarray, float]:
+    """(3, 3) rotation from mlct's frame to the file's and the skeleton-unit -> file-unit scale:
+    the rig's axes and unit, or y up in centimetres without a rig."""
+    if rig is None:
+        return np.eye(3), TO_CENTIMETRES[skeleton.unit]
+    return rig.axes, rig.per_metre * TO_CENTIMETRES[skeleton.unit] / 100.0
+
+
+def fit_bvh(joints: np.ndarray, skeleton: Skeleton, rig: Rig | None = None,
+            fps: float | None = None) -> BvhPose:
+    """Fit (T, J, 3) joint positions (skeleton units) to a rigid BVH skeleton (module doc), in
+    the rig's rest pose, axes and unit when one is given (rigs.py)."""
+    fit = fit_rig(check_joints(joints, skeleton, "BVH export"), skeleton,
+                  None if rig is None else rig.rest_directions, fps=fps)
+    axes, scale = bvh_frame(skeleton, rig)
     n_frames = len(fit.root)
-    rotations = torch.from_numpy(fit.local.reshape(-1, 3, 3))
+    local = axes @ fit.local @ axes.T  # the same turns, seen in the file's frame
+    rotations = torch.from_numpy(local.reshape(-1, 3, 3))
     euler = roma.rotmat_to_euler(EULER_ORDER, rotations, degrees=True).numpy()
     euler = np.unwrap(euler.reshape(n_frames, skeleton.n_joints, 3), period=360.0, axis=0)
     children = children_of(skeleton.parents)
-    offsets = fit.offsets * scale
+    offsets = fit.offsets @ axes.T * scale
     end_sites = {j: offsets[j] * END_SITE_FRACTION for j in range(skeleton.n_joints)
                  if not children[j]}
     return BvhPose(order=fit.order, offsets=offsets, end_sites=end_sites,
-                   root_positions=fit.root * scale, euler=euler)
+                   root_positions=fit.root @ axes.T * scale, euler=euler)
 
 
-def _vector(values: np.ndarray) -> str:
-    return " ".join(f"{v:.{DECIMALS}f}" for v in values)
+def _vector(values: np.ndarray, places: int = DECIMALS) -> str:
+    return " ".join(f"{v:.{places}f}" for v in values)
 
 
-def bvh_text(joints: np.ndarray, skeleton: Skeleton, fps: float) -> str:
+def bvh_text(joints: np.ndarray, skeleton: Skeleton, fps: float,
+             rig: str | os.PathLike | Rig | None = None) -> str:
     """The BVH file of (T, J, 3) joint positions at `fps` frames per second (module doc)."""
     try:
         rate = float(fps)
@@ -92,7 +107,10 @@ def bvh_text(joints: np.ndarray, skeleton: Skeleton, fps: float) -> str:
         rate = math.nan
     if not (math.isfinite(rate) and rate > 0):
         raise MlctError(f"BVH export needs a positive frame rate, got {fps!r}")
-    pose = fit_bvh(joints, skeleton)
+    target = get_rig(rig, skeleton)
+    names = skeleton.joint_names if target is None else target.joint_names
+    pose = fit_bvh(joints, skeleton, target, fps=rate)
+    places = DECIMALS if target is None or target.unit == "cm" else DECIMALS + 2  # 1e-4 cm
     children = children_of(skeleton.parents)
     lines = ["HIERARCHY"]
 
@@ -100,14 +118,15 @@ def bvh_text(joints: np.ndarray, skeleton: Skeleton, fps: float) -> str:
         pad = "  " * depth
         keyword = "ROOT" if depth == 0 else "JOINT"
         channels = f"6 {ROOT_CHANNELS}" if depth == 0 else f"3 {JOINT_CHANNELS}"
-        lines.extend([f"{pad}{keyword} {skeleton.joint_names[joint]}", f"{pad}{{",
-                      f"{pad}  OFFSET {_vector(pose.offsets[joint])}",
+        lines.extend([f"{pad}{keyword} {names[joint]}", f"{pad}{{",
+                      f"{pad}  OFFSET {_vector(pose.offsets[joint], places)}",
                       f"{pad}  CHANNELS {channels}"])
         for kid in children[joint]:
             joint_block(kid, depth + 1)
         if not children[joint]:
             lines.extend([f"{pad}  End Site", f"{pad}  {{",
-                          f"{pad}    OFFSET {_vector(pose.end_sites[joint])}", f"{pad}  }}"])
+                          f"{pad}    OFFSET {_vector(pose.end_sites[joint], places)}",
+                          f"{pad}  }}"])
         lines.append(f"{pad}}}")
 
     joint_block(pose.order[0], 0)
@@ -115,16 +134,18 @@ def bvh_text(joints: np.ndarray, skeleton: Skeleton, fps: float) -> str:
     # Channel values per frame in file order: root position, then Z X Y angles of each joint.
     values = np.concatenate([pose.root_positions, pose.euler[:, list(pose.order)].reshape(
         n_frames, -1)], axis=1)
+    digits = np.array([places] * 3 + [DECIMALS] * (values.shape[1] - 3))
     buffer = io.StringIO()
-    np.savetxt(buffer, np.round(values, DECIMALS) + 0.0, fmt=f"%.{DECIMALS}f")  # no "-0.0000"
+    np.savetxt(buffer, np.round(values * 10.0**digits) / 10.0**digits + 0.0,  # no "-0.0000"
+               fmt=[f"%.{d}f" for d in digits])
     lines.extend(["MOTION", f"Frames: {n_frames}", f"Frame Time: {1.0 / rate:.9g}"])
     return "\n".join(lines) + "\n" + buffer.getvalue()
 
 
 def write_bvh(path: str | os.PathLike, joints: np.ndarray, skeleton: Skeleton,
-              fps: float) -> None:
+              fps: float, rig: str | os.PathLike | Rig | None = None) -> None:
     """Write (T, J, 3) joint positions as a BVH file at `fps`, atomically (module doc)."""
-    write_text(path, bvh_text(joints, skeleton, fps))
+    write_text(path, bvh_text(joints, skeleton, fps, rig))
 
 
 @dataclass(frozen=True)
