@@ -56,3 +56,18 @@ def test_cli_refuses_a_bad_rig_before_loading_the_model(tmp_path, capsys):
     assert main(["generate", "a person walks", "--out", str(tmp_path / "m.glb"),
                  "--rig", "nope"]) == 2
     assert not list(tmp_path.iterdir())
+
+
+def test_retarget_command_writes_a_rig_file_from_a_joints_npy(motion, tmp_path, capsys):
+    np.save(tmp_path / "walk.npy", motion.joints)
+    out = tmp_path / "walk.bvh"
+    assert main(["retarget", str(tmp_path / "walk.npy"), "--out", str(out), "--rig", "unreal"]) == 0
+    assert read_bvh(out).joint_names[0] == "pelvis" and "thigh_l" in read_bvh(out).joint_names
+    np.save(tmp_path / "features.npy", motion.features)  # features work too
+    assert main(["retarget", str(tmp_path / "features.npy"), "--out", str(tmp_path / "f.npz")]) == 0
+    assert np.load(tmp_path / "f.npz")["poses"].shape[0] == len(motion.joints)
+    capsys.readouterr()
+    assert main(["retarget", str(tmp_path / "walk.npy"), "--out", str(tmp_path / "w.gif")]) == 2
+    assert "retarget writes" in capsys.readouterr().err
+    assert main(["retarget", str(tmp_path / "nope.npy"), "--out", str(tmp_path / "w.glb")]) == 2
+    assert "no such file" in capsys.readouterr().err
