@@ -129,7 +129,13 @@ def test_bad_input_shows_the_servers_message(page):
     assert "runs straight ahead" in page.inner_text("#status")
 
 
-def test_skinned_humanoid_plays_the_glb_on_each_rig(page, tmp_path):
+def test_skinned_humanoid_plays_the_glb_on_each_rig(page, url, tmp_path):
+    import json
+    import urllib.request
+
+    pytest.importorskip("pygltflib")
+    from mlct.motion.gltf import read_gltf
+
     """The three.js view loads the motion's GLB, follows the skeleton's frame, and reloads
     with the rig's bone names when the rig changes. MLCT_RIG_SCREENSHOTS=DIR keeps a
     screenshot per rig (docs/img/web_rig_mixamo.png and web_rig_vrm.png are made this way)."""
@@ -138,6 +144,18 @@ def test_skinned_humanoid_plays_the_glb_on_each_rig(page, tmp_path):
     page.click("#generate")
     page.wait_for_function("window.mlctBody.current", timeout=60_000)
     assert page.evaluate("window.mlctBody.bones")[0] == "pelvis"
+    # three.js's GLTFLoader poses the bones where mlct's reader of the same GLB puts them
+    request = page.evaluate("window.mlct.state.request")
+    glb = urllib.request.urlopen(urllib.request.Request(
+        f"{url}/generate", data=json.dumps({**request, "format": "glb"}).encode(),
+        headers={"Content-Type": "application/json"})).read()
+    (tmp_path / "m.glb").write_bytes(glb)
+    clip = read_gltf(tmp_path / "m.glb")
+    for frame in (0, 25, 60):
+        three = page.evaluate(f"window.mlctBody.positionsAt({frame / 20.0})")
+        ours = {name: clip.positions[frame, i] for i, name in enumerate(clip.joint_names)}
+        assert sorted(three) == sorted(ours)
+        assert max(np.abs(np.array(three[n]) - ours[n]).max() for n in ours) < 1e-4
     shots = {}
     # three.js drops ':' from node names (PropertyBinding's reserved characters), as it does
     # for Mixamo's own files

@@ -98,6 +98,17 @@ function tick() {
   view.renderer.render(view.scene, view.camera);
 }
 
+// Every bone's world position at a time of the clip, as three.js computes it: the end-to-end
+// test compares them with mlct's own reading of the same GLB.
+window.mlctBody.positionsAt = (seconds) => {
+  view.mixer.setTime(seconds);
+  view.model.updateMatrixWorld(true);
+  const out = {};
+  const point = new THREE.Vector3();
+  view.model.traverse((node) => { if (node.isBone) out[node.name] = node.getWorldPosition(point).toArray(); });
+  return out;
+};
+
 setup();
 window.mlctBody.ready = true;
 tick();
