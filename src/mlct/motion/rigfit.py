@@ -15,8 +15,10 @@ joint positions, and a generated motion's bones stretch by a few millimetres fro
 - limbs (hip-knee-ankle, shoulder-elbow-wrist) by two-bone inverse kinematics: the knee (elbow)
   lies in the plane of the input's hip, knee and ankle, placed so that the ankle (wrist) lands
   exactly on the input's whenever the fixed-length leg can reach it. So a planted foot stays
-  where the input planted it: the fit adds no foot skating. Near a straight leg the exact
-  solution is ill-conditioned (a leg 2 mm shorter than the input's reach must bend its knee
+  where the input planted it. A fixed-length foot cannot keep both its ankle and its toe
+  where a stretching input foot has them: the ankle is aimed so that whichever of heel and
+  toe moves less stays exact (the toe at push-off, the heel at heel strike). Near a straight
+  leg the exact solution is ill-conditioned (a leg 2 mm shorter than the input's reach must bend its knee
   out by ~3 cm: the "knee pop" of IK rigs), so the knee moves at most LIMB_TOLERANCE of the
   thigh's length from where plain aiming puts it; there the ankle is off by about the leg's
   stretch, along the leg (vertical for a standing leg, so no sliding either);
@@ -43,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 import roma
 import torch
+from scipy.ndimage import uniform_filter1d
 from scipy.signal import lfilter
 
 from mlct.errors import MlctError
@@ -51,6 +54,7 @@ from mlct.motion.skeleton import Skeleton
 
 PROCRUSTES_ITERATIONS = 3  # mean shape of a multi-child group: converges in 2 on real motion
 LIMB_TOLERANCE = 0.01  # of the upper bone: how far IK may move a knee or elbow from plain aiming
+FOOT_WINDOW_SECONDS = 0.25  # smoothing of the foot speeds that choose heel or toe
 TWIST_RELAX_SECONDS = 1.0  # a flip's 180 degrees unwind at <= 180 degrees a second
 
 
@@ -159,6 +163,30 @@ def two_bone_middle(start: np.ndarray, middle: np.ndarray, end: np.ndarray, uppe
     return start + along * axis + height * pole
 
 
+def foot_targets(x: np.ndarray, skeleton: Skeleton, offsets: np.ndarray,
+                 fps: float) -> np.ndarray:
+    """(T, J, 3) where each joint is aimed: the input, except the ankles. A fixed-length foot
+    cannot keep both its ankle and its toe where a stretching input foot has them, so the ankle
+    goes where the slower of the two stays exact: the heel while it is planted and the toe
+    rolls, the toe while it is planted and the heel lifts (w below, from the input's horizontal
+    speeds over FOOT_WINDOW_SECONDS); the other end is off by the foot's stretch, along it."""
+    aims = x.copy()
+    window = max(1, int(round(FOOT_WINDOW_SECONDS * fps)))
+    for ankle, toe in (skeleton.foot_left, skeleton.foot_right):
+        length = float(np.linalg.norm(offsets[toe]))
+        foot = x[:, toe] - x[:, ankle]
+        toe_first = x[:, toe] - foot * length / np.maximum(
+            np.linalg.norm(foot, axis=-1, keepdims=True), 1e-12)  # the ankle if the toe is exact
+        if len(x) < 2:
+            continue
+        speed = [np.linalg.norm(np.diff(x[:, j][:, [0, 2]], axis=0), axis=-1) for j in (ankle, toe)]
+        speed = [uniform_filter1d(np.concatenate([s[:1], s]), window, mode="nearest")
+                 for s in speed]  # (T,) per frame
+        w = speed[0] / (speed[0] + speed[1] + 1e-3 * length)  # 1: the ankle moves, toe still
+        aims[:, ankle] = (1 - w)[:, None] * x[:, ankle] + w[:, None] * toe_first
+    return aims
+
+
 def _twist_angles(local: np.ndarray, axis: np.ndarray, fps: float) -> np.ndarray:
     """(T, 3, 3) shortest-turn local rotations of a one-child joint, (3,) unit rest direction of
     its bone -> (T,) twist angles about that direction that keep the rotation smooth (module doc).
@@ -221,6 +249,7 @@ def fit_rig(joints: np.ndarray, skeleton: Skeleton, rest_directions: np.ndarray 
                                                1e-12) * lengths[kids, None]
     offsets[0] = 0.0
 
+    aims = foot_targets(x, skeleton, offsets, rate)
     identity = np.broadcast_to(np.eye(3), (n_frames, 3, 3))
     world = np.empty((n_frames, skeleton.n_joints, 3, 3))
     local = np.empty_like(world)
@@ -233,10 +262,10 @@ def fit_rig(joints: np.ndarray, skeleton: Skeleton, rest_directions: np.ndarray 
             world[:, joint] = parent_rot
         elif len(kids) == 1:
             kid = kids[0]
-            target = x[:, kid]
+            target = aims[:, kid]
             if kid in ends:  # two-bone limb: aim the upper bone where the end can be reached
                 upper = float(np.linalg.norm(offsets[kid]))
-                solved = two_bone_middle(fitted[:, joint], x[:, kid], x[:, ends[kid]], upper,
+                solved = two_bone_middle(fitted[:, joint], x[:, kid], aims[:, ends[kid]], upper,
                                          float(np.linalg.norm(offsets[ends[kid]])))
                 aimed = x[:, kid] - fitted[:, joint]
                 aimed = fitted[:, joint] + aimed * upper / np.maximum(
