@@ -130,3 +130,41 @@ def test_twist_stays_smooth_when_an_arm_passes_overhead():
 def test_bad_joints_are_one_line_errors(bad, message):
     with pytest.raises(MlctError, match=message):
         fit_rig(bad, HUMANML3D)
+
+
+def test_a_planted_toe_stays_planted_while_the_heel_lifts_and_the_foot_stretches():
+    """Push-off on a generated-like foot: the toe stays put, the heel rises and the foot bone
+    grows by 1 cm. A fixed-length foot cannot keep both ends; the fit keeps the still one."""
+    n_frames = 40
+    rest = np.zeros((HUMANML3D.n_joints, 3))
+    for joint in range(1, HUMANML3D.n_joints):
+        rest[joint] = rest[HUMANML3D.parents[joint]] + HUMANML3D.rest_offsets[joint]
+    ankle, toe = HUMANML3D.foot_left
+    knee = HUMANML3D.parents[ankle]
+    hip = HUMANML3D.parents[knee]
+
+    def turn_x(angle: float) -> np.ndarray:
+        c, s = math.cos(angle), math.sin(angle)
+        return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
+
+    # a bent left knee (thigh forward, shin back), the foot flat as in the rest pose
+    thigh, shin = turn_x(-0.35), turn_x(-0.35) @ turn_x(0.7)
+    foot_offset = rest[toe] - rest[ankle]
+    rest[knee] = rest[hip] + thigh @ (rest[knee] - rest[hip])
+    rest[ankle] = rest[knee] + shin @ HUMANML3D.rest_offsets[ankle]
+    rest[toe] = rest[ankle] + foot_offset
+    rest[:, 1] -= rest[:, 1].min()
+    joints = np.repeat(rest[None], n_frames, 0)
+    foot = rest[toe] - rest[ankle]
+    length = np.linalg.norm(foot)
+    lift = np.linspace(0.0, 0.5, n_frames)  # radians, the heel rising about the toe
+    grow = np.linspace(0.0, 0.01, n_frames)  # metres of stretch
+    back = -foot / length
+    for t in range(n_frames):
+        turned = back * np.cos(lift[t]) + np.array([0.0, 1.0, 0.0]) * np.sin(lift[t])
+        joints[t, ankle] = rest[toe] + (length + grow[t]) * turned / np.linalg.norm(turned)
+    fit = fit_rig(joints, HUMANML3D)
+    toe_path = fit.positions[:, toe]
+    assert np.linalg.norm(toe_path - rest[toe], axis=-1).max() < 1e-3  # planted, to 1 mm
+    ankle_error = np.linalg.norm(fit.positions[:, ankle] - joints[:, ankle], axis=-1)
+    assert ankle_error.max() > 0.004  # the moving heel takes the stretch instead

@@ -20,8 +20,10 @@ joint positions, and a generated motion's bones stretch by a few millimetres fro
   toe moves less stays exact (the toe at push-off, the heel at heel strike). Near a straight
   leg the exact solution is ill-conditioned (a leg 2 mm shorter than the input's reach must bend its knee
   out by ~3 cm: the "knee pop" of IK rigs), so the knee moves at most LIMB_TOLERANCE of the
-  thigh's length from where plain aiming puts it; there the ankle is off by about the leg's
-  stretch, along the leg (vertical for a standing leg, so no sliding either);
+  thigh's length plus BEND_SHARE of the input's bend (its knee's distance from the hip-ankle
+  line) from where plain aiming puts it: a bent leg gets exact IK, a straight one plain aiming,
+  where the ankle is off by about the leg's stretch, along the leg (vertical for a standing
+  leg, so no sliding either);
 - other one-child joints: the shortest turn, in the parent's frame, aiming the bone from the
   joint as already rebuilt (so errors do not add up along a chain); childless joints keep their
   parent's rotation;
@@ -54,6 +56,7 @@ from mlct.motion.skeleton import Skeleton
 
 PROCRUSTES_ITERATIONS = 3  # mean shape of a multi-child group: converges in 2 on real motion
 LIMB_TOLERANCE = 0.01  # of the upper bone: how far IK may move a knee or elbow from plain aiming
+BEND_SHARE = 0.25  # ... plus this share of the input's bend (knee off the hip-ankle line)
 FOOT_WINDOW_SECONDS = 0.25  # smoothing of the foot speeds that choose heel or toe
 TWIST_RELAX_SECONDS = 1.0  # a flip's 180 degrees unwind at <= 180 degrees a second
 
@@ -168,8 +171,8 @@ def foot_targets(x: np.ndarray, skeleton: Skeleton, offsets: np.ndarray,
     """(T, J, 3) where each joint is aimed: the input, except the ankles. A fixed-length foot
     cannot keep both its ankle and its toe where a stretching input foot has them, so the ankle
     goes where the slower of the two stays exact: the heel while it is planted and the toe
-    rolls, the toe while it is planted and the heel lifts (w below, from the input's horizontal
-    speeds over FOOT_WINDOW_SECONDS); the other end is off by the foot's stretch, along it."""
+    rolls, the toe while it is planted and the heel lifts (w below, from the input's speeds
+    over FOOT_WINDOW_SECONDS); the other end is off by the foot's stretch, along it."""
     aims = x.copy()
     window = max(1, int(round(FOOT_WINDOW_SECONDS * fps)))
     for ankle, toe in (skeleton.foot_left, skeleton.foot_right):
@@ -179,10 +182,10 @@ def foot_targets(x: np.ndarray, skeleton: Skeleton, offsets: np.ndarray,
             np.linalg.norm(foot, axis=-1, keepdims=True), 1e-12)  # the ankle if the toe is exact
         if len(x) < 2:
             continue
-        speed = [np.linalg.norm(np.diff(x[:, j][:, [0, 2]], axis=0), axis=-1) for j in (ankle, toe)]
+        speed = [np.linalg.norm(np.diff(x[:, j], axis=0), axis=-1) for j in (ankle, toe)]
         speed = [uniform_filter1d(np.concatenate([s[:1], s]), window, mode="nearest")
                  for s in speed]  # (T,) per frame
-        w = speed[0] / (speed[0] + speed[1] + 1e-3 * length)  # 1: the ankle moves, toe still
+        w = speed[0] / (speed[0] + speed[1] + 1e-4 * length)  # 1: the ankle moves, toe still
         aims[:, ankle] = (1 - w)[:, None] * x[:, ankle] + w[:, None] * toe_first
     return aims
 
@@ -272,8 +275,14 @@ def fit_rig(joints: np.ndarray, skeleton: Skeleton, rest_directions: np.ndarray 
                     np.linalg.norm(aimed, axis=-1, keepdims=True), 1e-12)
                 move = solved - aimed
                 size = np.linalg.norm(move, axis=-1, keepdims=True)
-                target = aimed + move * np.minimum(1.0, LIMB_TOLERANCE * upper
-                                                   / np.maximum(size, 1e-12))
+                # the input's bend: how far its knee is off the hip-ankle line
+                line = aims[:, ends[kid]] - fitted[:, joint]
+                line = line / np.maximum(np.linalg.norm(line, axis=-1, keepdims=True), 1e-12)
+                off = x[:, kid] - fitted[:, joint]
+                bend = np.linalg.norm(off - np.sum(off * line, -1, keepdims=True) * line,
+                                      axis=-1, keepdims=True)
+                allowed = LIMB_TOLERANCE * upper + BEND_SHARE * bend
+                target = aimed + move * np.minimum(1.0, allowed / np.maximum(size, 1e-12))
             current = np.einsum("tij,j->ti", parent_rot, offsets[kid])
             turn = np.swapaxes(parent_rot, -1, -2) @ swing(current, target - fitted[:, joint]) \
                 @ parent_rot  # the shortest turn, in the parent's frame
