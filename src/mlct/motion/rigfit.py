@@ -20,8 +20,9 @@ joint positions, and a generated motion's bones stretch by a few millimetres fro
   toe moves less stays exact (the toe at push-off, the heel at heel strike). Near a straight
   leg the exact solution is ill-conditioned (a leg 2 mm shorter than the input's reach must bend its knee
   out by ~3 cm: the "knee pop" of IK rigs), so the knee moves at most LIMB_TOLERANCE of the
-  thigh's length plus BEND_SHARE of the input's bend (its knee's distance from the hip-ankle
-  line) from where plain aiming puts it: a bent leg gets exact IK, a straight one plain aiming,
+  thigh's length plus, for legs, BEND_SHARE of the input's bend (its knee's distance from the
+  hip-ankle line) from where plain aiming puts it: a bent leg gets exact IK (feet touch the
+  ground; hands rarely hold anything, so arms keep the tighter bound), a straight one plain aiming,
   where the ankle is off by about the leg's stretch, along the leg (vertical for a standing
   leg, so no sliding either);
 - other one-child joints: the shortest turn, in the parent's frame, aiming the bone from the
@@ -56,7 +57,7 @@ from mlct.motion.skeleton import Skeleton
 
 PROCRUSTES_ITERATIONS = 3  # mean shape of a multi-child group: converges in 2 on real motion
 LIMB_TOLERANCE = 0.01  # of the upper bone: how far IK may move a knee or elbow from plain aiming
-BEND_SHARE = 0.25  # ... plus this share of the input's bend (knee off the hip-ankle line)
+BEND_SHARE = 0.2  # ... plus, for legs (contacts), this share of the input's bend
 FOOT_WINDOW_SECONDS = 0.25  # smoothing of the foot speeds that choose heel or toe
 TWIST_RELAX_SECONDS = 1.0  # a flip's 180 degrees unwind at <= 180 degrees a second
 
@@ -281,7 +282,8 @@ def fit_rig(joints: np.ndarray, skeleton: Skeleton, rest_directions: np.ndarray 
                 off = x[:, kid] - fitted[:, joint]
                 bend = np.linalg.norm(off - np.sum(off * line, -1, keepdims=True) * line,
                                       axis=-1, keepdims=True)
-                allowed = LIMB_TOLERANCE * upper + BEND_SHARE * bend
+                legs = ends[kid] in (skeleton.foot_left[0], skeleton.foot_right[0])
+                allowed = LIMB_TOLERANCE * upper + (BEND_SHARE * bend if legs else 0.0)
                 target = aimed + move * np.minimum(1.0, allowed / np.maximum(size, 1e-12))
             current = np.einsum("tij,j->ti", parent_rot, offsets[kid])
             turn = np.swapaxes(parent_rot, -1, -2) @ swing(current, target - fitted[:, joint]) \
