@@ -233,3 +233,51 @@ def test_read_bvh_refuses_empty_or_truncated_files_in_one_line(tmp_path, content
     with pytest.raises(MlctError) as info:
         read_bvh(path)
     assert "bad.bvh" in str(info.value) and "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("rig", ["mixamo", "unreal", "unity", "vrm", "smpl"])
+def test_rig_presets_name_turn_and_scale_the_skeleton(rig, tmp_path):
+    from mlct.motion.rigfit import fit_rig
+    from mlct.motion.rigs import get_rig
+
+    joints = make_motion(0, seed=0, skeleton=HUMANML3D).joints
+    path = tmp_path / f"{rig}.bvh"
+    write_bvh(path, joints, HUMANML3D, HUMANML3D.fps, rig=rig)
+    clip = read_bvh(path)
+    target = get_rig(rig, HUMANML3D)
+    assert clip.joint_names[0] == target.joint_names[0]
+    assert sorted(clip.joint_names) == sorted(target.joint_names)
+    fit = fit_rig(joints, HUMANML3D, target.rest_directions)
+    expected = fit.positions @ target.axes.T * target.per_metre
+    order = [target.joint_names.index(n) for n in clip.joint_names]
+    unit_cm = 100.0 / target.per_metre  # centimetres per file unit
+    error_cm = np.linalg.norm(clip.positions - expected[:, order], axis=-1).max() * unit_cm
+    assert error_cm < 0.01  # the fitted skeleton, to the text's rounding
+    lengths = np.linalg.norm(clip.positions[:, 1:] - clip.positions[:, list(clip.parents[1:])],
+                             axis=-1)
+    assert np.abs(lengths - lengths[0]).max() * unit_cm < 1e-3  # rounding of 1e-4 units
+    head = clip.positions[:, clip.joint_names.index(target.joint_names[15])]
+    up = 2 if rig == "unreal" else 1
+    assert 1.2 < head[:, up].mean() * unit_cm / 100.0 < 2.0  # a standing head, metres, up
+
+
+def test_rig_from_a_json_file(tmp_path):
+    import json
+
+    spec = {"name": "mine", "joints": {n: f"b_{n}" for n in HUMANML3D.joint_names},
+            "rest": "A", "up": "z", "forward": "-y", "unit": "cm"}
+    (tmp_path / "mine.json").write_text(json.dumps(spec))
+    path = tmp_path / "m.bvh"
+    write_bvh(path, rigid_motion(HUMANML3D, 20, seed=5), HUMANML3D, 20.0,
+              rig=tmp_path / "mine.json")
+    clip = read_bvh(path)
+    assert clip.joint_names[0] == "b_pelvis"
+    assert clip.positions[:, clip.joint_names.index("b_head"), 2].mean() > 100.0  # z up, cm
+    spec["joints"].pop("head")
+    (tmp_path / "bad.json").write_text(json.dumps(spec))
+    with pytest.raises(MlctError, match="missing: head"):
+        write_bvh(tmp_path / "n.bvh", rigid_motion(HUMANML3D, 5, seed=5), HUMANML3D, 20.0,
+                  rig=tmp_path / "bad.json")
+    with pytest.raises(MlctError, match="unknown rig"):
+        bvh_text(rigid_motion(HUMANML3D, 5, seed=5), HUMANML3D, 20.0, rig="blender")
+    assert not (tmp_path / "n.bvh").exists()

@@ -6,6 +6,7 @@ bundled model checks that the API returns what the library generates.
 
 from __future__ import annotations
 
+import importlib.util
 import io
 import json
 import re
@@ -146,6 +147,21 @@ def test_file_downloads(model_client):
     assert gif.status_code == 200
     assert gif.content[:4] == b"GIF8" and gif.headers["content-type"] == "image/gif"
 
+    if importlib.util.find_spec("pygltflib") is not None:  # the [export] extra
+        for fmt, rig in (("glb", "mixamo"), ("vrma", None)):
+            reply = client.post("/generate", json={**request, "format": fmt, "rig": rig})
+            assert reply.status_code == 200, reply.text
+            assert reply.content[:4] == b"glTF"
+            assert reply.headers["content-type"] == "model/gltf-binary"
+        assert b"mixamorig:Hips" in client.post(
+            "/generate", json={**request, "format": "glb", "rig": "mixamo"}).content
+    npz = client.post("/generate", json={**request, "format": "npz"})
+    assert npz.status_code == 200
+    assert np.load(io.BytesIO(npz.content))["poses"].shape == (16, 156)
+    bvh = client.post("/generate", json={**request, "format": "bvh", "rig": "unreal"})
+    assert "ROOT pelvis" in bvh.text and "JOINT thigh_l" in bvh.text
+    assert bvh.headers["content-disposition"].endswith('seed1_unreal.bvh"')
+
 
 # --- bad input: 4xx with one line, and the server keeps answering ------------------------------
 
@@ -180,6 +196,8 @@ BAD_REQUESTS = [
     ({"text": "walk", "texts": ["run"]}, 422, "not both"),
     ({}, 422, "no prompt"),
     ({"text": "walk", "temperature": 2}, 422, "unknown field"),
+    ({"text": "walk", "format": "glb", "rig": "blender"}, 422, "rig"),
+    ({"text": "walk", "format": "gif", "rig": "mixamo"}, 422, "rig applies to"),
 ]
 
 

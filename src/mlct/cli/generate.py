@@ -1,4 +1,4 @@
-"""`mlct generate`: text to motion files (GIF, MP4, PNG, NPY, JSON, BVH)."""
+"""`mlct generate`: text to motion files (GIF, MP4, PNG, NPY, JSON, BVH, GLB, VRMA, NPZ)."""
 
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
         return generator
 
     written = generate_files.run(load, request, paths, features=args.features,
-                                 progress=not args.quiet)
+                                 progress=not args.quiet, rig=args.rig)
     for path in written:
         print(path)
     return 0
@@ -84,7 +84,8 @@ def _control(args: argparse.Namespace) -> Any:
 
 def add_parser(commands: Commands) -> None:
     generate = commands.add_parser(
-        "generate", help="text to motion: GIF, MP4, PNG filmstrip, NPY, JSON or BVH",
+        "generate", help="text to motion: GIF, MP4, PNG filmstrip, NPY, JSON, BVH, GLB, VRMA "
+        "or NPZ",
         description="One prompt: one motion (--num for variations). Several prompts with one "
                     "duration each: one continuous long motion doing them in order. --prompts "
                     "FILE: one motion per line.")
@@ -130,10 +131,15 @@ def add_parser(commands: Commands) -> None:
                           help=".npy holds the features (T x 263) instead of joints (T x J x 3)")
     where = generate.add_mutually_exclusive_group()
     where.add_argument("--out", type=Path, default=None,
-                       help="FILE.gif, .mp4, .png, .npy, .json or .bvh (several: FILE_000.gif, ...)")
+                       help="FILE.gif, .mp4, .png, .npy, .json, .bvh, .glb, .vrma or .npz "
+                       "(several: FILE_000.gif, ...)")
     where.add_argument("--out-dir", type=Path, default=None,
                        help="directory; files named after the prompts")
     generate.add_argument("--format", default=None,
-                          help="with --out-dir: gif (default), mp4, png, npy, json or bvh")
+                          help="with --out-dir: gif (default), mp4, png, npy, json, bvh, glb, vrma "
+                          "or npz")
     generate.add_argument("--quiet", action="store_true", help="no progress bar")
+    generate.add_argument("--rig", default=None,
+                          help=".bvh/.glb for a character's rig: mixamo, unreal, unity, vrm, smpl "
+                               "or FILE.json (joint names, rest pose; docs/export.md)")
     generate.set_defaults(func=run)

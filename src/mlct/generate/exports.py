@@ -4,7 +4,11 @@
 - .npy: joints (T, J, 3) in the HumanML3D convention (y up, metres for HumanML3D), or the
   features (T, D) with features=True;
 - .json: joints, skeleton hierarchy and fps, for the web page and any other viewer;
-- .bvh: a skeleton hierarchy with per-frame local rotations and root translation, motion/bvh.py.
+- .bvh: a skeleton hierarchy with per-frame local rotations and root translation, motion/bvh.py;
+- .glb: a skinned humanoid with the motion as a glTF animation clip; .vrma: a VRM Animation;
+  .npz: SMPL/AMASS parameters (motion/gltf.py, motion/smpl.py). Every rig format goes through
+  the one rotation fit of motion/rigfit.py; `rig` (a preset of motion/rigs.py or a .json file)
+  renames and re-poses the skeleton of .bvh and .glb (.vrma is VRM's, .npz SMPL's by definition).
 
 One function, `save_motion`, serves the CLI, `GeneratedMotion.save` and the server (through
 `export_bytes`).
@@ -38,7 +42,9 @@ class GeneratedMotion(Protocol):
     seed: int | None
 
 
-FORMATS = (".gif", ".mp4", ".png", ".npy", ".json", ".bvh")
+FORMATS = (".gif", ".mp4", ".png", ".npy", ".json", ".bvh", ".glb", ".vrma", ".npz")
+RIG_FORMATS = (".bvh", ".glb")  # the formats a --rig retargets
+FIXED_RIGS = {".vrma": "vrm", ".npz": "smpl"}  # the formats whose rig is their own
 JSON_FORMAT = "mlct-motion"
 JSON_DECIMALS = 4  # 0.1 mm: far below what a viewer shows, and a third of the digits
 
@@ -52,6 +58,22 @@ def check_format(path: str | os.PathLike) -> str:
     return suffix
 
 
+def check_rig(rig: str | os.PathLike | None, suffix: str) -> None:
+    """A one-line MlctError unless `rig` fits a file ending in suffix (checked before generating):
+    a preset or a readable .json rig, for a format that takes one."""
+    if rig is None:
+        return
+    from mlct.motion.rigs import get_rig
+    from mlct.motion.skeleton import HUMANML3D
+
+    if suffix in FIXED_RIGS and str(rig).lower() == FIXED_RIGS[suffix]:
+        return
+    if suffix not in RIG_FORMATS:
+        own = "; ".join(f"{f} is always {r}" for f, r in FIXED_RIGS.items())
+        raise MlctError(f"--rig applies to {', '.join(RIG_FORMATS)} files, not {suffix} ({own})")
+    get_rig(rig, HUMANML3D)
+
+
 def motion_json(motion: GeneratedMotion) -> dict[str, Any]:
     """A JSON-ready dict: text, fps, skeleton (joint names, parents), joints (T, J, 3) rounded."""
     skeleton = get_skeleton(motion.skeleton)
@@ -62,14 +84,17 @@ def motion_json(motion: GeneratedMotion) -> dict[str, Any]:
             "joints": np.round(motion.joints.astype(np.float64), JSON_DECIMALS).tolist()}
 
 
-def save_motion(motion: GeneratedMotion, path: str | os.PathLike, features: bool = False) -> Path:
-    """Write motion to path in the format its extension names; returns the path."""
+def save_motion(motion: GeneratedMotion, path: str | os.PathLike, features: bool = False,
+                rig: str | os.PathLike | None = None) -> Path:
+    """Write motion to path in the format its extension names; returns the path. `rig`: a
+    retarget preset or .json file for .bvh and .glb (module doc)."""
     if not isinstance(path, (str, os.PathLike)):
         raise MlctError(f"path must be a file name (str or Path), not {type(path).__name__}")
     path = Path(path)
     suffix = check_format(path)
     if features and suffix != ".npy":
         raise MlctError(f"features can only be saved as .npy, not {suffix}")
+    check_rig(rig, suffix)
     if path.is_dir():  # else the error would name the temporary file that cannot replace it
         raise MlctError(f"cannot save to {path}: it is a directory")
     skeleton = get_skeleton(motion.skeleton)
@@ -80,7 +105,19 @@ def save_motion(motion: GeneratedMotion, path: str | os.PathLike, features: bool
     elif suffix == ".bvh":
         from mlct.motion.bvh import write_bvh
 
-        write_bvh(path, motion.joints, skeleton, motion.fps)
+        write_bvh(path, motion.joints, skeleton, motion.fps, rig=rig)
+    elif suffix == ".glb":
+        from mlct.motion.gltf import write_glb
+
+        write_glb(path, motion.joints, skeleton, motion.fps, rig=rig)
+    elif suffix == ".vrma":
+        from mlct.motion.gltf import write_vrma
+
+        write_vrma(path, motion.joints, skeleton, motion.fps)
+    elif suffix == ".npz":
+        from mlct.motion.smpl import write_smpl_npz
+
+        write_smpl_npz(path, motion.joints, skeleton, motion.fps)
     else:
         from mlct.motion.render import render_motion
 
@@ -88,7 +125,8 @@ def save_motion(motion: GeneratedMotion, path: str | os.PathLike, features: bool
     return path
 
 
-def export_bytes(motion: GeneratedMotion, suffix: str, features: bool = False) -> bytes:
+def export_bytes(motion: GeneratedMotion, suffix: str, features: bool = False,
+                 rig: str | None = None) -> bytes:
     """The bytes save_motion would write for a file ending in suffix (for HTTP downloads)."""
     suffix = check_format(f"motion{suffix}")
     if suffix == ".npy":
@@ -96,4 +134,4 @@ def export_bytes(motion: GeneratedMotion, suffix: str, features: bool = False) -
         np.save(buffer, motion.features if features else motion.joints)
         return buffer.getvalue()
     with tempfile.TemporaryDirectory(prefix="mlct-export-") as tmp:
-        return save_motion(motion, Path(tmp) / f"motion{suffix}", features).read_bytes()
+        return save_motion(motion, Path(tmp) / f"motion{suffix}", features, rig).read_bytes()

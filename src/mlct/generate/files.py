@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any, Callable, Sequence
 from tqdm import tqdm
 
 from mlct.errors import MlctError
-from mlct.generate.exports import check_format
+from mlct.generate.exports import check_format, check_rig
 from mlct.generate.prompts import clean_prompt
 from mlct.io import check_writable_dir
 
@@ -74,7 +74,7 @@ def output_paths(names: Sequence[str], out: Path | None, out_dir: Path | None,
 
 
 def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[Path],
-        features: bool = False, progress: bool = True) -> list[Path]:
+        features: bool = False, progress: bool = True, rig: str | None = None) -> list[Path]:
     """Generate the request's motions and write each to its path; returns the paths.
 
     `load` makes the model: it is called only after every argument has been checked."""
@@ -88,6 +88,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     for path in paths:
         if features and path.suffix.lower() != ".npy":
             raise MlctError(f"--features writes .npy files, not {path.suffix}")
+        check_rig(rig, path.suffix.lower())
     if request.long and request.control is not None:
         raise MlctError("controls go with one prompt, not a long motion of several")
     if request.long:
@@ -100,7 +101,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
                             f"durations; give one each")
         motion = generate_long(load(), request.prompts, request.seconds, request.nfe,
                                request.seed)
-        motion.save(paths[0], features)
+        motion.save(paths[0], features, rig)
         return [paths[0]]
     texts = [p for p in request.prompts for _ in range(request.num)]
     seeds = None if request.seed is None else [request.seed + i for i in range(len(texts))]
@@ -127,7 +128,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
                 seed=None if seeds is None else seeds[start:stop],
                 split_actions=request.split_actions)
             for motion, path in zip(motions, paths[start:stop]):
-                written.append(motion.save(path, features))
+                written.append(motion.save(path, features, rig))
                 bar.update(1)
     return written
 

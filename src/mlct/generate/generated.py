@@ -5,6 +5,7 @@
     out.lengths     # (B,) frames of each motion
     out[0].joints   # (T_0, J, 3), just that motion
     out.save("jump.bvh")   # one motion: that file; several: jump_000.bvh, jump_001.bvh, ...
+    out[0].save("jump.glb", rig="mixamo")  # a skinned humanoid with Mixamo's joint names
 """
 
 from __future__ import annotations
@@ -32,11 +33,13 @@ class GeneratedMotion:
     def seconds(self) -> float:
         return len(self.joints) / self.fps
 
-    def save(self, path: str | os.PathLike, features: bool = False) -> Path:
-        """Write to path: .gif .mp4 .png .npy .json .bvh (mlct.generate.exports)."""
+    def save(self, path: str | os.PathLike, features: bool = False,
+             rig: str | os.PathLike | None = None) -> Path:
+        """Write to path: .gif .mp4 .png .npy .json .bvh .glb .vrma .npz (mlct.generate.exports);
+        rig: mixamo, unreal, unity, vrm, smpl or a .json rig, for .bvh and .glb."""
         from mlct.generate.exports import save_motion
 
-        return save_motion(self, path, features)
+        return save_motion(self, path, features, rig)
 
 
 def _padded(arrays: Sequence[np.ndarray]) -> np.ndarray:
@@ -96,10 +99,11 @@ class Generation(Sequence[GeneratedMotion]):
         """(B, T, D), padded like joints."""
         return _padded([m.features for m in self.motions])
 
-    def save(self, path: str | os.PathLike, features: bool = False) -> list[Path]:
+    def save(self, path: str | os.PathLike, features: bool = False,
+             rig: str | os.PathLike | None = None) -> list[Path]:
         """Write every motion: path itself for one, else path's stem with _000, _001, ..."""
         path = Path(path)
         if len(self) == 1:
-            return [self.motions[0].save(path, features)]
-        return [m.save(path.with_name(f"{path.stem}_{i:03d}{path.suffix}"), features)
+            return [self.motions[0].save(path, features, rig)]
+        return [m.save(path.with_name(f"{path.stem}_{i:03d}{path.suffix}"), features, rig)
                 for i, m in enumerate(self.motions)]

@@ -5,28 +5,23 @@ positions. The file is fitted to the positions so that forward kinematics gives 
 
 - the hierarchy is the skeleton's (joint names, parents), depth first; every joint without
   children ends in an `End Site` (half its own bone, along it: only drawn, never moves a joint);
-- OFFSETs are the motion's own bone lengths (median over frames) along the skeleton's natural
-  rest pose (`Skeleton.rest_directions`: standing, facing +Z, y up), so a BVH viewer shows a
-  sensible T-less rest pose. A joint with several children (the pelvis, the upper spine) turns
-  all of them at once, so their offsets are the motion's mean shape of that group (a few
-  Procrustes iterations from the rest pose), turned back to the rest pose's orientation;
-- rotations: a joint with one child takes the shortest turn, in its parent's frame, that points
-  the child's bone at the child (no twist: positions cannot tell it); a joint with several
-  children the least-squares rotation of its group (Kabsch). Each bone is aimed from the parent
-  as already reconstructed, so length errors do not add up along a chain. Joints without
-  children keep their parent's rotation;
+- the skeleton and its rotations are the shared rotation fit's (motion/rigfit.py): bone lengths
+  fixed at the motion's median, OFFSETs along the skeleton's natural rest pose
+  (`Skeleton.rest_directions`: standing, facing +Z, y up), the root trajectory exact, limbs by
+  two-bone IK (planted feet stay planted), twist smooth over time;
 - the root has 6 channels (Xposition Yposition Zposition Zrotation Xrotation Yrotation), the
   others 3; angles in degrees, intrinsic Z-X-Y as the channel order says (what Blender,
   MotionBuilder and most BVH readers apply), unwrapped over time so no angle jumps by 360.
 
 Units: centimetres, the de facto BVH unit (mocap exports, MotionBuilder, game-engine importers).
 HumanML3D metres are multiplied by 100, KIT-ML millimetres divided by 10. In Blender's BVH
-importer set Scale to 0.01 to get metres.
+importer set Scale to 0.01 to get metres. A rig preset (`rig=`, rigs.py) gives the file that
+rig's joint names, rest pose, up axis and unit instead.
 
-Exactness: the positions come back exactly (to the 1e-4 cm of the text) wherever the motion's
-bones keep their length and each multi-child group keeps its shape, as in captured or
-procedural motion; a generated motion whose bones stretch comes back with each joint off by
-about its own bone's stretch, which no rigid BVH skeleton can show.
+Exactness: the file gives back the fitted skeleton's joints (to the 1e-4 cm of the text). Those
+are the motion's own wherever its bones keep their length and each multi-child group keeps its
+shape, as in captured or procedural motion; a generated motion whose bones stretch comes back
+with each joint off by about its own bone's stretch, which no rigid skeleton can show.
 
 Reading (`read_bvh`) parses with bvhio (a maintained BVH package) and returns world positions
 of every joint, in the file's units; `mlct data import --bvh` maps them onto a skeleton.
@@ -38,17 +33,17 @@ import io
 import math
 import os
 import tempfile
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import roma
 import torch
-from scipy.spatial.transform import Rotation
 
 from mlct.errors import MlctError, first_line
 from mlct.io import write_text
-from mlct.motion.quaternion import qbetween, quat_to_matrix
+from mlct.motion.rigfit import check_joints, children_of, fit_rig
+from mlct.motion.rigs import Rig, get_rig
 from mlct.motion.skeleton import Skeleton
 
 BVH_UNIT = "cm"
@@ -56,7 +51,6 @@ TO_CENTIMETRES = {"m": 100.0, "mm": 0.1}
 EULER_ORDER = "ZXY"  # intrinsic, as listed in CHANNELS
 ROOT_CHANNELS = "Xposition Yposition Zposition Zrotation Xrotation Yrotation"
 JOINT_CHANNELS = "Zrotation Xrotation Yrotation"
-PROCRUSTES_ITERATIONS = 3  # mean shape of a multi-child group: converges in 2 on real motion
 END_SITE_FRACTION = 0.5
 DECIMALS = 4  # 1e-4 cm and 1e-4 degrees: far below anything visible
 
@@ -72,110 +66,40 @@ class BvhPose:
     euler: np.ndarray  # (T, J, 3) local rotations, degrees, in EULER_ORDER
 
 
-def _children(skeleton: Skeleton) -> list[list[int]]:
-    children: list[list[int]] = [[] for _ in range(skeleton.n_joints)]
-    for joint, parent in enumerate(skeleton.parents):
-        if parent >= 0:
-            children[parent].append(joint)
-    return children
+def bvh_frame(skeleton: Skeleton, rig: Rig | None) -> tuple[np.ndarray, float]:
+    """(3, 3) rotation from mlct's frame to the file's and the skeleton-unit -> file-unit scale:
+    the rig's axes and unit, or y up in centimetres without a rig."""
+    if rig is None:
+        return np.eye(3), TO_CENTIMETRES[skeleton.unit]
+    return rig.axes, rig.per_metre * TO_CENTIMETRES[skeleton.unit] / 100.0
 
 
-def _depth_first(children: list[list[int]], root: int = 0) -> tuple[int, ...]:
-    order, stack = [], [root]
-    while stack:
-        joint = stack.pop()
-        order.append(joint)
-        stack.extend(reversed(children[joint]))
-    return tuple(order)
-
-
-def _kabsch(source: np.ndarray, targets: np.ndarray) -> np.ndarray:
-    """(k, 3) vectors and (T, k, 3) targets -> (T, 3, 3) rotations R minimizing |R s - t|^2."""
-    cov = np.einsum("ki,tkj->tij", source, targets)  # (T, 3, 3) sum_k s_k t_k^T
-    u, _, vt = np.linalg.svd(cov)
-    v = np.swapaxes(vt, -1, -2)
-    d = np.sign(np.linalg.det(v @ np.swapaxes(u, -1, -2)))  # no reflections
-    v[..., :, 2] *= d[..., None]
-    return v @ np.swapaxes(u, -1, -2)
-
-
-def _swing(current: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """(T, 3), (T, 3) -> (T, 3, 3) shortest rotations turning `current` towards `target`."""
-    quats = qbetween(torch.from_numpy(current), torch.from_numpy(target))
-    return quat_to_matrix(quats).numpy()
-
-
-def _group_offsets(bones: np.ndarray, rest: np.ndarray) -> np.ndarray:
-    """(T, k, 3) bones of one multi-child joint, (k, 3) rest offsets -> (k, 3) offsets: the mean
-    shape of the group over time (generalized Procrustes), turned to the rest pose."""
-    shape = rest
-    for _ in range(PROCRUSTES_ITERATIONS):
-        rot = _kabsch(shape, bones)  # (T, 3, 3)
-        shape = np.einsum("tji,tkj->ki", rot, bones) / len(bones)  # mean of R^T b
-    return shape @ _kabsch(shape, rest[None])[0].T
-
-
-def _check_joints(joints: np.ndarray, skeleton: Skeleton) -> np.ndarray:
-    joints = np.asarray(joints)
-    if joints.ndim != 3 or joints.shape[1:] != (skeleton.n_joints, 3) or len(joints) == 0:
-        raise MlctError(f"BVH export needs joints of shape (frames, {skeleton.n_joints}, 3) for "
-                        f"skeleton {skeleton.name!r}, got {joints.shape}")
-    if joints.dtype.kind not in "fiu" or not np.isfinite(joints).all():
-        raise MlctError("BVH export: the joints contain NaN or inf values")
-    return joints.astype(np.float64)
-
-
-def fit_bvh(joints: np.ndarray, skeleton: Skeleton) -> BvhPose:
-    """Fit (T, J, 3) joint positions (skeleton units) to a rigid BVH skeleton (module doc)."""
-    x = _check_joints(joints, skeleton) * TO_CENTIMETRES[skeleton.unit]  # (T, J, 3) cm
-    n_frames = len(x)
-    parents = skeleton.parents
-    children = _children(skeleton)
-    order = _depth_first(children)
-
-    bones = x - x[:, [max(p, 0) for p in parents]]  # (T, J, 3); root: 0
-    lengths = np.median(np.linalg.norm(bones, axis=-1), axis=0)  # (J,)
-    offsets = skeleton.rest_directions * lengths[:, None]
-    for kids in children:
-        if len(kids) > 1:
-            offsets[kids] = _group_offsets(bones[:, kids], offsets[kids])
-    offsets[0] = 0.0
-
-    identity = np.broadcast_to(np.eye(3), (n_frames, 3, 3))
-    world = np.empty((n_frames, skeleton.n_joints, 3, 3))
-    fitted = x.copy()  # positions as the BVH rebuilds them, filled in file order
-    for joint in order:
-        parent_rot = identity if parents[joint] < 0 else world[:, parents[joint]]
-        kids = children[joint]
-        aims = x[:, kids] - fitted[:, joint, None]  # (T, k, 3) from the rebuilt joint
-        if not kids:
-            world[:, joint] = parent_rot
-        elif len(kids) == 1:
-            current = np.einsum("tij,j->ti", parent_rot, offsets[kids[0]])
-            world[:, joint] = _swing(current, aims[:, 0]) @ parent_rot
-        else:
-            world[:, joint] = _kabsch(offsets[kids], aims)
-        for kid in kids:
-            fitted[:, kid] = fitted[:, joint] + world[:, joint] @ offsets[kid]
-
-    local = world.copy()
-    for joint in range(1, skeleton.n_joints):
-        local[:, joint] = np.swapaxes(world[:, parents[joint]], -1, -2) @ world[:, joint]
-    with warnings.catch_warnings():  # gimbal lock: the angles are still a valid rotation
-        warnings.simplefilter("ignore", UserWarning)
-        euler = Rotation.from_matrix(local.reshape(-1, 3, 3)).as_euler(EULER_ORDER, degrees=True)
+def fit_bvh(joints: np.ndarray, skeleton: Skeleton, rig: Rig | None = None,
+            fps: float | None = None) -> BvhPose:
+    """Fit (T, J, 3) joint positions (skeleton units) to a rigid BVH skeleton (module doc), in
+    the rig's rest pose, axes and unit when one is given (rigs.py)."""
+    fit = fit_rig(check_joints(joints, skeleton, "BVH export"), skeleton,
+                  None if rig is None else rig.rest_directions, fps=fps)
+    axes, scale = bvh_frame(skeleton, rig)
+    n_frames = len(fit.root)
+    local = axes @ fit.local @ axes.T  # the same turns, seen in the file's frame
+    rotations = torch.from_numpy(local.reshape(-1, 3, 3))
+    euler = roma.rotmat_to_euler(EULER_ORDER, rotations, degrees=True).numpy()
     euler = np.unwrap(euler.reshape(n_frames, skeleton.n_joints, 3), period=360.0, axis=0)
+    children = children_of(skeleton.parents)
+    offsets = fit.offsets @ axes.T * scale
     end_sites = {j: offsets[j] * END_SITE_FRACTION for j in range(skeleton.n_joints)
                  if not children[j]}
-    return BvhPose(order=order, offsets=offsets, end_sites=end_sites, root_positions=x[:, 0],
-                   euler=euler)
+    return BvhPose(order=fit.order, offsets=offsets, end_sites=end_sites,
+                   root_positions=fit.root @ axes.T * scale, euler=euler)
 
 
-def _vector(values: np.ndarray) -> str:
-    return " ".join(f"{v:.{DECIMALS}f}" for v in values)
+def _vector(values: np.ndarray, places: int = DECIMALS) -> str:
+    return " ".join(f"{v:.{places}f}" for v in values)
 
 
-def bvh_text(joints: np.ndarray, skeleton: Skeleton, fps: float) -> str:
+def bvh_text(joints: np.ndarray, skeleton: Skeleton, fps: float,
+             rig: str | os.PathLike | Rig | None = None) -> str:
     """The BVH file of (T, J, 3) joint positions at `fps` frames per second (module doc)."""
     try:
         rate = float(fps)
@@ -183,22 +107,26 @@ def bvh_text(joints: np.ndarray, skeleton: Skeleton, fps: float) -> str:
         rate = math.nan
     if not (math.isfinite(rate) and rate > 0):
         raise MlctError(f"BVH export needs a positive frame rate, got {fps!r}")
-    pose = fit_bvh(joints, skeleton)
-    children = _children(skeleton)
+    target = get_rig(rig, skeleton)
+    names = skeleton.joint_names if target is None else target.joint_names
+    pose = fit_bvh(joints, skeleton, target, fps=rate)
+    places = DECIMALS if target is None or target.unit == "cm" else DECIMALS + 2  # 1e-4 cm
+    children = children_of(skeleton.parents)
     lines = ["HIERARCHY"]
 
     def joint_block(joint: int, depth: int) -> None:
         pad = "  " * depth
         keyword = "ROOT" if depth == 0 else "JOINT"
         channels = f"6 {ROOT_CHANNELS}" if depth == 0 else f"3 {JOINT_CHANNELS}"
-        lines.extend([f"{pad}{keyword} {skeleton.joint_names[joint]}", f"{pad}{{",
-                      f"{pad}  OFFSET {_vector(pose.offsets[joint])}",
+        lines.extend([f"{pad}{keyword} {names[joint]}", f"{pad}{{",
+                      f"{pad}  OFFSET {_vector(pose.offsets[joint], places)}",
                       f"{pad}  CHANNELS {channels}"])
         for kid in children[joint]:
             joint_block(kid, depth + 1)
         if not children[joint]:
             lines.extend([f"{pad}  End Site", f"{pad}  {{",
-                          f"{pad}    OFFSET {_vector(pose.end_sites[joint])}", f"{pad}  }}"])
+                          f"{pad}    OFFSET {_vector(pose.end_sites[joint], places)}",
+                          f"{pad}  }}"])
         lines.append(f"{pad}}}")
 
     joint_block(pose.order[0], 0)
@@ -206,16 +134,18 @@ def bvh_text(joints: np.ndarray, skeleton: Skeleton, fps: float) -> str:
     # Channel values per frame in file order: root position, then Z X Y angles of each joint.
     values = np.concatenate([pose.root_positions, pose.euler[:, list(pose.order)].reshape(
         n_frames, -1)], axis=1)
+    digits = np.array([places] * 3 + [DECIMALS] * (values.shape[1] - 3))
     buffer = io.StringIO()
-    np.savetxt(buffer, np.round(values, DECIMALS) + 0.0, fmt=f"%.{DECIMALS}f")  # no "-0.0000"
+    np.savetxt(buffer, np.round(values * 10.0**digits) / 10.0**digits + 0.0,  # no "-0.0000"
+               fmt=[f"%.{d}f" for d in digits])
     lines.extend(["MOTION", f"Frames: {n_frames}", f"Frame Time: {1.0 / rate:.9g}"])
     return "\n".join(lines) + "\n" + buffer.getvalue()
 
 
 def write_bvh(path: str | os.PathLike, joints: np.ndarray, skeleton: Skeleton,
-              fps: float) -> None:
+              fps: float, rig: str | os.PathLike | Rig | None = None) -> None:
     """Write (T, J, 3) joint positions as a BVH file at `fps`, atomically (module doc)."""
-    write_text(path, bvh_text(joints, skeleton, fps))
+    write_text(path, bvh_text(joints, skeleton, fps, rig))
 
 
 @dataclass(frozen=True)
@@ -299,7 +229,7 @@ def read_bvh(path: str | os.PathLike) -> BvhClip:
                             f"the header says {n_frames}")
         local_pos = np.array([tuple(k.Position) for k in keys])  # (T, 3)
         quats = np.array([(k.Rotation.x, k.Rotation.y, k.Rotation.z, k.Rotation.w) for k in keys])
-        local_rot = Rotation.from_quat(quats).as_matrix()  # (T, 3, 3)
+        local_rot = roma.unitquat_to_rotmat(torch.from_numpy(quats)).numpy()  # (T, 3, 3)
         parent = parents[i]
         if parent < 0:
             positions[:, i], world[:, i] = local_pos, local_rot

@@ -86,20 +86,13 @@ def render_motion(joints: np.ndarray, out: str | os.PathLike, skeleton: Skeleton
     return out
 
 
-def render_file(path: str | os.PathLike, out: str | os.PathLike,
-                skeleton: Skeleton | str | None = None, caption: str | None = None,
-                fps: float | None = None) -> Path:
-    """Render a features (T, 263|251) or joints (T, J, 3) .npy file; see `render_motion`.
-
-    The skeleton comes from the shape unless given; the caption is the title (`mlct render`
-    takes it from the dataset's texts beside the file: mlct.data.layout.dataset_caption).
-    """
-    path, out = Path(path), Path(out)
-    _output_kind(out)  # fail on a bad --out before loading anything
-    if path.suffix.lower() == ".bvh":
-        return _render_bvh(path, out, skeleton, caption, fps)
-    if path.suffix.lower() not in (".npy", ""):
-        raise MlctError(f"{path}: render reads .npy (features or joints) or .bvh files")
+def load_motion_npy(path: str | os.PathLike,
+                    skeleton: Skeleton | str | None = None) -> tuple[np.ndarray, Skeleton]:
+    """(T, J, 3) joints and their skeleton from a features (T, 263|251) or joints (T, J, 3)
+    .npy file (features are turned into joints); the skeleton comes from the shape unless
+    given. Every problem is a one-line MlctError. `mlct render` and `mlct retarget` read
+    motions with it."""
+    path = Path(path)
     array = _load_npy(path)
     feature_dims = sorted(s.feature_dim for s in SKELETONS.values())
     is_features = array.ndim == 2 and array.shape[1] in feature_dims
@@ -135,6 +128,24 @@ def render_file(path: str | os.PathLike, out: str | os.PathLike,
             raise MlctError(f"{path} has {array.shape[1]} joints but the {skel.name} skeleton "
                             f"has {skel.n_joints}")
         joints = array
+    return joints, skel
+
+
+def render_file(path: str | os.PathLike, out: str | os.PathLike,
+                skeleton: Skeleton | str | None = None, caption: str | None = None,
+                fps: float | None = None) -> Path:
+    """Render a features (T, 263|251) or joints (T, J, 3) .npy file; see `render_motion`.
+
+    The skeleton comes from the shape unless given; the caption is the title (`mlct render`
+    takes it from the dataset's texts beside the file: mlct.data.layout.dataset_caption).
+    """
+    path, out = Path(path), Path(out)
+    _output_kind(out)  # fail on a bad --out before loading anything
+    if path.suffix.lower() == ".bvh":
+        return _render_bvh(path, out, skeleton, caption, fps)
+    if path.suffix.lower() not in (".npy", ""):
+        raise MlctError(f"{path}: render reads .npy (features or joints) or .bvh files")
+    joints, skel = load_motion_npy(path, skeleton)
     return render_motion(joints, out, skel, title=caption, fps=fps)
 
 

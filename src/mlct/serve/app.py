@@ -1,6 +1,7 @@
 """The HTTP API and the web page of `mlct serve` (FastAPI).
 
-    POST /generate  texts -> motions (JSON) or one motion as a file (npy, bvh, gif)
+    POST /generate  texts -> motions (JSON) or one motion as a file (npy, bvh, gif, glb, vrma,
+                    npz; `rig` retargets bvh and glb)
     GET  /health    model, limits, queue and batching figures
     GET  /docs      the OpenAPI page;  GET /  the web page (static/, plotly.js from its wheel)
 
@@ -59,7 +60,8 @@ EXAMPLES = (  # families the bundled model does best by its read-outs (docs/mode
 )
 FASTAPI_BODY_ERROR = "There was an error parsing the body"  # FastAPI's words, e.g. for bad UTF-8
 MEDIA_TYPES = {"npy": "application/octet-stream", "bvh": "text/plain; charset=utf-8",
-               "gif": "image/gif"}
+               "gif": "image/gif", "glb": "model/gltf-binary", "vrma": "model/gltf-binary",
+               "npz": "application/octet-stream"}
 
 
 def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI:
@@ -132,9 +134,11 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
                          for m, s in zip(result.motions, seeds)])
             timing["server_ms"] = round((time.perf_counter() - received) * 1e3, 1)
             return JSONResponse({"motions": motions, "timing": timing})
-        data = await run_in_threadpool(export_bytes, result.motions[0], f".{body.format}")
+        data = await run_in_threadpool(export_bytes, result.motions[0], f".{body.format}",
+                                       False, body.rig)
         timing["server_ms"] = round((time.perf_counter() - received) * 1e3, 1)
-        name = f"{slug(texts[0])}_seed{seeds[0]}.{body.format}"
+        rig = f"_{body.rig}" if body.rig else ""
+        name = f"{slug(texts[0])}_seed{seeds[0]}{rig}.{body.format}"
         return Response(data, media_type=MEDIA_TYPES[body.format], headers={
             "Content-Disposition": f'attachment; filename="{name}"',
             "X-Mlct-Seed": str(seeds[0]), "X-Mlct-Nfe": str(nfe),

@@ -16,7 +16,8 @@ from pydantic import (AfterValidator, BaseModel, BeforeValidator, ConfigDict, Fi
 from mlct.errors import MlctError
 from mlct.generate.prompts import clean_prompt
 
-Format = Literal["json", "npy", "bvh", "gif"]
+Format = Literal["json", "npy", "bvh", "gif", "glb", "vrma", "npz"]
+RigName = Literal["mixamo", "unreal", "unity", "vrm", "smpl"]  # motion/rigs.py's presets
 MAX_SEED = 2**53 - 1  # the largest integer a browser's JSON keeps exactly
 
 
@@ -66,7 +67,8 @@ def request_model(limits: Limits) -> type[BaseModel]:
         """Texts to motions. Give `texts` (a list) or `text` (one); `lengths` (frames) or
         `seconds`, one per text or one for all (default 5 s); `seed`: an int s seeds text i
         with s + i (omitted: random, returned in the reply); `format`: json for every text,
-        npy/bvh/gif for one text as a file download."""
+        npy/bvh/gif/glb/vrma/npz for one text as a file download; `rig`: a retarget preset
+        for bvh and glb (docs/export.md)."""
 
         model_config = ConfigDict(extra="forbid")
 
@@ -82,6 +84,7 @@ def request_model(limits: Limits) -> type[BaseModel]:
         format: Format = "json"
         # path, keyframes, edit + parts, prefix, start/end pose (mlct.generate.control); one text
         control: dict[str, Any] | None = None
+        rig: RigName | None = None
 
         @model_validator(mode="after")
         def _consistent(self) -> GenerateRequest:
@@ -99,6 +102,13 @@ def request_model(limits: Limits) -> type[BaseModel]:
                                      "give one, or one per text")
             if self.control is not None and count != 1:
                 raise ValueError(f"a control goes with one text, got {count}")
+            if self.rig is not None:
+                from mlct.generate.exports import check_rig
+
+                try:
+                    check_rig(self.rig, f".{self.format}")
+                except MlctError as error:
+                    raise ValueError(str(error).replace("--rig", "rig")) from None
             if self.format != "json" and count != 1:
                 raise ValueError(f"format '{self.format}' is a file of one motion; "
                                  f"got {count} texts (use format 'json' for several)")
@@ -150,7 +160,7 @@ def one_line(error: ValidationError | list[dict[str, Any]]) -> str:
         message = "the request body is empty; send a JSON object such as {\"text\": \"...\"}"
     elif first.get("type") == "extra_forbidden":
         message = ("unknown field (expected texts or text, lengths or seconds, nfe, seed, format, "
-                   "control)")
+                   "rig, control)")
     line = f"{where}: {message}" if where else message
     if len(errors) > 1:
         line += f" (and {len(errors) - 1} more)"

@@ -226,7 +226,8 @@ async function generate() {
       ` seed ${motion.seed} · server <b>${t.server_ms.toFixed(0)} ms</b> (model` +
       ` ${t.generate_ms.toFixed(0)} ms, batch ${t.batch_size}) · round trip` +
       ` ${(received - clicked).toFixed(0)} ms · first frame <b>${firstFrame.toFixed(0)} ms</b>`);
-    for (const id of ["play", "scrub", "dl-bvh", "dl-npy", "dl-gif"]) $(id).disabled = false;
+    for (const id of ["play", "scrub", "dl-bvh", "dl-npy", "dl-gif", "dl-glb", "dl-vrma",
+      "dl-npz"]) $(id).disabled = false;
   } catch (error) {
     showStatus(escapeHtml(error.message), true);
   } finally {
@@ -241,7 +242,10 @@ async function download(format) {
   const button = $(`dl-${format}`);
   button.disabled = true;
   try {
-    const response = await postGenerate({ ...state.request, format });
+    // a rig preset renames and re-poses the skeleton of BVH and GLB files (docs/export.md)
+    const rig = $("rig").value;
+    const retarget = rig && (format === "bvh" || format === "glb") ? { rig } : {};
+    const response = await postGenerate({ ...state.request, format, ...retarget });
     const blob = await response.blob();
     const match = /filename="([^"]+)"/.exec(response.headers.get("Content-Disposition") || "");
     const link = document.createElement("a");

@@ -1,0 +1,47 @@
+"""`mlct retarget FILE.npy --out x.glb --rig mixamo`: a motion file already made (joints or
+features .npy, e.g. from `mlct generate --out x.npy` or a dataset) as a rig file: .bvh, .glb,
+.vrma or .npz, through the same writer as `mlct generate` (docs/export.md)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from mlct.cli.parser import Commands
+from mlct.errors import MlctError
+
+SUFFIXES = (".bvh", ".glb", ".vrma", ".npz")
+
+
+def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from mlct.generate.exports import check_rig, save_motion
+    from mlct.generate.generated import GeneratedMotion
+    from mlct.io import check_writable_dir
+    from mlct.motion.render import load_motion_npy
+
+    suffix = args.out.suffix.lower()
+    if suffix not in SUFFIXES:
+        raise MlctError(f"--out {args.out.name}: retarget writes {', '.join(SUFFIXES)} files")
+    check_rig(args.rig, suffix)
+    check_writable_dir(args.out.parent)
+    if args.fps is not None and not args.fps > 0:
+        raise MlctError(f"--fps must be positive, got {args.fps}")
+    joints, skeleton = load_motion_npy(args.file, args.skeleton)
+    motion = GeneratedMotion(text=args.file.stem, features=np.zeros((len(joints), 0)),
+                             joints=joints, fps=args.fps or skeleton.fps, skeleton=skeleton.name)
+    print(save_motion(motion, args.out, rig=args.rig))
+    return 0
+
+
+def add_parser(commands: Commands) -> None:
+    retarget = commands.add_parser(
+        "retarget", help="a joints/features .npy as a rig file: BVH, GLB, VRMA or NPZ")
+    retarget.add_argument("file", type=Path, help="features (T x 263/251) or joints (T x J x 3) .npy")
+    retarget.add_argument("--out", required=True, type=Path, help="OUT.bvh, .glb, .vrma or .npz")
+    retarget.add_argument("--rig", default=None,
+                          help="for .bvh/.glb: mixamo, unreal, unity, vrm, smpl or FILE.json")
+    retarget.add_argument("--skeleton", default=None, help="humanml3d or kit (default: from shape)")
+    retarget.add_argument("--fps", type=float, default=None, help="default: the skeleton's fps")
+    retarget.set_defaults(func=run)
