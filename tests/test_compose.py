@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import mlct
-from mlct.generate.compose import split_actions, split_concurrent
+from mlct.generate.compose import in_order, split_actions, split_concurrent
 from mlct.generate.long_motion import LongMotion
 
 
@@ -18,6 +18,8 @@ from mlct.generate.long_motion import LongMotion
      ["the man waves four times", "the man steps to the right", "the man jogs forward"]),
     ("a person jumps. Afterwards they bow", ["a person jumps", "they bow"]),
     ("walks forward then turns left", ["walks forward", "a person turns left"]),
+    ("a man turns slightly left after sitting down", ["a man sits down",
+                                                      "a man turns slightly left"]),
 ])
 def test_sequences_split_into_parts_with_a_subject(text: str, parts: list[str]) -> None:
     assert split_actions(text) == parts
@@ -25,7 +27,7 @@ def test_sequences_split_into_parts_with_a_subject(text: str, parts: list[str]) 
 
 @pytest.mark.parametrize("text", [
     "a person walks forward",
-    "a man turns slightly left after sitting down",  # order would need parsing: kept whole
+    "a man turns slightly left after that",  # 'after that' + nothing: no second action
     "someone walks backward while waving both arms",  # at once, not in sequence
     "a person turns around and walks back",  # 'and' alone: often one action
     "a person walks to the next room",
@@ -112,3 +114,24 @@ def test_a_concurrent_arm_action_is_grafted_on_the_body(pipe) -> None:
     assert (body.joints[:, wrist, 1] - body.joints[:, head, 1]).max() < -0.2
     whole = pipe.generate(text, seconds=5, seed=0, split_actions=False)[0]
     assert not np.allclose(whole.joints, made.joints, atol=1e-3)
+
+
+@pytest.mark.parametrize("text, ordered", [
+    ("a man turns left after walking forward", "a man walks forward, then turns left"),
+    ("after turning right, someone kicks twice", "someone turns right, then kicks twice"),
+    ("the figure leaps ahead before making a sharp right turn.",
+     "the figure leaps ahead, then makes a sharp right turn"),
+    ("before doing three jumps, a person kicks", "a person kicks, then does three jumps"),
+    ("a man walks forward, then turns left before jumping",
+     "a man walks forward, then turns left, then jumps"),
+    # no action in the clause, or no clause: unchanged
+    ("a man walks to the door before the storm", "a man walks to the door before the storm"),
+    ("a figure moves backwards, after that squats.", "a figure moves backwards, after that squats."),
+])
+def test_after_and_before_clauses_are_put_in_order(text: str, ordered: str) -> None:
+    assert in_order(text) == ordered
+
+
+def test_a_clause_splits_into_actions_in_order() -> None:
+    assert split_actions("a man turns left after walking forward") == [
+        "a man walks forward", "a man turns left"]

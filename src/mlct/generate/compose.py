@@ -9,8 +9,9 @@ prompt at its sequencing words and chains the parts, each with an equal share of
 Only words that put the next action after the previous one split: "then", "and then", "after
 that", "afterwards". These do not: "while" (two actions at once), "and" alone (often one action:
 "turns around and walks back"), "next" (mostly an adjective: "the next room"), "followed by" (a
-noun follows: "followed by a bow") and "after"/"before" with a clause (whose order would need
-parsing). A part without its own subject gets the first part's ("a person" when none is found),
+noun follows: "followed by a bow"). "after"/"before" with a gerund clause are put in the order
+of the actions first (in_order: "turns left after walking forward" is "walks forward, then turns
+left"). A part without its own subject gets the first part's ("a person" when none is found),
 so every part reads like a caption.
 
 Actions at the same time ("walks forward while waving the right hand", "... and claps at the
@@ -40,7 +41,7 @@ MIN_WORDS = 1  # a part must name something to be a prompt of its own
 
 def split_actions(text: str) -> list[str]:
     """The parts of a prompt that names actions in sequence; [text] when it names one."""
-    parts = [p.strip(" ,;.") for p in _SEQUENCE.split(text)]
+    parts = [p.strip(" ,;.") for p in _SEQUENCE.split(in_order(text))]
     parts = [p for p in parts if len(p.split()) >= MIN_WORDS]
     if len(parts) < 2:
         return [text]
@@ -131,3 +132,29 @@ def split_concurrent(text: str) -> tuple[str, str] | None:
             body = body[len(subject):].strip()
         return "".join(pieces[:k] + [body] + pieces[k + 1:]).strip(), arms
     return None
+
+
+_CLAUSE_FIRST = re.compile(r"^\s*(after|before)\s+([a-z]+ing\b[^,]*),\s*(.+)$", re.IGNORECASE)
+_CLAUSE_LAST = re.compile(r"^(.+?)\s*,?\s+\b(after|before)\s+([a-z]+ing\b.*)$", re.IGNORECASE)
+
+
+def in_order(text: str) -> str:
+    """A prompt whose "after"/"before" + gerund clause names an action, rewritten with "then" in
+    the order the actions happen; other prompts unchanged. "after walking forward, a man turns
+    left" and "a man turns left after walking forward" -> "a man walks forward, then turns left";
+    "before turning, a man walks" and "a man walks before turning" -> "a man walks, then turns"."""
+    found = _CLAUSE_FIRST.match(text)
+    if found:
+        word, clause, main = found.groups()
+    else:
+        found = _CLAUSE_LAST.match(text)
+        if not found:
+            return text
+        main, word, clause = found.groups()
+    if _GERUND.get(clause.split()[0].lower()) is None:  # "before the door": no action
+        return text
+    clause, main = _finite(clause.strip(" ,;.")), main.strip(" ,;.")
+    subject, rest = _without_subject(main)
+    subject = subject or DEFAULT_SUBJECT
+    first, then = (clause, rest or main) if word.lower() == "after" else (rest or main, clause)
+    return f"{subject} {first}, then {then}"
