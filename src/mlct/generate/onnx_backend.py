@@ -164,8 +164,10 @@ class OnnxMotionGenerator(MotionGenerator):
 
     @classmethod
     def load(cls, path: str | os.PathLike, device: torch.device | str | None = None,
-             dtype: str | torch.dtype = "float32", threads: int | None = None
-             ) -> OnnxMotionGenerator:
+             dtype: str | torch.dtype = "float32", threads: int | None = None,
+             graphs: str | os.PathLike | None = None) -> OnnxMotionGenerator:
+        """graphs: the folder of the ONNX graphs (default: path/onnx)."""
         onnxruntime_module()  # its absence first: the fix for it comes before converting
         meta, tensors = read_bundle(path)
-        return cls(meta, tensors, read_onnx(path, meta["text_encoder"]), device, dtype, threads)
+        return cls(meta, tensors, read_onnx(path, meta["text_encoder"], graphs), device, dtype,
+                   threads)

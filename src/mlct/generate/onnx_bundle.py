@@ -164,11 +164,13 @@ def convert_to_onnx(model_dir: str | os.PathLike, out: str | os.PathLike | None 
     return target
 
 
-def read_onnx(model_dir: str | os.PathLike, text_encoder: str) -> OnnxGraphs:
+def read_onnx(model_dir: str | os.PathLike, text_encoder: str,
+              folder: str | os.PathLike | None = None) -> OnnxGraphs:
     """The ONNX graphs of a bundle, checked: present, of this format, made from its weights and
-    for its text encoder; a one-line MlctError naming the problem and the fix otherwise."""
+    for its text encoder; a one-line MlctError naming the problem and the fix otherwise.
+    folder: where the graphs are (default MODEL_DIR/onnx; the cache's, auto_backend.py)."""
     model_dir = Path(model_dir)
-    folder = model_dir / ONNX_DIR
+    folder = model_dir / ONNX_DIR if folder is None else Path(folder)
     make = f"make them with `mlct convert {model_dir} --onnx`"
     if model_dir.resolve() == bundled_model_dir():  # inside the package: not written there
         make = ("make a copy that has them with `mlct convert bundled --onnx --out DIR`, "

@@ -47,6 +47,7 @@ class MotionGenerator:
     docs/performance.md). Either way the networks run through mlct.nn.inference's layers."""
 
     backend = "torch"  # the name mlct.load(..., backend=) gives it (generate/backends.py)
+    backend_note = "torch"  # mlct.load's: the backend and why it was chosen (--verbose)
 
     def __init__(self, meta: dict, tensors: dict[str, Tensor],
                  device: torch.device | str | None = None,
