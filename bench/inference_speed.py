@@ -385,7 +385,8 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
         return times * max(c["flops"] / roof, c["bytes"] / bandwidth[part]) * 1000.0
 
     rows = []
-    for nfe in [n for n in nfes if not spec["quick"] or n in (5, 50)]:
+    chosen = spec.get("nfes") or (5, 50) if spec["quick"] else spec.get("nfes") or nfes
+    for nfe in [n for n in nfes if n in chosen or n == 50]:  # 50: the LDMs' steps
         if spec["quick"]:
             runs, warmup = 3, 1
         else:  # as many runs as fit the budget, from one probe run
@@ -659,6 +660,11 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=20, help="timed runs per AITS figure (at "
                         "most; fewer where a run is slow)")
     parser.add_argument("--json", default=None, help="write every figure to this file")
+    parser.add_argument("--nfes", default=None,
+                        help="comma-separated NFEs of the consistency models (default 1,3,5,10; "
+                             "--quick: 5); the LDMs always take 50 steps")
+    parser.add_argument("--throughput-budget", type=float, default=0.0,
+                        help="seconds a throughput size may take (default 15; --quick: 1)")
     parser.add_argument("--ablations", type=int, default=0, metavar="REPS",
                         help="instead: each optimization on and off, REPS interleaved runs")
     parser.add_argument("--child", default=None, help=argparse.SUPPRESS)
@@ -699,7 +705,9 @@ def main() -> None:
             spec = {"model": model, "dtype": dtype, "backend": backend, "device": args.device,
                     "threads": args.threads, "quick": args.quick, "runs": args.runs,
                     "aits_budget_s": 20.0,
-                    "throughput_budget_s": 1.0 if args.quick else 15.0,
+                    "throughput_budget_s": args.throughput_budget or (
+                        1.0 if args.quick else 15.0),
+                    "nfes": [int(n) for n in args.nfes.split(",")] if args.nfes else None,
                     "peak_flops": info["peak_flops"]}
             proc = subprocess.run([sys.executable, __file__, "--child", json.dumps(spec)],
                                   stdout=subprocess.PIPE, text=True, check=False)
