@@ -72,3 +72,16 @@ def test_without_the_onnx_package_the_step_loop_is_used(backends, monkeypatch) -
         got = onnx_gen.generate(TEXTS[:1], lengths=[80], nfe=2, seed=1)
         assert gap(want, got) < JOINTS_M
     assert onnx_gen._fused == {2: None}
+
+
+def test_at_most_a_few_sampler_graphs_are_built(backends) -> None:
+    from mlct.generate.onnx_backend import MAX_SAMPLER_GRAPHS
+
+    torch_gen, _ = backends
+    onnx_gen = mlct.load(Path(backends[1].graphs.denoiser).parent.parent, backend="onnx")
+    for nfe in range(1, MAX_SAMPLER_GRAPHS + 3):
+        for _ in range(2):
+            got = onnx_gen.generate(TEXTS[:1], lengths=[40], nfe=nfe, seed=0)
+    assert sorted(onnx_gen._fused) == list(range(1, MAX_SAMPLER_GRAPHS + 1))
+    want = torch_gen.generate(TEXTS[:1], lengths=[40], nfe=MAX_SAMPLER_GRAPHS + 2, seed=0)
+    assert gap(want, got) < JOINTS_M  # the step loop beyond them

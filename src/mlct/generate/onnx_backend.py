@@ -69,6 +69,12 @@ class OnnxDecoder:
         return torch.from_numpy(features)
 
 
+# Sampler graphs a generator builds at most: each session holds its own copy of the denoiser's
+# and the decoder's weights (20 MB for the bundled model, ~180 MB at paper size); step counts
+# beyond the first ones used run the step loop.
+MAX_SAMPLER_GRAPHS = 3
+
+
 class OnnxMotionGenerator(MotionGenerator):
     """A loaded model whose text encoder, denoiser and decoder are ONNX graphs (CPU, float32).
 
@@ -135,11 +141,13 @@ class OnnxMotionGenerator(MotionGenerator):
 
     def _sampler_session(self, steps: int) -> Any:
         """The sampler graph's session for `steps` steps, or None: not a consistency model, the
-        first call with this step count, or no onnx package to build the graph with."""
+        first call with this step count, MAX_SAMPLER_GRAPHS built already, or no onnx package
+        to build the graph with."""
         if not isinstance(self.sampler, ConsistencySampler):
             return None
         self._calls[steps] = self._calls.get(steps, 0) + 1
-        if steps not in self._fused and self._calls[steps] >= 2:
+        built = sum(session is not None for session in self._fused.values())
+        if steps not in self._fused and self._calls[steps] >= 2 and built < MAX_SAMPLER_GRAPHS:
             try:
                 import onnx  # noqa: F401 - the graph is assembled with it
             except ImportError:
