@@ -258,6 +258,16 @@ def _weight_bytes(*modules: Any) -> int:
     return sum(p.numel() * p.element_size() for m in modules for p in m.parameters())
 
 
+def _embedding_bytes(module: Any) -> int:
+    """Bytes of module's embedding tables: a pass reads a few of their rows, not all of them
+    (MiniLM's word table is 45 of its 86 MB)."""
+    import torch
+
+    tables = [m.weight for m in module.modules()  # nn.Embedding, or mlct.text.bert's tables
+              if isinstance(m, torch.nn.Embedding) or type(m).__name__ == "_Table"]
+    return sum(w.numel() * w.element_size() for w in tables)
+
+
 def part_costs(gen: Any) -> dict[str, dict[str, float]]:
     """FLOPs and weight bytes at batch 1 of the text encoder, one sampling step and decoding."""
     import torch
@@ -282,7 +292,8 @@ def part_costs(gen: Any) -> dict[str, dict[str, float]]:
     model = getattr(gen.text_encoder, "model", None)
     return {
         "text": {"flops": flops(lambda: gen.text_encoder.encode([TEXTS[1]])),
-                 "bytes": _weight_bytes(model) if model is not None else 0.0},
+                 "bytes": _weight_bytes(model) - _embedding_bytes(model)
+                 if model is not None else 0.0},
         "step": {"flops": flops(lambda: gen.sample_latents(cond, 1, seed=0)),
                  "bytes": _weight_bytes(gen.denoiser)},
         "decode": {"flops": flops(lambda: gen.decode(z, [FRAMES])),
@@ -559,6 +570,9 @@ def targets(results: list[dict[str, Any]], device: str) -> list[tuple[str, str, 
                 ratio = small["warm_ms"] / small["limit_warm_ms"]
                 out.append((f"small CM {label}: within 3x of the limit (warm)",
                             f"{ratio:.1f}x ({small['limit_warm_ms']:.2f} ms)", ratio <= 3.0))
+                ratio = small["cold_ms"] / small["limit_cold_ms"]
+                out.append((f"small CM {label}: within 3x of the limit (cold)",
+                            f"{ratio:.1f}x ({small['limit_cold_ms']:.2f} ms)", ratio <= 3.0))
             if cm:
                 out.append((f"paper CM {label}: <= 40 ms warm, 5 NFE",
                             f"{cm['warm_ms']:.1f} ms (cold {cm['cold_ms']:.1f})",
@@ -593,9 +607,9 @@ def report(results: list[dict[str, Any]], info: dict[str, Any], device: str) -> 
           f"peak matmul " + ", ".join(f"{k} {v / 1e9:.0f} GFLOP/s"
                                       for k, v in info["peak_flops"].items()))
     print("\nAITS at batch 1, 196 frames, medians in ms (warm: text from the memo; cold: "
-          "encoder run)")
+          "encoder run; limit / c.lim: the warm / cold limits)")
     head = (f"{'model':<10} {'backend':<14} {'dtype':<8} {'NFE':>3} {'text':>6} {'sampl':>7} {'decode':>6} "
-            f"{'warm':>7} {'cold':>7} {'limit':>6} {'x lim':>5}")
+            f"{'warm':>7} {'cold':>7} {'limit':>6} {'x lim':>5} {'c.lim':>6} {'x lim':>5}")
     print(head)
     print("-" * len(head))
     for r in results:
@@ -604,7 +618,8 @@ def report(results: list[dict[str, Any]], info: dict[str, Any], device: str) -> 
                   f"{a['text_ms']:>6.1f} "
                   f"{a['sampling_ms']:>7.1f} {a['decoding_ms']:>6.1f} {a['warm_ms']:>7.1f} "
                   f"{a['cold_ms']:>7.1f} {a['limit_warm_ms']:>6.2f} "
-                  f"{a['warm_ms'] / a['limit_warm_ms']:>5.1f}")
+                  f"{a['warm_ms'] / a['limit_warm_ms']:>5.1f} {a['limit_cold_ms']:>6.2f} "
+                  f"{a['cold_ms'] / a['limit_cold_ms']:>5.1f}")
     by = {(r["model"], r["backend"], r["dtype"]): r for r in results}
     for size in ("paper", "small"):
         for backend, dtype in sorted({(r["backend"], r["dtype"]) for r in results}):
