@@ -323,7 +323,7 @@ def throughput(gen: Any, budget_s: float, sync: Callable[[], None]) -> list[dict
         c = cond[torch.arange(batch) % len(TEXTS)]
 
         def run(c: Any = c, batch: int = batch) -> None:
-            gen.sample_features(c, None, list(range(batch)), None, [FRAMES] * batch)
+            gen.sample_features(c, None, batch, None, [FRAMES] * batch)  # one generator
 
         if gen.device.type == "cuda":
             torch.cuda.reset_peak_memory_stats(gen.device)
