@@ -127,3 +127,10 @@ def test_cli_verbose_says_which_backend(auto, tmp_path, capsys) -> None:
     assert main(["generate", "a person walks forward", "--seconds", "1", "--seed", "0",
                  "--out", str(out), "--quiet", "--verbose", "--backend", "torch"]) == 0
     assert "mlct: backend torch (asked for)" in capsys.readouterr().err
+
+
+def test_auto_on_what_is_not_a_model_says_what_is_wrong(auto, tmp_path) -> None:
+    with pytest.raises(MlctError, match="no such model directory"):
+        mlct.load(tmp_path / "missing")
+    with pytest.raises(MlctError, match="not an mlct model"):
+        mlct.load(tmp_path)

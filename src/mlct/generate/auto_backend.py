@@ -27,7 +27,8 @@ from typing import Any
 import torch
 
 from mlct.errors import MlctError
-from mlct.generate.bundle import CONFIG, read_bundle
+from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION, CONFIG
+from mlct.io import read_format_json
 
 ENV = "MLCT_BACKEND"
 
@@ -47,8 +48,11 @@ def choose_backend(path: Path, device: Any, dtype: Any) -> tuple[str, Path | Non
     from mlct.generate.onnx_bundle import MANIFEST, ONNX_DIR, read_onnx
     from mlct.text.minilm_onnx import ONNX_SPECS
 
-    meta, _ = read_bundle(path)
-    if meta["text_encoder"].strip().lower() not in ONNX_SPECS:
+    if not (path / CONFIG).is_file():  # not a model: loading it says so, in its words
+        return "torch", None, "no model config"
+    # config.json only: the weights are read once, by the backend that loads them
+    meta = read_format_json(path / CONFIG, BUNDLE_FORMAT, BUNDLE_VERSION, "an mlct model config")
+    if str(meta.get("text_encoder", "")).strip().lower() not in ONNX_SPECS:
         return "torch", None, f"the text encoder {meta['text_encoder']!r} has no ONNX graph"
     runtime = f"ONNX Runtime {onnxruntime.__version__}"
     if (path / ONNX_DIR / MANIFEST).is_file():

@@ -72,12 +72,21 @@ class DecoderGraph(nn.Module):
 
 
 def weights_digest(model_dir: Path) -> str:
-    """The sha256 of the bundle's model.safetensors (hex)."""
-    digest = hashlib.sha256()
-    with open(model_dir / WEIGHTS, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
+    """The sha256 of the bundle's model.safetensors (hex); remembered per file, size and
+    modification time, as loading asks for it up to three times (auto_backend.py)."""
+    path = (Path(model_dir) / WEIGHTS).resolve()
+    stat = path.stat()
+    key = (str(path), stat.st_size, stat.st_mtime_ns)
+    if key not in _DIGESTS:
+        digest = hashlib.sha256()
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                digest.update(block)
+        _DIGESTS[key] = digest.hexdigest()
+    return _DIGESTS[key]
+
+
+_DIGESTS: dict[tuple[str, int, int], str] = {}
 
 
 def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike) -> Path:
