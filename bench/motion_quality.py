@@ -136,6 +136,7 @@ def main() -> None:
     parser.add_argument("--whole-prompt", action="store_true",
                         help="(c) and (d) give the model whole prompts: no split into actions")
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--backend", default="torch", help="mlct.load's backend (torch, onnx)")
     args = parser.parse_args()
     torch.manual_seed(0)
 
@@ -173,7 +174,7 @@ def main() -> None:
         report["reconstruction"] = {"mpjpe_m": float(np.mean(mpjpe)), **ratios}
 
     if not args.skip_generation:
-        pipe = mlct.load(args.model)
+        pipe = mlct.load(args.model, backend=args.backend)
         captions = [layout.read_texts(n)[0].caption for n in names]
         lengths = [min(len(r), pipe.max_frames) for r in real]
         generated, made_features, targets = Tally(), [], []

@@ -1,5 +1,7 @@
 from __future__ import annotations
 
+import os
+
 import pytest
 import torch
 
@@ -13,3 +15,10 @@ def one_thread():
     torch.set_num_threads(1)
     yield
     torch.set_num_threads(threads)
+
+
+# mlct.load's default backend is "auto" (onnx when onnxruntime is installed, its graphs made once
+# into the cache). The suite pins torch, so that tests which swap or count the torch networks and
+# tests of models without graphs neither convert models nor write to ~/.cache; the onnx and auto
+# paths have their own tests (test_onnx*.py, test_auto_backend.py), which set the backend.
+os.environ["MLCT_BACKEND"] = "torch"

@@ -208,7 +208,7 @@ def test_missing_onnxruntime_is_one_line_with_the_install_command(converted, mon
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    ({"backend": "tensorrt"}, "unknown backend 'tensorrt'; choose one of torch, onnx"),
+    ({"backend": "tensorrt"}, "unknown backend 'tensorrt'; choose one of auto, torch, onnx"),
     ({"backend": "onnx", "dtype": "bfloat16"}, "onnx backend runs float32 graphs"),
     ({"backend": "onnx", "device": "cuda"}, "CUDA is not available|runs on the CPU"),
 ])

@@ -400,7 +400,7 @@ def test_cli_serve_passes_its_options(monkeypatch):
                  "--token", "a-long-secret"]) == 0
     assert main(["serve", "--backend", "onnx"]) == 0
     assert calls == [((None,), {"host": "0.0.0.0", "port": 9123, "device": "cpu",
-                                "token": "a-long-secret", "backend": "torch"}),
+                                "token": "a-long-secret", "backend": "auto"}),
                      ((None,), {"host": "127.0.0.1", "port": 8000, "device": None,
                                 "token": None, "backend": "onnx"})]
 

@@ -66,7 +66,7 @@ def onnxruntime_module() -> Any:
     return onnxruntime
 
 
-def session(path: str | os.PathLike, threads: int | None = None
+def session(path: str | os.PathLike | bytes, threads: int | None = None
             ) -> onnxruntime.InferenceSession:
     """An ONNX Runtime CPU session of the graph at path, every graph optimization on.
 
@@ -84,8 +84,15 @@ def session(path: str | os.PathLike, threads: int | None = None
     options.log_severity_level = 3  # errors only: no notes on stderr
     options.add_session_config_entry("session.intra_op.allow_spinning", "0")
     try:
-        return ort.InferenceSession(str(path), sess_options=options,
+        model = path if isinstance(path, bytes) else str(path)
+        return ort.InferenceSession(model, sess_options=options,
                                     providers=["CPUExecutionProvider"])
     except Exception as error:  # noqa: BLE001 - onnxruntime raises its own kinds
-        raise MlctError(f"{path}: ONNX Runtime cannot load this graph ({first_line(error)})"
+        name = "a graph built in memory" if isinstance(path, bytes) else path
+        raise MlctError(f"{name}: ONNX Runtime cannot load this graph ({first_line(error)})"
                         ) from None
+
+
+def session_from_bytes(model: bytes, threads: int | None = None) -> onnxruntime.InferenceSession:
+    """session() of a serialized graph held in memory."""
+    return session(model, threads)

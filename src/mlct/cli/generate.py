@@ -53,6 +53,8 @@ def run(args: argparse.Namespace) -> int:
         generator.text_encoder  # noqa: B018 - loads it now, under the status line
         if status:
             print(" " * 50, end="\r", file=sys.stderr, flush=True)
+        if args.verbose:
+            print(f"mlct: backend {generator.backend_note}", file=sys.stderr, flush=True)
         return generator
 
     written = generate_files.run(load, request, paths, features=args.features,
@@ -105,9 +107,10 @@ def add_parser(commands: Commands) -> None:
     generate.add_argument("--device", default=None)
     generate.add_argument("--dtype", default="float32", choices=["float32", "bfloat16"],
                           help="precision of the networks' products (docs/performance.md)")
-    generate.add_argument("--backend", default="torch",
-                          help="torch (default) or onnx: ONNX Runtime on the CPU, after "
-                          "`mlct convert MODEL --onnx`")
+    generate.add_argument("--backend", default="auto",
+                          help="auto (default: onnx on the CPU when onnxruntime is installed, "
+                          "else torch; --verbose says which), torch, or onnx: ONNX Runtime on "
+                          "the CPU")
     generate.add_argument("--whole-prompt", action="store_true",
                           help="give the model a prompt that names actions in sequence ('walks, "
                                "then waves') as one text, instead of one part per action, chained")
@@ -142,4 +145,6 @@ def add_parser(commands: Commands) -> None:
     generate.add_argument("--rig", default=None,
                           help=".bvh/.glb for a character's rig: mixamo, unreal, unity, vrm, smpl "
                                "or FILE.json (joint names, rest pose; docs/export.md)")
+    generate.add_argument("--verbose", action="store_true",
+                          help="say which inference backend runs the model, and why")
     generate.set_defaults(func=run)

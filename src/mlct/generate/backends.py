@@ -3,17 +3,20 @@
 - torch: the networks in PyTorch (mlct.nn.inference's layers), on the CPU or a GPU, float32 or
   bfloat16 products (pipeline.py);
 - onnx: the same pipeline with the three networks as ONNX graphs run by ONNX Runtime on the CPU
-  (onnx_backend.py; the graphs come from `mlct convert MODEL_DIR --onnx`).
+  (onnx_backend.py; the graphs come from `mlct convert MODEL_DIR --onnx` or the cache);
+- auto (the default): the fastest of them that can run the model here (auto_backend.py).
 """
 
 from __future__ import annotations
 
 import os
+from pathlib import Path
 from typing import Callable
 
 import torch
 
 from mlct.errors import MlctError
+from mlct.generate.auto_backend import ENV, choose_backend
 from mlct.generate.onnx_backend import OnnxMotionGenerator
 from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
 
@@ -24,12 +27,34 @@ BACKENDS: dict[str, Callable[..., MotionGenerator]] = {
 
 
 def load(path: str | os.PathLike | None = None, device: torch.device | str | None = None,
-         dtype: str | torch.dtype = "float32", backend: str = "torch") -> MotionGenerator:
+         dtype: str | torch.dtype = "float32", backend: str = "auto") -> MotionGenerator:
     """Load an inference bundle written by `mlct export`; with no path, the bundled model.
     dtype: "float32" or "bfloat16" matrix products (the torch backend); backend: a BACKENDS
-    name."""
+    name, or "auto" (the default): the fastest one that can run the model here
+    (auto_backend.py; $MLCT_BACKEND overrides it). The generator's `backend_note` says which
+    backend runs it and why."""
     if path is not None and not isinstance(path, (str, os.PathLike)):
         raise MlctError(f"path must be a model directory (str or Path), not {type(path).__name__}")
-    if not isinstance(backend, str) or backend not in BACKENDS:
-        raise MlctError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
-    return BACKENDS[backend](bundled_model_dir() if path is None else path, device, dtype)
+    if backend == "auto" and os.environ.get(ENV):
+        backend = os.environ[ENV].strip().lower()
+        origin = f"${ENV}"
+    else:
+        origin = "asked for"
+    if not isinstance(backend, str) or backend not in (*BACKENDS, "auto"):
+        raise MlctError(f"unknown backend {backend!r}{' in $' + ENV if origin != 'asked for' else ''}"
+                        f"; choose one of auto, {', '.join(BACKENDS)}")
+    folder = bundled_model_dir() if path is None else Path(path)
+    if backend != "auto":
+        generator = BACKENDS[backend](folder, device, dtype)
+        generator.backend_note = f"{backend} ({origin})"
+        return generator
+    chosen, graphs, why = choose_backend(folder, device, dtype)
+    if chosen == "onnx":
+        try:
+            generator = OnnxMotionGenerator.load(folder, device, dtype, graphs=graphs)
+        except MlctError as err:  # e.g. a graph ONNX Runtime cannot load: torch still can
+            chosen, why = "torch", f"the onnx backend failed to load ({err})"
+    if chosen == "torch":
+        generator = MotionGenerator.load(folder, device, dtype)
+    generator.backend_note = f"{chosen} (auto: {why})"
+    return generator

@@ -11,6 +11,7 @@ same seed gives the same motion, up to float rounding (tests/test_onnx.py: joint
 from __future__ import annotations
 
 import os
+from typing import Any, Sequence
 
 import numpy as np
 import torch
@@ -20,10 +21,13 @@ from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
 from mlct.generate.onnx_bundle import DECODER_IO, DENOISER_IO, OnnxGraphs, read_onnx
-from mlct.generate.pipeline import MotionGenerator
+from mlct.generate.onnx_sampler import consistency_feeds, run_steps, sampler_model
+from mlct.generate.pipeline import MotionGenerator, generators_for
+from mlct.generate.samplers import ConsistencySampler
+from mlct.nn.build import latent_clamp
 from mlct.nn.inference import weight_dtype
 from mlct.nn.masks import lengths_to_mask
-from mlct.onnx_io import onnxruntime_module, session
+from mlct.onnx_io import onnxruntime_module, session, session_from_bytes
 from mlct.text.base import TextEncoder
 
 
@@ -65,6 +69,12 @@ class OnnxDecoder:
         return torch.from_numpy(features)
 
 
+# Sampler graphs a generator builds at most: each session holds its own copy of the denoiser's
+# and the decoder's weights (20 MB for the bundled model, ~180 MB at paper size); step counts
+# beyond the first ones used run the step loop.
+MAX_SAMPLER_GRAPHS = 3
+
+
 class OnnxMotionGenerator(MotionGenerator):
     """A loaded model whose text encoder, denoiser and decoder are ONNX graphs (CPU, float32).
 
@@ -74,7 +84,7 @@ class OnnxMotionGenerator(MotionGenerator):
 
     def __init__(self, meta: dict, tensors: dict[str, Tensor], graphs: OnnxGraphs,
                  device: torch.device | str | None = None, dtype: str | torch.dtype = "float32",
-                 threads: int | None = None) -> None:
+                 threads: int | None = None, fused: bool = True) -> None:
         if device is not None and resolve_device(device).type != "cpu":
             raise MlctError(f"the onnx backend runs on the CPU, not {device!r}; use "
                             f"backend='torch' (--backend torch) for a GPU")
@@ -86,11 +96,69 @@ class OnnxMotionGenerator(MotionGenerator):
             raise MlctError(f"the onnx backend runs float32 graphs; dtype {dtype!r} is the "
                             f"torch backend's (--backend torch)")
         self.graphs, self.threads = graphs, threads
+        self.fused = fused
+        self._fused: dict[int, Any] = {}  # step count -> its sampler graph's session (or None)
+        self._calls: dict[int, int] = {}  # step count -> sample_features calls with it
         super().__init__(meta, tensors, "cpu", "float32")
+        self.clamp = latent_clamp(self.config)
 
     def _networks(self, tensors: dict[str, Tensor]) -> tuple[OnnxDecoder, OnnxDenoiser]:
         return (OnnxDecoder(self.graphs.decoder, self.threads),
                 OnnxDenoiser(self.graphs.denoiser, self.threads))
+
+    @torch.inference_mode()
+    def sample_latents(self, cond: Tensor, nfe: int | None = None,
+                       seed: int | Sequence[int] | None = None, guidance: float | None = None
+                       ) -> Tensor:
+        """As the torch backend's, for a consistency model without its per-step torch glue:
+        the noise and coefficients once (onnx_sampler.consistency_feeds), then one denoiser
+        call and a few numpy operations per step."""
+        if not isinstance(self.sampler, ConsistencySampler):
+            return super().sample_latents(cond, nfe, seed, guidance)
+        feeds = self._feeds(cond, nfe, seed)
+        return torch.from_numpy(run_steps(self.denoiser.session, feeds, _array(cond.float()),
+                                          self.clamp))
+
+    def sample_features(self, cond: Tensor, nfe: int | None, seed: int | Sequence[int] | None,
+                        guidance: float | None, lengths: Sequence[int]) -> list[np.ndarray]:
+        """Sampling and decoding in one ONNX Runtime call: the sampler graph of this step count
+        (onnx_sampler.py), built in memory at the second call with it (one-off commands never
+        pay the build, a server or a batch loop does once) when `fused` and the onnx package is
+        installed; otherwise sample_latents, then the decoder."""
+        session = self._sampler_session(self.check_nfe(nfe)) if self.fused else None
+        if session is None:
+            return super().sample_features(cond, nfe, seed, guidance, lengths)
+        feeds = self._feeds(cond, nfe, seed)
+        feeds["text"] = _array(cond.float())
+        feeds["valid"] = lengths_to_mask(torch.tensor(list(lengths)), max(lengths)).numpy()
+        (features,) = session.run(["features"], feeds)
+        return [features[i, :n] for i, n in enumerate(lengths)]
+
+    def _feeds(self, cond: Tensor, nfe: int | None, seed: int | Sequence[int] | None
+               ) -> dict[str, np.ndarray]:
+        shape = (cond.shape[0], *self.ae.latent_shape)
+        return consistency_feeds(self.sampler, shape, generators_for(seed), self.check_nfe(nfe))
+
+    def _sampler_session(self, steps: int) -> Any:
+        """The sampler graph's session for `steps` steps, or None: not a consistency model, the
+        first call with this step count, MAX_SAMPLER_GRAPHS built already, or no onnx package
+        to build the graph with."""
+        if not isinstance(self.sampler, ConsistencySampler):
+            return None
+        self._calls[steps] = self._calls.get(steps, 0) + 1
+        built = sum(session is not None for session in self._fused.values())
+        if steps not in self._fused and self._calls[steps] >= 2 and built < MAX_SAMPLER_GRAPHS:
+            try:
+                import onnx  # noqa: F401 - the graph is assembled with it
+            except ImportError:
+                self._fused[steps] = None
+                return None
+            model = sampler_model(self.graphs.denoiser, self.graphs.decoder, steps,
+                                  clamp=self.clamp,
+                                  latent_scale=self.config.schedule.latent_scale,
+                                  mean=self.mean.numpy(), std=self.std.numpy())
+            self._fused[steps] = session_from_bytes(model.SerializeToString(), self.threads)
+        return self._fused.get(steps)
 
     @property
     def text_encoder(self) -> TextEncoder:
@@ -104,8 +172,10 @@ class OnnxMotionGenerator(MotionGenerator):
 
     @classmethod
     def load(cls, path: str | os.PathLike, device: torch.device | str | None = None,
-             dtype: str | torch.dtype = "float32", threads: int | None = None
-             ) -> OnnxMotionGenerator:
+             dtype: str | torch.dtype = "float32", threads: int | None = None,
+             graphs: str | os.PathLike | None = None) -> OnnxMotionGenerator:
+        """graphs: the folder of the ONNX graphs (default: path/onnx)."""
         onnxruntime_module()  # its absence first: the fix for it comes before converting
         meta, tensors = read_bundle(path)
-        return cls(meta, tensors, read_onnx(path, meta["text_encoder"]), device, dtype, threads)
+        return cls(meta, tensors, read_onnx(path, meta["text_encoder"], graphs), device, dtype,
+                   threads)

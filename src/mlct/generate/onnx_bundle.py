@@ -72,12 +72,21 @@ class DecoderGraph(nn.Module):
 
 
 def weights_digest(model_dir: Path) -> str:
-    """The sha256 of the bundle's model.safetensors (hex)."""
-    digest = hashlib.sha256()
-    with open(model_dir / WEIGHTS, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
+    """The sha256 of the bundle's model.safetensors (hex); remembered per file, size and
+    modification time, as loading asks for it up to three times (auto_backend.py)."""
+    path = (Path(model_dir) / WEIGHTS).resolve()
+    stat = path.stat()
+    key = (str(path), stat.st_size, stat.st_mtime_ns)
+    if key not in _DIGESTS:
+        digest = hashlib.sha256()
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                digest.update(block)
+        _DIGESTS[key] = digest.hexdigest()
+    return _DIGESTS[key]
+
+
+_DIGESTS: dict[tuple[str, int, int], str] = {}
 
 
 def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike) -> Path:
@@ -164,11 +173,13 @@ def convert_to_onnx(model_dir: str | os.PathLike, out: str | os.PathLike | None 
     return target
 
 
-def read_onnx(model_dir: str | os.PathLike, text_encoder: str) -> OnnxGraphs:
+def read_onnx(model_dir: str | os.PathLike, text_encoder: str,
+              folder: str | os.PathLike | None = None) -> OnnxGraphs:
     """The ONNX graphs of a bundle, checked: present, of this format, made from its weights and
-    for its text encoder; a one-line MlctError naming the problem and the fix otherwise."""
+    for its text encoder; a one-line MlctError naming the problem and the fix otherwise.
+    folder: where the graphs are (default MODEL_DIR/onnx; the cache's, auto_backend.py)."""
     model_dir = Path(model_dir)
-    folder = model_dir / ONNX_DIR
+    folder = model_dir / ONNX_DIR if folder is None else Path(folder)
     make = f"make them with `mlct convert {model_dir} --onnx`"
     if model_dir.resolve() == bundled_model_dir():  # inside the package: not written there
         make = ("make a copy that has them with `mlct convert bundled --onnx --out DIR`, "

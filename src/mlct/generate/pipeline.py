@@ -48,6 +48,7 @@ class MotionGenerator:
     docs/performance.md). Either way the networks run through mlct.nn.inference's layers."""
 
     backend = "torch"  # the name mlct.load(..., backend=) gives it (generate/backends.py)
+    backend_note = "torch"  # mlct.load's: the backend and why it was chosen (--verbose)
 
     def __init__(self, meta: dict, tensors: dict[str, Tensor],
                  device: torch.device | str | None = None,
@@ -159,14 +160,7 @@ class MotionGenerator:
         own (item i's latent is then independent of the rest of the batch); None is random."""
         batch = cond.shape[0]
         shape = (batch, *self.ae.latent_shape)
-        generator: torch.Generator | list[torch.Generator]
-        if seed is None:
-            generator = torch.Generator()
-            generator.seed()
-        elif isinstance(seed, (int, np.integer)):
-            generator = torch.Generator().manual_seed(int(seed))
-        else:
-            generator = [torch.Generator().manual_seed(int(s)) for s in seed]
+        generator = generators_for(seed)
         steps = self.check_nfe(nfe)
         uncond = self.encode_text([""]) if self.sampler.cfg else None  # (1, c) the null text
         x = self.sampler.noise(shape, generator)  # x_T (B, n, d)
@@ -182,6 +176,12 @@ class MotionGenerator:
         feats = self.ae.decode(z, lens, max(lengths))  # (B, T, D) normalized
         feats = feats.float().cpu() * self.std + self.mean
         return [feats[i, :n].numpy() for i, n in enumerate(lengths)]
+
+    def sample_features(self, cond: Tensor, nfe: int | None, seed: int | Sequence[int] | None,
+                        guidance: float | None, lengths: Sequence[int]) -> list[np.ndarray]:
+        """decode(sample_latents(...)): the features of motions of `lengths` frames; a backend
+        may do both in one call (the onnx backend's sampler graph)."""
+        return self.decode(self.sample_latents(cond, nfe, seed, guidance), lengths)
 
     def generate(self, texts: str | Sequence[str], lengths: int | Sequence[int] | None = None,
                  seconds: float | Sequence[float] | None = None, nfe: int | None = None,
@@ -228,9 +228,10 @@ class MotionGenerator:
         whole = [i for i, (parts, n) in enumerate(zip(plans, frames)) if out[i] is None
                  and (len(parts) == 1 or n // len(parts) < min_part)]
         if whole:
-            z = self.sample_latents(self.encode_text([texts[i] for i in whole]), nfe,
-                                    [seeds[i] for i in whole], guidance)
-            for i, feats in zip(whole, self.decode(z, [frames[i] for i in whole])):
+            made = self.sample_features(self.encode_text([texts[i] for i in whole]), nfe,
+                                        [seeds[i] for i in whole], guidance,
+                                        [frames[i] for i in whole])
+            for i, feats in zip(whole, made):
                 joints = recover_from_ric(torch.from_numpy(feats)).numpy()
                 out[i] = GeneratedMotion(texts[i], feats, joints, self.skeleton.fps,
                                          self.skeleton.name, seeds[i])
@@ -274,6 +275,18 @@ class MotionGenerator:
         if any(not 0 <= s <= MAX_SEED for s in seeds):
             raise MlctError(f"seeds must lie in 0..{MAX_SEED} (item i uses seed + i), got {seed}")
         return seeds
+
+
+def generators_for(seed: int | Sequence[int] | None) -> torch.Generator | list[torch.Generator]:
+    """The noise generators of sample_latents: an int seeds one for the batch, a sequence one
+    per item, None a random one."""
+    if seed is None:
+        generator = torch.Generator()
+        generator.seed()
+        return generator
+    if isinstance(seed, (int, np.integer)):
+        return torch.Generator().manual_seed(int(seed))
+    return [torch.Generator().manual_seed(int(s)) for s in seed]
 
 
 def bundle_networks(config: Config, meta: dict, tensors: dict[str, Tensor]

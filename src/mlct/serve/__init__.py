@@ -38,7 +38,7 @@ def is_loopback(host: str) -> bool:
 
 def run_server(model: Any = None, host: str = "127.0.0.1", port: int = 8000,
                device: Any = None, settings: ServeSettings | None = None,
-               token: str | None = None, backend: str = "torch") -> None:
+               token: str | None = None, backend: str = "auto") -> None:
     """Load the model (None: the bundled one) and serve it until interrupted. token (or the
     MLCT_TOKEN environment variable): POST /generate needs it as a bearer token. backend: the
     inference backend (mlct.load's); the torch one takes a GPU when there is one."""
@@ -56,7 +56,7 @@ def run_server(model: Any = None, host: str = "127.0.0.1", port: int = 8000,
         print(f"mlct serve: warning: listening on {host}: any machine that can reach this one "
               f"may use the API; bind 127.0.0.1 unless you mean it, or require a token "
               f"(--token or MLCT_TOKEN)", file=sys.stderr)
-    if device is None and backend == "torch":  # the onnx backend runs on the CPU
+    if device is None and backend != "onnx":  # a GPU when there is one; onnx runs on the CPU
         device = resolve_device(None)
     generator = mlct.load(model, device=device, backend=backend)
     uvicorn.run(create_app(generator, settings), host=host, port=port, log_level="info")

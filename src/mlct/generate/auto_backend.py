@@ -1,0 +1,116 @@
+"""backend="auto" (the default of mlct.load, `mlct generate` and `mlct serve`): the fastest
+backend that can run the model here, and one line saying which and why (`--verbose`).
+
+The onnx backend when ONNX Runtime is installed, the model runs on the CPU in float32 and its
+text encoder has an ONNX graph: at batch 1 it is 1.3-2x faster than eager PyTorch on the
+bundled model (docs/performance.md) and gives the same motions for the same seeds (within
+0.01 mm; tests/test_onnx.py). Otherwise the torch backend (a GPU, bfloat16, another text
+encoder, no onnxruntime). MLCT_BACKEND=torch|onnx overrides the choice.
+
+Where the graphs come from: MODEL_DIR/onnx/ when `mlct convert` put them there; else the
+cache, default_cache_dir()/onnx/KEY (KEY: a digest of the weights, the config and the graph
+format), made on first use when the onnx package (which writes graphs) is installed. Making
+them takes a few seconds once; it goes into a fresh directory beside the entry that is renamed
+into place, so a reader never sees half a conversion and two processes converting at once
+both succeed (the second one's copy is dropped).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from mlct.errors import MlctError
+from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION, CONFIG
+from mlct.io import read_format_json
+
+ENV = "MLCT_BACKEND"
+
+
+def choose_backend(path: Path, device: Any, dtype: Any) -> tuple[str, Path | None, str]:
+    """(backend, the directory of its ONNX graphs or None, why) for model directory `path`."""
+    from mlct.devices import resolve_device
+
+    if device is not None and resolve_device(device).type != "cpu":
+        return "torch", None, f"the model runs on {device}"
+    if dtype not in ("float32", torch.float32):
+        return "torch", None, f"dtype {dtype} is the torch backend's"
+    try:
+        import onnxruntime
+    except ImportError:
+        return "torch", None, "onnxruntime is not installed (pip install 'mlct[onnx]')"
+    from mlct.generate.onnx_bundle import MANIFEST, ONNX_DIR, read_onnx
+    from mlct.text.minilm_onnx import ONNX_SPECS
+
+    if not (path / CONFIG).is_file():  # not a model: loading it says so, in its words
+        return "torch", None, "no model config"
+    # config.json only: the weights are read once, by the backend that loads them
+    meta = read_format_json(path / CONFIG, BUNDLE_FORMAT, BUNDLE_VERSION, "an mlct model config")
+    if str(meta.get("text_encoder", "")).strip().lower() not in ONNX_SPECS:
+        return "torch", None, f"the text encoder {meta['text_encoder']!r} has no ONNX graph"
+    runtime = f"ONNX Runtime {onnxruntime.__version__}"
+    if (path / ONNX_DIR / MANIFEST).is_file():
+        try:
+            read_onnx(path, meta["text_encoder"])  # made from these weights?
+            return "onnx", path / ONNX_DIR, f"{runtime}, graphs in {path / ONNX_DIR}"
+        except MlctError:
+            pass  # stale graphs there: the cache's, made from these weights, are used instead
+    cached = default_graph_dir(path)
+    if (cached / MANIFEST).is_file():
+        try:
+            read_onnx(path, meta["text_encoder"], cached)
+        except MlctError:  # damaged: made again
+            shutil.rmtree(cached, ignore_errors=True)
+    if not (cached / MANIFEST).is_file():
+        try:
+            import onnx  # noqa: F401 - writes the graphs
+        except ImportError:
+            return "torch", None, ("the model has no ONNX graphs and the onnx package that "
+                                   "writes them is not installed")
+        try:
+            convert_into_cache(path, cached)
+        except MlctError as err:
+            return "torch", None, f"converting to ONNX failed ({err})"
+    return "onnx", cached, f"{runtime}, graphs in {cached}"
+
+
+def default_graph_dir(path: Path) -> Path:
+    """The cache entry of the ONNX graphs of the model in `path`."""
+    from mlct.generate.onnx_bundle import ONNX_VERSION, weights_digest
+    from mlct.text import default_cache_dir
+
+    key = hashlib.sha256()
+    key.update(weights_digest(path).encode())
+    key.update((path / CONFIG).read_bytes())
+    key.update(f"mlct-onnx {ONNX_VERSION} torch {torch.__version__}".encode())
+    return default_cache_dir() / "onnx" / key.hexdigest()[:24]
+
+
+def convert_into_cache(path: Path, entry: Path) -> Path:
+    """Write the model's graphs into the cache entry `entry` (see the module docstring)."""
+    from mlct.generate.onnx_bundle import write_onnx_graphs
+
+    try:
+        entry.parent.mkdir(parents=True, exist_ok=True)
+        work = Path(tempfile.mkdtemp(prefix=f".{entry.name}.partial-", dir=entry.parent))
+    except OSError as err:
+        raise MlctError(f"cannot write the ONNX cache {entry.parent}: {err}") from None
+    try:
+        write_onnx_graphs(path, work)
+        work.chmod(0o755)
+        try:
+            os.rename(work, entry)  # fails when another process got there first: theirs stays
+        except OSError:
+            if not entry.is_dir():
+                raise
+    except OSError as err:
+        raise MlctError(f"cannot write the ONNX cache {entry}: {err}") from None
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    return entry

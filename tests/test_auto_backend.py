@@ -1,0 +1,136 @@
+"""backend="auto" (generate/auto_backend.py): onnx where it can run, its graphs found in the
+model directory or made once into the cache, atomically; torch otherwise; --verbose says which."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mlct
+from mlct.cli import main
+from mlct.errors import MlctError
+from mlct.generate import auto_backend
+from mlct.generate.onnx_bundle import MANIFEST, convert_to_onnx
+from mlct.generate.pipeline import bundled_model_dir
+
+pytest.importorskip("onnxruntime")
+pytest.importorskip("onnx")
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory) -> Path:
+    """A fresh MLCT_CACHE in which auto has converted the bundled model once."""
+    folder = tmp_path_factory.mktemp("cache")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("MLCT_CACHE", str(folder))
+        patch.delenv("MLCT_BACKEND")
+        gen = mlct.load()
+    assert gen.backend == "onnx", gen.backend_note
+    return folder
+
+
+@pytest.fixture()
+def auto(cache, monkeypatch) -> Path:
+    monkeypatch.setenv("MLCT_CACHE", str(cache))
+    monkeypatch.delenv("MLCT_BACKEND")
+    return cache
+
+
+def test_first_use_converts_into_the_cache_atomically_and_once(auto, monkeypatch) -> None:
+    entries = list((auto / "onnx").iterdir())
+    assert len(entries) == 1 and (entries[0] / MANIFEST).is_file()  # no partial directory left
+    assert entries[0] == auto_backend.default_graph_dir(bundled_model_dir())
+
+    def fail(*args):
+        raise AssertionError("converted again")
+
+    monkeypatch.setattr("mlct.generate.onnx_bundle.write_onnx_graphs", fail)
+    gen = mlct.load()
+    assert gen.backend == "onnx" and str(entries[0]) in gen.backend_note
+    assert gen.backend_note.startswith("onnx (auto: ONNX Runtime")
+
+
+def test_auto_gives_the_torch_backends_motions(auto) -> None:
+    texts, lengths = ["a person walks forward", "someone jumps"], [120, 40]
+    want = mlct.load(backend="torch").generate(texts, lengths=lengths, nfe=5, seed=2)
+    for _ in range(2):  # the step loop, then the sampler graph
+        got = mlct.load().generate(texts, lengths=lengths, nfe=5, seed=2)
+        assert max(float(np.abs(a.joints - b.joints).max()) for a, b in zip(want, got)) < 1e-3
+
+
+def test_graphs_in_the_model_directory_come_first(auto, tmp_path) -> None:
+    model = convert_to_onnx(bundled_model_dir(), tmp_path / "model", read_only=True)
+    gen = mlct.load(model)
+    assert gen.backend == "onnx" and str(model / "onnx") in gen.backend_note
+
+
+def test_a_concurrent_conversion_keeps_the_first(tmp_path, monkeypatch) -> None:
+    entry = tmp_path / "onnx" / "key"
+
+    def other_process_finishes_first(model_dir, into):  # it renames its entry in meanwhile
+        entry.mkdir(parents=True)
+        (entry / MANIFEST).write_text("theirs")
+        (Path(into) / MANIFEST).write_text("ours")
+
+    monkeypatch.setattr("mlct.generate.onnx_bundle.write_onnx_graphs",
+                        other_process_finishes_first)
+    assert auto_backend.convert_into_cache(bundled_model_dir(), entry) == entry
+    assert (entry / MANIFEST).read_text() == "theirs"
+    assert [p.name for p in entry.parent.iterdir()] == ["key"]  # ours removed
+
+
+def test_a_failed_conversion_leaves_nothing_and_falls_back(tmp_path, monkeypatch) -> None:
+    monkeypatch.setenv("MLCT_CACHE", str(tmp_path))
+    monkeypatch.delenv("MLCT_BACKEND")
+
+    def broken(model_dir, into):
+        (Path(into) / "half.onnx").write_text("x")
+        raise MlctError("the ONNX graph differs from the torch network")
+
+    monkeypatch.setattr("mlct.generate.onnx_bundle.write_onnx_graphs", broken)
+    gen = mlct.load()
+    assert gen.backend == "torch" and "converting to ONNX failed" in gen.backend_note
+    assert list((tmp_path / "onnx").iterdir()) == []
+
+
+@pytest.mark.parametrize("setup, reason", [
+    ({"dtype": "bfloat16"}, "dtype bfloat16"),
+    ({"modules": {"onnxruntime": None}}, "onnxruntime is not installed"),
+])
+def test_auto_falls_back_to_torch(auto, monkeypatch, setup, reason) -> None:
+    for name, module in setup.get("modules", {}).items():
+        monkeypatch.setitem(sys.modules, name, module)
+    gen = mlct.load(dtype=setup.get("dtype", "float32"))
+    assert gen.backend == "torch" and reason in gen.backend_note
+
+
+def test_environment_overrides_auto(auto, monkeypatch) -> None:
+    monkeypatch.setenv("MLCT_BACKEND", "torch")
+    assert mlct.load().backend_note == "torch ($MLCT_BACKEND)"
+    monkeypatch.setenv("MLCT_BACKEND", "tensorflow")
+    with pytest.raises(MlctError, match=r"unknown backend 'tensorflow' in \$MLCT_BACKEND"):
+        mlct.load()
+
+
+def test_cli_verbose_says_which_backend(auto, tmp_path, capsys) -> None:
+    out = tmp_path / "x.npy"
+    assert main(["generate", "a person walks forward", "--seconds", "1", "--seed", "0",
+                 "--out", str(out), "--quiet", "--verbose"]) == 0
+    err = capsys.readouterr().err
+    assert "mlct: backend onnx (auto: ONNX Runtime" in err
+    assert np.load(out).shape == (20, 22, 3)
+    assert main(["generate", "a person walks forward", "--seconds", "1", "--seed", "0",
+                 "--out", str(out), "--quiet", "--verbose", "--backend", "torch"]) == 0
+    assert "mlct: backend torch (asked for)" in capsys.readouterr().err
+
+
+def test_auto_on_what_is_not_a_model_says_what_is_wrong(auto, tmp_path) -> None:
+    with pytest.raises(MlctError, match="no such model directory"):
+        mlct.load(tmp_path / "missing")
+    with pytest.raises(MlctError, match="not an mlct model"):
+        mlct.load(tmp_path)

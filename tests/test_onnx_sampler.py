@@ -1,0 +1,87 @@
+"""The onnx backend's low-overhead sampling (generate/onnx_sampler.py): the host-side step loop
+and the one-call sampler graph give the torch backend's motions for the same seeds."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+import mlct
+from mlct.generate.onnx_bundle import convert_to_onnx
+from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
+
+pytest.importorskip("onnxruntime")
+pytest.importorskip("onnx")
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+JOINTS_M = 1e-3  # issue 17: the same seed gives the same motion within 1 mm
+TEXTS = ["a person walks forward", "a person jumps up high", "someone waves with the left hand"]
+LENGTHS = [196, 60, 13]
+
+
+@pytest.fixture(scope="module")
+def backends(tmp_path_factory) -> tuple[MotionGenerator, MotionGenerator]:
+    folder = convert_to_onnx(bundled_model_dir(), tmp_path_factory.mktemp("onnx") / "model",
+                             read_only=True)
+    return mlct.load(folder), mlct.load(folder, backend="onnx")
+
+
+def gap(a, b) -> float:
+    assert [m.joints.shape for m in a] == [m.joints.shape for m in b]
+    return max(float(np.abs(x.joints - y.joints).max()) for x, y in zip(a, b))
+
+
+@pytest.mark.parametrize("nfe", [1, 5, 10])
+def test_the_sampler_graph_gives_the_torch_motions(backends, nfe) -> None:
+    torch_gen, onnx_gen = backends
+    want = torch_gen.generate(TEXTS, lengths=LENGTHS, nfe=nfe, seed=3)
+    first = onnx_gen.generate(TEXTS, lengths=LENGTHS, nfe=nfe, seed=3)  # the step loop
+    assert onnx_gen._fused.get(nfe) is None  # a first call does not build the graph
+    second = onnx_gen.generate(TEXTS, lengths=LENGTHS, nfe=nfe, seed=3)  # the sampler graph
+    assert onnx_gen._fused.get(nfe) is not None
+    assert gap(want, first) < JOINTS_M and gap(want, second) < JOINTS_M
+    for x, y in zip(want, second):
+        np.testing.assert_allclose(y.features, x.features, atol=1e-3)
+    other = onnx_gen.generate(TEXTS[:1], lengths=[60], nfe=nfe, seed=4)
+    assert np.abs(other[0].joints - second[0].joints[:60]).max() > 0.01  # the seed matters
+
+
+def test_sample_latents_matches_torch_for_every_seed_form(backends) -> None:
+    torch_gen, onnx_gen = backends
+    cond = torch_gen.encode_text(TEXTS)
+    for seed in (5, [5, 6, 7]):  # one generator for the batch, one per item
+        want = torch_gen.sample_latents(cond, 3, seed)
+        got = onnx_gen.sample_latents(cond, 3, seed)
+        torch.testing.assert_close(got, want, rtol=0, atol=1e-4)
+    a, b = onnx_gen.sample_latents(cond, 3, None), onnx_gen.sample_latents(cond, 3, None)
+    assert not torch.equal(a, b)  # no seed: random
+
+
+def test_without_the_onnx_package_the_step_loop_is_used(backends, monkeypatch) -> None:
+    import sys
+
+    torch_gen, _ = backends
+    onnx_gen = mlct.load(Path(backends[1].graphs.denoiser).parent.parent, backend="onnx")
+    monkeypatch.setitem(sys.modules, "onnx", None)  # `import onnx` raises ImportError
+    want = torch_gen.generate(TEXTS[:1], lengths=[80], nfe=2, seed=1)
+    for _ in range(3):
+        got = onnx_gen.generate(TEXTS[:1], lengths=[80], nfe=2, seed=1)
+        assert gap(want, got) < JOINTS_M
+    assert onnx_gen._fused == {2: None}
+
+
+def test_at_most_a_few_sampler_graphs_are_built(backends) -> None:
+    from mlct.generate.onnx_backend import MAX_SAMPLER_GRAPHS
+
+    torch_gen, _ = backends
+    onnx_gen = mlct.load(Path(backends[1].graphs.denoiser).parent.parent, backend="onnx")
+    for nfe in range(1, MAX_SAMPLER_GRAPHS + 3):
+        for _ in range(2):
+            got = onnx_gen.generate(TEXTS[:1], lengths=[40], nfe=nfe, seed=0)
+    assert sorted(onnx_gen._fused) == list(range(1, MAX_SAMPLER_GRAPHS + 1))
+    want = torch_gen.generate(TEXTS[:1], lengths=[40], nfe=MAX_SAMPLER_GRAPHS + 2, seed=0)
+    assert gap(want, got) < JOINTS_M  # the step loop beyond them
