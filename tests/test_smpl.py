@@ -23,6 +23,10 @@ def test_npz_round_trips_with_amass_keys(tmp_path):
     assert str(data["gender"]) == "neutral" and float(data["mocap_framerate"]) == 20.0
     assert np.array_equal(data["root_orient"], data["poses"][:, :3])
     assert np.array_equal(data["pose_body"], data["poses"][:, 3:66])
+    # plain SMPL's 24 x 3: the body's 22 joints as in `poses`, then two zero hand joints
+    assert data["smpl_poses"].shape == (n_frames, 72)
+    assert np.array_equal(data["smpl_poses"][:, :66], data["poses"][:, :66])
+    assert np.all(data["smpl_poses"][:, 66:] == 0)
     fit = fit_for_smpl(joints, HUMANML3D, 20.0)
     rebuilt = smpl_joints(data)
     expected = fit.positions @ TO_AMASS.T

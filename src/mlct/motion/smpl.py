@@ -8,6 +8,8 @@ read it as is; no SMPL model file is needed to write it:
 - `poses` (T, 156): SMPL+H axis-angle, 52 joints x 3: [0:3] the global orientation, [3:66]
   the 21 body joints in SMPL order, [66:156] the hands (zero: mlct has no fingers). An SMPL
   (24-joint) reader takes poses[:, :66] and two zero hand joints;
+- `smpl_poses` (T, 72): the same as plain SMPL's 24 joints x 3 (the 22 body joints, then the
+  two hand joints, zero), the layout of SMPL-only files such as AIST++'s;
 - `trans` (T, 3): the pelvis position. An SMPL body puts its pelvis at J0 + trans, J0 being its
   template's pelvis joint for the given betas (a model file's, so not here): subtract
   `body_model(betas=...).joints[0, 0]` to place the body exactly;
@@ -72,6 +74,7 @@ def smpl_params(joints: np.ndarray, skeleton: Skeleton, fps: float) -> dict[str,
         "poses": poses, "trans": fit.root @ TO_AMASS.T, "betas": np.zeros(N_BETAS),
         "dmpls": np.zeros((n_frames, N_DMPLS)), "gender": np.array("neutral"),
         "mocap_framerate": np.array(rate), "mocap_frame_rate": np.array(rate),
+        "smpl_poses": np.concatenate([poses[:, :BODY_JOINTS * 3], np.zeros((n_frames, 6))], 1),
         "root_orient": poses[:, :3], "pose_body": poses[:, 3:66], "pose_hand": poses[:, 66:],
         "rest_offsets": fit.offsets,
     }
