@@ -20,8 +20,9 @@ from mlct.diffusion.solver import dpm_solver_1_step
 DenoiseFn = Callable[[Tensor, Tensor], Tensor]  # (x (B, n, d), t (B,)) -> x0 estimate
 
 
-# one generator for the batch, or one per batch item
-Generators = Union[torch.Generator, Sequence[torch.Generator], None]
+# one generator for the batch, or one per batch item; or any object with randn(shape) -> Tensor
+# (the web page's portable noise, mlct.generate.portable_noise)
+Generators = Union[torch.Generator, Sequence[torch.Generator], object, None]
 
 
 def draw_noise(shape: tuple[int, ...], generator: Generators, like: Tensor) -> Tensor:
@@ -33,6 +34,8 @@ def draw_noise(shape: tuple[int, ...], generator: Generators, like: Tensor) -> T
         if len(generator) != shape[0]:
             raise ValueError(f"{len(generator)} generators for a batch of {shape[0]}")
         return torch.stack([draw_noise(shape[1:], g, like) for g in generator])
+    if hasattr(generator, "randn"):  # a portable stream (generate/portable_noise.py)
+        return generator.randn(shape).to(like.device, like.dtype)
     device = generator.device if generator is not None else like.device
     return torch.randn(shape, generator=generator, device=device,
                        dtype=torch.float32).to(like.device, like.dtype)

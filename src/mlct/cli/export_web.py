@@ -1,0 +1,31 @@
+"""`mlct export-web [--model DIR|bundled] --out SITE/`: a static site that runs the model in
+the browser (mlct.serve.site)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from mlct.cli.parser import Commands
+
+
+def run(args: argparse.Namespace) -> int:
+    from mlct.serve.site import export_site, site_size
+
+    site = export_site(args.model, args.out, args.vendor)
+    size = site_size(site)
+    print(f"{site}  ({size['total'] / 1e6:.1f} MB; serve it with any static file server, "
+          f"e.g. python -m http.server -d {site})")
+    return 0
+
+
+def add_parser(commands: Commands) -> None:
+    web = commands.add_parser("export-web", help="write a static web site that generates "
+                              "motions in the browser (ONNX Runtime Web)")
+    web.add_argument("--model", default="bundled",
+                     help="model directory, or 'bundled' (the model inside mlct; default)")
+    web.add_argument("--out", required=True, type=Path, help="site directory to write")
+    web.add_argument("--vendor", type=Path, default=None,
+                     help="folder holding the npm tarballs (onnxruntime-web, three) instead of "
+                     "the download cache (~/.cache/mlct/web, or MLCT_WEB_CACHE)")
+    web.set_defaults(func=run)

@@ -1,0 +1,85 @@
+"""Smaller ONNX graphs for the web: weights stored in float16 where that is exact, and the text
+encoder quantized to int8. Graph-to-graph rewrites with the onnx package and ONNX Runtime's
+quantization tools (no torch.onnx, no sessions: those stay in mlct.onnx_io).
+
+Why: a static site (`mlct export-web`) downloads every graph; float32 graphs of the bundled model
+are 20 MB (denoiser), 4 MB (decoder) and 90 MB (MiniLM).
+- The bundle stores its weights in float16 (model.safetensors), so its float32 graphs hold
+  float16 values: stored as float16 with a Cast to float32 in front, each weight is the same
+  number and the graph computes the same thing (ONNX Runtime folds the casts at load), at half
+  the size. Weights that float16 would change (none in the bundled model) stay float32.
+- MiniLM's float32 weights do not fit float16 exactly and are 90 MB. ONNX Runtime's dynamic
+  quantization (int8 weights per output channel, activations quantized at run time) of its
+  matrix products and of its word-embedding table makes it 23 MB; its sentence vectors keep a
+  cosine of 0.99 with the float32 ones (per-tensor int8: 0.95; docs/web.md). The Python
+  reference of the site (tests/test_web_static_e2e.py) runs the same quantized graph.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from mlct.errors import MlctError
+
+MIN_FP16_SIZE = 1024  # smaller initializers (biases of norms, shapes) stay as they are
+QUANTIZED_OPS = ("MatMul", "Gather")  # the matrix products and the word-embedding table
+
+
+def _onnx():
+    try:
+        import onnx
+    except ImportError:
+        raise MlctError("writing ONNX graphs needs the onnx package, which is not installed: "
+                        "pip install 'mlct[onnx]'") from None
+    return onnx
+
+
+def float16_storage(src: str | os.PathLike, dst: str | os.PathLike) -> int:
+    """Copy graph src to dst with each float32 weight that float16 holds exactly stored as
+    float16 and cast back at the graph's start; returns how many weights were converted."""
+    onnx = _onnx()
+    from onnx import TensorProto, helper, numpy_helper
+
+    model = onnx.load(str(src))
+    graph = model.graph
+    casts, halves = [], []
+    for init in list(graph.initializer):
+        if init.data_type != TensorProto.FLOAT:
+            continue
+        weight = numpy_helper.to_array(init)
+        half = weight.astype(np.float16)
+        if weight.size < MIN_FP16_SIZE or not np.array_equal(half.astype(np.float32), weight):
+            continue  # float16 would change it: kept exact
+        graph.initializer.remove(init)
+        halves.append(numpy_helper.from_array(half, f"{init.name}__float16"))
+        casts.append(helper.make_node("Cast", [f"{init.name}__float16"], [init.name],
+                                      to=TensorProto.FLOAT, name=f"{init.name}__cast"))
+    graph.initializer.extend(halves)
+    nodes = list(graph.node)
+    del graph.node[:]
+    graph.node.extend(casts + nodes)  # before every use: the graph stays topologically sorted
+    onnx.checker.check_model(model)
+    onnx.save(model, str(dst))
+    return len(casts)
+
+
+def quantize_int8(src: str | os.PathLike, dst: str | os.PathLike) -> Path:
+    """Dynamic int8 quantization (weights per channel, symmetric) of src's matrix products and
+    embedding lookups, written to dst."""
+    _onnx()
+    try:
+        from onnxruntime.quantization import QuantType, quantize_dynamic
+    except ImportError:
+        raise MlctError("quantizing the text encoder needs ONNX Runtime, which is not "
+                        "installed: pip install 'mlct[onnx]'") from None
+    with tempfile.TemporaryDirectory() as tmp:  # its notes (augmented models) stay out of dst
+        quantize_dynamic(str(src), str(Path(tmp) / "quantized.onnx"),
+                         op_types_to_quantize=list(QUANTIZED_OPS), per_channel=True,
+                         weight_type=QuantType.QInt8)
+        shutil.move(str(Path(tmp) / "quantized.onnx"), str(dst))
+    return Path(dst)
