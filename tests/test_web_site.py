@@ -1,0 +1,79 @@
+"""The static site's Python side, without a browser: the portable noise (its numbers are the
+page's: tests/test_web_static_e2e.py checks them in Chromium), graphs stored as float16 with
+nothing changed, and `mlct export-web`'s refusals (before any work, nothing half-written)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from mlct.cli import main
+from mlct.diffusion.samplers import draw_noise
+from mlct.errors import MlctError
+from mlct.generate.portable_noise import PortableNoise, seed_key
+
+
+def test_portable_noise_is_a_seeded_standard_normal_stream() -> None:
+    z = PortableNoise(0).normals(200_000)
+    assert z.dtype == np.float32
+    assert abs(z.mean()) < 0.01 and abs(z.std() - 1) < 0.01
+    assert abs((z > 1.96).mean() - 0.025) < 0.002  # a normal's tail, not just its moments
+    # the first draws of seed 0, as noise.js gives them in the page (checked there)
+    np.testing.assert_allclose(z[:4], [-0.22490984, -1.020364, -0.32291436, -1.0482278],
+                               rtol=1e-6)
+    again = PortableNoise(0)
+    assert np.array_equal(np.concatenate([again.normals(6), again.normals(6)]), z[:12])
+    assert not np.array_equal(PortableNoise(1).normals(6), z[:6])
+    assert seed_key(2**40 + 5) != seed_key(5)  # the high 32 bits count
+    with pytest.raises(ValueError, match="seed"):
+        PortableNoise(-1)
+
+
+def test_the_samplers_draw_the_portable_noise() -> None:
+    got = draw_noise((2, 3, 4), PortableNoise(3), torch.empty(0))
+    assert got.shape == (2, 3, 4) and got.dtype == torch.float32
+    assert np.array_equal(got.numpy().reshape(-1), PortableNoise(3).normals(24))
+
+
+def test_float16_storage_keeps_every_number(tmp_path) -> None:
+    pytest.importorskip("onnx")
+    ort = pytest.importorskip("onnxruntime")
+    from mlct.generate.onnx_compact import float16_storage
+    from mlct.onnx_io import export_graph
+
+    layer = torch.nn.Sequential(torch.nn.Linear(64, 128), torch.nn.GELU(), torch.nn.Linear(128, 32))
+    with torch.no_grad():
+        layer[0].weight.copy_(layer[0].weight.half().float())  # float16 numbers in float32
+        layer[2].weight.add_(1e-5)  # not float16 numbers: must stay float32
+    x = torch.randn(5, 64)
+    export_graph(layer, (x,), tmp_path / "f32.onnx", ["x"], ["y"], {"x": {0: "b"}, "y": {0: "b"}})
+    assert float16_storage(tmp_path / "f32.onnx", tmp_path / "f16.onnx") == 1
+    run = lambda name: ort.InferenceSession(str(tmp_path / name)).run(None, {"x": x.numpy()})[0]
+    assert np.array_equal(run("f16.onnx"), run("f32.onnx"))
+    saved = (tmp_path / "f32.onnx").stat().st_size - (tmp_path / "f16.onnx").stat().st_size
+    assert saved > 64 * 128 * 2 * 0.9  # the converted weight's two bytes a number
+
+
+def test_export_web_refuses_a_bad_out_or_vendor_before_any_work(tmp_path, capsys) -> None:
+    from mlct.serve.site import export_site
+
+    a_file = tmp_path / "site.txt"
+    a_file.write_text("not a site")
+    assert main(["export-web", "--out", str(a_file)]) == 2
+    assert "site.txt is not a directory" in capsys.readouterr().err
+    full = tmp_path / "full"
+    full.mkdir()
+    (full / "keep.txt").write_text("mine")
+    with pytest.raises(MlctError, match="not an mlct web site"):
+        export_site("bundled", full)
+    assert (full / "keep.txt").read_text() == "mine"
+    empty_vendor = tmp_path / "vendor"
+    empty_vendor.mkdir()
+    with pytest.raises(MlctError, match=r"no onnxruntime-web-[0-9.]+\.tgz .*npm pack"):
+        export_site("bundled", tmp_path / "site", vendor=empty_vendor)
+    assert not (tmp_path / "site").exists()  # nothing half-written
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+    assert main(["export-web", "--model", str(tmp_path / "nope"), "--out",
+                 str(tmp_path / "s")]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
