@@ -12,7 +12,7 @@ from mlct.cli.parser import Commands
 def run(args: argparse.Namespace) -> int:
     from mlct.serve.site import export_site, site_size
 
-    site = export_site(args.model, args.out, args.vendor)
+    site = export_site(args.model, args.out, args.vendor, args.text_encoder)
     size = site_size(site)
     print(f"{site}  ({size['total'] / 1e6:.1f} MB; serve it with any static file server, "
           f"e.g. python -m http.server -d {site})")
@@ -28,4 +28,7 @@ def add_parser(commands: Commands) -> None:
     web.add_argument("--vendor", type=Path, default=None,
                      help="folder holding the npm tarballs (onnxruntime-web, three) instead of "
                      "the download cache (~/.cache/mlct/web, or MLCT_WEB_CACHE)")
+    web.add_argument("--text-encoder", choices=["int8", "float32"], default="int8",
+                     help="MiniLM's graph: int8 (23 MB, default) or float32 (90 MB: the "
+                     "embeddings of the Python model exactly)")
     web.set_defaults(func=run)

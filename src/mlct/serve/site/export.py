@@ -50,6 +50,7 @@ SITE_FORMAT, SITE_VERSION = "mlct-web", 1
 GRAPHS = {"text_encoder": "text_encoder.onnx", "denoiser": "denoiser.onnx",
           "decoder": "decoder.onnx"}
 VOCAB = "vocab.txt"
+TEXT_ENCODER_PRECISIONS = ("int8", "float32")
 
 # The tokenizer.json settings that static/tokenizer.js implements; another tokenizer is refused.
 TOKENIZER = {"normalizer": {"type": "BertNormalizer", "clean_text": True,
@@ -84,7 +85,8 @@ def _tokenizer_settings(path: Path) -> dict[str, Any]:
 
 
 def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Path,
-                     tokenizer: dict[str, Any], latent_shape: tuple[int, int]) -> dict[str, Any]:
+                     tokenizer: dict[str, Any], latent_shape: tuple[int, int],
+                     precision: str) -> dict[str, Any]:
     """model.json: everything the page computes with, besides the graphs."""
     from mlct import __version__
     from mlct.config import config_from_dict
@@ -99,7 +101,7 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
         "format": SITE_FORMAT, "version": SITE_VERSION, "mlct": __version__,
         "weights_sha256": weights_digest(model_dir),
         "graphs": GRAPHS,
-        "text_encoder": {"spec": spec, "max_length": max_length, "dim": meta["text_dim"],
+        "text_encoder": {"spec": spec, "precision": precision, "max_length": max_length, "dim": meta["text_dim"],
                          "token_slots": token_slots_of(spec), **tokenizer},
         "sampler": {"name": sampler.name, "grid": [float(t) for t in sampler.grid],
                     "eta": schedule.eta, "time_scale": schedule.time_scale,
@@ -118,9 +120,13 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
 
 
 def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
-                vendor: str | os.PathLike | None = None) -> Path:
+                vendor: str | os.PathLike | None = None, text_encoder: str = "int8") -> Path:
     """Write the static site of model (a directory, or None / 'bundled') to out; returns out.
-    vendor: a folder holding the npm tarballs (vendor.py), instead of the cache."""
+    vendor: a folder holding the npm tarballs (vendor.py), instead of the cache.
+    text_encoder: "int8" (23 MB, the default) or "float32" (90 MB, MiniLM's own numbers)."""
+    if text_encoder not in TEXT_ENCODER_PRECISIONS:
+        raise MlctError(f"text_encoder must be one of {', '.join(TEXT_ENCODER_PRECISIONS)}, "
+                        f"got {text_encoder!r}")
     model_dir, out = resolve_model(model), Path(out)
     meta, tensors = read_bundle(model_dir)  # a bundle, or one line saying what is wrong
     if sampler_class(meta["sampler"]) is not ConsistencySampler:
@@ -141,11 +147,15 @@ def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
         folder.mkdir()
         float16_storage(graphs / GRAPHS["denoiser"], folder / GRAPHS["denoiser"])
         float16_storage(graphs / GRAPHS["decoder"], folder / GRAPHS["decoder"])
-        quantize_int8(graphs / GRAPHS["text_encoder"], folder / GRAPHS["text_encoder"])
+        if text_encoder == "int8":
+            quantize_int8(graphs / GRAPHS["text_encoder"], folder / GRAPHS["text_encoder"])
+        else:
+            shutil.copyfile(graphs / GRAPHS["text_encoder"], folder / GRAPHS["text_encoder"])
         shutil.rmtree(graphs)
         shutil.copyfile(bundled_minilm_path() / VOCAB, folder / VOCAB)
         latent = OnnxMotionGenerator(meta, tensors, _graphs(folder)).ae.latent_shape
-        description = site_description(meta, tensors, model_dir, tokenizer, latent)
+        description = site_description(meta, tensors, model_dir, tokenizer, latent,
+                                       text_encoder)
         (folder / SITE_JSON).write_text(json.dumps(description) + "\n", encoding="utf-8")
         for item in STATIC.iterdir():
             if item.is_file():

@@ -19,7 +19,7 @@ window.mlct = { ready: false, model: null, lastMotion: null, timings: [], state 
 
 // --- the 3D view -------------------------------------------------------------------------
 
-const view = { renderer: null, scene: null, camera: null, controls: null, bones: null, joints: null, path: null };
+const view = { renderer: null, scene: null, camera: null, controls: null, figure: null, bones: [], joints: [] };
 
 function setupView() {
   const canvas = $("view");
@@ -28,7 +28,11 @@ function setupView() {
   const scene = new THREE.Scene();
   scene.background = new THREE.Color(0xffffff);
   scene.add(new THREE.GridHelper(20, 40, 0xcbd5e1, 0xe2e8f0));
-  const camera = new THREE.PerspectiveCamera(40, 1, 0.05, 100);
+  scene.add(new THREE.HemisphereLight(0xffffff, 0x94a3b8, 2.2));
+  const sun = new THREE.DirectionalLight(0xffffff, 1.6);
+  sun.position.set(2, 4, 3);
+  scene.add(sun);
+  const camera = new THREE.PerspectiveCamera(38, 1, 0.05, 100);
   camera.position.set(2.6, 1.7, 3.6);
   const controls = new OrbitControls(camera, canvas);
   controls.target.set(0, 0.9, 0);
@@ -48,55 +52,64 @@ function resize() {
 
 const sideOf = (name) => (name.startsWith("left") ? "left" : name.startsWith("right") ? "right" : "centre");
 
-// Bones as line segments coloured by side, joints as points, the root's path on the floor.
+// Bones as cylinders coloured by side, joints as small spheres (a larger head), the root's
+// path on the floor. Meshes, not GL lines: lines are one pixel wide in WebGL.
+const UP = new THREE.Vector3(0, 1, 0);
+
 function buildSkeleton(motion) {
-  for (const obj of [view.bones, view.joints, view.path]) if (obj) { view.scene.remove(obj); obj.geometry.dispose(); }
+  if (view.figure) view.scene.remove(view.figure);
   const { joint_names: names, parents } = motion.skeleton;
-  const bones = parents.map((p, c) => [p, c]).filter(([p]) => p >= 0);
-  const colours = new Float32Array(bones.length * 6);
-  bones.forEach(([, c], i) => {
-    const colour = new THREE.Color(COLOURS[sideOf(names[c])]);
-    colour.toArray(colours, 6 * i);
-    colour.toArray(colours, 6 * i + 3);
+  const figure = new THREE.Group();
+  const cylinder = new THREE.CylinderGeometry(0.022, 0.022, 1, 10);
+  const sphere = new THREE.SphereGeometry(1, 14, 10);
+  const materials = Object.fromEntries(Object.entries(COLOURS).map(([side, colour]) =>
+    [side, new THREE.MeshLambertMaterial({ color: colour })]));
+  const bones = parents.map((p, c) => [p, c]).filter(([p]) => p >= 0).map(([p, c]) => {
+    const mesh = new THREE.Mesh(cylinder, materials[sideOf(names[c])]);
+    figure.add(mesh);
+    return { p, c, mesh };
   });
-  const lines = new THREE.BufferGeometry();
-  lines.setAttribute("position", new THREE.BufferAttribute(new Float32Array(bones.length * 6), 3));
-  lines.setAttribute("color", new THREE.BufferAttribute(colours, 3));
-  view.bones = new THREE.LineSegments(lines, new THREE.LineBasicMaterial({ vertexColors: true }));
-  view.bones.userData.pairs = bones;
-  const points = new THREE.BufferGeometry();
-  points.setAttribute("position", new THREE.BufferAttribute(new Float32Array(names.length * 3), 3));
-  view.joints = new THREE.Points(points, new THREE.PointsMaterial({ color: 0x111827, size: 0.05 }));
+  const joints = names.map((name) => {
+    const mesh = new THREE.Mesh(sphere, name === "head" ? materials.centre : new THREE.MeshLambertMaterial({ color: 0x111827 }));
+    mesh.scale.setScalar(name === "head" ? 0.085 : 0.03);
+    figure.add(mesh);
+    return mesh;
+  });
   const J = names.length;
   const root = new Float32Array(motion.frames * 3);
-  for (let t = 0; t < motion.frames; t++) root.set([motion.joints[t * J * 3], 0.002, motion.joints[t * J * 3 + 2]], 3 * t);
+  for (let t = 0; t < motion.frames; t++) root.set([motion.joints[t * J * 3], 0.003, motion.joints[t * J * 3 + 2]], 3 * t);
   const path = new THREE.BufferGeometry();
   path.setAttribute("position", new THREE.BufferAttribute(root, 3));
-  view.path = new THREE.Line(path, new THREE.LineBasicMaterial({ color: 0xa5b4fc }));
-  view.scene.add(view.bones, view.joints, view.path);
+  figure.add(new THREE.Line(path, new THREE.LineBasicMaterial({ color: 0x818cf8 })));
+  view.scene.add(figure);
+  Object.assign(view, { figure, bones, joints });
   // look at the middle of the motion, from far enough to see its extent
   const [xs, zs] = [column(root, 0), column(root, 2)];
   const [x0, z0, x1, z1] = [Math.min(...xs), Math.min(...zs), Math.max(...xs), Math.max(...zs)];
-  const span = Math.max(2.5, x1 - x0 + 1.5, z1 - z0 + 1.5);
+  const span = Math.max(3.2, x1 - x0 + 1.5, z1 - z0 + 1.5);
   view.controls.target.set((x0 + x1) / 2, 0.85, (z0 + z1) / 2);
-  view.camera.position.set((x0 + x1) / 2 + 0.75 * span, 0.55 * span + 0.6, (z0 + z1) / 2 + 1.05 * span);
+  view.camera.position.set((x0 + x1) / 2 + 0.55 * span, 0.3 * span + 0.9, (z0 + z1) / 2 + 0.9 * span);
   view.controls.update();
 }
 
 function column(flat, k) { const out = []; for (let i = k; i < flat.length; i += 3) out.push(flat[i]); return out; }
 
+const a = new THREE.Vector3();
+const b = new THREE.Vector3();
+
 function drawFrame(index) {
   const motion = state.motion;
   const J = motion.skeleton.joint_names.length;
   const pose = motion.joints.subarray(index * J * 3, (index + 1) * J * 3);
-  const lines = view.bones.geometry.attributes.position;
-  view.bones.userData.pairs.forEach(([p, c], i) => {
-    lines.setXYZ(2 * i, pose[3 * p], pose[3 * p + 1], pose[3 * p + 2]);
-    lines.setXYZ(2 * i + 1, pose[3 * c], pose[3 * c + 1], pose[3 * c + 2]);
-  });
-  lines.needsUpdate = true;
-  view.joints.geometry.attributes.position.array.set(pose);
-  view.joints.geometry.attributes.position.needsUpdate = true;
+  for (const { p, c, mesh } of view.bones) {
+    a.fromArray(pose, 3 * p);
+    b.fromArray(pose, 3 * c);
+    mesh.position.addVectors(a, b).multiplyScalar(0.5);
+    b.sub(a);
+    mesh.scale.set(1, Math.max(b.length(), 1e-6), 1);
+    mesh.quaternion.setFromUnitVectors(UP, b.normalize());
+  }
+  view.joints.forEach((mesh, j) => mesh.position.fromArray(pose, 3 * j));
   state.frame = index;
   $("scrub").value = String(index);
   const fps = motion.skeleton.fps;
