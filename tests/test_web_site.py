@@ -77,3 +77,26 @@ def test_export_web_refuses_a_bad_out_or_vendor_before_any_work(tmp_path, capsys
     assert main(["export-web", "--model", str(tmp_path / "nope"), "--out",
                  str(tmp_path / "s")]) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_int8_weights_are_int8_on_disk_and_close_in_use(tmp_path) -> None:
+    pytest.importorskip("onnx")
+    ort = pytest.importorskip("onnxruntime")
+    from mlct.generate.onnx_compact import quantize_int8, quantize_int8_weights
+    from mlct.onnx_io import export_graph
+
+    torch.manual_seed(0)
+    layer = torch.nn.Sequential(torch.nn.Linear(256, 512), torch.nn.Tanh(), torch.nn.Linear(512, 64))
+    x = torch.randn(8, 256)
+    export_graph(layer, (x,), tmp_path / "f32.onnx", ["x"], ["y"], {"x": {0: "b"}, "y": {0: "b"}})
+    assert quantize_int8_weights(tmp_path / "f32.onnx", tmp_path / "w8.onnx") == 2
+    quantize_int8(tmp_path / "f32.onnx", tmp_path / "d8.onnx")
+    run = lambda name: ort.InferenceSession(str(tmp_path / name)).run(None, {"x": x.numpy()})[0]
+    exact = run("f32.onnx")
+    size = lambda name: (tmp_path / name).stat().st_size
+    for name in ("w8.onnx", "d8.onnx"):
+        assert size(name) < 0.3 * size("f32.onnx")  # a byte a weight, not four
+        error = np.abs(run(name) - exact).max() / np.abs(exact).max()
+        assert 0 < error < 0.03, (name, error)
+    # weight-only keeps float32 arithmetic: closer than int8 activations
+    assert np.abs(run("w8.onnx") - exact).max() < np.abs(run("d8.onnx") - exact).max()

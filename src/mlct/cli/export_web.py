@@ -28,7 +28,8 @@ def add_parser(commands: Commands) -> None:
     web.add_argument("--vendor", type=Path, default=None,
                      help="folder holding the npm tarballs (onnxruntime-web, three) instead of "
                      "the download cache (~/.cache/mlct/web, or MLCT_WEB_CACHE)")
-    web.add_argument("--text-encoder", choices=["int8", "float32"], default="int8",
-                     help="MiniLM's graph: int8 (23 MB, default) or float32 (90 MB: the "
-                     "embeddings of the Python model exactly)")
+    web.add_argument("--text-encoder", choices=["int8", "int8-weights", "float32"],
+                     default="int8", help="MiniLM's graph: int8 (23 MB, the fastest; default); "
+                     "int8-weights: int8 weights, float32 arithmetic (23 MB, closer to the "
+                     "Python model, slower); float32 (90 MB, the Python model's own)")
     web.set_defaults(func=run)

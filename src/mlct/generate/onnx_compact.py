@@ -8,11 +8,14 @@ are 20 MB (denoiser), 4 MB (decoder) and 90 MB (MiniLM).
   float16 values: stored as float16 with a Cast to float32 in front, each weight is the same
   number and the graph computes the same thing (ONNX Runtime folds the casts at load), at half
   the size. Weights that float16 would change (none in the bundled model) stay float32.
-- MiniLM's float32 weights do not fit float16 exactly and are 90 MB. ONNX Runtime's dynamic
-  quantization (int8 weights per output channel, activations quantized at run time) of its
-  matrix products and of its word-embedding table makes it 23 MB; its sentence vectors keep a
-  cosine of 0.99 with the float32 ones (per-tensor int8: 0.95; docs/web.md). The Python
-  reference of the site (tests/test_web_static_e2e.py) runs the same quantized graph.
+- MiniLM's float32 weights do not fit float16 exactly and are 90 MB; int8 makes them 23 MB.
+  Two ways (docs/web.md has the figures): `quantize_int8`, ONNX Runtime's dynamic quantization
+  of the matrix products and the word-embedding table (int8 weights per channel, activations
+  quantized at run time, int8 arithmetic): the fastest, sentence vectors within a cosine of
+  0.99 of the float32 ones; or `quantize_int8_weights`, int8 storage of the matrix products'
+  weights dequantized to float32 inside the graph: cosine 0.999, but ONNX Runtime Web
+  dequantizes on every run (~8x slower in the page). The Python reference of the site
+  (tests/test_web_static_e2e.py) runs the same quantized graph as the page.
 """
 
 from __future__ import annotations
@@ -68,9 +71,10 @@ def float16_storage(src: str | os.PathLike, dst: str | os.PathLike) -> int:
     return len(casts)
 
 
-def quantize_int8(src: str | os.PathLike, dst: str | os.PathLike) -> Path:
-    """Dynamic int8 quantization (weights per channel, symmetric) of src's matrix products and
-    embedding lookups, written to dst."""
+def quantize_int8(src: str | os.PathLike, dst: str | os.PathLike,
+                  op_types: tuple[str, ...] = QUANTIZED_OPS) -> Path:
+    """ONNX Runtime's dynamic int8 quantization (weights per channel, symmetric; activations
+    at run time) of src's operators of op_types, written to dst."""
     _onnx()
     try:
         from onnxruntime.quantization import QuantType, quantize_dynamic
@@ -79,7 +83,50 @@ def quantize_int8(src: str | os.PathLike, dst: str | os.PathLike) -> Path:
                         "installed: pip install 'mlct[onnx]'") from None
     with tempfile.TemporaryDirectory() as tmp:  # its notes (augmented models) stay out of dst
         quantize_dynamic(str(src), str(Path(tmp) / "quantized.onnx"),
-                         op_types_to_quantize=list(QUANTIZED_OPS), per_channel=True,
+                         op_types_to_quantize=list(op_types), per_channel=True,
                          weight_type=QuantType.QInt8)
         shutil.move(str(Path(tmp) / "quantized.onnx"), str(dst))
     return Path(dst)
+
+
+def quantize_int8_weights(src: str | os.PathLike, dst: str | os.PathLike) -> int:
+    """src's word-embedding table as ONNX Runtime's int8 lookup (quantize_int8 on Gather) and
+    each matrix product's 2-d weight stored as int8 with a float32 scale per output column,
+    DequantizeLinear -> float32 in the graph (weight-only: the arithmetic stays float32);
+    written to dst. Returns how many weights were stored as int8."""
+    onnx = _onnx()
+    from onnx import helper, numpy_helper
+
+    with tempfile.TemporaryDirectory() as tmp:
+        quantize_int8(src, Path(tmp) / "gather.onnx", ("Gather",))
+        model = onnx.load(str(Path(tmp) / "gather.onnx"))
+    graph = model.graph
+    weights = {init.name: init for init in graph.initializer}
+    users: dict[str, set[str]] = {}
+    for node in graph.node:
+        for name in node.input:
+            users.setdefault(name, set()).add(node.op_type)
+    dequantize = []
+    for node in graph.node:
+        name = node.input[1] if node.op_type == "MatMul" else None
+        if name not in weights or users[name] != {"MatMul"}:
+            continue
+        weight = numpy_helper.to_array(weights.pop(name))
+        if weight.ndim != 2 or weight.dtype != np.float32:
+            continue
+        scale = np.abs(weight).max(axis=0) / 127.0  # (N,): one per output column
+        scale[scale == 0] = 1.0
+        q = np.clip(np.round(weight / scale), -127, 127).astype(np.int8)
+        graph.initializer.remove(next(i for i in graph.initializer if i.name == name))
+        graph.initializer.extend([numpy_helper.from_array(q, f"{name}__int8"),
+                                  numpy_helper.from_array(scale.astype(np.float32),
+                                                          f"{name}__scale")])
+        dequantize.append(helper.make_node("DequantizeLinear", [f"{name}__int8",
+                                                                f"{name}__scale"],
+                                           [name], axis=1, name=f"{name}__dequantize"))
+    nodes = list(graph.node)
+    del graph.node[:]
+    graph.node.extend(dequantize + nodes)
+    onnx.checker.check_model(model)
+    onnx.save(model, str(dst))
+    return len(dequantize)

@@ -32,7 +32,7 @@ from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
 from mlct.generate.onnx_backend import OnnxMotionGenerator
 from mlct.generate.onnx_bundle import OnnxGraphs, weights_digest, write_onnx_graphs
-from mlct.generate.onnx_compact import float16_storage, quantize_int8
+from mlct.generate.onnx_compact import float16_storage, quantize_int8, quantize_int8_weights
 from mlct.generate.pipeline import bundled_model_dir
 from mlct.generate.prompts import MAX_PROMPT_CHARS
 from mlct.generate.samplers import ConsistencySampler, sampler_class
@@ -50,7 +50,10 @@ SITE_FORMAT, SITE_VERSION = "mlct-web", 1
 GRAPHS = {"text_encoder": "text_encoder.onnx", "denoiser": "denoiser.onnx",
           "decoder": "decoder.onnx"}
 VOCAB = "vocab.txt"
-TEXT_ENCODER_PRECISIONS = ("int8", "float32")
+# MiniLM's graph in the site (generate/onnx_compact.py): int8 arithmetic (the fastest in the
+# browser), int8 weights computed in float32 (closer to the float32 embeddings, several times
+# slower in ONNX Runtime Web, which dequantizes them on every run), or MiniLM's float32 (90 MB)
+TEXT_ENCODER_PRECISIONS = ("int8", "int8-weights", "float32")
 
 # The tokenizer.json settings that static/tokenizer.js implements; another tokenizer is refused.
 TOKENIZER = {"normalizer": {"type": "BertNormalizer", "clean_text": True,
@@ -101,8 +104,9 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
         "format": SITE_FORMAT, "version": SITE_VERSION, "mlct": __version__,
         "weights_sha256": weights_digest(model_dir),
         "graphs": GRAPHS,
-        "text_encoder": {"spec": spec, "precision": precision, "max_length": max_length, "dim": meta["text_dim"],
-                         "token_slots": token_slots_of(spec), **tokenizer},
+        "text_encoder": {"spec": spec, "precision": precision, "max_length": max_length,
+                         "dim": meta["text_dim"], "token_slots": token_slots_of(spec),
+                         **tokenizer},
         "sampler": {"name": sampler.name, "grid": [float(t) for t in sampler.grid],
                     "eta": schedule.eta, "time_scale": schedule.time_scale,
                     "beta_min": schedule.beta_min, "beta_max": schedule.beta_max,
@@ -123,7 +127,7 @@ def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
                 vendor: str | os.PathLike | None = None, text_encoder: str = "int8") -> Path:
     """Write the static site of model (a directory, or None / 'bundled') to out; returns out.
     vendor: a folder holding the npm tarballs (vendor.py), instead of the cache.
-    text_encoder: "int8" (23 MB, the default) or "float32" (90 MB, MiniLM's own numbers)."""
+    text_encoder: one of TEXT_ENCODER_PRECISIONS (int8 and int8-weights 23 MB, float32 90 MB)."""
     if text_encoder not in TEXT_ENCODER_PRECISIONS:
         raise MlctError(f"text_encoder must be one of {', '.join(TEXT_ENCODER_PRECISIONS)}, "
                         f"got {text_encoder!r}")
@@ -149,6 +153,9 @@ def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
         float16_storage(graphs / GRAPHS["decoder"], folder / GRAPHS["decoder"])
         if text_encoder == "int8":
             quantize_int8(graphs / GRAPHS["text_encoder"], folder / GRAPHS["text_encoder"])
+        elif text_encoder == "int8-weights":
+            quantize_int8_weights(graphs / GRAPHS["text_encoder"],
+                                  folder / GRAPHS["text_encoder"])
         else:
             shutil.copyfile(graphs / GRAPHS["text_encoder"], folder / GRAPHS["text_encoder"])
         shutil.rmtree(graphs)
