@@ -86,7 +86,8 @@ def test_int8_weights_are_int8_on_disk_and_close_in_use(tmp_path) -> None:
     from mlct.onnx_io import export_graph
 
     torch.manual_seed(0)
-    layer = torch.nn.Sequential(torch.nn.Linear(256, 512), torch.nn.Tanh(), torch.nn.Linear(512, 64))
+    layer = torch.nn.Sequential(torch.nn.Linear(256, 512), torch.nn.Tanh(),
+                                torch.nn.Linear(512, 64))
     x = torch.randn(8, 256)
     export_graph(layer, (x,), tmp_path / "f32.onnx", ["x"], ["y"], {"x": {0: "b"}, "y": {0: "b"}})
     assert quantize_int8_weights(tmp_path / "f32.onnx", tmp_path / "w8.onnx") == 2

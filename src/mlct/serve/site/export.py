@@ -54,6 +54,9 @@ VOCAB = "vocab.txt"
 # browser), int8 weights computed in float32 (closer to the float32 embeddings, several times
 # slower in ONNX Runtime Web, which dequantizes them on every run), or MiniLM's float32 (90 MB)
 TEXT_ENCODER_PRECISIONS = ("int8", "int8-weights", "float32")
+# The denoiser's graph: float16 storage (the bundle's own numbers, 10 MB) or ONNX Runtime's
+# dynamic int8 (5 MB, faster in the page; joints ~6 mm from float16's, docs/web.md)
+DENOISER_PRECISIONS = ("float16", "int8")
 
 # The tokenizer.json settings that static/tokenizer.js implements; another tokenizer is refused.
 TOKENIZER = {"normalizer": {"type": "BertNormalizer", "clean_text": True,
@@ -89,7 +92,7 @@ def _tokenizer_settings(path: Path) -> dict[str, Any]:
 
 def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Path,
                      tokenizer: dict[str, Any], latent_shape: tuple[int, int],
-                     precision: str) -> dict[str, Any]:
+                     precision: str, denoiser: str) -> dict[str, Any]:
     """model.json: everything the page computes with, besides the graphs."""
     from mlct import __version__
     from mlct.config import config_from_dict
@@ -103,7 +106,7 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
     return {
         "format": SITE_FORMAT, "version": SITE_VERSION, "mlct": __version__,
         "weights_sha256": weights_digest(model_dir),
-        "graphs": GRAPHS,
+        "graphs": GRAPHS, "denoiser_precision": denoiser,
         "text_encoder": {"spec": spec, "precision": precision, "max_length": max_length,
                          "dim": meta["text_dim"], "token_slots": token_slots_of(spec),
                          **tokenizer},
@@ -124,13 +127,16 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
 
 
 def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
-                vendor: str | os.PathLike | None = None, text_encoder: str = "int8") -> Path:
+                vendor: str | os.PathLike | None = None, text_encoder: str = "int8",
+                denoiser: str = "float16") -> Path:
     """Write the static site of model (a directory, or None / 'bundled') to out; returns out.
     vendor: a folder holding the npm tarballs (vendor.py), instead of the cache.
-    text_encoder: one of TEXT_ENCODER_PRECISIONS (int8 and int8-weights 23 MB, float32 90 MB)."""
-    if text_encoder not in TEXT_ENCODER_PRECISIONS:
-        raise MlctError(f"text_encoder must be one of {', '.join(TEXT_ENCODER_PRECISIONS)}, "
-                        f"got {text_encoder!r}")
+    text_encoder: one of TEXT_ENCODER_PRECISIONS (int8 and int8-weights 23 MB, float32 90 MB);
+    denoiser: one of DENOISER_PRECISIONS."""
+    for name, value, known in (("text_encoder", text_encoder, TEXT_ENCODER_PRECISIONS),
+                               ("denoiser", denoiser, DENOISER_PRECISIONS)):
+        if value not in known:
+            raise MlctError(f"{name} must be one of {', '.join(known)}, got {value!r}")
     model_dir, out = resolve_model(model), Path(out)
     meta, tensors = read_bundle(model_dir)  # a bundle, or one line saying what is wrong
     if sampler_class(meta["sampler"]) is not ConsistencySampler:
@@ -149,7 +155,11 @@ def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
         (tmp / "float32").mkdir()
         graphs = write_onnx_graphs(model_dir, tmp / "float32")
         folder.mkdir()
-        float16_storage(graphs / GRAPHS["denoiser"], folder / GRAPHS["denoiser"])
+        if denoiser == "int8":
+            quantize_int8(graphs / GRAPHS["denoiser"], folder / GRAPHS["denoiser"],
+                          ("MatMul", "Gemm"))
+        else:
+            float16_storage(graphs / GRAPHS["denoiser"], folder / GRAPHS["denoiser"])
         float16_storage(graphs / GRAPHS["decoder"], folder / GRAPHS["decoder"])
         if text_encoder == "int8":
             quantize_int8(graphs / GRAPHS["text_encoder"], folder / GRAPHS["text_encoder"])
@@ -162,7 +172,7 @@ def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
         shutil.copyfile(bundled_minilm_path() / VOCAB, folder / VOCAB)
         latent = OnnxMotionGenerator(meta, tensors, _graphs(folder)).ae.latent_shape
         description = site_description(meta, tensors, model_dir, tokenizer, latent,
-                                       text_encoder)
+                                       text_encoder, denoiser)
         (folder / SITE_JSON).write_text(json.dumps(description) + "\n", encoding="utf-8")
         for item in STATIC.iterdir():
             if item.is_file():
