@@ -8,13 +8,16 @@ SharedArrayBuffer and ONNX Runtime Web runs on one thread), opens the page with 
 times window.mlct.generate on new sentences (each runs the text encoder; nothing is memoised):
 4 s motions (80 frames), batch 1. Prints the median and quartiles of the page's own timing
 (performance.now() around tokenize -> text encoder -> sampler -> decoder -> joints) and of its
-parts, after WARMUP sentences.
+parts, after WARMUP sentences. For comparison, on the same machine at the same time: the same
+graphs and steps in Python (ONNX Runtime's native CPU build, --python-threads threads,
+mlct.generate.portable_noise.generate_with_portable_noise).
 """
 
 from __future__ import annotations
 
 import argparse
 import functools
+import gzip
 import http.server
 import shutil
 import statistics
@@ -80,6 +83,23 @@ def measure(url: str, threads: int, count: int, nfe: int) -> None:
         print(f"  {name:<28} {quartiles([t[key] for t in timings])}")
 
 
+def measure_python(site: Path, threads: int, count: int, nfe: int) -> None:
+    import time
+
+    from mlct.generate.portable_noise import generate_with_portable_noise
+    from mlct.serve.site import load_site_reference
+
+    generator = load_site_reference(site, threads=threads)
+    times = []
+    for i, text in enumerate(sentences(WARMUP + count)):
+        start = time.perf_counter()
+        generate_with_portable_noise(generator, f"{text}.", 80, nfe, i)  # new: not memoised
+        if i >= WARMUP:
+            times.append((time.perf_counter() - start) * 1000)
+    print(f"python onnxruntime (native), {threads} thread(s), the same graphs: "
+          f"{quartiles(times)}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--site", type=Path, default=None, help="an exported site (default: "
@@ -87,6 +107,7 @@ def main() -> None:
     parser.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--sentences", type=int, default=20)
     parser.add_argument("--nfe", type=int, default=5)
+    parser.add_argument("--python-threads", type=int, default=1)
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         site = args.site
@@ -96,7 +117,9 @@ def main() -> None:
             site = export_site("bundled", Path(tmp) / "site")
         from mlct.serve.site import site_size
 
-        print(f"site: {site_size(site)['total'] / 1e6:.1f} MB")
+        packed = sum(len(gzip.compress(f.read_bytes(), 6)) for f in Path(site).rglob("*")
+                     if f.is_file())
+        print(f"site: {site_size(site)['total'] / 1e6:.1f} MB, {packed / 1e6:.1f} MB gzipped")
         server = http.server.ThreadingHTTPServer(
             ("127.0.0.1", 0), functools.partial(Isolated, directory=str(site)))
         threading.Thread(target=server.serve_forever, daemon=True).start()
@@ -104,6 +127,7 @@ def main() -> None:
         try:
             for threads in args.threads:
                 measure(url, threads, args.sentences, args.nfe)
+            measure_python(Path(site), args.python_threads, args.sentences, args.nfe)
         finally:
             server.shutdown()
 
