@@ -101,3 +101,10 @@ def test_int8_weights_are_int8_on_disk_and_close_in_use(tmp_path) -> None:
         assert 0 < error < 0.03, (name, error)
     # weight-only keeps float32 arithmetic: closer than int8 activations
     assert np.abs(run("w8.onnx") - exact).max() < np.abs(run("d8.onnx") - exact).max()
+
+
+def test_a_folder_that_is_no_site_is_refused_by_the_reference(tmp_path) -> None:
+    from mlct.serve.site import load_site_reference
+
+    with pytest.raises(MlctError, match="not an mlct web site"):
+        load_site_reference(tmp_path)

@@ -33,7 +33,8 @@ MIN_FP16_SIZE = 1024  # smaller initializers (biases of norms, shapes) stay as t
 QUANTIZED_OPS = ("MatMul", "Gather")  # the matrix products and the word-embedding table
 
 
-def _onnx():
+def require_onnx():
+    """The onnx module; MlctError saying how to install it when it is missing."""
     try:
         import onnx
     except ImportError:
@@ -45,7 +46,7 @@ def _onnx():
 def float16_storage(src: str | os.PathLike, dst: str | os.PathLike) -> int:
     """Copy graph src to dst with each float32 weight that float16 holds exactly stored as
     float16 and cast back at the graph's start; returns how many weights were converted."""
-    onnx = _onnx()
+    onnx = require_onnx()
     from onnx import TensorProto, helper, numpy_helper
 
     model = onnx.load(str(src))
@@ -75,7 +76,7 @@ def quantize_int8(src: str | os.PathLike, dst: str | os.PathLike,
                   op_types: tuple[str, ...] = QUANTIZED_OPS) -> Path:
     """ONNX Runtime's dynamic int8 quantization (weights per channel, symmetric; activations
     at run time) of src's operators of op_types, written to dst."""
-    _onnx()
+    require_onnx()
     try:
         from onnxruntime.quantization import QuantType, quantize_dynamic
     except ImportError:
@@ -94,7 +95,7 @@ def quantize_int8_weights(src: str | os.PathLike, dst: str | os.PathLike) -> int
     each matrix product's 2-d weight stored as int8 with a float32 scale per output column,
     DequantizeLinear -> float32 in the graph (weight-only: the arithmetic stays float32);
     written to dst. Returns how many weights were stored as int8."""
-    onnx = _onnx()
+    onnx = require_onnx()
     from onnx import helper, numpy_helper
 
     with tempfile.TemporaryDirectory() as tmp:

@@ -32,12 +32,14 @@ from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
 from mlct.generate.onnx_backend import OnnxMotionGenerator
 from mlct.generate.onnx_bundle import OnnxGraphs, weights_digest, write_onnx_graphs
-from mlct.generate.onnx_compact import float16_storage, quantize_int8, quantize_int8_weights
+from mlct.generate.onnx_compact import (float16_storage, quantize_int8,
+                                        quantize_int8_weights, require_onnx)
 from mlct.generate.pipeline import bundled_model_dir
 from mlct.generate.prompts import MAX_PROMPT_CHARS
 from mlct.generate.samplers import ConsistencySampler, sampler_class
 from mlct.io import atomic_dir, check_writable_dir, read_format_json
 from mlct.motion.skeleton import get_skeleton
+from mlct.onnx_io import onnxruntime_module
 from mlct.text.encoders import bundled_minilm_path, token_slots_of
 from mlct.text.minilm import check_pipeline
 from mlct.text.minilm_onnx import check_onnx_spec
@@ -143,6 +145,8 @@ def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
         raise MlctError(f"{model_dir}: export-web runs consistency models (MLCT); this one "
                         f"samples with {meta['sampler']!r}")
     check_onnx_spec(meta["text_encoder"])
+    onnxruntime_module()  # the graphs are written with onnx and checked with onnxruntime:
+    require_onnx()  # their absence is said before the npm download
     tokenizer = _tokenizer_settings(bundled_minilm_path())
     check_writable_dir(out)
     if out.exists() and (not out.is_dir() or (any(out.iterdir())
