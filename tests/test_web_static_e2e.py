@@ -77,6 +77,16 @@ def page(url, tmp_path_factory):
         context = p.chromium.launch_persistent_context(
             str(tmp_path_factory.mktemp("profile")), executable_path=CHROMIUM, args=FLAGS,
             headless=True, viewport={"width": 1280, "height": 860}, accept_downloads=True)
+        outside: list[str] = []  # the site must not reach past its own server (no CDN)
+
+        def local_only(route):
+            if route.request.url.startswith(url):
+                route.continue_()
+            else:
+                outside.append(route.request.url)
+                route.abort()
+
+        context.route("**/*", local_only)
         page = context.new_page()
         errors: list[str] = []
         page.on("pageerror", lambda error: errors.append(str(error)))
@@ -85,7 +95,7 @@ def page(url, tmp_path_factory):
         assert page.evaluate("window.mlct.lastMotion !== null"), page.inner_text("#status")
         yield page
         context.close()
-        assert errors == []
+        assert errors == [] and outside == []
 
 
 @pytest.fixture(scope="module")
@@ -125,6 +135,18 @@ def test_page_joints_match_the_python_onnx_path(page, reference, tmp_path):
     red = (before[..., 0] > 150) & (before[..., 1] < 110) & (before[..., 2] < 110)
     blue = (before[..., 2] > 150) & (before[..., 0] < 110)
     assert red.sum() > 30 and blue.sum() > 30  # right and left limbs in their colours
+
+    # pause holds the frame; the scrubber moves it
+    page.click("#play")
+    page.wait_for_timeout(150)
+    frame = page.evaluate("window.mlct.state.frame")
+    page.wait_for_timeout(300)
+    assert page.evaluate("window.mlct.state.frame") == frame
+    assert page.inner_text("#play") == "Play"
+    page.locator("#scrub").fill("30")
+    page.wait_for_function("window.mlct.state.frame === 30", timeout=5_000)
+    assert page.inner_text("#clock").startswith("1.50 /")
+    page.click("#play")
 
     # the downloads are the motion on screen
     for fmt in ("json", "npy"):

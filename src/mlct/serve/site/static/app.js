@@ -14,7 +14,7 @@ const EXAMPLES = ["a person walks forward at a brisk pace.", "a person jumps up 
   "someone bows.", "a man kicks with his right leg."];
 
 const $ = (id) => document.getElementById(id);
-const state = { motion: null, frame: 0, clock: 0, last: null, playing: true, busy: false };
+const state = { motion: null, frame: 0, clock: 0, last: null, playing: true, busy: false, speed: 1 };
 window.mlct = { ready: false, model: null, lastMotion: null, timings: [], state };
 
 // --- the 3D view -------------------------------------------------------------------------
@@ -120,7 +120,7 @@ function tick(now) {
   requestAnimationFrame(tick);
   const motion = state.motion;
   if (motion && !state.busy) {
-    if (state.playing && state.last !== null) state.clock += (now - state.last) / 1000;
+    if (state.playing && state.last !== null) state.clock += ((now - state.last) / 1000) * state.speed;
     const total = motion.frames / motion.skeleton.fps;
     state.clock %= total;
     const index = Math.min(motion.frames - 1, Math.floor(state.clock * motion.skeleton.fps));
@@ -211,6 +211,7 @@ function download(format) {
 function bind() {
   $("prompt-form").addEventListener("submit", (event) => { event.preventDefault(); generate().catch(() => {}); });
   $("play").addEventListener("click", () => setPlaying(!state.playing));
+  $("speed").addEventListener("change", () => { state.speed = Number($("speed").value); });
   $("scrub").addEventListener("input", () => {
     const index = Number($("scrub").value);
     state.clock = index / state.motion.skeleton.fps;
