@@ -108,3 +108,14 @@ def test_a_folder_that_is_no_site_is_refused_by_the_reference(tmp_path) -> None:
 
     with pytest.raises(MlctError, match="not an mlct web site"):
         load_site_reference(tmp_path)
+
+
+def test_a_vendored_tarball_that_is_not_the_pinned_one_is_refused(tmp_path) -> None:
+    from mlct.serve.site.vendor import copy_vendor_files, pins
+
+    for pin in pins():
+        (tmp_path / pin.tarball).write_bytes(b"not the package")
+    with pytest.raises(MlctError, match="sha512 differs"):
+        copy_vendor_files(tmp_path / "out", vendor=tmp_path)
+    assert [p.name for p in pins()] == ["onnxruntime-web", "three"]
+    assert all(p.integrity.startswith("sha512-") for p in pins())
