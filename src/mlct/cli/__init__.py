@@ -12,13 +12,15 @@ import argparse
 import os
 import sys
 
-from mlct.cli import convert, data, demo, export, generate, render, retarget, serve, train
+from mlct.cli import (convert, data, demo, export, export_web, generate, render, retarget, serve,
+                      train)
 from mlct.cli import eval as evaluate  # (not the builtin)
 from mlct.cli.parser import Parser
 from mlct.errors import MlctError
 
 # in the order `mlct --help` lists their commands
-COMMANDS = (data, demo, train, evaluate, export, convert, serve, generate, render, retarget)
+COMMANDS = (data, demo, train, evaluate, export, export_web, convert, serve, generate, render,
+            retarget)
 
 
 def _version() -> str:

@@ -21,8 +21,9 @@ DenoiseFn = Callable[[Tensor, Tensor], Tensor]  # (x (B, n, d), t (B,)) -> x0 es
 GuideFn = Callable[[Tensor], Tensor]  # x0 (B, n, d) -> x0 moved towards a control
 
 
-# one generator for the batch, or one per batch item
-Generators = Union[torch.Generator, Sequence[torch.Generator], None]
+# one generator for the batch, or one per batch item; or any object with randn(shape) -> Tensor
+# (the web page's portable noise, mlct.generate.portable_noise)
+Generators = Union[torch.Generator, Sequence[torch.Generator], object, None]
 
 
 def draw_noise(shape: tuple[int, ...], generator: Generators, like: Tensor) -> Tensor:
@@ -34,6 +35,8 @@ def draw_noise(shape: tuple[int, ...], generator: Generators, like: Tensor) -> T
         if len(generator) != shape[0]:
             raise ValueError(f"{len(generator)} generators for a batch of {shape[0]}")
         return torch.stack([draw_noise(shape[1:], g, like) for g in generator])
+    if hasattr(generator, "randn"):  # a portable stream (generate/portable_noise.py)
+        return generator.randn(shape).to(like.device, like.dtype)
     device = generator.device if generator is not None else like.device
     return torch.randn(shape, generator=generator, device=device,
                        dtype=torch.float32).to(like.device, like.dtype)

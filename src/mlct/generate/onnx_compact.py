@@ -1,0 +1,133 @@
+"""Smaller ONNX graphs for the web: weights stored in float16 where that is exact, and the text
+encoder quantized to int8. Graph-to-graph rewrites with the onnx package and ONNX Runtime's
+quantization tools (no torch.onnx, no sessions: those stay in mlct.onnx_io).
+
+Why: a static site (`mlct export-web`) downloads every graph; float32 graphs of the bundled model
+are 20 MB (denoiser), 4 MB (decoder) and 90 MB (MiniLM).
+- The bundle stores its weights in float16 (model.safetensors), so its float32 graphs hold
+  float16 values: stored as float16 with a Cast to float32 in front, each weight is the same
+  number and the graph computes the same thing (ONNX Runtime folds the casts at load), at half
+  the size. Weights that float16 would change (none in the bundled model) stay float32.
+- MiniLM's float32 weights do not fit float16 exactly and are 90 MB; int8 makes them 23 MB.
+  Two ways (docs/web.md has the figures): `quantize_int8`, ONNX Runtime's dynamic quantization
+  of the matrix products and the word-embedding table (int8 weights per channel, activations
+  quantized at run time, int8 arithmetic): the fastest, sentence vectors within a cosine of
+  0.99 of the float32 ones; or `quantize_int8_weights`, int8 storage of the matrix products'
+  weights dequantized to float32 inside the graph: cosine 0.999, but ONNX Runtime Web
+  dequantizes on every run (~8x slower in the page). The Python reference of the site
+  (tests/test_web_static_e2e.py) runs the same quantized graph as the page.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from mlct.errors import MlctError
+
+MIN_FP16_SIZE = 1024  # smaller initializers (biases of norms, shapes) stay as they are
+QUANTIZED_OPS = ("MatMul", "Gather")  # the matrix products and the word-embedding table
+
+
+def require_onnx():
+    """The onnx module; MlctError saying how to install it when it is missing."""
+    try:
+        import onnx
+    except ImportError:
+        raise MlctError("writing ONNX graphs needs the onnx package, which is not installed: "
+                        "pip install 'mlct[onnx]'") from None
+    return onnx
+
+
+def float16_storage(src: str | os.PathLike, dst: str | os.PathLike) -> int:
+    """Copy graph src to dst with each float32 weight that float16 holds exactly stored as
+    float16 and cast back at the graph's start; returns how many weights were converted."""
+    onnx = require_onnx()
+    from onnx import TensorProto, helper, numpy_helper
+
+    model = onnx.load(str(src))
+    graph = model.graph
+    casts, halves = [], []
+    for init in list(graph.initializer):
+        if init.data_type != TensorProto.FLOAT:
+            continue
+        weight = numpy_helper.to_array(init)
+        half = weight.astype(np.float16)
+        if weight.size < MIN_FP16_SIZE or not np.array_equal(half.astype(np.float32), weight):
+            continue  # float16 would change it: kept exact
+        graph.initializer.remove(init)
+        halves.append(numpy_helper.from_array(half, f"{init.name}__float16"))
+        casts.append(helper.make_node("Cast", [f"{init.name}__float16"], [init.name],
+                                      to=TensorProto.FLOAT, name=f"{init.name}__cast"))
+    graph.initializer.extend(halves)
+    nodes = list(graph.node)
+    del graph.node[:]
+    graph.node.extend(casts + nodes)  # before every use: the graph stays topologically sorted
+    onnx.checker.check_model(model)
+    onnx.save(model, str(dst))
+    return len(casts)
+
+
+def quantize_int8(src: str | os.PathLike, dst: str | os.PathLike,
+                  op_types: tuple[str, ...] = QUANTIZED_OPS) -> Path:
+    """ONNX Runtime's dynamic int8 quantization (weights per channel, symmetric; activations
+    at run time) of src's operators of op_types, written to dst."""
+    require_onnx()
+    try:
+        from onnxruntime.quantization import QuantType, quantize_dynamic
+    except ImportError:
+        raise MlctError("quantizing the text encoder needs ONNX Runtime, which is not "
+                        "installed: pip install 'mlct[onnx]'") from None
+    with tempfile.TemporaryDirectory() as tmp:  # its notes (augmented models) stay out of dst
+        quantize_dynamic(str(src), str(Path(tmp) / "quantized.onnx"),
+                         op_types_to_quantize=list(op_types), per_channel=True,
+                         weight_type=QuantType.QInt8)
+        shutil.move(str(Path(tmp) / "quantized.onnx"), str(dst))
+    return Path(dst)
+
+
+def quantize_int8_weights(src: str | os.PathLike, dst: str | os.PathLike) -> int:
+    """src's word-embedding table as ONNX Runtime's int8 lookup (quantize_int8 on Gather) and
+    each matrix product's 2-d weight stored as int8 with a float32 scale per output column,
+    DequantizeLinear -> float32 in the graph (weight-only: the arithmetic stays float32);
+    written to dst. Returns how many weights were stored as int8."""
+    onnx = require_onnx()
+    from onnx import helper, numpy_helper
+
+    with tempfile.TemporaryDirectory() as tmp:
+        quantize_int8(src, Path(tmp) / "gather.onnx", ("Gather",))
+        model = onnx.load(str(Path(tmp) / "gather.onnx"))
+    graph = model.graph
+    weights = {init.name: init for init in graph.initializer}
+    users: dict[str, set[str]] = {}
+    for node in graph.node:
+        for name in node.input:
+            users.setdefault(name, set()).add(node.op_type)
+    dequantize = []
+    for node in graph.node:
+        name = node.input[1] if node.op_type == "MatMul" else None
+        if name not in weights or users[name] != {"MatMul"}:
+            continue
+        weight = numpy_helper.to_array(weights.pop(name))
+        if weight.ndim != 2 or weight.dtype != np.float32:
+            continue
+        scale = np.abs(weight).max(axis=0) / 127.0  # (N,): one per output column
+        scale[scale == 0] = 1.0
+        q = np.clip(np.round(weight / scale), -127, 127).astype(np.int8)
+        graph.initializer.remove(next(i for i in graph.initializer if i.name == name))
+        graph.initializer.extend([numpy_helper.from_array(q, f"{name}__int8"),
+                                  numpy_helper.from_array(scale.astype(np.float32),
+                                                          f"{name}__scale")])
+        dequantize.append(helper.make_node("DequantizeLinear", [f"{name}__int8",
+                                                                f"{name}__scale"],
+                                           [name], axis=1, name=f"{name}__dequantize"))
+    nodes = list(graph.node)
+    del graph.node[:]
+    graph.node.extend(dequantize + nodes)
+    onnx.checker.check_model(model)
+    onnx.save(model, str(dst))
+    return len(dequantize)

@@ -1,0 +1,215 @@
+"""`mlct export-web`: a model as a static web site that generates motions in the browser.
+
+    mlct export-web --model bundled --out SITE/
+    python -m http.server -d SITE/ 8000    # any static file server; no Python model runs
+
+SITE/ holds
+- index.html, app.js, style.css and the page's modules (static/: the tokenizer, the portable
+  noise, the model pipeline, features -> joints, the 3D view);
+- model/: text_encoder.onnx (MiniLM, int8), denoiser.onnx and decoder.onnx (the onnx
+  backend's graphs, weights stored as float16: the same numbers; generate/onnx_compact.py),
+  vocab.txt (the WordPiece vocabulary) and model.json (sampler times and constants,
+  normalisation statistics, skeleton, sizes);
+- vendor/: onnxruntime-web's WASM runtime and three, from the npm packages that vendor.py pins.
+
+The browser runs what the onnx backend runs (generate/onnx_backend.py): tokenizer, text
+encoder, the consistency sampler around the denoiser (Algorithm 2), the decoder, the
+denormalisation and features -> joints, with the noise of generate/portable_noise.py in place
+of torch's, so `load_site_reference` gives the page's joints in Python (the end-to-end test).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from mlct.errors import MlctError
+from mlct.generate.bundle import read_bundle
+from mlct.generate.onnx_backend import OnnxMotionGenerator
+from mlct.generate.onnx_bundle import OnnxGraphs, weights_digest, write_onnx_graphs
+from mlct.generate.onnx_compact import (float16_storage, quantize_int8,
+                                        quantize_int8_weights, require_onnx)
+from mlct.generate.pipeline import bundled_model_dir
+from mlct.generate.prompts import MAX_PROMPT_CHARS
+from mlct.generate.samplers import ConsistencySampler, sampler_class
+from mlct.io import atomic_dir, check_writable_dir, read_format_json
+from mlct.motion.skeleton import get_skeleton
+from mlct.onnx_io import onnxruntime_module
+from mlct.text.encoders import bundled_minilm_path, token_slots_of
+from mlct.text.minilm import check_pipeline
+from mlct.text.minilm_onnx import check_onnx_spec
+from mlct.serve.site.vendor import copy_vendor_files
+
+STATIC = Path(__file__).resolve().parent / "static"
+MODEL_DIR = "model"  # in the site
+SITE_JSON = "model.json"
+SITE_FORMAT, SITE_VERSION = "mlct-web", 1
+GRAPHS = {"text_encoder": "text_encoder.onnx", "denoiser": "denoiser.onnx",
+          "decoder": "decoder.onnx"}
+VOCAB = "vocab.txt"
+# MiniLM's graph in the site (generate/onnx_compact.py): int8 arithmetic (the fastest in the
+# browser), int8 weights computed in float32 (closer to the float32 embeddings, several times
+# slower in ONNX Runtime Web, which dequantizes them on every run), or MiniLM's float32 (90 MB)
+TEXT_ENCODER_PRECISIONS = ("int8", "int8-weights", "float32")
+# The denoiser's graph: float16 storage (the bundle's own numbers, 10 MB) or ONNX Runtime's
+# dynamic int8 (5 MB, faster in the page; joints ~6 mm from float16's, docs/web.md)
+DENOISER_PRECISIONS = ("float16", "int8")
+
+# The tokenizer.json settings that static/tokenizer.js implements; another tokenizer is refused.
+TOKENIZER = {"normalizer": {"type": "BertNormalizer", "clean_text": True,
+                            "handle_chinese_chars": True, "strip_accents": None,
+                            "lowercase": True},
+             "pre_tokenizer": {"type": "BertPreTokenizer"}}
+WORDPIECE = {"type": "WordPiece", "unk_token": "[UNK]", "continuing_subword_prefix": "##",
+             "max_input_chars_per_word": 100}
+
+
+def resolve_model(model: str | os.PathLike | None) -> Path:
+    """A model directory, or the bundled model for None / 'bundled'."""
+    return bundled_model_dir() if model is None or str(model) == "bundled" else Path(model)
+
+
+def _tokenizer_settings(path: Path) -> dict[str, Any]:
+    """The MiniLM tokenizer's settings for the page; MlctError unless tokenizer.js does them."""
+    spec = json.loads((path / "tokenizer.json").read_text(encoding="utf-8"))
+    model = {k: v for k, v in spec["model"].items() if k != "vocab"}
+    if (spec.get("normalizer") != TOKENIZER["normalizer"]
+            or spec.get("pre_tokenizer") != TOKENIZER["pre_tokenizer"]
+            or any(model.get(k) != v for k, v in WORDPIECE.items())):
+        raise MlctError(f"{path}/tokenizer.json is not the BERT WordPiece tokenizer that the "
+                        f"web page implements")
+    vocab = (path / VOCAB).read_text(encoding="utf-8").splitlines()
+    if any(spec["model"]["vocab"].get(word) != i for i, word in enumerate(vocab)):
+        raise MlctError(f"{path}/{VOCAB} does not match tokenizer.json's vocabulary")
+    special = {t["content"]: t["id"] for t in spec.get("added_tokens", [])}
+    return {"vocab": VOCAB, "special_tokens": special, "cls": special["[CLS]"],
+            "sep": special["[SEP]"], "unk": special["[UNK]"],
+            "max_input_chars_per_word": WORDPIECE["max_input_chars_per_word"]}
+
+
+def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Path,
+                     tokenizer: dict[str, Any], latent_shape: tuple[int, int],
+                     precision: str, denoiser: str) -> dict[str, Any]:
+    """model.json: everything the page computes with, besides the graphs."""
+    from mlct import __version__
+    from mlct.config import config_from_dict
+
+    config = config_from_dict(meta["config"], "model config")
+    sampler = ConsistencySampler(config)
+    skeleton = get_skeleton(meta["skeleton"])
+    schedule = config.schedule
+    spec = meta["text_encoder"].strip().lower()
+    max_length = min(check_pipeline(bundled_minilm_path()), 512)
+    return {
+        "format": SITE_FORMAT, "version": SITE_VERSION, "mlct": __version__,
+        "weights_sha256": weights_digest(model_dir),
+        "graphs": GRAPHS, "denoiser_precision": denoiser,
+        "text_encoder": {"spec": spec, "precision": precision, "max_length": max_length,
+                         "dim": meta["text_dim"], "token_slots": token_slots_of(spec),
+                         **tokenizer},
+        "sampler": {"name": sampler.name, "grid": [float(t) for t in sampler.grid],
+                    "eta": schedule.eta, "time_scale": schedule.time_scale,
+                    "beta_min": schedule.beta_min, "beta_max": schedule.beta_max,
+                    "clamp": sampler.clamp, "default_nfe": sampler.default_steps,
+                    "max_nfe": sampler.max_steps},
+        "latent_shape": list(latent_shape), "latent_scale": schedule.latent_scale,
+        "feature_dim": meta["feature_dim"], "max_frames": config.data.max_motion_length,
+        "max_prompt_chars": MAX_PROMPT_CHARS,
+        "norm": {"mean": tensors["norm.mean"].float().tolist(),
+                 "std": tensors["norm.std"].float().tolist()},
+        "skeleton": {"name": skeleton.name, "unit": skeleton.unit, "fps": skeleton.fps,
+                     "joint_names": list(skeleton.joint_names),
+                     "parents": list(skeleton.parents)},
+    }
+
+
+def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
+                vendor: str | os.PathLike | None = None, text_encoder: str = "int8",
+                denoiser: str = "float16") -> Path:
+    """Write the static site of model (a directory, or None / 'bundled') to out; returns out.
+    vendor: a folder holding the npm tarballs (vendor.py), instead of the cache.
+    text_encoder: one of TEXT_ENCODER_PRECISIONS (int8 and int8-weights 23 MB, float32 90 MB);
+    denoiser: one of DENOISER_PRECISIONS."""
+    for name, value, known in (("text_encoder", text_encoder, TEXT_ENCODER_PRECISIONS),
+                               ("denoiser", denoiser, DENOISER_PRECISIONS)):
+        if value not in known:
+            raise MlctError(f"{name} must be one of {', '.join(known)}, got {value!r}")
+    model_dir, out = resolve_model(model), Path(out)
+    meta, tensors = read_bundle(model_dir)  # a bundle, or one line saying what is wrong
+    if sampler_class(meta["sampler"]) is not ConsistencySampler:
+        raise MlctError(f"{model_dir}: export-web runs consistency models (MLCT); this one "
+                        f"samples with {meta['sampler']!r}")
+    check_onnx_spec(meta["text_encoder"])
+    onnxruntime_module()  # the graphs are written with onnx and checked with onnxruntime:
+    require_onnx()  # their absence is said before the npm download
+    tokenizer = _tokenizer_settings(bundled_minilm_path())
+    check_writable_dir(out)
+    if out.exists() and (not out.is_dir() or (any(out.iterdir())
+                                              and not (out / MODEL_DIR / SITE_JSON).is_file())):
+        raise MlctError(f"{out} exists and is not an mlct web site; give a new or empty "
+                        f"directory to --out")
+    with atomic_dir(out) as tmp:
+        copy_vendor_files(tmp / "vendor", vendor)  # first: the likeliest to fail (network)
+        folder = tmp / MODEL_DIR
+        (tmp / "float32").mkdir()
+        graphs = write_onnx_graphs(model_dir, tmp / "float32")
+        folder.mkdir()
+        if denoiser == "int8":
+            quantize_int8(graphs / GRAPHS["denoiser"], folder / GRAPHS["denoiser"],
+                          ("MatMul", "Gemm"))
+        else:
+            float16_storage(graphs / GRAPHS["denoiser"], folder / GRAPHS["denoiser"])
+        float16_storage(graphs / GRAPHS["decoder"], folder / GRAPHS["decoder"])
+        if text_encoder == "int8":
+            quantize_int8(graphs / GRAPHS["text_encoder"], folder / GRAPHS["text_encoder"])
+        elif text_encoder == "int8-weights":
+            quantize_int8_weights(graphs / GRAPHS["text_encoder"],
+                                  folder / GRAPHS["text_encoder"])
+        else:
+            shutil.copyfile(graphs / GRAPHS["text_encoder"], folder / GRAPHS["text_encoder"])
+        shutil.rmtree(graphs)
+        shutil.copyfile(bundled_minilm_path() / VOCAB, folder / VOCAB)
+        latent = OnnxMotionGenerator(meta, tensors, _graphs(folder)).ae.latent_shape
+        description = site_description(meta, tensors, model_dir, tokenizer, latent,
+                                       text_encoder, denoiser)
+        (folder / SITE_JSON).write_text(json.dumps(description) + "\n", encoding="utf-8")
+        for item in STATIC.iterdir():
+            if item.is_file():
+                shutil.copyfile(item, tmp / item.name)
+    return out
+
+
+def _graphs(folder: Path) -> OnnxGraphs:
+    return OnnxGraphs(*(folder / GRAPHS[k] for k in ("text_encoder", "denoiser", "decoder")),
+                      manifest={})
+
+
+def load_site_reference(site: str | os.PathLike, model: str | os.PathLike | None = None,
+                        threads: int | None = None) -> OnnxMotionGenerator:
+    """The onnx backend running the site's own graphs (the int8 text encoder included), for
+    the model the site was made from: what the page computes, in Python. With
+    generate.portable_noise.generate_with_portable_noise, the page's motion for a seed."""
+    folder = Path(site) / MODEL_DIR
+    if not (folder / SITE_JSON).is_file():
+        raise MlctError(f"{site}: not an mlct web site (no {MODEL_DIR}/{SITE_JSON})")
+    description = read_format_json(folder / SITE_JSON, SITE_FORMAT, SITE_VERSION,
+                                   "an mlct web site's model description")
+    model_dir = resolve_model(model)
+    if description.get("weights_sha256") != weights_digest(model_dir):
+        raise MlctError(f"{site} was exported from another model than {model_dir}")
+    meta, tensors = read_bundle(model_dir)
+    return OnnxMotionGenerator(meta, tensors, _graphs(folder), threads=threads)
+
+
+def site_size(site: str | os.PathLike) -> dict[str, int]:
+    """Bytes per top-level entry of the site, and "total"."""
+    site = Path(site)
+    sizes = {item.name: (sum(f.stat().st_size for f in item.rglob("*") if f.is_file())
+                         if item.is_dir() else item.stat().st_size) for item in site.iterdir()}
+    sizes["total"] = sum(sizes.values())
+    return sizes

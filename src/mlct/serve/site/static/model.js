@@ -1,0 +1,162 @@
+// The model in the browser: text -> MiniLM (int8 ONNX) -> consistency sampler around the
+// denoiser graph (Algorithm 2) -> decoder graph -> denormalize -> joints. The same steps as
+// mlct's onnx backend (generate/onnx_backend.py, generate/samplers/consistency.py), with the
+// portable noise (noise.js) so that Python can give the same joints for a seed.
+"use strict";
+
+import * as ort from "./vendor/ort.wasm.min.mjs";
+import { WordPieceTokenizer } from "./tokenizer.js";
+import { PortableNoise } from "./noise.js";
+import { recoverFromRic } from "./motion.js";
+
+const PY_SPACE = /[\s\x1c-\x1f\x85]/u; // what Python's str.split() splits on (U+FEFF is no space)
+const CONTROL = /[\p{Cc}\p{Cf}\p{Cs}]/u;
+
+// mlct.generate.prompts.clean_prompt: white space runs collapsed; controls, empty, too long refused.
+export function cleanPrompt(text, maxChars) {
+  for (const ch of text) {
+    if (CONTROL.test(ch) && !(PY_SPACE.test(ch) && ch !== "\ufeff")) {
+      throw new Error(`the prompt contains the control character U+${ch.codePointAt(0).toString(16).toUpperCase().padStart(4, "0")}`);
+    }
+  }
+  const words = [];
+  let word = "";
+  for (const ch of text) {
+    if (PY_SPACE.test(ch) && ch !== "\ufeff") { if (word) words.push(word); word = ""; } else word += ch;
+  }
+  if (word) words.push(word);
+  const cleaned = words.join(" ");
+  if (!cleaned) throw new Error("the prompt is empty; describe a motion, e.g. 'a person walks forward'");
+  if (cleaned.length > maxChars) throw new Error(`the prompt has ${cleaned.length} characters; the limit is ${maxChars}`);
+  return cleaned;
+}
+
+// Python's round(): halves to even (frames from seconds as mlct.generate computes them).
+export function roundHalfEven(x) {
+  const r = Math.round(x);
+  return Math.abs(x % 1) === 0.5 && r % 2 !== 0 ? r - 1 : r;
+}
+
+export class MotionModel {
+  static async load(base = new URL(".", import.meta.url).href, { threads = 1 } = {}) {
+    ort.env.wasm.wasmPaths = new URL("vendor/", base).href;
+    ort.env.wasm.numThreads = threads;
+    const config = await (await fetch(new URL("model/model.json", base))).json();
+    const vocab = await (await fetch(new URL(`model/${config.text_encoder.vocab}`, base))).text();
+    const options = { executionProviders: ["wasm"], graphOptimizationLevel: "all" };
+    const session = (name) => ort.InferenceSession.create(new URL(`model/${config.graphs[name]}`, base).href, options);
+    const [text, denoiser, decoder] = await Promise.all(["text_encoder", "denoiser", "decoder"].map(session));
+    return new MotionModel(config, new WordPieceTokenizer(vocab, config.text_encoder), { text, denoiser, decoder }, threads);
+  }
+
+  constructor(config, tokenizer, sessions, threads) {
+    this.config = config;
+    this.tokenizer = tokenizer;
+    this.sessions = sessions;
+    this.threads = threads;
+    this.grid = Float32Array.from(config.sampler.grid);
+    this.memo = new Map(); // text -> embedding: a repeated prompt skips the encoder (as the pipeline)
+  }
+
+  get fps() { return this.config.skeleton.fps; }
+
+  framesFor(seconds) { return Math.max(1, roundHalfEven(seconds * this.fps)); }
+
+  // The text's embedding (1, c): pooled vector, then the first token states when the model has slots.
+  async encode(text) {
+    if (this.memo.has(text)) return this.memo.get(text);
+    const ids = this.tokenizer.encode(text);
+    const big = (values) => new ort.Tensor("int64", BigInt64Array.from(values, BigInt), [1, values.length]);
+    const out = await this.sessions.text.run({ ids: big(ids), mask: big(ids.map(() => 1)) });
+    const { token_slots: slots, dim } = this.config.text_encoder;
+    const width = out.embedding.dims[1];
+    const emb = new Float32Array(dim);
+    emb.set(out.embedding.data);
+    for (let k = 0; k < Math.min(slots, ids.length); k++) {
+      emb.set(out.states.data.subarray(k * width, (k + 1) * width), (1 + k) * width);
+    }
+    if (this.memo.size > 256) this.memo.delete(this.memo.keys().next().value);
+    this.memo.set(text, emb);
+    return emb;
+  }
+
+  // sampling_times: K grid times from T down, stride n // K (Algorithm 2).
+  times(steps) {
+    const n = this.grid.length;
+    const stride = Math.floor(n / steps);
+    return Array.from({ length: steps }, (_, i) => this.grid[n - 1 - stride * i]);
+  }
+
+  logAlpha(t) {
+    const { beta_min: b0, beta_max: b1 } = this.config.sampler;
+    return -(t * t) * (b1 - b0) / 4 - t * b0 / 2; // Eq. 10
+  }
+
+  // The clean latent (n * d), Algorithm 2 on S = c_skip x_t + c_out F (Eq. 11).
+  async sample(cond, steps, noise) {
+    const [n, d] = this.config.latent_shape;
+    const { eta, time_scale: scale, clamp } = this.config.sampler;
+    const size = n * d;
+    const times = this.times(steps);
+    const text = new ort.Tensor("float32", cond, [1, cond.length]);
+    let x = noise.normals(size); // x_T
+    const x0 = new Float32Array(size);
+    for (let k = 0; k < times.length; k++) {
+      const t = times[k];
+      const { f } = await this.sessions.denoiser.run({
+        x_t: new ort.Tensor("float32", x, [1, n, d]), t: new ort.Tensor("float32", Float32Array.of(t), [1]), text });
+      const st = scale * t;
+      const skip = eta * eta / (st * st + eta * eta);
+      const out = st / Math.sqrt(st * st + eta * eta);
+      for (let i = 0; i < size; i++) {
+        const v = skip * x[i] + out * f.data[i];
+        x0[i] = clamp === null ? v : Math.min(clamp, Math.max(-clamp, v));
+      }
+      if (k + 1 < times.length) { // re-noise to the next, lower time with fresh noise
+        const la = this.logAlpha(times[k + 1]);
+        const alpha = Math.exp(la);
+        const sigma = Math.sqrt(-Math.expm1(2 * la));
+        const z = noise.normals(size);
+        x = new Float32Array(size);
+        for (let i = 0; i < size; i++) x[i] = alpha * x0[i] + sigma * z[i];
+      }
+    }
+    return x0;
+  }
+
+  // Denormalized features (frames * D) of a clean latent.
+  async decode(latent, frames) {
+    const [n, d] = this.config.latent_shape;
+    const z = latent.map((v) => v / this.config.latent_scale);
+    const valid = new ort.Tensor("bool", new Uint8Array(frames).fill(1), [1, frames]);
+    const { features } = await this.sessions.decoder.run({ latent: new ort.Tensor("float32", z, [1, n, d]), valid });
+    const { mean, std } = this.config.norm;
+    const D = this.config.feature_dim;
+    const out = new Float32Array(frames * D);
+    for (let i = 0; i < out.length; i++) out[i] = features.data[i] * std[i % D] + mean[i % D];
+    return out;
+  }
+
+  // One motion: {text, seed, nfe, frames, features, joints (frames * J * 3), timing (ms)}.
+  async generate({ text, frames, nfe, seed }) {
+    const start = performance.now();
+    const clean = cleanPrompt(text, this.config.max_prompt_chars);
+    const { max_frames: maxFrames } = this.config;
+    const { max_nfe: maxNfe, default_nfe: defaultNfe } = this.config.sampler;
+    const steps = nfe ?? defaultNfe;
+    if (!Number.isInteger(frames) || frames < 1 || frames > maxFrames) {
+      throw new Error(`length ${frames} frames is outside 1..${maxFrames} (${(maxFrames / this.fps).toFixed(2)} s at ${this.fps} fps)`);
+    }
+    if (!Number.isInteger(steps) || steps < 1 || steps > maxNfe) throw new Error(`nfe must be within 1..${maxNfe}, got ${steps}`);
+    const noise = new PortableNoise(seed);
+    const cond = await this.encode(clean);
+    const encoded = performance.now();
+    const latent = await this.sample(cond, steps, noise);
+    const sampled = performance.now();
+    const features = await this.decode(latent, frames);
+    const joints = recoverFromRic(features, frames, this.config.feature_dim);
+    const end = performance.now();
+    return { text: clean, seed, nfe: steps, frames, features, joints, skeleton: this.config.skeleton,
+      timing: { total_ms: end - start, text_ms: encoded - start, sample_ms: sampled - encoded, decode_ms: end - sampled } };
+  }
+}

@@ -1,0 +1,121 @@
+"""The static site's Python side, without a browser: the portable noise (its numbers are the
+page's: tests/test_web_static_e2e.py checks them in Chromium), graphs stored as float16 with
+nothing changed, and `mlct export-web`'s refusals (before any work, nothing half-written)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from mlct.cli import main
+from mlct.diffusion.samplers import draw_noise
+from mlct.errors import MlctError
+from mlct.generate.portable_noise import PortableNoise, seed_key
+
+
+def test_portable_noise_is_a_seeded_standard_normal_stream() -> None:
+    z = PortableNoise(0).normals(200_000)
+    assert z.dtype == np.float32
+    assert abs(z.mean()) < 0.01 and abs(z.std() - 1) < 0.01
+    assert abs((z > 1.96).mean() - 0.025) < 0.002  # a normal's tail, not just its moments
+    # the first draws of seed 0, as noise.js gives them in the page (checked there)
+    np.testing.assert_allclose(z[:4], [-0.22490984, -1.020364, -0.32291436, -1.0482278],
+                               rtol=1e-6)
+    again = PortableNoise(0)
+    assert np.array_equal(np.concatenate([again.normals(6), again.normals(6)]), z[:12])
+    assert not np.array_equal(PortableNoise(1).normals(6), z[:6])
+    assert seed_key(2**40 + 5) != seed_key(5)  # the high 32 bits count
+    with pytest.raises(ValueError, match="seed"):
+        PortableNoise(-1)
+
+
+def test_the_samplers_draw_the_portable_noise() -> None:
+    got = draw_noise((2, 3, 4), PortableNoise(3), torch.empty(0))
+    assert got.shape == (2, 3, 4) and got.dtype == torch.float32
+    assert np.array_equal(got.numpy().reshape(-1), PortableNoise(3).normals(24))
+
+
+def test_float16_storage_keeps_every_number(tmp_path) -> None:
+    pytest.importorskip("onnx")
+    ort = pytest.importorskip("onnxruntime")
+    from mlct.generate.onnx_compact import float16_storage
+    from mlct.onnx_io import export_graph
+
+    layer = torch.nn.Sequential(torch.nn.Linear(64, 128), torch.nn.GELU(), torch.nn.Linear(128, 32))
+    with torch.no_grad():
+        layer[0].weight.copy_(layer[0].weight.half().float())  # float16 numbers in float32
+        layer[2].weight.add_(1e-5)  # not float16 numbers: must stay float32
+    x = torch.randn(5, 64)
+    export_graph(layer, (x,), tmp_path / "f32.onnx", ["x"], ["y"], {"x": {0: "b"}, "y": {0: "b"}})
+    assert float16_storage(tmp_path / "f32.onnx", tmp_path / "f16.onnx") == 1
+    run = lambda name: ort.InferenceSession(str(tmp_path / name)).run(None, {"x": x.numpy()})[0]
+    assert np.array_equal(run("f16.onnx"), run("f32.onnx"))
+    saved = (tmp_path / "f32.onnx").stat().st_size - (tmp_path / "f16.onnx").stat().st_size
+    assert saved > 64 * 128 * 2 * 0.9  # the converted weight's two bytes a number
+
+
+def test_export_web_refuses_a_bad_out_or_vendor_before_any_work(tmp_path, capsys) -> None:
+    from mlct.serve.site import export_site
+
+    a_file = tmp_path / "site.txt"
+    a_file.write_text("not a site")
+    assert main(["export-web", "--out", str(a_file)]) == 2
+    assert "site.txt is not a directory" in capsys.readouterr().err
+    full = tmp_path / "full"
+    full.mkdir()
+    (full / "keep.txt").write_text("mine")
+    with pytest.raises(MlctError, match="not an mlct web site"):
+        export_site("bundled", full)
+    assert (full / "keep.txt").read_text() == "mine"
+    empty_vendor = tmp_path / "vendor"
+    empty_vendor.mkdir()
+    with pytest.raises(MlctError, match=r"no onnxruntime-web-[0-9.]+\.tgz .*npm pack"):
+        export_site("bundled", tmp_path / "site", vendor=empty_vendor)
+    assert not (tmp_path / "site").exists()  # nothing half-written
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+    assert main(["export-web", "--model", str(tmp_path / "nope"), "--out",
+                 str(tmp_path / "s")]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_int8_weights_are_int8_on_disk_and_close_in_use(tmp_path) -> None:
+    pytest.importorskip("onnx")
+    ort = pytest.importorskip("onnxruntime")
+    from mlct.generate.onnx_compact import quantize_int8, quantize_int8_weights
+    from mlct.onnx_io import export_graph
+
+    torch.manual_seed(0)
+    layer = torch.nn.Sequential(torch.nn.Linear(256, 512), torch.nn.Tanh(),
+                                torch.nn.Linear(512, 64))
+    x = torch.randn(8, 256)
+    export_graph(layer, (x,), tmp_path / "f32.onnx", ["x"], ["y"], {"x": {0: "b"}, "y": {0: "b"}})
+    assert quantize_int8_weights(tmp_path / "f32.onnx", tmp_path / "w8.onnx") == 2
+    quantize_int8(tmp_path / "f32.onnx", tmp_path / "d8.onnx")
+    run = lambda name: ort.InferenceSession(str(tmp_path / name)).run(None, {"x": x.numpy()})[0]
+    exact = run("f32.onnx")
+    size = lambda name: (tmp_path / name).stat().st_size
+    for name in ("w8.onnx", "d8.onnx"):
+        assert size(name) < 0.3 * size("f32.onnx")  # a byte a weight, not four
+        error = np.abs(run(name) - exact).max() / np.abs(exact).max()
+        assert 0 < error < 0.03, (name, error)
+    # weight-only keeps float32 arithmetic: closer than int8 activations
+    assert np.abs(run("w8.onnx") - exact).max() < np.abs(run("d8.onnx") - exact).max()
+
+
+def test_a_folder_that_is_no_site_is_refused_by_the_reference(tmp_path) -> None:
+    from mlct.serve.site import load_site_reference
+
+    with pytest.raises(MlctError, match="not an mlct web site"):
+        load_site_reference(tmp_path)
+
+
+def test_a_vendored_tarball_that_is_not_the_pinned_one_is_refused(tmp_path) -> None:
+    from mlct.serve.site.vendor import copy_vendor_files, pins
+
+    for pin in pins():
+        (tmp_path / pin.tarball).write_bytes(b"not the package")
+    with pytest.raises(MlctError, match="sha512 differs"):
+        copy_vendor_files(tmp_path / "out", vendor=tmp_path)
+    assert [p.name for p in pins()] == ["onnxruntime-web", "three"]
+    assert all(p.integrity.startswith("sha512-") for p in pins())

@@ -1,0 +1,201 @@
+"""The static site of `mlct export-web` end to end in headless Chromium: export the bundled model,
+serve the folder with a plain static file server, type a prompt, generate in the page, and
+compare the joints the page computed with the Python ONNX path (the site's own graphs, the same
+portable noise) for the same seed.
+
+Needs Debian's chromium and playwright (skipped without them, as tests/test_web_e2e.py), onnx
+and onnxruntime, and the npm tarballs of onnxruntime-web and three (fetched once into
+~/.cache/mlct/web, or MLCT_WEB_CACHE). Set MLCT_WEB_SCREENSHOT=PATH to keep the page's picture
+(docs/img/web_static.png is made this way).
+"""
+
+from __future__ import annotations
+
+import functools
+import http.server
+import io
+import json
+import os
+import shutil
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+if not os.path.exists(CHROMIUM):
+    pytest.skip("Debian's chromium is not installed (apt-get install chromium)",
+                allow_module_level=True)
+playwright = pytest.importorskip("playwright.sync_api",
+                                 reason="playwright is not installed (pip install playwright)")
+pytest.importorskip("onnx")
+pytest.importorskip("onnxruntime")
+Image = pytest.importorskip("PIL.Image")
+
+from mlct.errors import MlctError
+from mlct.generate.portable_noise import PortableNoise, generate_with_portable_noise
+from mlct.serve.site import export_site, load_site_reference
+
+pytestmark = pytest.mark.slow  # an export (graphs, quantization) and a browser
+
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--use-angle=swiftshader", "--enable-unsafe-swiftshader"]
+PROMPT = "a person jumps up and down."
+HERE = Path(__file__).resolve().parent
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory):
+    try:
+        return export_site("bundled", tmp_path_factory.mktemp("web") / "site")
+    except MlctError as error:
+        if "cannot fetch" in str(error):  # no network and no cached npm tarballs
+            pytest.skip(str(error))
+        raise
+
+
+class Quiet(http.server.SimpleHTTPRequestHandler):
+    def log_message(self, *args):  # keep the test output clean
+        pass
+
+
+@pytest.fixture(scope="module")
+def url(site):
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0),
+                                             functools.partial(Quiet, directory=str(site)))
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield f"http://127.0.0.1:{server.server_address[1]}/"
+    server.shutdown()
+
+
+@pytest.fixture(scope="module")
+def page(url, tmp_path_factory):
+    with playwright.sync_playwright() as p:
+        context = p.chromium.launch_persistent_context(
+            str(tmp_path_factory.mktemp("profile")), executable_path=CHROMIUM, args=FLAGS,
+            headless=True, viewport={"width": 1280, "height": 860}, accept_downloads=True)
+        outside: list[str] = []  # the site must not reach past its own server (no CDN)
+
+        def local_only(route):
+            if route.request.url.startswith(url):
+                route.continue_()
+            else:
+                outside.append(route.request.url)
+                route.abort()
+
+        context.route("**/*", local_only)
+        page = context.new_page()
+        errors: list[str] = []
+        page.on("pageerror", lambda error: errors.append(str(error)))
+        page.goto(url)
+        page.wait_for_function("window.mlct && window.mlct.ready", timeout=120_000)
+        assert page.evaluate("window.mlct.lastMotion !== null"), page.inner_text("#status")
+        yield page
+        context.close()
+        assert errors == [] and outside == []
+
+
+@pytest.fixture(scope="module")
+def reference(site):
+    return load_site_reference(site, threads=1)
+
+
+def view_pixels(page) -> np.ndarray:
+    return np.asarray(Image.open(io.BytesIO(page.locator("#view").screenshot())).convert("RGB"))
+
+
+def test_page_joints_match_the_python_onnx_path(page, reference, tmp_path):
+    page.fill("#prompt", PROMPT)
+    page.fill("#seed", "7")
+    page.locator("#seconds").fill("3")  # 60 frames at 20 fps
+    page.press("#prompt", "Enter")
+    page.wait_for_function(f"window.mlct.lastMotion.text === {json.dumps(PROMPT)}",
+                           timeout=60_000)
+    got = page.evaluate("window.mlct.lastMotion")
+    assert (got["seed"], got["nfe"], got["frames"]) == (7, 5, 60)
+    joints = np.asarray(got["joints"], dtype=np.float32).reshape(60, 22, 3)
+    _, expected = generate_with_portable_noise(reference, PROMPT, 60, 5, 7)
+    scale = float(np.ptp(expected[..., 1]))  # the skeleton's height over the motion, ~1.7 m
+    gap = float(np.abs(joints - expected).max())
+    assert scale > 1.0 and gap <= 1e-3 * scale, f"{gap:.3g} m apart (scale {scale:.2f} m)"
+    # another seed is another motion: the comparison above can fail
+    _, other = generate_with_portable_noise(reference, PROMPT, 60, 5, 8)
+    assert np.abs(other - expected).max() > 100 * 1e-3 * scale
+    assert "ms" in page.inner_text("#timing")
+
+    # the skeleton is drawn and moves
+    page.wait_for_timeout(300)
+    before = view_pixels(page)
+    page.wait_for_timeout(500)
+    after = view_pixels(page)
+    assert (np.abs(before.astype(int) - after.astype(int)).max(-1) > 30).mean() > 1e-4
+    red = (before[..., 0] > 150) & (before[..., 1] < 110) & (before[..., 2] < 110)
+    blue = (before[..., 2] > 150) & (before[..., 0] < 110)
+    assert red.sum() > 30 and blue.sum() > 30  # right and left limbs in their colours
+
+    # pause holds the frame; the scrubber moves it
+    page.click("#play")
+    page.wait_for_timeout(150)
+    frame = page.evaluate("window.mlct.state.frame")
+    page.wait_for_timeout(300)
+    assert page.evaluate("window.mlct.state.frame") == frame
+    assert page.inner_text("#play") == "Play"
+    page.locator("#scrub").fill("30")
+    page.wait_for_function("window.mlct.state.frame === 30", timeout=5_000)
+    assert page.inner_text("#clock").startswith("1.50 /")
+    page.click("#play")
+
+    # the downloads are the motion on screen
+    for fmt in ("json", "npy"):
+        with page.expect_download(timeout=10_000) as download:
+            page.click(f"#dl-{fmt}")
+        path = tmp_path / download.value.suggested_filename
+        download.value.save_as(path)
+        assert path.name.startswith("a_person_jumps_up_and_down_seed7") and path.suffix == f".{fmt}"
+        data = (np.asarray(json.loads(path.read_text())["joints"]) if fmt == "json"
+                else np.load(path))
+        assert data.shape == (60, 22, 3) and np.abs(data - joints).max() <= 1e-4
+
+    shot = tmp_path / "web_static.png"
+    page.screenshot(path=str(shot))
+    if os.environ.get("MLCT_WEB_SCREENSHOT"):
+        target = Path(os.environ["MLCT_WEB_SCREENSHOT"])
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(shot, target)
+
+
+def test_tokenizer_matches_the_python_tokenizer(page, reference):
+    prompts = json.loads((HERE.parent / "bench" / "data" / "quality_prompts.json").read_text())
+    texts = [item["text"] for key in ("paraphrases", "two_actions") for item in prompts[key]]
+    texts += json.loads((HERE / "data" / "tokenizer_texts.json").read_text())  # the odd cases
+    # and each in capitals, title case and with punctuation glued on
+    texts += [v for t in texts for v in (t.upper(), t.title(), f"«{t.replace(' ', ', ', 1)}»?!")]
+    texts.append(" ".join(texts[:40]))  # past max_length: truncated
+    assert len(texts) > 300
+    tokenizer = reference.text_encoder.tokenizer
+    expected = [tokenizer.encode(t).ids for t in texts]
+    got = page.evaluate("(texts) => texts.map((t) => window.mlct.model.tokenizer.encode(t))", texts)
+    wrong = [t for t, a, b in zip(texts, got, expected) if a != b]
+    assert wrong == []
+    assert max(map(len, expected)) == 256  # the long text is truncated, as in Python
+
+
+def test_noise_matches_python(page):
+    for seed in (0, 1, 123456, 2**40 + 5):
+        got = page.evaluate("async ([seed]) => Array.from(new (await import('./noise.js'))"
+                            ".PortableNoise(seed).normals(7))", [seed])
+        assert np.array_equal(np.float32(got), PortableNoise(seed).normals(7))
+
+
+def test_bad_prompt_shows_a_message_and_the_page_recovers(page):
+    page.fill("#prompt", "   ")
+    page.press("#prompt", "Enter")
+    page.wait_for_function("document.getElementById('status').classList.contains('error')",
+                           timeout=10_000)
+    assert "prompt is empty" in page.inner_text("#status")
+    page.click("#gallery button >> nth=4")  # "someone bows."
+    page.wait_for_function("window.mlct.lastMotion.text === 'someone bows.'", timeout=60_000)
+    assert not page.evaluate("document.getElementById('status').classList.contains('error')")
