@@ -43,6 +43,7 @@ from mlct.onnx_io import onnxruntime_module
 from mlct.text.encoders import bundled_minilm_path, token_slots_of
 from mlct.text.minilm import check_pipeline
 from mlct.text.minilm_onnx import check_onnx_spec
+from mlct.text.sides import SIDE_CONTRAST, SIDES_SUFFIX
 from mlct.serve.site.vendor import copy_vendor_files
 
 STATIC = Path(__file__).resolve().parent / "static"
@@ -111,6 +112,8 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
         "graphs": GRAPHS, "denoiser_precision": denoiser,
         "text_encoder": {"spec": spec, "precision": precision, "max_length": max_length,
                          "dim": meta["text_dim"], "token_slots": token_slots_of(spec),
+                         # text/sides.py: e + alpha (e - e(mirror)) for 'minilm+sides', else 0
+                         "side_contrast": SIDE_CONTRAST if spec.endswith(SIDES_SUFFIX) else 0.0,
                          **tokenizer},
         "sampler": {"name": sampler.name, "grid": [float(t) for t in sampler.grid],
                     "eta": schedule.eta, "time_scale": schedule.time_scale,

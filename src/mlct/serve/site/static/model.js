@@ -13,6 +13,20 @@ const PY_SPACE = /[\s\x1c-\x1f\x85]/u; // what Python's str.split() splits on (U
 const CONTROL = /[\p{Cc}\p{Cf}\p{Cs}]/u;
 
 // mlct.generate.prompts.clean_prompt: white space runs collapsed; controls, empty, too long refused.
+// text/sides.py's mirror: every side word swapped, capitals kept. Python's \b is Unicode-aware,
+// hence the lookarounds on letters, marks, digits and "_" instead of JS's ASCII \b.
+const SIDE_MIRROR = { left: "right", right: "left", clockwise: "counterclockwise",
+  counterclockwise: "clockwise", anticlockwise: "clockwise" };
+const SIDE_WORD = /(?<![\p{L}\p{M}\p{N}_])(counterclockwise|anticlockwise|clockwise|right|left)(?![\p{L}\p{M}\p{N}_])/giu;
+
+export function mirrorSides(text) {
+  return text.replace(SIDE_WORD, (word) => {
+    const mirrored = SIDE_MIRROR[word.toLowerCase()];
+    if (word === word.toUpperCase()) return mirrored.toUpperCase();
+    return word[0] === word[0].toUpperCase() ? mirrored[0].toUpperCase() + mirrored.slice(1) : mirrored;
+  });
+}
+
 export function cleanPrompt(text, maxChars) {
   for (const ch of text) {
     if (CONTROL.test(ch) && !(PY_SPACE.test(ch) && ch !== "\ufeff")) {
@@ -62,9 +76,23 @@ export class MotionModel {
 
   framesFor(seconds) { return Math.max(1, roundHalfEven(seconds * this.fps)); }
 
-  // The text's embedding (1, c): pooled vector, then the first token states when the model has slots.
+  // The text's embedding (1, c): pooled vector, then the first token states when the model has
+  // slots; for a 'minilm+sides' model, side-contrasted as text/sides.py does.
   async encode(text) {
     if (this.memo.has(text)) return this.memo.get(text);
+    const emb = await this.embed(text);
+    const alpha = this.config.text_encoder.side_contrast || 0;
+    const mirrored = alpha > 0 ? mirrorSides(text) : text;
+    if (mirrored !== text) {
+      const other = await this.embed(mirrored);
+      for (let i = 0; i < emb.length; i++) emb[i] += alpha * (emb[i] - other[i]);
+    }
+    if (this.memo.size > 256) this.memo.delete(this.memo.keys().next().value);
+    this.memo.set(text, emb);
+    return emb;
+  }
+
+  async embed(text) {
     const ids = this.tokenizer.encode(text);
     const big = (values) => new ort.Tensor("int64", BigInt64Array.from(values, BigInt), [1, values.length]);
     const out = await this.sessions.text.run({ ids: big(ids), mask: big(ids.map(() => 1)) });
@@ -75,8 +103,6 @@ export class MotionModel {
     for (let k = 0; k < Math.min(slots, ids.length); k++) {
       emb.set(out.states.data.subarray(k * width, (k + 1) * width), (1 + k) * width);
     }
-    if (this.memo.size > 256) this.memo.delete(this.memo.keys().next().value);
-    this.memo.set(text, emb);
     return emb;
   }
 
