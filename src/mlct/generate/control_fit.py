@@ -242,24 +242,26 @@ def lock_feet(joints: np.ndarray, before: np.ndarray, skeleton: Skeleton,
             if not stance[t]:
                 t += 1
                 continue
-            # A stance ends early where the corrected toe has drifted STANCE_DRIFT from where it
-            # began: held longer, the leg stretches to its reach and snaps free in one frame (a
-            # 0.36 m pop, seen on a corrected walk); the rest of it plants the foot anew, after
-            # a gap (two planted positions in adjacent frames would be a pop too).
             end = t
-            while (end + 1 < len(joints) and stance[end + 1]
-                   and np.linalg.norm(out[end + 1, toe, [0, 2]] - out[t, toe, [0, 2]])
-                   < STANCE_DRIFT):
+            while end + 1 < len(joints) and stance[end + 1]:
                 end += 1
             hold = out[t:end + 1, toe, [0, 2]].mean(axis=0)  # where this stance plants the foot
-            for f in range(max(0, t - fade), min(len(joints), end + fade + 1)):
+            # The ease in and out lasts as long as it takes to move the foot RELEASE_STEP a frame
+            # at most: a foot held far from the corrected motion, let go over `fade` frames,
+            # snapped 0.36 m in one frame on a corrected walk.
+            ease = [max(fade, int(np.ceil(np.linalg.norm(hold - out[f, toe, [0, 2]])
+                                          / RELEASE_STEP))) for f in (t, end)]
+            for f in range(max(0, t - ease[0]), min(len(joints), end + ease[1] + 1)):
                 inside = min(f, end) if f > end else max(f, t)
-                w = 1.0 if t <= f <= end else 1.0 - abs(f - inside) / (fade + 1)
-                if w > weight[f]:
-                    weight[f] = w
-                    shift[f, [0, 2]] = w * (hold - out[inside, toe, [0, 2]])
-            # cut for drift: let the foot go for an ease-out and an ease-in before the next plant
-            t = end + 1 if end + 1 >= len(joints) or not stance[end + 1] else end + 2 * fade + 2
+                span = ease[1] if f > end else ease[0]
+                w = 1.0 if t <= f <= end else 1.0 - abs(f - inside) / (span + 1)
+                # summed, not the larger weight's alone: where one stance's ease-out meets the
+                # next one's ease-in, switching between their shifts was a pop
+                weight[f] += w
+                shift[f, [0, 2]] += w * (hold - out[inside, toe, [0, 2]])
+            t = end + 1
+        shift /= np.maximum(weight, 1.0)[:, None]  # overlapping stances: their weighted mean
+        weight = np.minimum(weight, 1.0)
         if pinned:  # a keyframe's leg stays exactly where it pins it, and the lock eases in
             near = np.abs(np.arange(len(joints))[:, None] - np.array(pinned)[None]).min(axis=1)
             eased = np.minimum(weight, near / (fade + 1))
@@ -283,7 +285,7 @@ def lock_feet(joints: np.ndarray, before: np.ndarray, skeleton: Skeleton,
 # path task alone at 2 cm/frame, 5 cm: 0.22. 4 cm/frame holds the model's own slow slides too.
 STANCE_HEIGHT = 0.08  # m
 STANCE_STEP = 0.04  # m per frame
-STANCE_DRIFT = 0.2  # m: the most one held stance may pull the foot from the corrected motion
+RELEASE_STEP = 0.05  # m per frame: the fastest a lock moves the foot as it eases in or out
 
 
 def reattach(made: np.ndarray, kept: np.ndarray, parts: Sequence[int],
