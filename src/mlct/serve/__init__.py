@@ -59,7 +59,21 @@ def run_server(model: Any = None, host: str = "127.0.0.1", port: int = 8000,
     if device is None and backend != "onnx":  # a GPU when there is one; onnx runs on the CPU
         device = resolve_device(None)
     generator = mlct.load(model, device=device, backend=backend)
+    _fetch_three()
     uvicorn.run(create_app(generator, settings), host=host, port=port, log_level="info")
+
+
+def _fetch_three() -> None:
+    """three.js for the page's humanoid, fetched once from the npm registry into the cache
+    (serve/three_files.py); a server without it keeps the skeleton view."""
+    from mlct.errors import MlctError, first_line
+    from mlct.serve.three_files import three_dir
+
+    try:
+        three_dir()
+    except (MlctError, OSError) as error:
+        print(f"mlct serve: warning: the page's 3D humanoid is off: {first_line(error)}",
+              file=sys.stderr)
 
 
 @contextlib.contextmanager

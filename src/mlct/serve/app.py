@@ -34,12 +34,13 @@ from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException
 
 from mlct import __version__
-from mlct.errors import MlctError
+from mlct.errors import MlctError, first_line
 from mlct.generate.exports import export_bytes, motion_json
 from mlct.generate.files import slug
 from mlct.serve.batcher import Batcher, QueueFull, ServerClosing
 from mlct.serve.schemas import Limits, one_line, request_model
 from mlct.serve.settings import ServeSettings
+from mlct.serve.three_files import three_dir
 
 log = logging.getLogger(__name__)
 
@@ -171,8 +172,21 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
         return FileResponse(str(path), media_type="text/javascript",
                             headers={"Cache-Control": "public, max-age=86400"})
 
+    _mount_three(app)  # before /static: the first mount that matches serves
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
     return app
+
+
+def _mount_three(app: FastAPI) -> None:
+    """three.js at /static/three/ from the pinned npm package (serve/three_files.py); without
+    it the page keeps its skeleton view and says why the humanoid is missing."""
+    try:
+        folder = three_dir(fetch=False)  # run_server fetched it, when it could
+    except (MlctError, OSError) as error:
+        log.warning("the web page's 3D humanoid is off: three.js unavailable (%s)",
+                    first_line(error))
+        return
+    app.mount("/static/three", StaticFiles(directory=folder), name="three")
 
 
 def _model_info(generator: Any) -> dict[str, Any]:
