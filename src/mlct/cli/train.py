@@ -1,4 +1,4 @@
-"""`mlct train ae|cm|diffusion|evaluator|classifier`: the model's stages, and the judges."""
+"""`mlct train ae|cm|diffusion|durations|evaluator|classifier`: the model's stages, and the judges."""
 
 from __future__ import annotations
 
@@ -65,6 +65,36 @@ def run_classifier(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_durations(args: argparse.Namespace) -> int:
+    """Fit the part-duration model (generate/durations.py) on the dataset's single-action
+    motions of one split, in the model's text space, and write it beside the model's weights."""
+    import numpy as np
+
+    import mlct
+    from mlct.data.layout import DatasetLayout
+    from mlct.eval.judge.action_classifier import read_labels
+    from mlct.generate.durations import describe, fit_durations, single_action_captions
+    from mlct.generate.pipeline import bundled_model_dir
+
+    model_dir = bundled_model_dir() if args.model == "bundled" else Path(args.model)
+    generator = mlct.load(model_dir, backend="torch")
+    names = set(DatasetLayout.existing(args.data).read_split(args.split))
+    labels = {k: v for k, v in read_labels(args.data).items() if k in names}
+    texts, seconds, groups = single_action_captions(labels)
+    embeddings = np.concatenate([generator.encode_text(texts[i:i + 256]).float().numpy()
+                                 for i in range(0, len(texts), 256)])
+    model = fit_durations(embeddings, seconds, generator.meta["text_encoder"], groups)
+    path = model.save(model_dir)
+    fit = model.fit
+    print(f"durations: {fit['captions']} captions of {fit['motions']} single-action motions "
+          f"({args.split}); held-out r2 {fit['held_out_r2']:.3f}, median error "
+          f"{100 * fit['held_out_median_error']:.1f} %; {path}")
+    examples = ["a person walks forward", "a person turns slightly left",
+                "a person sits down and stands up", "a person jumps twice"]
+    print(describe(model, examples, generator.encode_text(examples).float().numpy()))
+    return 0
+
+
 def _trainer_options(parser: argparse.ArgumentParser, what: str, batch_size: int) -> None:
     """The options the evaluator and the action classifier trainers share."""
     parser.add_argument("--data", required=True, type=Path, help="dataset directory")
@@ -82,7 +112,7 @@ def add_parser(commands: Commands) -> None:
     train = commands.add_parser("train", help="train a stage: ae, then cm (or diffusion); "
                                 "or the evaluator")
     stages = train.add_subparsers(dest="stage", required=True, parser_class=Parser,
-                                  metavar="{ae,cm,diffusion,evaluator,classifier}")
+                                  metavar="{ae,cm,diffusion,durations,evaluator,classifier}")
     for stage, help_text in (("ae", "stage 1: the motion autoencoder"),
                              ("cm", "stage 2: latent consistency training (MLCT)"),
                              ("diffusion", "stage 2 baseline: latent diffusion (DDIM + CFG)")):
@@ -106,6 +136,16 @@ def add_parser(commands: Commands) -> None:
                              help="cpu or cuda (default: cuda if available)")
         parser_.add_argument("--quiet", action="store_true", help="no progress bar")
         parser_.set_defaults(func=run_stage)
+
+    durations = stages.add_parser("durations", help="how long each action of a split prompt "
+                                  "takes: fitted on a labelled dataset, written beside a model")
+    durations.add_argument("--data", required=True, type=Path,
+                           help="a labelled dataset (labels.jsonl: `mlct data synth`)")
+    durations.add_argument("--model", required=True, metavar="MODEL_DIR",
+                           help="the exported model to add durations.json to ('bundled' = the "
+                           "model that ships with mlct)")
+    durations.add_argument("--split", default="train", help="the split to fit on (train)")
+    durations.set_defaults(func=run_durations)
 
     evaluator = stages.add_parser("evaluator", help="the text-motion matching evaluator of "
                                   "the standard metrics (Guo et al. 2022)")

@@ -24,6 +24,7 @@ import torch
 from safetensors.torch import load_file
 
 from mlct.errors import MlctError, first_line
+from mlct.generate.durations import read_durations
 from mlct.generate.samplers import SAMPLERS
 from mlct.io import read_format_json, strip_prefix
 
@@ -86,6 +87,9 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
     if missing:
         raise MlctError(f"{config_path}: incomplete model config (no {', '.join(missing)})")
     _check_meta(meta, config_path)
+    durations = read_durations(path, meta["text_encoder"], int(meta["text_dim"]))
+    if durations is not None:  # the parts of a split prompt share the clip by it
+        meta["durations"] = durations.to_json()
     try:
         tensors = load_file(str(weights))
     except Exception as err:  # safetensors raises several kinds on a damaged file

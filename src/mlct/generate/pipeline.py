@@ -33,6 +33,7 @@ from mlct.motion.features import recover_from_ric
 from mlct.motion.skeleton import get_skeleton
 from mlct.nn.inference import for_inference, weight_dtype
 from mlct.generate.compose import split_actions as split_actions_of
+from mlct.generate.durations import DurationModel, part_frames
 from mlct.generate.compose import split_concurrent
 from mlct.generate.prompts import clean_prompt
 
@@ -67,6 +68,9 @@ class MotionGenerator:
         self.mean = tensors["norm.mean"].float()
         self.std = tensors["norm.std"].float()
         self._text_encoder: TextEncoder | None = None
+        # how long each action of a split prompt takes (durations.json beside the weights)
+        self.durations = (DurationModel.from_json(meta["durations"], "the model's durations")
+                          if meta.get("durations") else None)
         self._text_memo: OrderedDict[str, Tensor] = OrderedDict()
 
     def _networks(self, tensors: dict[str, Tensor]) -> tuple[Any, Any]:
@@ -241,11 +245,13 @@ class MotionGenerator:
 
     def _chained(self, text: str, parts: list[str], frames: int, nfe: int | None, seed: int,
                  guidance: float | None) -> GeneratedMotion:
-        """One motion of `frames` doing parts[k] in turn, equal shares, under the whole text."""
+        """One motion of `frames` doing parts[k] in turn, under the whole text."""
         from mlct.generate.long_motion import generate_long
 
-        share = [frames // len(parts)] * len(parts)
-        share[-1] += frames - sum(share)
+        # each part's share in proportion to how long its action takes (durations.py; equal
+        # when the model has no duration model)
+        embeddings = self.encode_text(parts).float().cpu().numpy() if self.durations else parts
+        share = part_frames(self.durations, embeddings, frames, self.frames_for(MIN_PART_SECONDS))
         fps = self.skeleton.fps
         made = generate_long(self, parts, [n / fps for n in share], nfe=nfe, seed=seed,
                              guidance=guidance)
