@@ -44,6 +44,7 @@ from mlct.text.encoders import bundled_minilm_path, token_slots_of
 from mlct.text.minilm import check_pipeline
 from mlct.text.minilm_onnx import check_onnx_spec
 from mlct.text.sides import SIDE_CONTRAST, SIDES_SUFFIX
+from mlct.serve.site.pack import gzip_file, remove_with, unpacked
 from mlct.serve.site.vendor import copy_vendor_files
 
 STATIC = Path(__file__).resolve().parent / "static"
@@ -53,6 +54,7 @@ SITE_FORMAT, SITE_VERSION = "mlct-web", 1
 GRAPHS = {"text_encoder": "text_encoder.onnx", "denoiser": "denoiser.onnx",
           "decoder": "decoder.onnx"}
 VOCAB = "vocab.txt"
+WASM = "ort-wasm-simd-threaded.wasm"  # in vendor/: what the page gives ONNX Runtime Web itself
 # MiniLM's graph in the site (generate/onnx_compact.py): int8 arithmetic (the fastest in the
 # browser), int8 weights computed in float32 (closer to the float32 embeddings, several times
 # slower in ONNX Runtime Web, which dequantizes them on every run), or MiniLM's float32 (90 MB)
@@ -95,7 +97,7 @@ def _tokenizer_settings(path: Path) -> dict[str, Any]:
 
 def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Path,
                      tokenizer: dict[str, Any], latent_shape: tuple[int, int],
-                     precision: str, denoiser: str) -> dict[str, Any]:
+                     precision: str, denoiser: str, packed: bool = False) -> dict[str, Any]:
     """model.json: everything the page computes with, besides the graphs."""
     from mlct import __version__
     from mlct.config import config_from_dict
@@ -109,7 +111,9 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
     return {
         "format": SITE_FORMAT, "version": SITE_VERSION, "mlct": __version__,
         "weights_sha256": weights_digest(model_dir),
-        "graphs": GRAPHS, "denoiser_precision": denoiser,
+        # gzipped files (pack.py) end in .gz; the page unpacks them
+        "graphs": {k: v + (".gz" if packed else "") for k, v in GRAPHS.items()},
+        "wasm": WASM + (".gz" if packed else ""), "denoiser_precision": denoiser,
         "text_encoder": {"spec": spec, "precision": precision, "max_length": max_length,
                          "dim": meta["text_dim"], "token_slots": token_slots_of(spec),
                          # text/sides.py: e + alpha (e - e(mirror)) for 'minilm+sides', else 0
@@ -133,11 +137,12 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
 
 def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
                 vendor: str | os.PathLike | None = None, text_encoder: str = "int8",
-                denoiser: str = "float16") -> Path:
+                denoiser: str = "float16", gzip: bool = True) -> Path:
     """Write the static site of model (a directory, or None / 'bundled') to out; returns out.
     vendor: a folder holding the npm tarballs (vendor.py), instead of the cache.
     text_encoder: one of TEXT_ENCODER_PRECISIONS (int8 and int8-weights 23 MB, float32 90 MB);
-    denoiser: one of DENOISER_PRECISIONS."""
+    denoiser: one of DENOISER_PRECISIONS; gzip: store the graphs and the WASM binary gzipped
+    (pack.py: 35 MB instead of 52, the same numbers)."""
     for name, value, known in (("text_encoder", text_encoder, TEXT_ENCODER_PRECISIONS),
                                ("denoiser", denoiser, DENOISER_PRECISIONS)):
         if value not in known:
@@ -179,7 +184,10 @@ def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
         shutil.copyfile(bundled_minilm_path() / VOCAB, folder / VOCAB)
         latent = OnnxMotionGenerator(meta, tensors, _graphs(folder)).ae.latent_shape
         description = site_description(meta, tensors, model_dir, tokenizer, latent,
-                                       text_encoder, denoiser)
+                                       text_encoder, denoiser, packed=gzip)
+        if gzip:
+            for path in [folder / name for name in GRAPHS.values()] + [tmp / "vendor" / WASM]:
+                gzip_file(path)
         (folder / SITE_JSON).write_text(json.dumps(description) + "\n", encoding="utf-8")
         for item in STATIC.iterdir():
             if item.is_file():
@@ -206,7 +214,12 @@ def load_site_reference(site: str | os.PathLike, model: str | os.PathLike | None
     if description.get("weights_sha256") != weights_digest(model_dir):
         raise MlctError(f"{site} was exported from another model than {model_dir}")
     meta, tensors = read_bundle(model_dir)
-    return OnnxMotionGenerator(meta, tensors, _graphs(folder), threads=threads)
+    paths, scratch = unpacked({k: folder / v for k, v in description["graphs"].items()})
+    graphs = OnnxGraphs(*(paths[k] for k in ("text_encoder", "denoiser", "decoder")),
+                        manifest={})
+    generator = OnnxMotionGenerator(meta, tensors, graphs, threads=threads)
+    remove_with(generator, scratch)  # the unpacked graphs live as long as the generator
+    return generator
 
 
 def site_size(site: str | os.PathLike) -> dict[str, int]:
