@@ -131,7 +131,9 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
                  "std": tensors["norm.std"].float().tolist()},
         "skeleton": {"name": skeleton.name, "unit": skeleton.unit, "fps": skeleton.fps,
                      "joint_names": list(skeleton.joint_names),
-                     "parents": list(skeleton.parents)},
+                     "parents": list(skeleton.parents),
+                     # the rest pose of the page's BVH fit (static/bvh.js, as motion/rigfit.py)
+                     "rest_directions": skeleton.rest_directions.tolist()},
     }
 
 

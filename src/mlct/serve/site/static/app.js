@@ -7,6 +7,7 @@ import * as THREE from "three";
 import { OrbitControls } from "./vendor/OrbitControls.js";
 import { MotionModel } from "./model.js";
 import { motionJson, npyBytes } from "./motion.js";
+import { bvhText } from "./bvh.js";
 
 const COLOURS = { left: 0x2563eb, right: 0xdc2626, centre: 0x374151 };
 const EXAMPLES = ["a person walks forward at a brisk pace.", "a person jumps up and down.",
@@ -169,7 +170,7 @@ async function generate(req = null) {
     showStatus(`“${motion.text}” · ${motion.frames} frames, ${motion.nfe} steps, seed ${motion.seed}`);
     $("timing").textContent = `in this page: ${t.total_ms.toFixed(1)} ms (text ${t.text_ms.toFixed(1)},` +
       ` sampling ${t.sample_ms.toFixed(1)}, decoding + joints ${t.decode_ms.toFixed(1)}) · WASM, ${window.mlct.model.threads} thread(s)`;
-    for (const id of ["play", "scrub", "dl-json", "dl-npy"]) $(id).disabled = false;
+    for (const id of ["play", "scrub", "dl-json", "dl-npy", "dl-bvh"]) $(id).disabled = false;
     return motion;
   } catch (error) {
     showStatus(error.message, true);
@@ -185,6 +186,7 @@ async function generate(req = null) {
 const DOWNLOADS = {
   json: (m) => [JSON.stringify(motionJson(m)) + "\n", "application/json", "json"],
   npy: (m) => [npyBytes(m.joints, [m.frames, m.skeleton.joint_names.length, 3]), "application/octet-stream", "npy"],
+  bvh: (m) => [bvhText(m), "application/octet-stream", "bvh"], // rotations fitted in bvh.js
   // glb: the rig export's writer goes here.
 };
 
