@@ -114,6 +114,23 @@ def bvh_joints(path) -> np.ndarray:
     return clip.positions[:, [clip.joint_names.index(n) for n in names]] / 100.0
 
 
+def glb_joints(path, expected: np.ndarray) -> np.ndarray:
+    """A GLB's joints (T, 22, 3) in metres, skeleton order; checked against expected (the BVH
+    of the same motion, read back)."""
+    pytest.importorskip("pygltflib")
+    from mlct.motion.gltf import read_gltf
+    from mlct.motion.skeleton import get_skeleton
+
+    clip = read_gltf(path)
+    names = get_skeleton("humanml3d").joint_names
+    assert sorted(clip.joint_names) == sorted(names)
+    assert np.allclose(np.diff(clip.times), 1 / 20, atol=1e-6)
+    positions = clip.positions[:, [clip.joint_names.index(n) for n in names]]
+    assert positions.shape == expected.shape
+    assert np.abs(positions - expected).max() < 1e-4  # the BVH text's 1e-4 cm and degrees
+    return positions
+
+
 def check_bvh_fit(back: np.ndarray, joints: np.ndarray, tmp_path) -> None:
     """The page's BVH (read back) against the joints it was made of, and against Python's
     write_bvh of the same joints: a rigid skeleton gives a generated motion's joints back to
@@ -193,7 +210,17 @@ def test_page_joints_match_the_python_onnx_path(page, reference, tmp_path):
     path = tmp_path / download.value.suggested_filename
     download.value.save_as(path)
     assert path.suffix == ".bvh"
-    check_bvh_fit(bvh_joints(path), joints, tmp_path)
+    back = bvh_joints(path)
+    check_bvh_fit(back, joints, tmp_path)
+
+    # the GLB: the same fit as a glTF animation (three's GLTFExporter), read back with
+    # Python's reader: the BVH's joints, up to the BVH text's rounding
+    with page.expect_download(timeout=20_000) as download:
+        page.click("#dl-glb")
+    path = tmp_path / download.value.suggested_filename
+    download.value.save_as(path)
+    assert path.suffix == ".glb"
+    glb_joints(path, back)
 
     shot = tmp_path / "web_static.png"
     page.screenshot(path=str(shot))

@@ -162,7 +162,8 @@ function depthFirst(children) {
 }
 
 // joints (T * J * 3, skeleton units) -> {order, offsets (J x 3), root (T x 3), euler (T x J x 3),
-// positions (T x J x 3): the fitted skeleton's joints}, all in centimetres.
+// positions (T x J x 3): the fitted skeleton's joints, locals (T x J 3x3 rotations), children},
+// lengths in centimetres.
 export function fitBvh(joints, frames, skeleton) {
   const { parents, rest_directions: rest } = skeleton;
   if (!rest) throw new Error("this site's model.json has no rest pose; export it again for BVH");
@@ -194,6 +195,7 @@ export function fitBvh(joints, frames, skeleton) {
   const root = [];
   const euler = [];
   const positions = [];
+  const locals = []; // (T x J) 3x3 local rotations (row-major), for the GLB writer (glb.js)
   for (let t = 0; t < frames; t++) {
     const world = new Array(J);
     const local = new Array(J);
@@ -214,6 +216,7 @@ export function fitBvh(joints, frames, skeleton) {
       for (const k of kids) fitted[k] = add(fitted[j], apply(world[j], offsets[k]));
     }
     root.push(fitted[order[0]]);
+    locals.push(local);
     euler.push(local.map(eulerZXY));
     positions.push(fitted);
   }
@@ -223,7 +226,7 @@ export function fitBvh(joints, frames, skeleton) {
       euler[t][j][k] -= 360 * Math.round(step / 360);
     }
   }
-  return { order, offsets, root, euler, positions, children };
+  return { order, offsets, root, euler, positions, children, locals };
 }
 
 const fixed = (v, places = 4) => (Math.round(v * 10 ** places) / 10 ** places + 0).toFixed(places);
