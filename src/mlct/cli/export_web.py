@@ -37,6 +37,6 @@ def add_parser(commands: Commands) -> None:
                      help="the denoiser's graph: float16 (10 MB, the model's own weights; "
                      "default) or int8 (5 MB, faster, joints a few mm off)")
     web.add_argument("--no-gzip", action="store_true",
-                     help="store the graphs and ONNX Runtime's WASM binary as they are (52 MB) "
-                     "instead of gzipped (35 MB; the page unpacks them, the same numbers)")
+                     help="store the text encoder and ONNX Runtime's WASM binary as they are "
+                     "(52 MB) instead of gzipped (36 MB; the page unpacks them, the same numbers)")
     web.set_defaults(func=run)
