@@ -77,7 +77,8 @@ def dequantize_int4(q: np.ndarray, scales: np.ndarray, block: int) -> np.ndarray
 
 def quantize_int4(src: str | os.PathLike, dst: str | os.PathLike, block: int = BLOCK,
                   embedding_block: int = EMBEDDING_BLOCK,
-                  embedding: str = "word_embeddings") -> dict[str, int]:
+                  embedding: str | None = "word_embeddings",
+                  matmuls: bool = True) -> dict[str, int]:
     """Copy graph src to dst with every MatMul by a constant (K, N) float32 matrix as a 4-bit
     MatMulNBits and the Gather from the constant table whose name contains `embedding` as a
     4-bit GatherBlockQuantized (float16 scales, cast to float32 after the gather). Returns how
@@ -104,7 +105,7 @@ def quantize_int4(src: str | os.PathLike, dst: str | os.PathLike, block: int = B
             new_nodes.append(node)
             continue
         w = numpy_helper.to_array(init)
-        if node.op_type == "MatMul" and w.shape[0] % block == 0:
+        if node.op_type == "MatMul" and matmuls and w.shape[0] % block == 0:
             k, n = w.shape
             q, scales = block_quantize(w.T, block)  # MatMulNBits: (N, K / block, block / 2)
             packed = pack_int4(q).reshape(n, k // block, block // 2)
@@ -115,7 +116,7 @@ def quantize_int4(src: str | os.PathLike, dst: str | os.PathLike, block: int = B
                 list(node.output), name=f"{node.name}__q4", domain=MS_DOMAIN,
                 K=k, N=n, bits=4, block_size=block))
             counts["MatMulNBits"] += 1
-        elif (node.op_type == "Gather" and embedding in weight
+        elif (node.op_type == "Gather" and embedding and embedding in weight
               and w.shape[1] % embedding_block == 0
               and all(a.name != "axis" or a.i == 0 for a in node.attribute)):
             q, scales = block_quantize(w, embedding_block)
@@ -183,10 +184,16 @@ def main() -> None:
         tmp = Path(tmp)
         reference = write_onnx_graphs(bundled_model_dir(), tmp) / "text_encoder.onnx"
         variants = {"int8 (the site's)": tmp / "int8.onnx", "4-bit, block 32": tmp / "q4.onnx",
-                    "4-bit, block 16": tmp / "q4b16.onnx"}
+                    "4-bit, block 16": tmp / "q4b16.onnx",
+                    "4-bit matrix products only (block 32)": tmp / "q4mm.onnx",
+                    "4-bit embedding table only (block 32)": tmp / "q4emb.onnx"}
         quantize_int8(reference, variants["int8 (the site's)"])
         quantize_int4(reference, variants["4-bit, block 32"])
         quantize_int4(reference, variants["4-bit, block 16"], block=16, embedding_block=16)
+        quantize_int4(reference, variants["4-bit matrix products only (block 32)"],
+                      embedding=None)
+        quantize_int4(reference, variants["4-bit embedding table only (block 32)"],
+                      matmuls=False)
         ref, ref_sided = vectors(reference, texts), contrasted(reference)
         print(f"{len(texts)} prompts, {len(sided)} of them naming a side")
         for name, path in variants.items():
