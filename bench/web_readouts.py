@@ -35,30 +35,38 @@ from mlct.serve.site import export_site, load_site_reference  # noqa: E402
 VARIANTS = {"site: --text-encoder float32": {"text_encoder": "float32"},
             "site: default (int8 text encoder, float16 denoiser)": {},
             "site: --denoiser int8": {"denoiser": "int8"},
-            "site: --text-encoder int8-weights": {"text_encoder": "int8-weights"}}
+            "site: --text-encoder int8-weights": {"text_encoder": "int8-weights"},
+            "site: --text-encoder int8-weights --denoiser int8": {"text_encoder": "int8-weights",
+                                                                 "denoiser": "int8"}}
 SECONDS, NFE = 4.0, 5
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--only", nargs="*", default=None,
+                        help="the variants to run (their position in VARIANTS, from 0; the torch "
+                        "pipeline is -1); default: all")
     args = parser.parse_args()
+    chosen = set(range(-1, len(VARIANTS)) if args.only is None else map(int, args.only))
     torch.set_num_threads(1)
     items = json.loads(PROMPTS.read_text(encoding="utf-8"))["paraphrases"]
     pipe = mlct.load()
     frames = round(SECONDS * pipe.skeleton.fps)
     print(f"{len(items)} paraphrases x {args.seeds} seeds, {SECONDS} s, {NFE} NFE")
     tally = Tally()
-    for seed in range(args.seeds):
+    for seed in range(args.seeds if -1 in chosen else 0):
         out = pipe.generate([p["text"] for p in items], seconds=SECONDS, nfe=NFE,
                             seed=seed * 100_000, split_actions=False)
         for item, motion in zip(items, out):
             label = prompt_label(item["actions"], SECONDS)
             tally.add(label, evaluate_label(motion.joints, label))
-    report(f"torch pipeline ({pipe.meta['text_encoder'] if hasattr(pipe, 'meta') else 'bundled'})",
-           tally)
+    if -1 in chosen:
+        report("torch pipeline (the bundled model)", tally)
     with tempfile.TemporaryDirectory() as tmp:
         for i, (name, options) in enumerate(VARIANTS.items()):
+            if i not in chosen:
+                continue
             generator = load_site_reference(export_site("bundled", Path(tmp) / f"s{i}",
                                                         **options), threads=1)
             tally = Tally()
