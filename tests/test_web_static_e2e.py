@@ -311,3 +311,33 @@ def test_bvh_of_a_rigid_motion_is_exact_and_like_pythons(page, reference, tmp_pa
             assert gap.max() < 1e-5, gap.max()  # 0.01 mm: the file's rounding
         else:
             check_bvh_fit(back, joints, tmp_path)
+
+
+class GzipEncoding(Quiet):
+    """A server that sends the .gz files as Content-Encoding: gzip (as some do): the browser
+    unpacks them before the page sees them."""
+
+    def end_headers(self):
+        if self.path.endswith(".gz"):
+            self.send_header("Content-Encoding", "gzip")
+        super().end_headers()
+
+
+def test_a_server_that_unpacks_the_gz_files_itself_works_too(site, page, tmp_path):
+    assert any(p.suffix == ".gz" for p in site.rglob("*"))  # the site stores some gzipped
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0),
+                                             functools.partial(GzipEncoding, directory=str(site)))
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    address = f"http://127.0.0.1:{server.server_address[1]}/"
+    page.context.route(f"{address}**", lambda route: route.continue_())  # before local_only
+    try:
+        other = page.context.new_page()
+        other.goto(address)
+        other.wait_for_function("window.mlct && window.mlct.ready", timeout=120_000)
+        motion = other.evaluate("window.mlct.lastMotion && window.mlct.lastMotion.frames")
+        assert motion, other.inner_text("#status")
+        expected = page.evaluate("window.mlct.model.config.graphs")
+        assert expected["text_encoder"].endswith(".gz")
+        other.close()
+    finally:
+        server.shutdown()
