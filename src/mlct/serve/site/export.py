@@ -6,10 +6,10 @@
 SITE/ holds
 - index.html, app.js, style.css and the page's modules (static/: the tokenizer, the portable
   noise, the model pipeline, features -> joints, the BVH and GLB writers, the 3D view);
-- model/: text_encoder.onnx.gz (MiniLM, int8, gzipped: pack.py), denoiser.onnx and decoder.onnx (the onnx
-  backend's graphs, weights stored as float16: the same numbers; generate/onnx_compact.py),
-  vocab.txt (the WordPiece vocabulary) and model.json (sampler times and constants,
-  normalisation statistics, skeleton, sizes);
+- model/: text_encoder.onnx.gz (MiniLM, int8, gzipped: pack.py), denoiser.onnx and
+  decoder.onnx (the onnx backend's graphs, weights stored as float16: the same numbers;
+  generate/onnx_compact.py), vocab.txt (the WordPiece vocabulary) and model.json (sampler
+  times and constants, normalisation statistics, skeleton and rest pose, sizes);
 - vendor/: onnxruntime-web's WASM runtime (its binary gzipped) and three, from the npm
   packages that vendor.py pins.
 

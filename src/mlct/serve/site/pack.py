@@ -4,9 +4,10 @@
 Why: the site's goal is <= 40 MB on disk (issue 20). Its two largest files compress well as
 files and not at all as anything smaller: onnxruntime-web's WASM binary (14.2 MB -> 3.7 MB) and
 the int8 text encoder (23.0 -> 17.9 MB); the float16 graphs gain under 10 % and stay plain
-(MIN_GAIN). Stored so the site takes 36.4 MB instead of 52.1 with every number unchanged
-(quantizing further costs quality: docs/web.md, bench/web_int4.py). A server that compresses (GitHub Pages, nginx) would have sent them gzipped
-anyway; `python -m http.server`, a file share or a zip of the site now carry the small files too.
+(MIN_GAIN). Stored so the site takes 36.5 MB instead of 52.2 with every number unchanged
+(quantizing further costs quality: docs/web.md, bench/web_int4.py). A server that compresses
+(GitHub Pages, nginx) would have sent them gzipped anyway; `python -m http.server`, a file share
+or a zip of the site now carry the small files too.
 
 The page reads the first two bytes: gzip's magic (1f 8b) is unpacked, anything else (a server
 that unpacked a `.gz` itself by sending Content-Encoding: gzip, or a site exported with
