@@ -26,9 +26,10 @@ from pathlib import Path
 
 SUFFIX = ".gz"
 LEVEL = 9
-# Unpacking costs the page time when it opens (with a busy 2-core machine, 1.1 s for the text
-# encoder, 0.2 s for the WASM binary, 0.45 s for the float16 graphs together, which save only
-# 1.1 MB); a file is stored gzipped only when that saves at least this share of it.
+# Unpacking costs the page time when it opens (2-core machine at load average 7.5: 1.1 s more
+# for the text encoder, 0.2 s for the WASM binary, 0.45 s for the float16 graphs together, which
+# save only 1.1 MB; bench/web_unpack.py); a file is stored gzipped only when that saves at least
+# this share of it.
 MIN_GAIN = 0.2
 
 
