@@ -1,7 +1,8 @@
 """The static site of `mlct export-web` end to end in headless Chromium: export the bundled model,
 serve the folder with a plain static file server, type a prompt, generate in the page, and
 compare the joints the page computed with the Python ONNX path (the site's own graphs, the same
-portable noise) for the same seed.
+portable noise) for the same seed; and the page's downloads (JSON, NPY, and the BVH and GLB of
+its own rotation fit, read back with mlct's BVH and glTF readers).
 
 Needs Debian's chromium and playwright (skipped without them, as tests/test_web_e2e.py), onnx
 and onnxruntime, and the npm tarballs of onnxruntime-web and three (fetched once into
