@@ -43,7 +43,7 @@ def main() -> None:
         for i, (name, options) in enumerate(VARIANTS.items()):
             site = export_site("bundled", Path(tmp) / f"site{i}", **options)
             generators[name] = load_site_reference(site, threads=1)
-            sizes = {p.name: p.stat().st_size / 1e6 for p in (site / "model").glob("*.onnx")}
+            sizes = {p.name: p.stat().st_size / 1e6 for p in (site / "model").glob("*.onnx*")}
             print(f"{name}: " + ", ".join(f"{k} {v:.1f} MB" for k, v in sorted(sizes.items())))
         names = list(generators)
         reference = generators[names[0]]

@@ -23,6 +23,7 @@ import shutil
 import statistics
 import tempfile
 import threading
+import time
 from pathlib import Path
 
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -64,8 +65,11 @@ def measure(url: str, threads: int, count: int, nfe: int) -> None:
         browser = p.chromium.launch(executable_path=shutil.which("chromium")
                                     or "/usr/bin/chromium", args=FLAGS)
         page = browser.new_page()
+        start = time.perf_counter()
         page.goto(f"{url}?threads={threads}")
         page.wait_for_function("window.mlct && window.mlct.ready", timeout=180_000)
+        # opening the page: fetch, unpack (gzipped graphs and runtime), sessions, a first motion
+        loaded = (time.perf_counter() - start) * 1000
         isolated = page.evaluate("window.crossOriginIsolated")
         timings = []
         for i, text in enumerate(sentences(WARMUP + count)):
@@ -76,7 +80,8 @@ def measure(url: str, threads: int, count: int, nfe: int) -> None:
                 timings.append(timing)
         browser.close()
     print(f"threads {threads} (cross-origin isolated: {isolated}), {count} new sentences, "
-          f"{nfe} NFE, batch 1, 80 frames")
+          f"{nfe} NFE, batch 1, 80 frames; the page ready (first motion drawn) after "
+          f"{loaded:.0f} ms")
     for key, name in (("total_ms", "per sentence"), ("text_ms", "  text encoder"),
                       ("sample_ms", f"  sampler ({nfe} denoiser runs)"),
                       ("decode_ms", "  decoder + joints")):
@@ -84,8 +89,6 @@ def measure(url: str, threads: int, count: int, nfe: int) -> None:
 
 
 def measure_python(site: Path, threads: int, count: int, nfe: int) -> None:
-    import time
-
     from mlct.generate.portable_noise import generate_with_portable_noise
     from mlct.serve.site import load_site_reference
 

@@ -119,3 +119,41 @@ def test_a_vendored_tarball_that_is_not_the_pinned_one_is_refused(tmp_path) -> N
         copy_vendor_files(tmp_path / "out", vendor=tmp_path)
     assert [p.name for p in pins()] == ["onnxruntime-web", "three"]
     assert all(p.integrity.startswith("sha512-") for p in pins())
+
+
+def test_gzip_keeps_a_file_packed_only_when_it_shrinks_and_unpacks_the_same_bytes(tmp_path):
+    import gc
+
+    from mlct.serve.site.pack import gzip_file, is_gzip, remove_with, unpacked
+
+    rng = np.random.default_rng(0)
+    small = rng.integers(0, 4, 200_000, dtype=np.uint8).tobytes()  # 2 bits of 8: packs well
+    noise = rng.integers(0, 256, 200_000, dtype=np.uint8).tobytes()  # does not
+    (tmp_path / "a.onnx").write_bytes(small)
+    (tmp_path / "b.onnx").write_bytes(noise)
+    packed, plain = gzip_file(tmp_path / "a.onnx"), gzip_file(tmp_path / "b.onnx")
+    assert packed.name == "a.onnx.gz" and is_gzip(packed) and not (tmp_path / "a.onnx").exists()
+    assert plain.name == "b.onnx" and plain.read_bytes() == noise
+    assert not (tmp_path / "b.onnx.gz").exists()
+    assert packed.read_bytes() == gzip_file_copy(tmp_path, small)  # no time stamp: same bytes
+
+    class Owner:
+        pass
+
+    owner = Owner()
+    files, folder = unpacked({"a": packed, "b": plain})
+    remove_with(owner, folder)
+    assert files["a"].read_bytes() == small and files["b"] == plain
+    assert folder.is_dir() and files["a"].parent == folder
+    del owner
+    gc.collect()
+    assert not folder.exists()  # the unpacked copies go with their owner
+    assert unpacked({"b": plain}) == ({"b": plain}, None)
+
+
+def gzip_file_copy(tmp_path, data: bytes) -> bytes:
+    from mlct.serve.site.pack import gzip_file
+
+    (tmp_path / "again").mkdir()
+    (tmp_path / "again" / "a.onnx").write_bytes(data)
+    return gzip_file(tmp_path / "again" / "a.onnx").read_bytes()

@@ -1,7 +1,8 @@
 """The static site of `mlct export-web` end to end in headless Chromium: export the bundled model,
 serve the folder with a plain static file server, type a prompt, generate in the page, and
 compare the joints the page computed with the Python ONNX path (the site's own graphs, the same
-portable noise) for the same seed.
+portable noise) for the same seed; and the page's downloads (JSON, NPY, and the BVH and GLB of
+its own rotation fit, read back with mlct's BVH and glTF readers).
 
 Needs Debian's chromium and playwright (skipped without them, as tests/test_web_e2e.py), onnx
 and onnxruntime, and the npm tarballs of onnxruntime-web and three (fetched once into
@@ -103,6 +104,51 @@ def reference(site):
     return load_site_reference(site, threads=1)
 
 
+def bvh_joints(path) -> np.ndarray:
+    """A BVH file's joints (T, 22, 3) in metres, in the humanml3d skeleton's order."""
+    from mlct.motion.bvh import read_bvh
+    from mlct.motion.skeleton import get_skeleton
+
+    clip = read_bvh(path)
+    names = get_skeleton("humanml3d").joint_names
+    assert sorted(clip.joint_names) == sorted(names) and clip.fps == 20
+    return clip.positions[:, [clip.joint_names.index(n) for n in names]] / 100.0
+
+
+def glb_joints(path, expected: np.ndarray) -> np.ndarray:
+    """A GLB's joints (T, 22, 3) in metres, skeleton order; checked against expected (the BVH
+    of the same motion, read back)."""
+    pytest.importorskip("pygltflib")
+    from mlct.motion.gltf import read_gltf
+    from mlct.motion.skeleton import get_skeleton
+
+    clip = read_gltf(path)
+    names = get_skeleton("humanml3d").joint_names
+    assert sorted(clip.joint_names) == sorted(names)
+    assert np.allclose(np.diff(clip.times), 1 / 20, atol=1e-6)
+    positions = clip.positions[:, [clip.joint_names.index(n) for n in names]]
+    assert positions.shape == expected.shape
+    assert np.abs(positions - expected).max() < 1e-4  # the BVH text's 1e-4 cm and degrees
+    return positions
+
+
+def check_bvh_fit(back: np.ndarray, joints: np.ndarray, tmp_path) -> None:
+    """The page's BVH (read back) against the joints it was made of, and against Python's
+    write_bvh of the same joints: a rigid skeleton gives a generated motion's joints back to
+    about its bones' stretch, which reaches 14 cm at an elbow (both writers, bvh.js); the page's
+    fit must be as close as Python's, give or take its missing leg IK (2 cm)."""
+    from mlct.motion.bvh import write_bvh
+    from mlct.motion.skeleton import get_skeleton
+
+    write_bvh(tmp_path / "python.bvh", joints, get_skeleton("humanml3d"), fps=20)
+    python = bvh_joints(tmp_path / "python.bvh")
+    gap = np.linalg.norm(back - joints, axis=-1)
+    python_gap = np.linalg.norm(python - joints, axis=-1)
+    assert np.median(gap) < 0.005, np.median(gap)
+    assert (gap.max(0) <= python_gap.max(0) + 0.02).all(), (gap.max(0), python_gap.max(0))
+    assert np.median(np.linalg.norm(back - python, axis=-1)) < 0.003
+
+
 def view_pixels(page) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(page.locator("#view").screenshot())).convert("RGB"))
 
@@ -158,6 +204,24 @@ def test_page_joints_match_the_python_onnx_path(page, reference, tmp_path):
         data = (np.asarray(json.loads(path.read_text())["joints"]) if fmt == "json"
                 else np.load(path))
         assert data.shape == (60, 22, 3) and np.abs(data - joints).max() <= 1e-4
+
+    # the BVH: rotations fitted in the page (bvh.js), read back with Python's reader
+    with page.expect_download(timeout=10_000) as download:
+        page.click("#dl-bvh")
+    path = tmp_path / download.value.suggested_filename
+    download.value.save_as(path)
+    assert path.suffix == ".bvh"
+    back = bvh_joints(path)
+    check_bvh_fit(back, joints, tmp_path)
+
+    # the GLB: the same fit as a glTF animation (three's GLTFExporter), read back with
+    # Python's reader: the BVH's joints, up to the BVH text's rounding
+    with page.expect_download(timeout=20_000) as download:
+        page.click("#dl-glb")
+    path = tmp_path / download.value.suggested_filename
+    download.value.save_as(path)
+    assert path.suffix == ".glb"
+    glb_joints(path, back)
 
     shot = tmp_path / "web_static.png"
     page.screenshot(path=str(shot))
@@ -224,3 +288,57 @@ def test_sides_are_contrasted_as_in_python(page, reference):
         # then left"; most texts agree to 1e-7)
         python = reference.text_encoder._embed([text])[0].numpy()
         assert np.abs(raw - python).max() < 5e-3, text
+
+
+def test_bvh_of_a_rigid_motion_is_exact_and_like_pythons(page, reference, tmp_path):
+    """bvh.js's fit on a motion that a rigid skeleton can show exactly (Python's rig fit of a
+    generated motion): the file gives the joints back to the text's 1e-4 cm; on the raw motion
+    it is as close as Python's write_bvh (check_bvh_fit)."""
+    from mlct.motion.rigfit import fit_rig
+    from mlct.motion.skeleton import get_skeleton
+
+    skeleton = get_skeleton("humanml3d")
+    _, raw = generate_with_portable_noise(reference, "a person waves with the left hand", 50, 5, 3)
+    rigid = fit_rig(raw, skeleton).positions.astype(np.float32)
+    for name, joints in (("rigid", rigid), ("raw", raw)):
+        text = page.evaluate(
+            "async ([joints, frames]) => (await import('./bvh.js')).bvhText({joints: "
+            "Float32Array.from(joints), frames, skeleton: window.mlct.model.config.skeleton})",
+            [joints.reshape(-1).tolist(), len(joints)])
+        (tmp_path / f"{name}.bvh").write_text(text)
+        back = bvh_joints(tmp_path / f"{name}.bvh")
+        gap = np.linalg.norm(back - joints, axis=-1)
+        if name == "rigid":
+            assert gap.max() < 1e-5, gap.max()  # 0.01 mm: the file's rounding
+        else:
+            check_bvh_fit(back, joints, tmp_path)
+
+
+class GzipEncoding(Quiet):
+    """A server that sends the .gz files as Content-Encoding: gzip (as some do): the browser
+    unpacks them before the page sees them."""
+
+    def end_headers(self):
+        if self.path.endswith(".gz"):
+            self.send_header("Content-Encoding", "gzip")
+        super().end_headers()
+
+
+def test_a_server_that_unpacks_the_gz_files_itself_works_too(site, page, tmp_path):
+    assert any(p.suffix == ".gz" for p in site.rglob("*"))  # the site stores some gzipped
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0),
+                                             functools.partial(GzipEncoding, directory=str(site)))
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    address = f"http://127.0.0.1:{server.server_address[1]}/"
+    page.context.route(f"{address}**", lambda route: route.continue_())  # before local_only
+    try:
+        other = page.context.new_page()
+        other.goto(address)
+        other.wait_for_function("window.mlct && window.mlct.ready", timeout=120_000)
+        motion = other.evaluate("window.mlct.lastMotion && window.mlct.lastMotion.frames")
+        assert motion, other.inner_text("#status")
+        expected = page.evaluate("window.mlct.model.config.graphs")
+        assert expected["text_encoder"].endswith(".gz")
+        other.close()
+    finally:
+        server.shutdown()

@@ -12,7 +12,8 @@ from mlct.cli.parser import Commands
 def run(args: argparse.Namespace) -> int:
     from mlct.serve.site import export_site, site_size
 
-    site = export_site(args.model, args.out, args.vendor, args.text_encoder, args.denoiser)
+    site = export_site(args.model, args.out, args.vendor, args.text_encoder, args.denoiser,
+                       gzip=not args.no_gzip)
     size = site_size(site)
     print(f"{site}  ({size['total'] / 1e6:.1f} MB; serve it with any static file server, "
           f"e.g. python -m http.server -d {site})")
@@ -35,4 +36,7 @@ def add_parser(commands: Commands) -> None:
     web.add_argument("--denoiser", choices=["float16", "int8"], default="float16",
                      help="the denoiser's graph: float16 (10 MB, the model's own weights; "
                      "default) or int8 (5 MB, faster, joints a few mm off)")
+    web.add_argument("--no-gzip", action="store_true",
+                     help="store the text encoder and ONNX Runtime's WASM binary as they are "
+                     "(52 MB) instead of gzipped (36 MB; the page unpacks them, the same numbers)")
     web.set_defaults(func=run)

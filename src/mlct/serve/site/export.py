@@ -5,12 +5,13 @@
 
 SITE/ holds
 - index.html, app.js, style.css and the page's modules (static/: the tokenizer, the portable
-  noise, the model pipeline, features -> joints, the 3D view);
-- model/: text_encoder.onnx (MiniLM, int8), denoiser.onnx and decoder.onnx (the onnx
-  backend's graphs, weights stored as float16: the same numbers; generate/onnx_compact.py),
-  vocab.txt (the WordPiece vocabulary) and model.json (sampler times and constants,
-  normalisation statistics, skeleton, sizes);
-- vendor/: onnxruntime-web's WASM runtime and three, from the npm packages that vendor.py pins.
+  noise, the model pipeline, features -> joints, the BVH and GLB writers, the 3D view);
+- model/: text_encoder.onnx.gz (MiniLM, int8, gzipped: pack.py), denoiser.onnx and
+  decoder.onnx (the onnx backend's graphs, weights stored as float16: the same numbers;
+  generate/onnx_compact.py), vocab.txt (the WordPiece vocabulary) and model.json (sampler
+  times and constants, normalisation statistics, skeleton and rest pose, sizes);
+- vendor/: onnxruntime-web's WASM runtime (its binary gzipped) and three, from the npm
+  packages that vendor.py pins.
 
 The browser runs what the onnx backend runs (generate/onnx_backend.py): tokenizer, text
 encoder, the consistency sampler around the denoiser (Algorithm 2), the decoder, the
@@ -44,6 +45,7 @@ from mlct.text.encoders import bundled_minilm_path, token_slots_of
 from mlct.text.minilm import check_pipeline
 from mlct.text.minilm_onnx import check_onnx_spec
 from mlct.text.sides import SIDE_CONTRAST, SIDES_SUFFIX
+from mlct.serve.site.pack import gzip_file, remove_with, unpacked
 from mlct.serve.site.vendor import copy_vendor_files
 
 STATIC = Path(__file__).resolve().parent / "static"
@@ -53,6 +55,7 @@ SITE_FORMAT, SITE_VERSION = "mlct-web", 1
 GRAPHS = {"text_encoder": "text_encoder.onnx", "denoiser": "denoiser.onnx",
           "decoder": "decoder.onnx"}
 VOCAB = "vocab.txt"
+WASM = "ort-wasm-simd-threaded.wasm"  # in vendor/: what the page gives ONNX Runtime Web itself
 # MiniLM's graph in the site (generate/onnx_compact.py): int8 arithmetic (the fastest in the
 # browser), int8 weights computed in float32 (closer to the float32 embeddings, several times
 # slower in ONNX Runtime Web, which dequantizes them on every run), or MiniLM's float32 (90 MB)
@@ -95,7 +98,8 @@ def _tokenizer_settings(path: Path) -> dict[str, Any]:
 
 def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Path,
                      tokenizer: dict[str, Any], latent_shape: tuple[int, int],
-                     precision: str, denoiser: str) -> dict[str, Any]:
+                     precision: str, denoiser: str,
+                     stored: dict[str, str] | None = None) -> dict[str, Any]:
     """model.json: everything the page computes with, besides the graphs."""
     from mlct import __version__
     from mlct.config import config_from_dict
@@ -109,7 +113,9 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
     return {
         "format": SITE_FORMAT, "version": SITE_VERSION, "mlct": __version__,
         "weights_sha256": weights_digest(model_dir),
-        "graphs": GRAPHS, "denoiser_precision": denoiser,
+        # the file names as stored: gzipped ones (pack.py) end in .gz; the page unpacks them
+        "graphs": {k: (stored or {}).get(k, v) for k, v in GRAPHS.items()},
+        "wasm": (stored or {}).get("wasm", WASM), "denoiser_precision": denoiser,
         "text_encoder": {"spec": spec, "precision": precision, "max_length": max_length,
                          "dim": meta["text_dim"], "token_slots": token_slots_of(spec),
                          # text/sides.py: e + alpha (e - e(mirror)) for 'minilm+sides', else 0
@@ -127,17 +133,21 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
                  "std": tensors["norm.std"].float().tolist()},
         "skeleton": {"name": skeleton.name, "unit": skeleton.unit, "fps": skeleton.fps,
                      "joint_names": list(skeleton.joint_names),
-                     "parents": list(skeleton.parents)},
+                     "parents": list(skeleton.parents),
+                     # the rest pose of the page's BVH fit (static/bvh.js, as motion/rigfit.py)
+                     "rest_directions": skeleton.rest_directions.tolist()},
     }
 
 
 def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
                 vendor: str | os.PathLike | None = None, text_encoder: str = "int8",
-                denoiser: str = "float16") -> Path:
+                denoiser: str = "float16", gzip: bool = True) -> Path:
     """Write the static site of model (a directory, or None / 'bundled') to out; returns out.
     vendor: a folder holding the npm tarballs (vendor.py), instead of the cache.
     text_encoder: one of TEXT_ENCODER_PRECISIONS (int8 and int8-weights 23 MB, float32 90 MB);
-    denoiser: one of DENOISER_PRECISIONS."""
+    denoiser: one of DENOISER_PRECISIONS; gzip: store the files that gzip makes much smaller
+    (the int8 text encoder, the WASM binary) gzipped (pack.py: 36 MB instead of 52, the same
+    numbers)."""
     for name, value, known in (("text_encoder", text_encoder, TEXT_ENCODER_PRECISIONS),
                                ("denoiser", denoiser, DENOISER_PRECISIONS)):
         if value not in known:
@@ -178,8 +188,12 @@ def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
         shutil.rmtree(graphs)
         shutil.copyfile(bundled_minilm_path() / VOCAB, folder / VOCAB)
         latent = OnnxMotionGenerator(meta, tensors, _graphs(folder)).ae.latent_shape
+        stored = {key: name for key, name in GRAPHS.items()} | {"wasm": WASM}
+        if gzip:  # the files that gzip makes much smaller (pack.py)
+            stored = {key: gzip_file((tmp / "vendor" if key == "wasm" else folder) / name).name
+                      for key, name in stored.items()}
         description = site_description(meta, tensors, model_dir, tokenizer, latent,
-                                       text_encoder, denoiser)
+                                       text_encoder, denoiser, stored)
         (folder / SITE_JSON).write_text(json.dumps(description) + "\n", encoding="utf-8")
         for item in STATIC.iterdir():
             if item.is_file():
@@ -206,7 +220,12 @@ def load_site_reference(site: str | os.PathLike, model: str | os.PathLike | None
     if description.get("weights_sha256") != weights_digest(model_dir):
         raise MlctError(f"{site} was exported from another model than {model_dir}")
     meta, tensors = read_bundle(model_dir)
-    return OnnxMotionGenerator(meta, tensors, _graphs(folder), threads=threads)
+    paths, scratch = unpacked({k: folder / v for k, v in description["graphs"].items()})
+    graphs = OnnxGraphs(*(paths[k] for k in ("text_encoder", "denoiser", "decoder")),
+                        manifest={})
+    generator = OnnxMotionGenerator(meta, tensors, graphs, threads=threads)
+    remove_with(generator, scratch)  # the unpacked graphs live as long as the generator
+    return generator
 
 
 def site_size(site: str | os.PathLike) -> dict[str, int]:

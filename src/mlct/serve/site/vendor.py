@@ -43,6 +43,7 @@ FILES: dict[str, dict[str, str]] = {
         "package/build/three.module.js": "three.module.js",
         "package/build/three.core.js": "three.core.js",
         "package/examples/jsm/controls/OrbitControls.js": "OrbitControls.js",
+        "package/examples/jsm/exporters/GLTFExporter.js": "GLTFExporter.js",  # the GLB download
         "package/LICENSE": "three.LICENSE",
     },
 }

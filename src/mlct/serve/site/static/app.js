@@ -7,6 +7,8 @@ import * as THREE from "three";
 import { OrbitControls } from "./vendor/OrbitControls.js";
 import { MotionModel } from "./model.js";
 import { motionJson, npyBytes } from "./motion.js";
+import { bvhText } from "./bvh.js";
+import { glbBytes } from "./glb.js";
 
 const COLOURS = { left: 0x2563eb, right: 0xdc2626, centre: 0x374151 };
 const EXAMPLES = ["a person walks forward at a brisk pace.", "a person jumps up and down.",
@@ -169,7 +171,7 @@ async function generate(req = null) {
     showStatus(`“${motion.text}” · ${motion.frames} frames, ${motion.nfe} steps, seed ${motion.seed}`);
     $("timing").textContent = `in this page: ${t.total_ms.toFixed(1)} ms (text ${t.text_ms.toFixed(1)},` +
       ` sampling ${t.sample_ms.toFixed(1)}, decoding + joints ${t.decode_ms.toFixed(1)}) · WASM, ${window.mlct.model.threads} thread(s)`;
-    for (const id of ["play", "scrub", "dl-json", "dl-npy"]) $(id).disabled = false;
+    for (const id of ["play", "scrub", "dl-json", "dl-npy", "dl-bvh", "dl-glb"]) $(id).disabled = false;
     return motion;
   } catch (error) {
     showStatus(error.message, true);
@@ -185,7 +187,8 @@ async function generate(req = null) {
 const DOWNLOADS = {
   json: (m) => [JSON.stringify(motionJson(m)) + "\n", "application/json", "json"],
   npy: (m) => [npyBytes(m.joints, [m.frames, m.skeleton.joint_names.length, 3]), "application/octet-stream", "npy"],
-  // glb: the rig export's writer goes here.
+  bvh: (m) => [bvhText(m), "application/octet-stream", "bvh"], // rotations fitted in bvh.js
+  glb: async (m) => [await glbBytes(m), "model/gltf-binary", "glb"], // the same fit, three's GLTFExporter
 };
 
 function fileName(motion, ext) {
@@ -193,10 +196,10 @@ function fileName(motion, ext) {
   return `${slug}_seed${motion.seed}.${ext}`;
 }
 
-function download(format) {
+async function download(format) {
   const motion = state.motion;
   if (!motion || !DOWNLOADS[format]) return;
-  const [data, type, ext] = DOWNLOADS[format](motion);
+  const [data, type, ext] = await DOWNLOADS[format](motion);
   const link = document.createElement("a");
   link.href = URL.createObjectURL(new Blob([data], { type }));
   link.download = fileName(motion, ext);
@@ -227,7 +230,7 @@ function bind() {
   echo();
   $("dice").addEventListener("click", () => { $("seed").value = String(Math.floor(Math.random() * 1e6)); generate().catch(() => {}); });
   for (const button of document.querySelectorAll("#downloads button")) {
-    button.addEventListener("click", () => download(button.dataset.format));
+    button.addEventListener("click", () => download(button.dataset.format).catch((error) => showStatus(`the download failed: ${error.message}`, true)));
   }
   document.addEventListener("keydown", (event) => {
     if (event.code === "Space" && state.motion && event.target.tagName !== "INPUT") {

@@ -51,14 +51,29 @@ export function roundHalfEven(x) {
   return Math.abs(x % 1) === 0.5 && r % 2 !== 0 ? r - 1 : r;
 }
 
+// A file's bytes; gzip's (1f 8b: the graphs and the WASM binary as export-web stores them,
+// serve/site/pack.py) unpacked with the browser's DecompressionStream. A server that already
+// unpacked a .gz (Content-Encoding: gzip) hands over the plain bytes, used as they are.
+export async function fetchBytes(url) {
+  const response = await fetch(url);
+  if (!response.ok) throw new Error(`cannot load ${url}: HTTP ${response.status}`);
+  const bytes = new Uint8Array(await response.arrayBuffer());
+  if (bytes[0] !== 0x1f || bytes[1] !== 0x8b) return bytes;
+  const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("gzip"));
+  return new Uint8Array(await new Response(stream).arrayBuffer());
+}
+
 export class MotionModel {
   static async load(base = new URL(".", import.meta.url).href, { threads = 1 } = {}) {
     ort.env.wasm.wasmPaths = new URL("vendor/", base).href;
     ort.env.wasm.numThreads = threads;
     const config = await (await fetch(new URL("model/model.json", base))).json();
     const vocab = await (await fetch(new URL(`model/${config.text_encoder.vocab}`, base))).text();
+    // the runtime's binary, fetched here so that a gzipped one can be unpacked (older sites: ORT fetches it)
+    if (config.wasm) ort.env.wasm.wasmBinary = await fetchBytes(new URL(`vendor/${config.wasm}`, base));
     const options = { executionProviders: ["wasm"], graphOptimizationLevel: "all" };
-    const session = (name) => ort.InferenceSession.create(new URL(`model/${config.graphs[name]}`, base).href, options);
+    const session = async (name) => ort.InferenceSession.create(
+      await fetchBytes(new URL(`model/${config.graphs[name]}`, base)), options);
     const [text, denoiser, decoder] = await Promise.all(["text_encoder", "denoiser", "decoder"].map(session));
     return new MotionModel(config, new WordPieceTokenizer(vocab, config.text_encoder), { text, denoiser, decoder }, threads);
   }

@@ -1,0 +1,89 @@
+"""Do the static site's motions still do what their text says? The read-out pass rate of the
+site's own motions (its graphs, in Python: load_site_reference, the same portable noise as the
+page) on the benchmark's hand-written paraphrases, per text-encoder / denoiser choice of
+`mlct export-web`, next to the torch pipeline's.
+
+    python bench/web_readouts.py [--seeds 3]     # about 10 minutes on 2 busy cores
+
+Each variant makes every paraphrase of bench/data/quality_prompts.json (4 s, 5 NFE) with
+--seeds seeds, and scores it as bench/motion_quality.py does (mlct.eval.readouts.evaluate_label
+on the label the prompt implies); "named side" is the pass rate of the prompts that name a side,
+the ones the side contrast (text/sides.py) serves and text-encoder error hurts most. The torch
+row is mlct.load()'s pipeline with its own (torch) noise: the same seeds are other motions
+there, so its row differs by sampling noise too. The site's graphs store the same numbers
+gzipped or not (serve/site/pack.py), so --no-gzip needs no row.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from motion_quality import PROMPTS, Tally, prompt_label  # noqa: E402
+
+import mlct  # noqa: E402
+from mlct.eval.readouts import evaluate_label  # noqa: E402
+from mlct.generate.portable_noise import generate_with_portable_noise  # noqa: E402
+from mlct.serve.site import export_site, load_site_reference  # noqa: E402
+
+VARIANTS = {"site: --text-encoder float32": {"text_encoder": "float32"},
+            "site: default (int8 text encoder, float16 denoiser)": {},
+            "site: --denoiser int8": {"denoiser": "int8"},
+            "site: --text-encoder int8-weights": {"text_encoder": "int8-weights"},
+            "site: --text-encoder int8-weights --denoiser int8": {"text_encoder": "int8-weights",
+                                                                 "denoiser": "int8"}}
+SECONDS, NFE = 4.0, 5
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--only", nargs="*", default=None,
+                        help="the variants to run (their position in VARIANTS, from 0; the torch "
+                        "pipeline is -1); default: all")
+    args = parser.parse_args()
+    chosen = set(range(-1, len(VARIANTS)) if args.only is None else map(int, args.only))
+    torch.set_num_threads(1)
+    items = json.loads(PROMPTS.read_text(encoding="utf-8"))["paraphrases"]
+    pipe = mlct.load()
+    frames = round(SECONDS * pipe.skeleton.fps)
+    print(f"{len(items)} paraphrases x {args.seeds} seeds, {SECONDS} s, {NFE} NFE")
+    tally = Tally()
+    for seed in range(args.seeds if -1 in chosen else 0):
+        out = pipe.generate([p["text"] for p in items], seconds=SECONDS, nfe=NFE,
+                            seed=seed * 100_000, split_actions=False)
+        for item, motion in zip(items, out):
+            label = prompt_label(item["actions"], SECONDS)
+            tally.add(label, evaluate_label(motion.joints, label))
+    if -1 in chosen:
+        report("torch pipeline (the bundled model)", tally)
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, (name, options) in enumerate(VARIANTS.items()):
+            if i not in chosen:
+                continue
+            generator = load_site_reference(export_site("bundled", Path(tmp) / f"s{i}",
+                                                        **options), threads=1)
+            tally = Tally()
+            for seed in range(args.seeds):
+                for k, item in enumerate(items):
+                    _, joints = generate_with_portable_noise(generator, item["text"], frames,
+                                                             NFE, seed * 1000 + k)
+                    label = prompt_label(item["actions"], SECONDS)
+                    tally.add(label, evaluate_label(joints, label))
+            report(name, tally)
+
+
+def report(name: str, tally: Tally) -> None:
+    summary = tally.summary()
+    print(f"{name}: pass rate {summary['overall']:.3f} ({summary['motions']} motions), named "
+          f"side {summary['named_side']:.3f} ({summary['named_side_n']})", flush=True)
+
+
+if __name__ == "__main__":
+    main()
