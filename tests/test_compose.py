@@ -7,6 +7,7 @@ import pytest
 
 import mlct
 from mlct.generate.compose import in_order, split_actions, split_concurrent
+from mlct.generate.durations import part_frames
 from mlct.generate.long_motion import LongMotion
 
 
@@ -51,10 +52,14 @@ def test_a_sequence_is_chained_from_its_parts(pipe) -> None:
     assert isinstance(chained, LongMotion) and not isinstance(plain, LongMotion)
     assert chained.text == text and chained.texts == ("a person walks forward",
                                                       "a person squats")
-    assert chained.joints.shape[0] == 120 and chained.seams == (60,)
+    # the parts share the 120 frames by their predicted durations (the bundled durations.json)
+    assert pipe.durations is not None
+    share = part_frames(pipe.durations, pipe.encode_text(list(chained.texts)).numpy(), 120, 20)
+    assert share[0] != 60 and sum(share) == 120
+    assert chained.joints.shape[0] == 120 and chained.seams == (share[0],)
     assert chained.features.shape[1] == 263 and chained.seed == 0
     # the part made alone, at its own seed, is the chain's first part
-    first = pipe.generate("a person walks forward", lengths=60 + chained.blend, seed=0,
+    first = pipe.generate("a person walks forward", lengths=share[0] + chained.blend, seed=0,
                           split_actions=False)[0]
     np.testing.assert_allclose(chained.segments[0], first.joints, atol=1e-4)
     # the item beside it is what it would be alone (seed 0 + 1)

@@ -27,6 +27,8 @@ stage run cm --config small "train.cm.seed=$seed"
 stage sides cm --init "$work/model7k" --ae "$work/run" text.encoder=minilm+sides \
     train.cm.max_steps=12000 train.cm.lr=3e-4 "train.cm.seed=$seed"
 mlct export "$work/sides" --out "$work/model" --half
+# how long each action of a split prompt takes (generate/durations.py): seconds
+mlct train durations --data "$work/synth" --model "$work/model"
 rm -rf "$repo/src/mlct/assets/model"
 cp -r "$work/model" "$repo/src/mlct/assets/model"
 echo "$repo/src/mlct/assets/model"
