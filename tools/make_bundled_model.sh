@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # Rebuild the bundled model (docs/model_card.md) from scratch, on a CPU:
 #   bash tools/make_bundled_model.sh [WORK_DIR] [CM_SEED]
-# About 2 h 30 on 2 cores: the data 1 min, the autoencoder 40 min (10,000 steps), the consistency
-# model 35-40 min (7,000 steps, the pooled MiniLM) and then 60-80 min of fine-tuning it with
-# side-contrasted text ('minilm+sides', text/sides.py; 12,000 steps, lr 3e-4). Resumable: run it
+# About 3 h on 2 cores: the data 1 min, the autoencoder 40 min (10,000 steps), the consistency
+# model 25-40 min (7,000 steps, the pooled MiniLM), 40-80 min of fine-tuning it with
+# side-contrasted text ('minilm+sides', text/sides.py; 12,000 steps, lr 3e-4), then 24,000 more
+# steps in three continuations (lr 2e-4; 70 min at 290-340 steps a minute on a free machine)
+# and the duration model (2 min). Resumable: run it
 # again with the same WORK_DIR after an interruption and each stage continues from its last
 # checkpoint. The result replaces src/mlct/assets/model (float16 weights). CM_SEED (default 0)
 # seeds stage 2 only, for the seed spread the model card reports.
@@ -26,7 +28,19 @@ stage run cm --config small "train.cm.seed=$seed"
 [ -f "$work/model7k/config.json" ] || mlct export "$work/run" --out "$work/model7k" --half
 stage sides cm --init "$work/model7k" --ae "$work/run" text.encoder=minilm+sides \
     train.cm.max_steps=12000 train.cm.lr=3e-4 "train.cm.seed=$seed"
-mlct export "$work/sides" --out "$work/model" --half
+# Three continuations of the fine-tuned model (lr 2e-4 cosine each, from the float16 export of
+# the one before, as the bundle was made): 8,000, 6,000 and 10,000 steps.
+[ -f "$work/model_sides/config.json" ] || mlct export "$work/sides" --out "$work/model_sides" --half
+previous="$work/model_sides"
+for spec in cont1:8000:0 cont2:6000:1 cont3:10000:2; do
+    IFS=: read -r run steps offset <<< "$spec"
+    stage "$run" cm --init "$previous" --ae "$work/run" text.encoder=minilm+sides \
+        "train.cm.max_steps=$steps" train.cm.lr=2e-4 "train.cm.seed=$((seed + offset))"
+    [ -f "$work/model_$run/config.json" ] || mlct export "$work/$run" --out "$work/model_$run" --half
+    previous="$work/model_$run"
+done
+rm -rf "$work/model"
+cp -r "$previous" "$work/model"
 # how long each action of a split prompt takes (generate/durations.py): seconds
 mlct train durations --data "$work/synth" --model "$work/model"
 rm -rf "$repo/src/mlct/assets/model"
