@@ -157,7 +157,13 @@ def test_skinned_humanoid_plays_the_glb_on_each_rig(page, url, tmp_path):
     page.wait_for_function("window.mlctBody && window.mlctBody.ready", timeout=30_000)
     page.fill("#prompt", "a person walks forward and waves")
     page.click("#generate")
-    page.wait_for_function("window.mlctBody.current", timeout=60_000)
+    # the humanoid shows this prompt's motion, not the one the page made when it opened (a
+    # slow machine may still be loading that one when the click's motion arrives)
+    page.wait_for_function(
+        "window.mlct.state.request && window.mlct.state.request.text === "
+        "'a person walks forward and waves' && window.mlctBody.current && window.mlctBody.shown "
+        "=== JSON.stringify(window.mlct.state.request) + '|' + document.getElementById('rig').value",
+        timeout=60_000)
     assert page.evaluate("window.mlctBody.bones")[0] == "pelvis"
     # three.js's GLTFLoader poses the bones where mlct's reader of the same GLB puts them
     request = page.evaluate("window.mlct.state.request")

@@ -15,7 +15,7 @@ const view = {
 };
 // What the end-to-end test reads.
 // current: the model shown is the one for the motion and rig on screen (no load pending).
-window.mlctBody = { ready: false, bones: [], rig: "", frame: -1, loads: 0, current: false };
+window.mlctBody = { ready: false, bones: [], rig: "", frame: -1, loads: 0, current: false, shown: "" };
 
 function setup() {
   const box = $("body3d");
@@ -87,6 +87,7 @@ function tick() {
       window.mlctBody.current = false;
       load(state.request, rig).then(() => {
         window.mlctBody.current = view.loadedFor === wanted;
+        if (window.mlctBody.current) window.mlctBody.shown = wanted; // which request and rig
       });
     }
   }
