@@ -7,7 +7,7 @@ import pytest
 
 import mlct
 from mlct.generate.compose import in_order, split_actions, split_concurrent
-from mlct.generate.durations import part_frames
+from mlct.generate.durations import split_frames
 from mlct.generate.long_motion import LongMotion
 
 
@@ -54,7 +54,8 @@ def test_a_sequence_is_chained_from_its_parts(pipe) -> None:
                                                       "a person squats")
     # the parts share the 120 frames by their predicted durations (the bundled durations.json)
     assert pipe.durations is not None
-    share = part_frames(pipe.durations, pipe.encode_text(list(chained.texts)).numpy(), 120, 20)
+    share = split_frames(pipe.durations.seconds(pipe.encode_text(list(chained.texts)).numpy()),
+                         120, 20)
     assert share[0] != 60 and sum(share) == 120
     assert chained.joints.shape[0] == 120 and chained.seams == (share[0],)
     assert chained.features.shape[1] == 263 and chained.seed == 0

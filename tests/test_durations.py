@@ -10,7 +10,7 @@ import pytest
 
 import mlct
 from mlct.errors import MlctError
-from mlct.generate.durations import (FILE, DurationModel, fit_durations, part_frames,
+from mlct.generate.durations import (FILE, DurationModel, fit_durations, split_frames,
                                      read_durations, single_action_captions)
 from mlct.generate.pipeline import bundled_model_dir
 
@@ -38,18 +38,18 @@ def test_too_few_captions_is_a_clear_error():
         fit_durations(np.zeros((3, 4)), np.ones(3), "enc")
 
 
-def test_part_frames_are_proportional_sum_up_and_keep_a_minimum():
+def test_split_frames_are_proportional_sum_up_and_keep_a_minimum():
     model = DurationModel(np.array([1.0, 0.0]), 0.0, "enc", {})
     parts = np.array([[np.log(3.0), 0.0], [0.0, 5.0]])  # 3 s and 1 s
-    assert part_frames(model, parts, 100, 20) == [65, 35]  # 20 each + 60 shared 3:1
-    assert sum(part_frames(model, parts, 101, 20)) == 101
+    assert split_frames(model.seconds(parts), 100, 20) == [65, 35]  # 20 each + 60 shared 3:1
+    assert sum(split_frames(model.seconds(parts), 101, 20)) == 101
     # a part predicted far shorter still gets the minimum
     tiny = np.array([[np.log(100.0), 0.0], [0.0, 0.0]])
-    assert part_frames(model, tiny, 100, 20)[1] >= 20
+    assert split_frames(model.seconds(tiny), 100, 20)[1] >= 20
     # no model: equal shares, the rounding to one part
-    assert part_frames(None, ["a", "b", "c"], 100, 20) == [34, 33, 33]
+    assert split_frames(np.ones(3), 100, 20) == [34, 33, 33]
     # a total below the minimum: what there is, equally
-    assert part_frames(None, ["a", "b"], 30, 20) == [15, 15]
+    assert split_frames(np.ones(2), 30, 20) == [15, 15]
 
 
 def test_single_action_captions_take_one_action_motions_only():

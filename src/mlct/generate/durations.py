@@ -141,13 +141,13 @@ def single_action_captions(labels: Mapping[str, Mapping[str, Any]]
     return texts, np.asarray(seconds), np.asarray(groups)
 
 
-def part_frames(model: DurationModel | None, embeddings: np.ndarray, frames: int,
-                min_frames: int) -> list[int]:
-    """`frames` split among the parts, in proportion to their predicted durations (equal
-    without a model), each at least min_frames when the total allows; the shares sum to
+def split_frames(weights: Sequence[float] | np.ndarray, frames: int, min_frames: int
+                 ) -> list[int]:
+    """`frames` split among parts in proportion to `weights` (their predicted durations, or
+    ones for equal shares), each at least min_frames when the total allows; the shares sum to
     `frames` (largest remainders)."""
-    count = len(embeddings)
-    weights = np.ones(count) if model is None else model.seconds(embeddings)
+    weights = np.asarray(weights, dtype=np.float64)
+    count = len(weights)
     floor = min(min_frames, frames // count)
     spare = frames - floor * count
     exact = spare * weights / weights.sum()

@@ -33,7 +33,7 @@ from mlct.motion.features import recover_from_ric
 from mlct.motion.skeleton import get_skeleton
 from mlct.nn.inference import for_inference, weight_dtype
 from mlct.generate.compose import split_actions as split_actions_of
-from mlct.generate.durations import DurationModel, part_frames
+from mlct.generate.durations import DurationModel, split_frames
 from mlct.generate.compose import split_concurrent
 from mlct.generate.prompts import clean_prompt
 
@@ -250,8 +250,9 @@ class MotionGenerator:
 
         # each part's share in proportion to how long its action takes (durations.py; equal
         # when the model has no duration model)
-        embeddings = self.encode_text(parts).float().cpu().numpy() if self.durations else parts
-        share = part_frames(self.durations, embeddings, frames, self.frames_for(MIN_PART_SECONDS))
+        weights = (self.durations.seconds(self.encode_text(parts).float().cpu().numpy())
+                   if self.durations else np.ones(len(parts)))
+        share = split_frames(weights, frames, self.frames_for(MIN_PART_SECONDS))
         fps = self.skeleton.fps
         made = generate_long(self, parts, [n / fps for n in share], nfe=nfe, seed=seed,
                              guidance=guidance)
