@@ -10,7 +10,9 @@ overall, of
   (b) the autoencoder's reconstructions of them (--ae RUN: a training run or its AE checkpoint),
       with MPJPE and the pelvis-rise (jumps, hops) and foot-travel (walks) ratios to the truth;
   (c) generations from the test captions at the real lengths, --nfe, --seeds seeds;
-  (d) generations from hand-written paraphrases (bench/data/quality_prompts.json);
+  (d) generations from hand-written paraphrases (bench/data/quality_prompts.json), and from
+      held-out ones (quality_prompts_heldout.json: written after the everyday caption
+      vocabulary that `mlct data rephrase` trains on, using none of its new verbs);
   (e) generations from two-action prompts (first action in the first half, second in the second),
       as the pipeline makes them (one part per action, chained) and as one whole prompt;
 and, for the actions that name a side or turn direction, how often all their checks pass (the
@@ -38,6 +40,8 @@ from mlct.eval.readouts import evaluate_label, foot_travel, pelvis_rise
 from mlct.motion.features import features_to_joints
 
 PROMPTS = Path(__file__).parent / "data" / "quality_prompts.json"
+# paraphrases written after the everyday caption vocabulary, none of whose new verbs they use
+HELDOUT = Path(__file__).parent / "data" / "quality_prompts_heldout.json"
 SIDE_KEYS = ("side", "hand", "leg")
 MAX_FRAMES = 196
 
@@ -188,10 +192,12 @@ def main() -> None:
                 targets.append(labels[name])
         columns["captions"] = generated.summary()
         prompts = json.loads(PROMPTS.read_text(encoding="utf-8"))
+        prompts["heldout"] = json.loads(HELDOUT.read_text(encoding="utf-8"))["paraphrases"]
         # "two actions" as a user gets them (each action made alone and chained,
         # generate/compose.py), and "... whole": the model given the whole prompt at once.
         for key, title, seconds, split in (("paraphrases", "paraphrases", 4.0,
                                             not args.whole_prompt),
+                                           ("heldout", "held-out para", 4.0, not args.whole_prompt),
                                            ("two_actions", "two actions", 7.0, True),
                                            ("two_actions", "two, whole", 7.0, False)):
             tally = Tally()

@@ -1,4 +1,4 @@
-"""`mlct data synth|stats|check|import`: make, check and describe datasets."""
+"""`mlct data synth|rephrase|stats|check|import`: make, check and describe datasets."""
 
 from __future__ import annotations
 
@@ -16,6 +16,17 @@ def run_synth(args: argparse.Namespace) -> int:
                                  overwrite=args.overwrite)
     print(f"wrote {summary['motions']} motions ({summary['frames']} frames, "
           f"skating ratio {summary['skating_ratio']:.4f}) to {args.out}")
+    return 0
+
+
+def run_rephrase(args: argparse.Namespace) -> int:
+    from mlct.data.synth.rephrase import rephrase_dataset
+
+    summary = rephrase_dataset(args.src, args.out, per_motion=args.per_motion,
+                               splits=tuple(args.splits.split(",")), seed=args.seed,
+                               overwrite=args.overwrite)
+    print(f"wrote {args.out}: {summary['captions']} everyday captions added to "
+          f"{summary['motions']} motions ({args.splits})")
     return 0
 
 
@@ -65,6 +76,16 @@ def add_parser(commands: Commands) -> None:
     synth.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
     synth.add_argument("--quiet", action="store_true", help="no progress bar")
     synth.set_defaults(func=run_synth)
+
+    rephrase = data_commands.add_parser(
+        "rephrase", help="copy a procedural benchmark, adding everyday captions to a split")
+    rephrase.add_argument("src", type=Path, help="a dataset written by `mlct data synth`")
+    rephrase.add_argument("--out", required=True, type=Path, help="dataset directory to create")
+    rephrase.add_argument("--per-motion", type=int, default=3, help="captions added (default 3)")
+    rephrase.add_argument("--splits", default="train", help="comma-separated (default train)")
+    rephrase.add_argument("--seed", type=int, default=0)
+    rephrase.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
+    rephrase.set_defaults(func=run_rephrase)
 
     stats = data_commands.add_parser("stats", help="write Mean/Std and print dataset statistics")
     stats.add_argument("dir", type=Path)

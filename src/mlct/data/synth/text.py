@@ -13,7 +13,7 @@ from __future__ import annotations
 import numbers
 import re
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -74,9 +74,9 @@ def _checked(action: Any) -> tuple[str, dict[str, Any]]:
 _MARK = re.compile(r"<([a-z]+)>")
 
 
-def _render(template: str, gerund: bool) -> str:
+def _render(template: str, gerund: bool, forms: dict[str, tuple[str, str]] = VERB_FORMS) -> str:
     """Conjugate every <verb> in `template`: third person singular, or -ing when `gerund`."""
-    return _MARK.sub(lambda m: VERB_FORMS[m.group(1)][gerund], template)
+    return _MARK.sub(lambda m: forms[m.group(1)][gerund], template)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -357,20 +357,22 @@ _JOINS = (" then ", " and then ", " and ", ", then ", ", and then ", " and after
           ", after that ")
 
 
-def _concurrent_phrase(loco: str, upper: str, rng: Rng) -> str:
+def _concurrent_phrase(loco: str, upper: str, rng: Rng,
+                       forms: dict[str, tuple[str, str]] = VERB_FORMS) -> str:
     """One phrase for two simultaneous actions; the upper-body one is said with 'while'."""
     kind = int(rng.integers(4))
     if kind <= 1:
-        return f"{loco} while {_render(upper, gerund=True)}"
+        return f"{loco} while {_render(upper, True, forms)}"
     if kind == 2:
-        return f"{upper} while {_render(loco, gerund=True)}"
+        return f"{upper} while {_render(loco, True, forms)}"
     return f"{loco} and {upper} at the same time"
 
 
-def _sentence(subject: str, phrases: list[str], rng: Rng) -> str:
+def _sentence(subject: str, phrases: list[str], rng: Rng,
+              forms: dict[str, tuple[str, str]] = VERB_FORMS) -> str:
     """Join phrases (already in time order) into one sentence about `subject`."""
-    fin = [_render(p, gerund=False) for p in phrases]
-    ing = [_render(p, gerund=True) for p in phrases]
+    fin = [_render(p, False, forms) for p in phrases]
+    ing = [_render(p, True, forms) for p in phrases]
     if len(phrases) == 1:
         return f"{subject} is {ing[0]}" if rng.random() < 0.15 else f"{subject} {fin[0]}"
     forms = ["chain"] * 5 + ["first", "progressive", "before", "after_first"]
@@ -391,6 +393,18 @@ def _sentence(subject: str, phrases: list[str], rng: Rng) -> str:
     if form == "after":  # "a man turns left after walking forward": reversed in text
         return f"{subject} {fin[1]} after {ing[0]}"
     return f"{subject} " + _chain(fin, rng)
+
+
+class Vocabulary(NamedTuple):
+    """What a caption is made of: a phrase maker per family, (subject, possessive) pairs, and the
+    forms (third person, gerund) of every <verb> the phrases mark."""
+
+    phrases: dict[str, Callable[[dict, Rng], str]]
+    subjects: tuple[tuple[str, str], ...]
+    forms: dict[str, tuple[str, str]]
+
+
+BENCHMARK = Vocabulary(_PHRASES, _SUBJECTS, VERB_FORMS)
 
 
 def _chain(parts: list[str], rng: Rng) -> str:
@@ -420,9 +434,12 @@ def _concurrent_index(families: list[str], concurrent: Any, concurrent_with: int
 
 
 def describe(actions: Sequence[Any], rng: Rng, n_captions: int = 3, concurrent: Any = None,
-             concurrent_with: int | None = None) -> list[str]:
+             concurrent_with: int | None = None, vocabulary: Vocabulary | None = None
+             ) -> list[str]:
     """`n_captions` distinct truthful captions of `actions` (in time order); `concurrent` is an
-    upper-body action done while `actions[concurrent_with]` (default: the first locomotion)."""
+    upper-body action done while `actions[concurrent_with]` (default: the first locomotion).
+    vocabulary: phrases, subjects and verb forms (default: the benchmark's own, BENCHMARK)."""
+    phrase_of, subjects, forms = vocabulary or BENCHMARK
     if not actions:
         raise ValueError("describe needs at least one action")
     checked = [_checked(a) for a in actions]
@@ -431,14 +448,14 @@ def describe(actions: Sequence[Any], rng: Rng, n_captions: int = 3, concurrent: 
     with_ = None if concurrent is None else _checked(concurrent)
     captions: list[str] = []
     for _ in range(50 * n_captions):  # templates x subjects give hundreds of variants; retry dups
-        subject, possessive = _pick(rng, _SUBJECTS)
+        subject, possessive = _pick(rng, subjects)
         if rng.random() < 0.25:
             possessive = "the"  # "kicks with the left leg"
-        phrases = [_PHRASES[f](p, rng) for f, p in checked]
+        phrases = [phrase_of[f](p, rng) for f, p in checked]
         if with_ is not None:
-            upper = _PHRASES[with_[0]](with_[1], rng)
-            phrases[at] = _concurrent_phrase(phrases[at], upper, rng)
-        text = _sentence(subject, phrases, rng).replace("HIS", possessive)
+            upper = phrase_of[with_[0]](with_[1], rng)
+            phrases[at] = _concurrent_phrase(phrases[at], upper, rng, forms)
+        text = _sentence(subject, phrases, rng, forms).replace("HIS", possessive)
         text = _SPACES.sub(" ", text).replace(" ,", ",").strip() + "."
         if text not in captions:
             captions.append(text)

@@ -1,0 +1,112 @@
+"""`mlct data rephrase`: a copy of a procedural benchmark whose training captions say each motion
+in more ways (the everyday vocabulary, data/synth/everyday.py).
+
+    DST/ = SRC/ with texts/NAME.txt of every motion in `splits` holding its benchmark captions
+           plus `per_motion` everyday ones; every other file the same (motions hard-linked
+           where the file system allows, else copied). synth.json records what was added.
+
+The motions, labels, splits and normalization are SRC's, so an autoencoder or a stage-2 model
+trained on SRC reads DST unchanged and a continuation (`mlct train cm --init MODEL --data DST`)
+sees only new words. Test and validation captions stay as they are unless asked.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from mlct.data.captions import format_text_line, tag_caption
+from mlct.data.layout import read_split
+from mlct.data.synth.everyday import EVERYDAY
+from mlct.data.synth.text import describe
+from mlct.errors import MlctError
+from mlct.io import atomic_dir, write_text
+
+
+def _link_or_copy(src: Path, dst: Path) -> None:
+    try:
+        os.link(src, dst)
+    except OSError:  # another file system, or links not allowed
+        shutil.copy2(src, dst)
+
+
+def _labels(src: Path) -> dict[str, dict[str, Any]]:
+    path = src / "labels.jsonl"
+    if not path.is_file():
+        raise MlctError(f"{src}: no labels.jsonl; `mlct data rephrase` needs a procedural "
+                        f"benchmark (`mlct data synth`)")
+    out = {}
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+        if line.strip():
+            try:
+                record = json.loads(line)
+                out[record["name"]] = record
+            except (json.JSONDecodeError, KeyError, TypeError):
+                raise MlctError(f"{path}:{number}: not a label record") from None
+    return out
+
+
+def everyday_captions(record: dict[str, Any], rng: np.random.Generator, count: int) -> list[str]:
+    """`count` distinct everyday captions of one labels.jsonl record."""
+    actions = [SimpleNamespace(family=a["family"], params=a["params"]) for a in record["actions"]]
+    concurrent = record.get("concurrent")
+    with_ = None if concurrent is None else SimpleNamespace(family=concurrent["family"],
+                                                            params=concurrent["params"])
+    return describe(actions, rng, count, with_, vocabulary=EVERYDAY)
+
+
+def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion: int = 3,
+                     splits: tuple[str, ...] = ("train",), seed: int = 0,
+                     overwrite: bool = False) -> dict[str, Any]:
+    """Write DST (module docstring); returns {"motions": rephrased, "captions": added}."""
+    src, out = Path(src), Path(out)
+    if per_motion < 1:
+        raise MlctError(f"--per-motion must be >= 1, got {per_motion}")
+    if out.resolve() == src.resolve():
+        raise MlctError("--out must differ from the source dataset (it is copied, not edited)")
+    if out.exists() and not overwrite:
+        raise MlctError(f"{out} exists; pass --overwrite to replace it")
+    labels = _labels(src)
+    chosen: set[str] = set()
+    for split in splits:
+        if not (src / f"{split}.txt").is_file():
+            raise MlctError(f"{src}: no split '{split}' ({split}.txt)")
+        chosen.update(read_split(src / f"{split}.txt"))
+    missing = sorted(chosen - set(labels))
+    if missing:
+        raise MlctError(f"{src}: {len(missing)} motions of {', '.join(splits)} have no label "
+                        f"(first: {missing[0]})")
+    rng = np.random.default_rng(seed)
+    added = 0
+    with atomic_dir(out) as work:
+        for item in sorted(src.iterdir()):
+            if item.name == "texts":
+                continue
+            if item.is_dir():
+                (work / item.name).mkdir()
+                for f in item.iterdir():
+                    _link_or_copy(f, work / item.name / f.name)
+            elif item.name != "synth.json":
+                shutil.copy2(item, work / item.name)
+        (work / "texts").mkdir()
+        for path in sorted((src / "texts").iterdir()):
+            text = path.read_text(encoding="utf-8")
+            name = path.stem
+            if name in chosen:
+                lines = [format_text_line(c, tag_caption(c))
+                         for c in everyday_captions(labels[name], rng, per_motion)]
+                text = text.rstrip("\n") + "\n" + "\n".join(lines) + "\n"
+                added += len(lines)
+            (work / "texts" / path.name).write_text(text, encoding="utf-8")
+        meta = json.loads((src / "synth.json").read_text(encoding="utf-8")) \
+            if (src / "synth.json").is_file() else {}
+        meta["rephrased"] = {"from": str(src), "vocabulary": "everyday", "per_motion": per_motion,
+                             "splits": list(splits), "seed": seed, "captions_added": added}
+        write_text(work / "synth.json", json.dumps(meta, indent=2) + "\n")
+    return {"motions": len(chosen), "captions": added}
