@@ -1,7 +1,7 @@
 """Does the model do what its text says? Physical read-outs of motions, per family and side.
 
     python bench/motion_quality.py --data SYNTH [--model MODEL_DIR] [--ae RUN] [--seeds 5]
-        [--classifier CLS] [--limit N] [--json OUT] [--render DIR]
+        [--classifier CLS] [--limit N] [--json OUT] [--render DIR] [--candidates N]
 
 Every motion is scored by mlct.eval.readouts: the checks that a benchmark label (family, side,
 count, direction) implies, read from the joints alone. It prints the pass rate, per family and
@@ -141,6 +141,8 @@ def main() -> None:
                         help="(c) and (d) give the model whole prompts: no split into actions")
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--backend", default="torch", help="mlct.load's backend (torch, onnx)")
+    parser.add_argument("--candidates", type=int, default=None,
+                        help="best-of-N by the model's critic (default: the model's; 1 = plain)")
     args = parser.parse_args()
     torch.manual_seed(0)
 
@@ -185,7 +187,8 @@ def main() -> None:
         start = time.perf_counter()
         for seed in range(args.seeds):
             out = pipe.generate(captions, lengths=lengths, nfe=args.nfe, seed=seed * 100_000,
-                                split_actions=not args.whole_prompt)
+                                split_actions=not args.whole_prompt,
+                                candidates=args.candidates)
             for name, motion in zip(names, out):
                 generated.add(labels[name], evaluate_label(motion.joints, labels[name]))
                 made_features.append(motion.features)
@@ -204,7 +207,8 @@ def main() -> None:
             items = prompts[key]
             for seed in range(args.seeds):
                 out = pipe.generate([p["text"] for p in items], seconds=seconds, nfe=args.nfe,
-                                    seed=seed * 100_000, split_actions=split)
+                                    seed=seed * 100_000, split_actions=split,
+                                    candidates=args.candidates)
                 for item, motion in zip(items, out):
                     label = prompt_label(item["actions"], motion.joints.shape[0] / pipe.skeleton.fps)
                     tally.add(label, evaluate_label(motion.joints, label))
@@ -219,7 +223,8 @@ def main() -> None:
                                     "mean_recall": sem["mean_recall"]}
 
     print(f"{len(names)} motions of {args.data} ({args.split}); nfe {args.nfe}, "
-          f"{args.seeds} seeds; model {args.model or 'bundled'}")
+          f"{args.seeds} seeds; model {args.model or 'bundled'}; candidates "
+          f"{args.candidates or 'default'}")
     print_table("read-out pass rates", columns)
     for key in ("reconstruction", "classifier"):
         if key in report:

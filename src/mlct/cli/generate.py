@@ -36,9 +36,13 @@ def run(args: argparse.Namespace) -> int:
     if long and args.num > 1:
         raise MlctError("--num makes variations of one prompt; several prompts make one long "
                         "motion")
+    if args.candidates is not None:
+        from mlct.generate.critic import check_candidates
+
+        check_candidates(args.candidates)
     request = generate_files.Request(prompts, args.seconds, args.length, args.num, args.nfe,
                                      args.seed, long, split_actions=not args.whole_prompt,
-                                     control=_control(args))
+                                     control=_control(args), candidates=args.candidates)
     names = ["_".join(prompts)] if long else [p for p in prompts for _ in range(args.num)]
     paths = generate_files.output_paths(names, args.out, args.out_dir, args.format)
     def load() -> Any:
@@ -104,6 +108,9 @@ def add_parser(commands: Commands) -> None:
     generate.add_argument("--seed", type=int, default=None,
                           help="motion i gets seed + i (default: random)")
     generate.add_argument("--num", type=int, default=1, help="variations per prompt (default 1)")
+    generate.add_argument("--candidates", type=int, default=None,
+                          help="sample N motions per prompt and keep the one the model's critic "
+                          "rates best (default: the model's, 8 for the bundled model; 1 = plain)")
     generate.add_argument("--device", default=None)
     generate.add_argument("--dtype", default="float32", choices=["float32", "bfloat16"],
                           help="precision of the networks' products (docs/performance.md)")

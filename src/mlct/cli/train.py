@@ -1,4 +1,4 @@
-"""`mlct train ae|cm|diffusion|durations|evaluator|classifier`: the model's stages, and the judges."""
+"""`mlct train ae|cm|diffusion|durations|critic|evaluator|classifier`: the model's stages, and the judges."""
 
 from __future__ import annotations
 
@@ -95,6 +95,25 @@ def run_durations(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_critic(args: argparse.Namespace) -> int:
+    """Train the best-of-N critic (train/critic.py) and write it beside the model's weights."""
+    from mlct.generate.critic import check_candidates
+    from mlct.generate.pipeline import bundled_model_dir
+    from mlct.train.critic import train_critic
+
+    model_dir = bundled_model_dir() if args.model == "bundled" else Path(args.model)
+    check_candidates(args.candidates)
+    summary = train_critic(args.data, model_dir, split=args.split, steps=args.steps,
+                           seed=args.seed, candidates=args.candidates,
+                           log=(lambda _: None) if args.quiet else print)
+    held = summary.get("test")
+    print(f"critic: {summary['captions']} captions, {summary['steps']} steps, "
+          f"{summary['seconds']:.0f} s" + (f"; test label top-1 {held['label_top1']:.3f}, "
+                                           f"side vs mirror {held['side_vs_mirror']:.3f}"
+                                           if held else "") + f"; {model_dir}")
+    return 0
+
+
 def _trainer_options(parser: argparse.ArgumentParser, what: str, batch_size: int) -> None:
     """The options the evaluator and the action classifier trainers share."""
     parser.add_argument("--data", required=True, type=Path, help="dataset directory")
@@ -112,7 +131,8 @@ def add_parser(commands: Commands) -> None:
     train = commands.add_parser("train", help="train a stage: ae, then cm (or diffusion); "
                                 "or the evaluator")
     stages = train.add_subparsers(dest="stage", required=True, parser_class=Parser,
-                                  metavar="{ae,cm,diffusion,durations,evaluator,classifier}")
+                                  metavar="{ae,cm,diffusion,durations,critic,evaluator,"
+                                  "classifier}")
     for stage, help_text in (("ae", "stage 1: the motion autoencoder"),
                              ("cm", "stage 2: latent consistency training (MLCT)"),
                              ("diffusion", "stage 2 baseline: latent diffusion (DDIM + CFG)")):
@@ -146,6 +166,21 @@ def add_parser(commands: Commands) -> None:
                            "model that ships with mlct)")
     durations.add_argument("--split", default="train", help="the split to fit on (train)")
     durations.set_defaults(func=run_durations)
+
+    critic = stages.add_parser("critic", help="the text-motion critic of best-of-N sampling: "
+                               "trained on a dataset, written beside a model")
+    critic.add_argument("--data", required=True, type=Path, help="dataset directory (its "
+                        "labels.jsonl, when present, keeps same-label motions off each other)")
+    critic.add_argument("--model", required=True, metavar="MODEL_DIR",
+                        help="the exported model to add critic.safetensors to ('bundled' = the "
+                        "model that ships with mlct)")
+    critic.add_argument("--split", default="train", help="the split to train on (train)")
+    critic.add_argument("--steps", type=int, default=3000)
+    critic.add_argument("--seed", type=int, default=0)
+    critic.add_argument("--candidates", type=int, default=8,
+                        help="the model's default best-of-N (default 8)")
+    critic.add_argument("--quiet", action="store_true", help="print only the summary")
+    critic.set_defaults(func=run_critic)
 
     evaluator = stages.add_parser("evaluator", help="the text-motion matching evaluator of "
                                   "the standard metrics (Guo et al. 2022)")

@@ -9,7 +9,8 @@ A bundle is a directory:
 - config.json: the full run config, the sampler's name (mlct.generate.samplers), feature
   width, skeleton, text encoder;
 - Mean.npy, Std.npy: the dataset statistics, in the standard layout's names;
-- optionally onnx/: the networks as ONNX graphs for the onnx backend (onnx_bundle.py owns them).
+- optionally onnx/: the networks as ONNX graphs for the onnx backend (onnx_bundle.py owns them);
+- optionally durations.json (durations.py) and critic.safetensors (critic.py).
 It holds no optimizer state and no text-encoder weights (the text encoder is named and loaded
 from its own package or directory).
 """
@@ -24,6 +25,7 @@ import torch
 from safetensors.torch import load_file
 
 from mlct.errors import MlctError, first_line
+from mlct.generate.critic import read_critic
 from mlct.generate.durations import read_durations
 from mlct.generate.samplers import SAMPLERS
 from mlct.io import read_format_json, strip_prefix
@@ -90,6 +92,11 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
     durations = read_durations(path, meta["text_encoder"], int(meta["text_dim"]))
     if durations is not None:  # the parts of a split prompt share the clip by it
         meta["durations"] = durations.to_json()
+    ae = meta["config"].get("ae", {})
+    critic = read_critic(path, meta["text_encoder"], int(meta["text_dim"]),
+                         int(ae.get("n_tokens", 0)) * int(ae.get("latent_dim", 0)))
+    if critic is not None:  # best-of-N sampling (critic.py)
+        meta["critic"] = critic
     try:
         tensors = load_file(str(weights))
     except Exception as err:  # safetensors raises several kinds on a damaged file

@@ -42,6 +42,7 @@ class Request:
     long: bool = False
     split_actions: bool = True  # a prompt naming actions in sequence: one part each, chained
     control: Any = None  # a generate.control.Control: path, keyframes, edit, prefix
+    candidates: int | None = None  # best-of-N by the model's critic; None: the model's default
 
 
 def slug(text: str, limit: int = 40) -> str:
@@ -100,7 +101,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
             raise MlctError(f"{len(request.prompts)} prompts but {len(request.seconds)} "
                             f"durations; give one each")
         motion = generate_long(load(), request.prompts, request.seconds, request.nfe,
-                               request.seed)
+                               request.seed, candidates=request.candidates)
         motion.save(paths[0], features, rig)
         return [paths[0]]
     texts = [p for p in request.prompts for _ in range(request.num)]
@@ -126,7 +127,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
                 texts[start:stop], lengths=None if lengths is None else lengths[start:stop],
                 seconds=None if seconds is None else seconds[start:stop], nfe=request.nfe,
                 seed=None if seeds is None else seeds[start:stop],
-                split_actions=request.split_actions)
+                split_actions=request.split_actions, candidates=request.candidates)
             for motion, path in zip(motions, paths[start:stop]):
                 written.append(motion.save(path, features, rig))
                 bar.update(1)

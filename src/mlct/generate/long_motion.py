@@ -37,7 +37,8 @@ class SegmentMaker(Protocol):
     def _lengths(self, count: int, lengths: Any, seconds: Any) -> list[int]: ...
 
     def generate(self, texts: Any, lengths: Any = None, seconds: Any = None, nfe: Any = None,
-                 seed: Any = None, guidance: Any = None, split_actions: bool = True) -> Any: ...
+                 seed: Any = None, guidance: Any = None, split_actions: bool = True,
+                 candidates: Any = None) -> Any: ...
 
 BLEND_SECONDS = 0.75  # the shortest that kept seam speeds within the segments' (bench/long_motion.py)
 
@@ -129,9 +130,10 @@ def chain_segments(segments: Sequence[np.ndarray], blend: int, skeleton: Skeleto
 
 def generate_long(generator: SegmentMaker, texts: Sequence[str], seconds: Sequence[float],
                   nfe: int | None = None, seed: int | None = None,
-                  blend_seconds: float = BLEND_SECONDS, guidance: float | None = None
-                  ) -> LongMotion:
-    """One continuous motion doing texts[k] for seconds[k], in order."""
+                  blend_seconds: float = BLEND_SECONDS, guidance: float | None = None,
+                  candidates: int | None = None) -> LongMotion:
+    """One continuous motion doing texts[k] for seconds[k], in order; candidates: per
+    segment, as MotionGenerator.generate's (None: the model's default)."""
     if len(texts) != len(seconds):
         raise MlctError(f"{len(texts)} prompts but {len(seconds)} durations; give one each")
     fps = generator.skeleton.fps
@@ -143,7 +145,7 @@ def generate_long(generator: SegmentMaker, texts: Sequence[str], seconds: Sequen
         raise MlctError(f"a segment may last at most {(generator.max_frames - blend) / fps:.1f} s "
                         f"(the model's window, less the {blend / fps:.1f} s blend); split it")
     parts = generator.generate(list(texts), lengths=lengths, nfe=nfe, seed=seed,
-                               guidance=guidance, split_actions=False)
+                               guidance=guidance, split_actions=False, candidates=candidates)
     joints, seams = chain_segments([p.joints for p in parts], blend, generator.skeleton)
     from mlct.motion.features import joints_to_features
 

@@ -20,6 +20,7 @@ import torch
 from torch import Tensor
 
 from mlct.generate.bundle import ENCODER_PREFIXES, read_bundle
+from mlct.generate.critic import Critic, check_candidates
 from mlct.io import strip_prefix
 from mlct.config import Config, config_from_dict
 from mlct.devices import resolve_device
@@ -72,6 +73,10 @@ class MotionGenerator:
         self.durations = (DurationModel.from_json(meta["durations"], "the model's durations")
                           if meta.get("durations") else None)
         self._text_memo: OrderedDict[str, Tensor] = OrderedDict()
+        # best-of-N sampling (generate/critic.py): the critic beside the weights, if any, and
+        # how many motions per prompt it chooses from by default
+        self.critic: Critic | None = meta.get("critic")
+        self.candidates = self.critic.candidates if self.critic is not None else 1
 
     def _networks(self, tensors: dict[str, Tensor]) -> tuple[Any, Any]:
         """The AE decoder and the denoiser that sample_latents and decode run: the bundle's
@@ -187,11 +192,34 @@ class MotionGenerator:
         may do both in one call (the onnx backend's sampler graph)."""
         return self.decode(self.sample_latents(cond, nfe, seed, guidance), lengths)
 
+    def best_features(self, cond: Tensor, nfe: int | None, seeds: Sequence[int],
+                      guidance: float | None, lengths: Sequence[int], candidates: int
+                      ) -> list[np.ndarray]:
+        """sample_features, each prompt the best of `candidates` latents by the critic: the
+        first candidate of a seed is the plain sample of that seed, the others have seeds
+        derived from it, so a motion is replayed from (text, length, nfe, seed, candidates)."""
+        if candidates == 1 or self.critic is None:
+            return self.sample_features(cond, nfe, list(seeds), guidance, lengths)
+        rows = cond.repeat_interleave(candidates, dim=0)
+        seeds_of = [(s + k * _SEED_STRIDE) % (MAX_SEED + 1)
+                    for s in seeds for k in range(candidates)]
+        z = self.sample_latents(rows, nfe, seeds_of, guidance)  # (B * N, n, d)
+        best = self.critic.best(z.float().cpu() / self.config.schedule.latent_scale,
+                                torch.tensor(list(lengths)), cond.float().cpu(), candidates)
+        z = z.view(len(seeds), candidates, *z.shape[1:])
+        z = z[torch.arange(len(seeds), device=z.device), best.to(z.device)]
+        return self.decode(z, lengths)
+
     def generate(self, texts: str | Sequence[str], lengths: int | Sequence[int] | None = None,
                  seconds: float | Sequence[float] | None = None, nfe: int | None = None,
                  seed: int | Sequence[int] | None = None, guidance: float | None = None,
-                 split_actions: bool = True, control: Any = None) -> Generation:
+                 split_actions: bool = True, control: Any = None,
+                 candidates: int | None = None) -> Generation:
         """Motions for texts: one per text, each of its own length.
+
+        candidates: sample this many motions per prompt (one batch) and keep the one the
+        model's critic rates best (generate/critic.py); default: the model's (8 for the bundled
+        model), 1 without a critic. 1 is plain sampling.
 
         control: a generate.control.Control (or its JSON dict): a root path, keyframes, a
         body-part edit, a prefix to continue; one text; generate/controlled.py meets it.
@@ -219,6 +247,11 @@ class MotionGenerator:
             return generate_with_control(self, texts, lengths, seconds, nfe, seed, control)
         frames = self._lengths(len(texts), lengths, seconds)
         self.check_nfe(nfe)  # before the (slow) text encoder loads
+        if candidates is None:
+            candidates = self.candidates
+        elif check_candidates(candidates) > 1 and self.critic is None:
+            raise MlctError("this model has no critic to choose among candidates (make one "
+                            "with `mlct train critic`), so candidates must be 1")
         if guidance is not None and not _is_scale(guidance):  # a consistency model ignores it
             raise MlctError(f"guidance must be a number >= 0, got {guidance!r}")
         seeds = self._seeds(len(texts), seed)
@@ -226,25 +259,27 @@ class MotionGenerator:
         if split_actions:
             for i, t in enumerate(texts):
                 if (pair := split_concurrent(t)) is not None:
-                    out[i] = self._concurrent(t, *pair, frames[i], nfe, seeds[i], guidance)
+                    out[i] = self._concurrent(t, *pair, frames[i], nfe, seeds[i], guidance,
+                                              candidates)
         plans = [split_actions_of(t) if split_actions else [t] for t in texts]
         min_part = self.frames_for(MIN_PART_SECONDS)
         whole = [i for i, (parts, n) in enumerate(zip(plans, frames)) if out[i] is None
                  and (len(parts) == 1 or n // len(parts) < min_part)]
         if whole:
-            made = self.sample_features(self.encode_text([texts[i] for i in whole]), nfe,
-                                        [seeds[i] for i in whole], guidance,
-                                        [frames[i] for i in whole])
+            made = self.best_features(self.encode_text([texts[i] for i in whole]), nfe,
+                                      [seeds[i] for i in whole], guidance,
+                                      [frames[i] for i in whole], candidates)
             for i, feats in zip(whole, made):
                 joints = recover_from_ric(torch.from_numpy(feats)).numpy()
                 out[i] = GeneratedMotion(texts[i], feats, joints, self.skeleton.fps,
                                          self.skeleton.name, seeds[i])
         for i in sorted(i for i in set(range(len(texts))) - set(whole) if out[i] is None):
-            out[i] = self._chained(texts[i], plans[i], frames[i], nfe, seeds[i], guidance)
+            out[i] = self._chained(texts[i], plans[i], frames[i], nfe, seeds[i], guidance,
+                                   candidates)
         return Generation(out)  # type: ignore[arg-type]
 
     def _chained(self, text: str, parts: list[str], frames: int, nfe: int | None, seed: int,
-                 guidance: float | None) -> GeneratedMotion:
+                 guidance: float | None, candidates: int) -> GeneratedMotion:
         """One motion of `frames` doing parts[k] in turn, under the whole text."""
         from mlct.generate.long_motion import generate_long
 
@@ -255,14 +290,15 @@ class MotionGenerator:
         share = split_frames(weights, frames, self.frames_for(MIN_PART_SECONDS))
         fps = self.skeleton.fps
         made = generate_long(self, parts, [n / fps for n in share], nfe=nfe, seed=seed,
-                             guidance=guidance)
+                             guidance=guidance, candidates=candidates)
         return dataclasses.replace(made, text=text)
 
     def _concurrent(self, text: str, body: str, arms: str, frames: int, nfe: int | None,
-                    seed: int, guidance: float | None) -> GeneratedMotion:
+                    seed: int, guidance: float | None, candidates: int) -> GeneratedMotion:
         """An arm action done during another: the body made from `body` (split into its actions
         as any prompt), the arms from `arms` alone, grafted on as a body-part edit."""
-        made = self.generate(body, lengths=frames, nfe=nfe, seed=seed, guidance=guidance)[0]
+        made = self.generate(body, lengths=frames, nfe=nfe, seed=seed, guidance=guidance,
+                             candidates=candidates)[0]
         grafted = self.generate(arms, lengths=frames, nfe=nfe, seed=seed,
                                 control={"edit": made.joints, "parts": "arms"})[0]
         return dataclasses.replace(grafted, text=text)
@@ -315,6 +351,7 @@ def bundle_networks(config: Config, meta: dict, tensors: dict[str, Tensor]
 # The shortest share of a sequence's part: below it the blend (0.75 s) would be most of the part.
 MIN_PART_SECONDS = 1.0
 TEXT_MEMO_SIZE = 2048  # texts whose embeddings a generator keeps (LRU): <= 64 MB with tokens
+_SEED_STRIDE = 0x9E3779B97F4A7C15  # candidate k of seed s samples with s + k * this (mod 2^63)
 MAX_SEED = 2**63 - 1  # torch.Generator.manual_seed takes 64 bits; kept signed for portability
 
 

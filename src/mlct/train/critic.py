@@ -1,0 +1,172 @@
+"""`mlct train critic`: the text-motion critic of best-of-N sampling (nn/critic.py), trained on a
+model's own latents and text vectors, written beside its weights (generate/critic.py).
+
+The motions of one split are encoded once by the model's autoencoder encoder (the bundle ships
+it) and their captions once by the model's text encoder (through the disk cache). The loss is
+CLIP's symmetric InfoNCE over a batch of (caption, latent) pairs, with two changes for this use:
+- motions with the same label (labels.jsonl; the motion's name when there is none) are not
+  counted as negatives of each other: the benchmark has many "walks forward" motions;
+- a caption that names a side also competes with its mirror ("left" and "right" swapped,
+  text/sides.py) as a negative for its own motion: the critic must tell sides apart, the thing
+  the pooled text vector does worst.
+The latents get Gaussian noise (LATENT_NOISE of their spread) so that the critic also rates the
+slightly off-manifold latents a sampler returns.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import Tensor
+
+from mlct.config import config_from_dict
+from mlct.data.layout import DatasetLayout
+from mlct.errors import MlctError
+from mlct.generate.bundle import bundle_autoencoder_state, read_bundle
+from mlct.generate.critic import DEFAULT_CANDIDATES, save_critic
+from mlct.nn.build import build_autoencoder
+from mlct.nn.critic import LatentCritic
+from mlct.text.sides import mirror_sides
+
+LATENT_NOISE = 0.15
+MASKED = -1e4  # a logit that softmax ignores
+
+
+class CriticData:
+    """One split's latents (M, n, d), lengths (M,), captions with their owner motion, text
+    vectors (C, c) and their mirrors', and a group id per motion (same label, same group)."""
+
+    def __init__(self, layout: DatasetLayout, names: list[str], labels: dict[str, Any],
+                 encoder: Any, normalize: Any, max_frames: int) -> None:
+        self.names = names
+        feats = [layout.load_features(n)[:max_frames] for n in names]
+        self.lengths = torch.tensor([len(f) for f in feats])
+        self.latents = torch.cat([normalize(feats[i:i + 64]) for i in range(0, len(feats), 64)])
+        captions, owner = [], []
+        for i, name in enumerate(names):
+            for record in layout.read_texts(name):
+                captions.append(record.caption)
+                owner.append(i)
+        if not captions:
+            raise MlctError(f"{layout.root}: the motions have no captions")
+        self.captions, self.owner = captions, torch.tensor(owner)
+        self.text = encoder.encode(captions).float()
+        mirrors = [mirror_sides(c) for c in captions]
+        self.sided = torch.tensor([m != c for c, m in zip(captions, mirrors)])
+        self.mirror = self.text.clone()
+        sided = [i for i, s in enumerate(self.sided.tolist()) if s]
+        if sided:
+            self.mirror[sided] = encoder.encode([mirrors[i] for i in sided]).float()
+        keys = [labels.get(n, {}).get("label", n) for n in names]
+        index = {k: g for g, k in enumerate(dict.fromkeys(keys))}
+        self.group = torch.tensor([index[k] for k in keys])
+
+
+def _loss(critic: LatentCritic, data: CriticData, rows: Tensor, noise: float) -> Tensor:
+    own = data.owner[rows]
+    z = data.latents[own]
+    z = z + noise * torch.randn_like(z)
+    motion = critic.motion(z, data.lengths[own])
+    text, mirror = critic.text(data.text[rows]), critic.text(data.mirror[rows])
+    scale = critic.logit_scale.exp().clamp(max=100.0)
+    logits = scale * motion @ text.T  # (B, B): motion i against caption j
+    group = data.group[own]
+    same = (group[:, None] == group[None, :]) & ~torch.eye(len(rows), dtype=torch.bool)
+    logits = logits.masked_fill(same, MASKED)
+    mirrored = (scale * (motion * mirror).sum(-1, keepdim=True)).masked_fill(
+        ~data.sided[rows][:, None], MASKED)
+    target = torch.arange(len(rows))
+    return (F.cross_entropy(torch.cat([logits, mirrored], dim=1), target)
+            + F.cross_entropy(logits.T, target))
+
+
+@torch.no_grad()
+def measure(critic: LatentCritic, data: CriticData) -> dict[str, float]:
+    """Caption -> motion retrieval over the split: how often the best-rated motion has the
+    caption's label (top-1), and how often a side-naming caption rates its own motion above
+    its mirror caption does."""
+    critic.eval()
+    motion = critic.motion(data.latents, data.lengths)
+    text, mirror = critic.text(data.text), critic.text(data.mirror)
+    top = (text @ motion.T).argmax(dim=1)
+    label_top1 = (data.group[top] == data.group[data.owner]).float().mean()
+    own = (text * motion[data.owner]).sum(-1)
+    other = (mirror * motion[data.owner]).sum(-1)
+    sides = ((own > other)[data.sided].float().mean() if data.sided.any()
+             else torch.tensor(float("nan")))
+    critic.train()
+    return {"label_top1": round(float(label_top1), 4), "side_vs_mirror": round(float(sides), 4)}
+
+
+def train_critic(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
+                 split: str = "train", steps: int = 3000, batch_size: int = 256, lr: float = 1e-3,
+                 seed: int = 0, eval_split: str | None = "test",
+                 candidates: int = DEFAULT_CANDIDATES, log: Any = print) -> dict[str, Any]:
+    """Train the critic of the model in `model_dir` on `split` and write critic.safetensors
+    there; returns what it measured (on `eval_split` when the data has it)."""
+    if steps < 1 or batch_size < 2:
+        raise MlctError(f"steps must be >= 1 and batch size >= 2, got {steps} and {batch_size}")
+    from mlct.text import load_text_encoder
+    from mlct.text.cache import CachedTextEncoder
+
+    torch.manual_seed(seed)
+    meta, tensors = read_bundle(model_dir)
+    config = config_from_dict(meta["config"], "model config")
+    ae = build_autoencoder(config, int(meta["feature_dim"]))
+    ae.load_state_dict(bundle_autoencoder_state(tensors, model_dir))
+    ae.eval()
+    mean, std = tensors["norm.mean"].float(), tensors["norm.std"].float()
+    max_frames = config.data.max_motion_length
+
+    @torch.no_grad()
+    def encode(feats: list[np.ndarray]) -> Tensor:
+        lengths = torch.tensor([len(f) for f in feats])
+        x = torch.zeros(len(feats), int(lengths.max()), mean.shape[0])
+        for i, f in enumerate(feats):
+            x[i, :len(f)] = (torch.from_numpy(f).float() - mean) / std
+        return ae.encode(x, lengths).z
+
+    layout = DatasetLayout.existing(data_dir)
+    labels_path = Path(data_dir) / "labels.jsonl"
+    labels = ({json.loads(line)["name"]: json.loads(line)
+               for line in labels_path.read_text(encoding="utf-8").splitlines() if line.strip()}
+              if labels_path.is_file() else {})
+    encoder = CachedTextEncoder(load_text_encoder(meta["text_encoder"]))
+    started = time.perf_counter()
+    train = CriticData(layout, layout.read_split(split), labels, encoder, encode, max_frames)
+    held = None
+    if eval_split and (Path(data_dir) / f"{eval_split}.txt").is_file():
+        held = CriticData(layout, layout.read_split(eval_split), labels, encoder, encode,
+                          max_frames)
+    log(f"critic: {len(train.names)} motions, {len(train.captions)} captions of '{split}' "
+        f"encoded in {time.perf_counter() - started:.0f} s")
+    shape = train.latents.shape
+    critic = LatentCritic(shape[1] * shape[2], train.text.shape[1], max_frames)
+    optimizer = torch.optim.AdamW(critic.parameters(), lr=lr, weight_decay=1e-4)
+    schedule = torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, steps, eta_min=lr * 0.01)
+    noise = LATENT_NOISE * float(train.latents.std())
+    generator = torch.Generator().manual_seed(seed)
+    for step in range(1, steps + 1):
+        rows = torch.randint(len(train.captions), (batch_size,), generator=generator)
+        loss = _loss(critic, train, rows, noise)
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        optimizer.step()
+        schedule.step()
+        if step % 500 == 0 or step == steps:
+            log(f"critic: step {step}/{steps}, loss {float(loss.detach()):.3f}")
+    training = {"data": str(data_dir), "split": split, "motions": len(train.names),
+                "captions": len(train.captions), "steps": steps, "batch_size": batch_size,
+                "lr": lr, "seed": seed, "seconds": round(time.perf_counter() - started, 1),
+                "train": measure(critic, train)}
+    if held is not None:
+        training[eval_split] = measure(critic, held)
+    save_critic(model_dir, critic, training, meta["text_encoder"], candidates)
+    return training

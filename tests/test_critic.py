@@ -1,0 +1,129 @@
+"""Best-of-N sampling: the latent text-motion critic (nn/critic.py), its file beside a model
+(generate/critic.py), `mlct train critic` (train/critic.py) and the pipeline's `candidates`."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+import mlct
+from mlct.errors import MlctError
+from mlct.generate.critic import FILE, Critic, check_candidates, read_critic, save_critic
+from mlct.generate.pipeline import bundled_model_dir
+from mlct.nn.critic import LatentCritic
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+
+def test_scores_are_cosines_and_best_is_the_argmax_per_prompt() -> None:
+    torch.manual_seed(0)
+    net = LatentCritic(latent_size=12, text_dim=8, max_frames=196, hidden=32, width=16)
+    z, text = torch.randn(6, 3, 4), torch.randn(2, 8)
+    frames = torch.tensor([40, 80, 120, 40, 80, 120])
+    rows = text.repeat_interleave(3, dim=0)
+    scores = net.score(z, frames, rows)
+    assert scores.shape == (6,) and bool((scores.abs() <= 1 + 1e-6).all())
+    best = Critic(net, {"candidates": 3}).best(z, frames[::3], text, candidates=3)
+    assert best.tolist() == scores.view(2, 3).argmax(1).tolist()
+    # a latent's score depends on its length too (the horizon fraction is an input)
+    assert not torch.allclose(net.score(z[:1], torch.tensor([20]), text[:1]),
+                              net.score(z[:1], torch.tensor([190]), text[:1]))
+
+
+def test_the_file_round_trips_in_float16_and_refuses_what_does_not_fit(tmp_path: Path) -> None:
+    net = LatentCritic(192, 384, 196, hidden=64, width=32)
+    path = save_critic(tmp_path, net, {"steps": 1}, "minilm+sides", candidates=4)
+    assert path.name == FILE
+    critic = read_critic(tmp_path, "minilm+sides", 384, 192)
+    assert critic is not None and critic.candidates == 4 and critic.info["training"] == {"steps": 1}
+    for name, value in critic.network.state_dict().items():
+        torch.testing.assert_close(value, net.state_dict()[name].half().float())
+    assert read_critic(tmp_path / "none", "minilm+sides", 384, 192) is None
+    with pytest.raises(MlctError, match="text encoder 'minilm\\+sides'"):
+        read_critic(tmp_path, "minilm", 384, 192)
+    with pytest.raises(MlctError, match="192-number latent"):
+        read_critic(tmp_path, "minilm+sides", 384, 768)
+    (tmp_path / FILE).write_bytes(b"not safetensors")
+    with pytest.raises(MlctError, match="not a critic"):
+        read_critic(tmp_path, "minilm+sides", 384, 192)
+
+
+@pytest.mark.parametrize("value", [0, -1, 65, 2.5, "8", True, None])
+def test_bad_candidate_counts_are_named(value: object) -> None:
+    with pytest.raises(MlctError, match="candidates must be a whole number in 1..64"):
+        check_candidates(value)
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A copy of the bundled model with a critic trained for a few steps on a tiny benchmark."""
+    from mlct.data.synth.build import synthesize_dataset
+    from mlct.train.critic import train_critic
+
+    root = tmp_path_factory.mktemp("critic")
+    synthesize_dataset(root / "synth", num=16, seed=0, progress=False)
+    model = root / "model"
+    shutil.copytree(bundled_model_dir(), model)
+    (model / FILE).unlink(missing_ok=True)
+    (model / "onnx").exists() and shutil.rmtree(model / "onnx")
+    summary = train_critic(root / "synth", model, steps=20, batch_size=16, candidates=4,
+                           log=lambda _: None)
+    assert summary["steps"] == 20 and summary["motions"] > 0
+    assert 0 <= summary["train"]["label_top1"] <= 1
+    return model
+
+
+def test_training_writes_a_critic_the_model_loads(trained: Path) -> None:
+    gen = mlct.load(trained, backend="torch")
+    assert gen.critic is not None and gen.candidates == 4
+    info = json.loads((trained / "config.json").read_text())
+    assert gen.critic.info["text_encoder"] == info["text_encoder"]
+
+
+def test_best_of_n_keeps_the_critics_choice_and_replays(trained: Path) -> None:
+    gen = mlct.load(trained, backend="torch")
+    text, frames = "a person jumps twice", 60
+    picked = gen.generate(text, lengths=frames, seed=5, candidates=4)[0]
+    again = gen.generate(text, lengths=frames, seed=5, candidates=4)[0]
+    np.testing.assert_array_equal(picked.joints, again.joints)
+    plain = gen.generate(text, lengths=frames, seed=5, candidates=1)[0]
+    # candidate 0 is the plain sample of the seed; the pick is the critic's argmax of the 4
+    cond = gen.encode_text([text]).repeat(4, 1)
+    from mlct.generate.pipeline import _SEED_STRIDE, MAX_SEED
+    seeds = [(5 + k * _SEED_STRIDE) % (MAX_SEED + 1) for k in range(4)]
+    z = gen.sample_latents(cond, None, seeds)
+    scores = gen.critic.network.score(z / gen.config.schedule.latent_scale,
+                                      torch.full((4,), frames), cond)
+    made = gen.decode(z, [frames] * 4)
+    np.testing.assert_allclose(made[0], plain.features, atol=1e-4)
+    np.testing.assert_allclose(made[int(scores.argmax())], picked.features, atol=1e-4)
+
+
+def test_candidates_need_a_critic(trained: Path, tmp_path: Path) -> None:
+    bare = tmp_path / "bare"
+    shutil.copytree(trained, bare)
+    (bare / FILE).unlink()
+    gen = mlct.load(bare, backend="torch")
+    assert gen.critic is None and gen.candidates == 1
+    with pytest.raises(MlctError, match="no critic"):
+        gen.generate("a person walks", seconds=2, candidates=4)
+    assert len(gen.generate("a person walks", seconds=2, candidates=1)) == 1
+
+
+def test_cli_generate_candidates(trained: Path, tmp_path: Path) -> None:
+    base = [sys.executable, "-m", "mlct.cli", "generate", "a person bows", "--model", str(trained),
+            "--seconds", "2", "--seed", "1", "--backend", "torch"]
+    one = subprocess.run(base + ["--candidates", "1", "--out", str(tmp_path / "a.npy")],
+                         capture_output=True, text=True)
+    assert one.returncode == 0, one.stderr
+    bad = subprocess.run(base + ["--candidates", "0", "--out", str(tmp_path / "b.npy")],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and "candidates must be" in bad.stderr
+    assert "Traceback" not in bad.stderr and not (tmp_path / "b.npy").exists()
