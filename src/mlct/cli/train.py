@@ -109,7 +109,8 @@ def run_critic(args: argparse.Namespace) -> int:
     held = summary.get("test")
     print(f"critic: {summary['captions']} captions, {summary['steps']} steps, "
           f"{summary['seconds']:.0f} s" + (f"; test label top-1 {held['label_top1']:.3f}, "
-                                           f"side vs mirror {held['side_vs_mirror']:.3f}"
+                                           f"side vs mirror {held['side_vs_mirror']:.3f}, count vs "
+                                           f"recount {held['count_vs_recount']:.3f}"
                                            if held else "") + f"; {model_dir}")
     return 0
 

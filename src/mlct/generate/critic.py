@@ -20,7 +20,8 @@ from pathlib import Path
 from typing import Any
 
 import torch
-from safetensors.torch import load_file, safe_open, save_file
+from safetensors import safe_open
+from safetensors.torch import load_file, save
 from torch import Tensor
 
 from mlct.errors import MlctError, first_line
@@ -42,8 +43,8 @@ def save_critic(model_dir: str | os.PathLike, critic: LatentCritic, training: di
             "candidates": candidates, "training": training}
     tensors = {k: v.detach().to(torch.float16).contiguous() for k, v in critic.state_dict().items()}
     path = Path(model_dir) / FILE
-    with atomic_path(path) as tmp:
-        save_file(tensors, str(tmp), metadata={"mlct": json.dumps(info)})
+    with atomic_path(path) as tmp:  # bytes, so that the file gets atomic_path's permissions
+        tmp.write_bytes(save(tensors, metadata={"mlct": json.dumps(info)}))
     return path
 
 

@@ -7,8 +7,9 @@ CLIP's symmetric InfoNCE over a batch of (caption, latent) pairs, with two chang
 - motions with the same label (labels.jsonl; the motion's name when there is none) are not
   counted as negatives of each other: the benchmark has many "walks forward" motions;
 - a caption that names a side also competes with its mirror ("left" and "right" swapped,
-  text/sides.py) as a negative for its own motion: the critic must tell sides apart, the thing
-  the pooled text vector does worst.
+  text/sides.py) as a negative for its own motion, and one that states a count or an angle
+  with its recount ("four times" -> "five times", "45 degrees" -> "135 degrees"): the critic
+  must tell sides and counts apart, what stage 2 gets wrong most often (docs/training.md).
 The latents get Gaussian noise (LATENT_NOISE of their spread) so that the critic also rates the
 slightly off-manifold latents a sampler returns.
 """
@@ -17,6 +18,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import time
 from pathlib import Path
 from typing import Any
@@ -37,6 +39,33 @@ from mlct.text.sides import mirror_sides
 
 LATENT_NOISE = 0.15
 MASKED = -1e4  # a logit that softmax ignores
+
+_NUMBERS = ("one", "two", "three", "four", "five")
+_ANGLES = {"45": "135", "135": "45", "90": "180", "180": "90",
+           "forty five": "a hundred and thirty five", "a hundred and thirty five": "forty five",
+           "ninety": "a hundred and eighty", "a hundred and eighty": "ninety"}
+# one pass, angles first, so that "forty five degrees" is an angle and never a count of five
+_QUANTITY = re.compile(
+    r"\b(?P<angle>" + "|".join(sorted(_ANGLES, key=len, reverse=True)) + r")(?= degrees)"
+    r"|\b(?P<count>once|twice|one|two|three|four|five|[1-5])\b(?P<times> times?\b)?")
+
+
+def recount(text: str) -> str:
+    """The caption with every count one more (five wraps to two) and every angle swapped for
+    another (45 <-> 135, 90 <-> 180); the caption itself when it states neither."""
+    def swap(match: re.Match[str]) -> str:
+        if match.group("angle"):
+            return _ANGLES[match.group("angle")]
+        word, times = match.group("count"), match.group("times") or ""
+        n = {"once": 1, "twice": 2}.get(word) or (int(word) if word.isdigit()
+                                                  else _NUMBERS.index(word) + 1)
+        m = n + 1 if n < 5 else 2
+        if word.isdigit():
+            return f"{m}{' times' if times else ''}"
+        if word in ("once", "twice") or times:
+            return {2: "twice"}.get(m, f"{_NUMBERS[m - 1]} times")
+        return _NUMBERS[m - 1]
+    return _QUANTITY.sub(swap, text)
 
 
 class CriticData:
@@ -64,6 +93,12 @@ class CriticData:
         sided = [i for i, s in enumerate(self.sided.tolist()) if s]
         if sided:
             self.mirror[sided] = encoder.encode([mirrors[i] for i in sided]).float()
+        recounts = [recount(c) for c in captions]
+        self.counted = torch.tensor([r != c for c, r in zip(captions, recounts)])
+        self.recount = self.text.clone()
+        counted = [i for i, s in enumerate(self.counted.tolist()) if s]
+        if counted:
+            self.recount[counted] = encoder.encode([recounts[i] for i in counted]).float()
         keys = [labels.get(n, {}).get("label", n) for n in names]
         index = {k: g for g, k in enumerate(dict.fromkeys(keys))}
         self.group = torch.tensor([index[k] for k in keys])
@@ -82,8 +117,10 @@ def _loss(critic: LatentCritic, data: CriticData, rows: Tensor, noise: float) ->
     logits = logits.masked_fill(same, MASKED)
     mirrored = (scale * (motion * mirror).sum(-1, keepdim=True)).masked_fill(
         ~data.sided[rows][:, None], MASKED)
+    recounted = (scale * (motion * critic.text(data.recount[rows])).sum(-1, keepdim=True)
+                 ).masked_fill(~data.counted[rows][:, None], MASKED)
     target = torch.arange(len(rows))
-    return (F.cross_entropy(torch.cat([logits, mirrored], dim=1), target)
+    return (F.cross_entropy(torch.cat([logits, mirrored, recounted], dim=1), target)
             + F.cross_entropy(logits.T, target))
 
 
@@ -101,8 +138,12 @@ def measure(critic: LatentCritic, data: CriticData) -> dict[str, float]:
     other = (mirror * motion[data.owner]).sum(-1)
     sides = ((own > other)[data.sided].float().mean() if data.sided.any()
              else torch.tensor(float("nan")))
+    recounted = (critic.text(data.recount) * motion[data.owner]).sum(-1)
+    counts = ((own > recounted)[data.counted].float().mean() if data.counted.any()
+              else torch.tensor(float("nan")))
     critic.train()
-    return {"label_top1": round(float(label_top1), 4), "side_vs_mirror": round(float(sides), 4)}
+    return {"label_top1": round(float(label_top1), 4), "side_vs_mirror": round(float(sides), 4),
+            "count_vs_recount": round(float(counts), 4)}
 
 
 def train_critic(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
