@@ -4,8 +4,10 @@
 # About 3 h on 2 cores: the data 1 min, the autoencoder 40 min (10,000 steps), the consistency
 # model 25-40 min (7,000 steps, the pooled MiniLM), 40-80 min of fine-tuning it with
 # side-contrasted text ('minilm+sides', text/sides.py; 12,000 steps, lr 3e-4), then 24,000 more
-# steps in three continuations (lr 2e-4; 70 min at 290-340 steps a minute on a free machine)
-# and the duration model (2 min). Resumable: run it
+# steps in three continuations (lr 2e-4; 70 min at 290-340 steps a minute on a free machine),
+# 6,000 steps on the same motions with everyday captions added (`mlct data rephrase`; 20 min),
+# the duration model (2 min) and the best-of-N critic (1-3 min). About 3 h 20 min in all on a
+# free machine. Resumable: run it
 # again with the same WORK_DIR after an interruption and each stage continues from its last
 # checkpoint. The result replaces src/mlct/assets/model (float16 weights). CM_SEED (default 0)
 # seeds stage 2 only, for the seed spread the model card reports.
@@ -15,10 +17,11 @@ seed="${2:-0}"
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 stage() {  # stage RUN NAME ARGS...: train, or resume when the stage already has checkpoints
     local run="$1" name="$2"; shift 2
+    local data="${DATA:-$work/synth}"  # DATA=DIR stage ...: another dataset
     if ls "$work/$run/$name/checkpoints"/step-* >/dev/null 2>&1; then
-        mlct train "$name" --data "$work/synth" --out "$work/$run" --resume
+        mlct train "$name" --data "$data" --out "$work/$run" --resume
     else
-        mlct train "$name" --data "$work/synth" --out "$work/$run" "$@"
+        mlct train "$name" --data "$data" --out "$work/$run" "$@"
     fi
 }
 [ -f "$work/synth/synth.json" ] || mlct data synth --out "$work/synth" --num 4000 --seed 0 --workers 2
@@ -39,10 +42,19 @@ for spec in cont1:8000:0 cont2:6000:1 cont3:10000:2; do
     [ -f "$work/model_$run/config.json" ] || mlct export "$work/$run" --out "$work/model_$run" --half
     previous="$work/model_$run"
 done
+# The same motions, their training captions said in more ways (data/synth/everyday.py), and one
+# more continuation on them.
+[ -f "$work/synth_rich/synth.json" ] || mlct data rephrase "$work/synth" --out "$work/synth_rich"
+DATA="$work/synth_rich" stage rich cm --init "$previous" --ae "$work/run" \
+    text.encoder=minilm+sides train.cm.max_steps=6000 train.cm.lr=2e-4 "train.cm.seed=$((seed + 3))"
+[ -f "$work/model_rich/config.json" ] || mlct export "$work/rich" --out "$work/model_rich" --half
+previous="$work/model_rich"
 rm -rf "$work/model"
 cp -r "$previous" "$work/model"
 # how long each action of a split prompt takes (generate/durations.py): seconds
 mlct train durations --data "$work/synth" --model "$work/model"
+# the critic of best-of-8 sampling (generate/critic.py), on the captioned-richly train split
+mlct train critic --data "$work/synth_rich" --model "$work/model"
 rm -rf "$repo/src/mlct/assets/model"
 cp -r "$work/model" "$repo/src/mlct/assets/model"
 echo "$repo/src/mlct/assets/model"
