@@ -37,6 +37,7 @@ ENCODER_KEY = "ae_encoder"  # the AE encoder's tensors in a bundle (since stage-
 META_KEYS = ("sampler", "config", "feature_dim", "skeleton", "text_encoder", "text_dim")
 CONFIG, WEIGHTS = "config.json", "model.safetensors"
 BUNDLE_FILES = (CONFIG, WEIGHTS, "Mean.npy", "Std.npy")  # a bundle's files (its onnx/ aside)
+OPTIONAL_FILES = ("durations.json", "critic.safetensors")  # what a model may carry besides
 
 
 

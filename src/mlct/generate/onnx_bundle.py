@@ -32,7 +32,7 @@ from torch import Tensor, nn
 
 from mlct.config import config_from_dict
 from mlct.errors import MlctError
-from mlct.generate.bundle import BUNDLE_FILES, CONFIG, WEIGHTS, read_bundle
+from mlct.generate.bundle import BUNDLE_FILES, CONFIG, OPTIONAL_FILES, WEIGHTS, read_bundle
 from mlct.generate.pipeline import bundle_networks, bundled_model_dir
 from mlct.io import atomic_dir, check_writable_dir, read_format_json
 from mlct.nn.autoencoder import LatentAutoencoder
@@ -165,7 +165,7 @@ def convert_to_onnx(model_dir: str | os.PathLike, out: str | os.PathLike | None 
         raise MlctError(f"{target} exists and is not a model directory; give a new or empty "
                         f"directory to --out")
     with atomic_dir(target) as tmp:
-        for name in BUNDLE_FILES:
+        for name in BUNDLE_FILES + OPTIONAL_FILES:  # durations and critic travel with it
             if (model_dir / name).is_file():
                 shutil.copy2(model_dir / name, tmp / name)
         (tmp / ONNX_DIR).mkdir()
