@@ -28,8 +28,8 @@ of B: B times the FLOPs, the same bytes (the weights are read once per pass).
 
 Backends: torch, eager PyTorch through mlct.nn.inference's layers, in every dtype; onnx, the
 ONNX Runtime backend (CPU, float32; the model is written to a temporary directory and converted
-first, untimed); onnx-int8, the same with the text encoder's and the denoiser's MatMuls
-dynamically quantized to int8 (quantize_int8; measured here, not shipped: docs/performance.md);
+first, untimed); onnx-int8, the same converted with `mlct convert --onnx --int8` (the
+denoiser's MatMuls dynamically quantized to int8; opt-in, not the default: docs/performance.md);
 torch-compiled (only when named: compiling takes minutes per model and batch size), the
 denoiser backbone and decoder under torch.compile with plain (unpacked) products, which inductor
 can lower. The limit is the model's, whichever backend runs it.
@@ -178,8 +178,8 @@ def in_memory_generator(preset: str, sampler: str, device: str, dtype: str) -> A
 def onnx_generator(preset: str, sampler: str, folder: str, threads: int | None = None,
                    int8: bool = False) -> Any:
     """The model of bundle_in_memory written to folder as a bundle, converted (mlct convert
-    --onnx) and loaded with the onnx backend; threads: ONNX Runtime's (None: torch's); int8:
-    the text encoder's and denoiser's graphs quantized (quantize_int8)."""
+    --onnx, and --int8 when int8: the denoiser's products in int8) and loaded with the onnx
+    backend; threads: ONNX Runtime's (None: torch's)."""
     from pathlib import Path
 
     from safetensors.torch import save_file
@@ -193,31 +193,7 @@ def onnx_generator(preset: str, sampler: str, folder: str, threads: int | None =
               str(Path(folder) / "model.safetensors"))
     (Path(folder) / "config.json").write_text(json.dumps(
         {**meta, "format": BUNDLE_FORMAT, "version": BUNDLE_VERSION}), encoding="utf-8")
-    gen = OnnxMotionGenerator.load(convert_to_onnx(folder), threads=threads)
-    if not int8:
-        return gen
-    import dataclasses
-
-    graphs = gen.graphs
-    graphs = dataclasses.replace(
-        graphs, text_encoder=quantize_int8(graphs.text_encoder),
-        denoiser=quantize_int8(graphs.denoiser))
-    return OnnxMotionGenerator(meta, tensors, graphs, threads=threads)
-
-
-def quantize_int8(graph: Any) -> Any:
-    """graph's MatMul weights in int8, its activations quantized per call (ONNX Runtime's
-    dynamic quantization: MatMulInteger, VNNI where the CPU has it), written beside it. Not in
-    mlct: on the bundled model it moved joints by centimetres (docs/performance.md)."""
-    import logging
-
-    from onnxruntime.quantization import QuantType, quantize_dynamic
-
-    out = graph.with_name(graph.stem + "_int8.onnx")
-    logging.getLogger().setLevel(logging.ERROR)  # its advice to pre-process, once per graph
-    quantize_dynamic(str(graph), str(out), weight_type=QuantType.QInt8,
-                     op_types_to_quantize=["MatMul"])
-    return out
+    return OnnxMotionGenerator.load(convert_to_onnx(folder, int8=int8), threads=threads)
 
 
 def _compile_for_cuda(gen: Any) -> None:

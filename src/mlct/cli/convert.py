@@ -18,7 +18,7 @@ def run(args: argparse.Namespace) -> int:
                         "--backend onnx)")
     bundled = str(args.model) == "bundled"
     print(convert_to_onnx(bundled_model_dir() if bundled else args.model, args.out,
-                          read_only=bundled))
+                          read_only=bundled, int8=args.int8))
     return 0
 
 
@@ -32,4 +32,7 @@ def add_parser(commands: Commands) -> None:
     convert.add_argument("--out", type=Path, default=None,
                          help="copy the model here with its graphs (default: MODEL/onnx/; "
                          "needed for 'bundled')")
+    convert.add_argument("--int8", action="store_true",
+                         help="quantize the denoiser's matrix products to int8 (sampling ~1.8x "
+                         "faster on a CPU; joints ~9 mm from float32's: docs/performance.md)")
     convert.set_defaults(func=run)

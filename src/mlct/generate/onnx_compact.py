@@ -20,6 +20,7 @@ are 20 MB (denoiser), 4 MB (decoder) and 90 MB (MiniLM).
 
 from __future__ import annotations
 
+import logging
 import os
 import shutil
 import tempfile
@@ -80,13 +81,19 @@ def quantize_int8(src: str | os.PathLike, dst: str | os.PathLike,
     try:
         from onnxruntime.quantization import QuantType, quantize_dynamic
     except ImportError:
-        raise MlctError("quantizing the text encoder needs ONNX Runtime, which is not "
+        raise MlctError("int8 quantization needs ONNX Runtime, which is not "
                         "installed: pip install 'mlct[onnx]'") from None
-    with tempfile.TemporaryDirectory() as tmp:  # its notes (augmented models) stay out of dst
-        quantize_dynamic(str(src), str(Path(tmp) / "quantized.onnx"),
-                         op_types_to_quantize=list(op_types), per_channel=True,
-                         weight_type=QuantType.QInt8)
-        shutil.move(str(Path(tmp) / "quantized.onnx"), str(dst))
+    root = logging.getLogger()  # it advises pre-processing on the root logger, every time
+    level = root.level
+    root.setLevel(logging.ERROR)
+    try:
+        with tempfile.TemporaryDirectory() as tmp:  # its notes (augmented models) stay out
+            quantize_dynamic(str(src), str(Path(tmp) / "quantized.onnx"),
+                             op_types_to_quantize=list(op_types), per_channel=True,
+                             weight_type=QuantType.QInt8)
+            shutil.move(str(Path(tmp) / "quantized.onnx"), str(dst))
+    finally:
+        root.setLevel(level)
     return Path(dst)
 
 

@@ -125,9 +125,10 @@ def _renamed(graph: object, prefix: str, inputs: dict[str, str],
         return inputs.get(value) or (shared or {}).get(value) or prefix + value
 
     out = []
-    for node in graph.node:  # type: ignore[attr-defined]
+    for i, node in enumerate(graph.node):  # type: ignore[attr-defined]
         node = copy.deepcopy(node)
-        node.name = prefix + node.name
+        # a quantized graph leaves some nodes unnamed: names must be unique in the whole graph
+        node.name = prefix + (node.name or f"node{i}")
         node.input[:] = [name(v) for v in node.input]
         node.output[:] = [name(v) for v in node.output]
         out.append(node)
