@@ -392,3 +392,54 @@ def test_latent_scale_is_undone_before_decoding(trained: Path, tmp_path: Path) -
     again = gen.decode(2.5 * z, [20, 30])
     assert all(np.allclose(a, b, atol=1e-5) for a, b in zip(plain, again))
     assert latent_clamp(scaled) == 2.5
+
+
+def test_a_decoder_trained_with_the_encoder_frozen_swaps_into_the_model(
+        trained: Path, data: Path, cache: str, tmp_path: Path) -> None:
+    """ae.freeze_encoder + ae.hold_extension: only the decoder learns (the denoiser's latents
+    stay valid), decoding past a clip's end towards its held last pose; `mlct export
+    --decoder-from` puts that decoder beside the run's denoiser, and refuses another encoder."""
+    from mlct.generate.bundle import read_bundle
+    from mlct.train.export import export_run
+
+    model_dir = export_run(trained, tmp_path / "model")
+    run = tmp_path / "hold"
+    train("ae", data, run, None, progress=False, init=model_dir,
+          overrides=[cache, "ae.freeze_encoder=true", "ae.hold_extension=1.0",
+                     "train.ae.max_steps=3", "train.ae.lr=1e-2"])
+    _, before = read_bundle(model_dir)
+    ae = load_checkpoint(latest_checkpoint(run / "ae" / "checkpoints"),
+                         with_state=False).module_state("ae")
+    encoder = {k[len("ae_encoder."):]: v for k, v in before.items() if k.startswith("ae_encoder.")}
+    decoder = {k[len("decoder."):]: v for k, v in before.items() if k.startswith("decoder.")}
+    assert all(torch.equal(ae[k], v) for k, v in encoder.items())
+    assert any(not torch.allclose(ae[k], v) for k, v in decoder.items())
+    swapped = export_run(trained, tmp_path / "swapped", decoder_from=run)
+    _, after = read_bundle(swapped)
+    for key, value in ae.items():
+        name = ("ae_encoder." if f"ae_encoder.{key}" in after else "decoder.") + key
+        torch.testing.assert_close(after[name], value)
+    assert all(torch.equal(after[k], before[k]) for k in before if k.startswith("denoiser."))
+    other = tmp_path / "other"  # an autoencoder whose encoder moved
+    train("ae", data, other, None, progress=False, init=model_dir,
+          overrides=[cache, "train.ae.max_steps=2", "train.ae.lr=1e-2"])
+    with pytest.raises(MlctError, match="its encoder is not the run's"):
+        export_run(trained, tmp_path / "refused", decoder_from=other)
+    assert not (tmp_path / "refused").exists()
+
+
+def test_holding_the_last_pose_zeroes_the_velocities(tiny) -> None:
+    from mlct.motion.skeleton import FeatureLayout
+    from mlct.train.stages import AutoencoderStage
+
+    mean, std = torch.randn(263), torch.rand(263) + 0.5
+    stage = AutoencoderStage(tiny, torch.device("cpu"), mean, std, "humanml3d")
+    last = torch.randn(2, 263)
+    held = stage.norm.denormalize(stage._held_pose(last))
+    raw = stage.norm.denormalize(last)
+    groups = FeatureLayout(22).groups
+    for name in ("root_rot_velocity", "root_linear_velocity", "local_velocity"):
+        assert torch.allclose(held[:, groups[name]], torch.zeros(1), atol=1e-5)
+    assert torch.allclose(held[:, groups["foot_contact"]], torch.ones(1), atol=1e-5)
+    for name in ("root_height", "ric", "rotations"):
+        torch.testing.assert_close(held[:, groups[name]], raw[:, groups[name]])

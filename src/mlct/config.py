@@ -68,6 +68,12 @@ class AutoencoderConfig(_Section):
     channels: int = Field(128, ge=1)  # conv only: width of its 1-D convolutions
     velocity_weight: float = Field(0.0, ge=0.0)  # frame-to-frame feature differences
     frame_upsampler: bool = False  # transformer only: the latent reaches every frame query
+    # Decoder-only training (train/stages.py): the encoder's weights stay as loaded (--init), so
+    # a stage-2 model trained on its latents stays valid with the new decoder.
+    freeze_encoder: bool = False
+    # Fraction of each batch whose decoding target runs past the clip, the last pose held still
+    # for a random number of frames: teaches the decoder what to draw after an action ends.
+    hold_extension: float = Field(0.0, ge=0.0, le=1.0)
 
 
 class DenoiserConfig(_Section):

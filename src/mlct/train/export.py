@@ -21,9 +21,13 @@ META_KEYS = ("step", "config", "feature_dim", "skeleton", "text_encoder", "text_
 
 
 def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None = None,
-               half: bool = False, onnx: bool = False) -> Path:
+               half: bool = False, onnx: bool = False,
+               decoder_from: str | os.PathLike | None = None) -> Path:
     """Write the inference bundle of RUN's latest `cm` (default) or `diffusion` checkpoint;
-    onnx: with its networks as ONNX graphs too (generate/onnx_bundle.py)."""
+    onnx: with its networks as ONNX graphs too (generate/onnx_bundle.py); decoder_from: an
+    autoencoder run (or checkpoint) whose decoder replaces the run's, trained with the same
+    encoder frozen (`ae.freeze_encoder`): refused when its encoder differs, since the denoiser's
+    latents are that encoder's."""
     run, out = Path(run), Path(out)
     if stage is None:
         stage = "cm" if (run / "cm").is_dir() or not (run / "diffusion").is_dir() else "diffusion"
@@ -43,6 +47,8 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
     if not {"mean", "std"} <= ckpt.module_state("norm").keys():
         raise MlctError(f"{found}: holds no normalization (norm.mean, norm.std)")
     ae = ckpt.module_state("ae")
+    if decoder_from is not None:
+        ae = _same_encoder(ae, decoder_from)
     decoder = {k: v for k, v in ae.items() if not k.startswith(ENCODER_PREFIXES)}
     target = strip_prefix(ckpt.tensors, "target")
     if stage == "cm":
@@ -66,6 +72,8 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
             "step": ckpt.meta["step"], "config": ckpt.meta["config"],
             "feature_dim": ckpt.meta["feature_dim"], "skeleton": ckpt.meta["skeleton"],
             "text_encoder": ckpt.meta["text_encoder"], "text_dim": ckpt.meta["text_dim"]}
+    if decoder_from is not None:
+        meta["decoder_from"] = str(decoder_from)
     with atomic_dir(out) as tmp:
         save_file({k: v.contiguous() for k, v in tensors.items()}, str(tmp / "model.safetensors"),
                   metadata={"format": BUNDLE_FORMAT})
@@ -79,3 +87,22 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
             (tmp / ONNX_DIR).mkdir()
             write_onnx_graphs(tmp, tmp / ONNX_DIR)
     return out
+
+
+def _same_encoder(ae: dict, decoder_from: str | os.PathLike) -> dict:
+    """The autoencoder state of decoder_from (a run, its ae/ stage or a checkpoint), checked to
+    hold exactly the encoder of `ae`."""
+    path = Path(decoder_from)
+    for checkpoints in (path / "ae" / "checkpoints", path / "checkpoints"):
+        if checkpoints.is_dir() and (found := latest_checkpoint(checkpoints)) is not None:
+            path = found
+            break
+    other = load_checkpoint(path, with_state=False).module_state("ae")
+    encoder = [k for k in ae if k.startswith(ENCODER_PREFIXES)]
+    if not encoder or any(k not in other or other[k].shape != ae[k].shape
+                          or not bool((other[k].float() == ae[k].float()).all())
+                          for k in encoder):
+        raise MlctError(f"{decoder_from}: its encoder is not the run's, so the denoiser's "
+                        f"latents would mean nothing to its decoder; train it with "
+                        f"ae.freeze_encoder=true from this model (--init)")
+    return other

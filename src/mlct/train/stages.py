@@ -94,6 +94,12 @@ class AutoencoderStage(Stage):
         self.feature_dim = int(mean.shape[0])
         self.model = build_autoencoder(config, self.feature_dim).to(device)
         self.norm = Normalizer(mean, std).to(device)
+        if config.ae.freeze_encoder:  # its gradients are never computed: AdamW skips them
+            from mlct.generate.bundle import ENCODER_PREFIXES
+
+            for name, parameter in self.model.named_parameters():
+                if name.startswith(ENCODER_PREFIXES):
+                    parameter.requires_grad_(False)
 
     @property
     def trainable(self) -> nn.Module:
@@ -105,7 +111,11 @@ class AutoencoderStage(Stage):
         lengths = batch["length"].to(self.device)
         frames = int(lengths.max())
         x = x[:, :frames]
-        recon, latent = model(x, lengths)  # (B, frames, D)
+        if self.config.ae.hold_extension > 0 or self.config.ae.freeze_encoder:
+            recon, latent, x, lengths = self._decode_past_the_end(model, x, lengths, generator)
+            frames = int(lengths.max())
+        else:
+            recon, latent = model(x, lengths)  # (B, frames, D)
         mask = lengths_to_mask(lengths, frames).to(x.dtype)  # (B, frames)
         feature = _masked_smooth_l1(recon, x, mask)  # Eq. 9, first term
         # Eq. 9, second term: joint positions through recover_from_ric, on real units.
@@ -126,6 +136,46 @@ class AutoencoderStage(Stage):
             out["kl"] = latent.kl.detach()
         out["loss"] = total
         return out
+
+    def _decode_past_the_end(self, model: nn.Module, x: Tensor, lengths: Tensor,
+                             generator: torch.Generator | None
+                             ) -> tuple[Tensor, Any, Tensor, Tensor]:
+        """Encode each clip at its length; decode a hold_extension share of them for longer, to
+        a target that holds the clip's last pose still (velocities 0, feet on the ground).
+        Returns recon, latent, the target and its lengths."""
+        ae = model.module if hasattr(model, "module") else model  # DDP wraps it
+        frozen = self.config.ae.freeze_encoder
+        with torch.set_grad_enabled(torch.is_grad_enabled() and not frozen):
+            latent = ae.encode(x, lengths)
+        max_len = self.config.data.max_motion_length
+        rows = torch.arange(len(lengths), device=x.device)
+        chosen = torch.rand(len(lengths), generator=generator).to(x.device) \
+            < self.config.ae.hold_extension
+        room = (max_len - lengths).clamp(min=0)
+        extra = (torch.rand(len(lengths), generator=generator).to(x.device) * (room + 1)).long()
+        extra = torch.where(chosen, extra, torch.zeros_like(extra))
+        longer = lengths + extra
+        frames = int(longer.max())
+        held = self._held_pose(x[rows, lengths - 1])  # (B, D) normalized
+        steps = torch.arange(frames, device=x.device)[None, :]  # (1, frames)
+        past = (steps >= lengths[:, None]) & (steps < longer[:, None])  # (B, frames)
+        target = torch.zeros(len(lengths), frames, x.shape[-1], device=x.device, dtype=x.dtype)
+        target[:, : x.shape[1]] = x
+        target = torch.where(past[..., None], held[:, None, :], target)
+        recon = ae.decode(latent.z, longer, frames)
+        return recon, latent, target, longer
+
+    def _held_pose(self, last: Tensor) -> Tensor:
+        """(B, D) normalized last frames -> the same poses standing still, normalized."""
+        from mlct.motion.features import n_joints_for_dim
+        from mlct.motion.skeleton import FeatureLayout
+
+        raw = self.norm.denormalize(last).clone()
+        groups = FeatureLayout(n_joints_for_dim(raw.shape[-1])).groups
+        for name in ("root_rot_velocity", "root_linear_velocity", "local_velocity"):
+            raw[:, groups[name]] = 0.0
+        raw[:, groups["foot_contact"]] = 1.0
+        return (raw - self.norm.mean) / self.norm.std
 
     def tensors(self) -> dict[str, Tensor]:
         return {**prefixed("ae", self.model.state_dict()), **prefixed("norm", self.norm.state_dict())}
