@@ -38,15 +38,16 @@ def gap(a, b) -> float:
 @pytest.mark.parametrize("nfe", [1, 5, 10])
 def test_the_sampler_graph_gives_the_torch_motions(backends, nfe) -> None:
     torch_gen, onnx_gen = backends
-    want = torch_gen.generate(TEXTS, lengths=LENGTHS, nfe=nfe, seed=3)
-    first = onnx_gen.generate(TEXTS, lengths=LENGTHS, nfe=nfe, seed=3)  # the step loop
+    # one sample a prompt: best-of-N samples the latents, then decodes only the chosen ones
+    want = torch_gen.generate(TEXTS, lengths=LENGTHS, nfe=nfe, seed=3, candidates=1)
+    first = onnx_gen.generate(TEXTS, lengths=LENGTHS, nfe=nfe, seed=3, candidates=1)  # loop
     assert onnx_gen._fused.get(nfe) is None  # a first call does not build the graph
-    second = onnx_gen.generate(TEXTS, lengths=LENGTHS, nfe=nfe, seed=3)  # the sampler graph
+    second = onnx_gen.generate(TEXTS, lengths=LENGTHS, nfe=nfe, seed=3, candidates=1)
     assert onnx_gen._fused.get(nfe) is not None
     assert gap(want, first) < JOINTS_M and gap(want, second) < JOINTS_M
     for x, y in zip(want, second):
         np.testing.assert_allclose(y.features, x.features, atol=1e-3)
-    other = onnx_gen.generate(TEXTS[:1], lengths=[60], nfe=nfe, seed=4)
+    other = onnx_gen.generate(TEXTS[:1], lengths=[60], nfe=nfe, seed=4, candidates=1)
     assert np.abs(other[0].joints - second[0].joints[:60]).max() > 0.01  # the seed matters
 
 
@@ -67,9 +68,9 @@ def test_without_the_onnx_package_the_step_loop_is_used(backends, monkeypatch) -
     torch_gen, _ = backends
     onnx_gen = mlct.load(Path(backends[1].graphs.denoiser).parent.parent, backend="onnx")
     monkeypatch.setitem(sys.modules, "onnx", None)  # `import onnx` raises ImportError
-    want = torch_gen.generate(TEXTS[:1], lengths=[80], nfe=2, seed=1)
+    want = torch_gen.generate(TEXTS[:1], lengths=[80], nfe=2, seed=1, candidates=1)
     for _ in range(3):
-        got = onnx_gen.generate(TEXTS[:1], lengths=[80], nfe=2, seed=1)
+        got = onnx_gen.generate(TEXTS[:1], lengths=[80], nfe=2, seed=1, candidates=1)
         assert gap(want, got) < JOINTS_M
     assert onnx_gen._fused == {2: None}
 
@@ -81,7 +82,8 @@ def test_at_most_a_few_sampler_graphs_are_built(backends) -> None:
     onnx_gen = mlct.load(Path(backends[1].graphs.denoiser).parent.parent, backend="onnx")
     for nfe in range(1, MAX_SAMPLER_GRAPHS + 3):
         for _ in range(2):
-            got = onnx_gen.generate(TEXTS[:1], lengths=[40], nfe=nfe, seed=0)
+            got = onnx_gen.generate(TEXTS[:1], lengths=[40], nfe=nfe, seed=0, candidates=1)
     assert sorted(onnx_gen._fused) == list(range(1, MAX_SAMPLER_GRAPHS + 1))
-    want = torch_gen.generate(TEXTS[:1], lengths=[40], nfe=MAX_SAMPLER_GRAPHS + 2, seed=0)
+    want = torch_gen.generate(TEXTS[:1], lengths=[40], nfe=MAX_SAMPLER_GRAPHS + 2, seed=0,
+                              candidates=1)
     assert gap(want, got) < JOINTS_M  # the step loop beyond them
