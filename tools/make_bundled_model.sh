@@ -6,8 +6,9 @@
 # side-contrasted text ('minilm+sides', text/sides.py; 12,000 steps, lr 3e-4), then 24,000 more
 # steps in three continuations (lr 2e-4; 70 min at 290-340 steps a minute on a free machine),
 # 6,000 steps on the same motions with everyday captions added (`mlct data rephrase`; 20 min),
-# the duration model (2 min) and the best-of-N critic (1-3 min). About 3 h 20 min in all on a
-# free machine. Resumable: run it
+# the decoder retrained alone to hold still past an action's end (5,000 steps, 12 min), the
+# duration model (2 min) and the best-of-N critic (1-3 min). About 3 h 30 min in all on a free
+# machine. Resumable: run it
 # again with the same WORK_DIR after an interruption and each stage continues from its last
 # checkpoint. The result replaces src/mlct/assets/model (float16 weights). CM_SEED (default 0)
 # seeds stage 2 only, for the seed spread the model card reports.
@@ -48,7 +49,13 @@ done
 DATA="$work/synth_rich" stage rich cm --init "$previous" --ae "$work/run" \
     text.encoder=minilm+sides train.cm.max_steps=6000 train.cm.lr=2e-4 "train.cm.seed=$((seed + 3))"
 [ -f "$work/model_rich/config.json" ] || mlct export "$work/rich" --out "$work/model_rich" --half
-previous="$work/model_rich"
+# The decoder alone (encoder frozen), taught to hold the last pose past an action's end, then
+# exported beside the last stage 2 (docs/training.md, "Past the end of an action").
+stage hold ae --init "$work/model_rich" ae.freeze_encoder=true ae.hold_extension=0.5 \
+    train.ae.max_steps=5000 train.ae.lr=3e-4
+[ -f "$work/model_hold/config.json" ] || mlct export "$work/rich" --out "$work/model_hold" --half \
+    --decoder-from "$work/hold"
+previous="$work/model_hold"
 rm -rf "$work/model"
 cp -r "$previous" "$work/model"
 # how long each action of a split prompt takes (generate/durations.py): seconds
