@@ -127,3 +127,19 @@ def test_cli_generate_candidates(trained: Path, tmp_path: Path) -> None:
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "candidates must be" in bad.stderr
     assert "Traceback" not in bad.stderr and not (tmp_path / "b.npy").exists()
+
+
+def test_a_bundles_meta_stays_json_and_points_at_its_own_folder(trained: Path,
+                                                                 tmp_path: Path) -> None:
+    """Tools write config.json from a read bundle's meta (bench/inference_speed.py does): it
+    must serialize, and a copy must not borrow the critic of the folder it came from."""
+    from mlct.generate.bundle import read_bundle
+
+    meta, _ = read_bundle(trained)
+    assert meta["model_dir"] == str(trained)
+    copy = tmp_path / "copy"
+    shutil.copytree(trained, copy)
+    (copy / FILE).unlink()
+    (copy / "config.json").write_text(json.dumps(meta))  # model_dir names the original
+    gen = mlct.load(copy, backend="torch")
+    assert gen.critic is None and gen.meta["model_dir"] == str(copy)

@@ -25,7 +25,6 @@ import torch
 from safetensors.torch import load_file
 
 from mlct.errors import MlctError, first_line
-from mlct.generate.critic import read_critic
 from mlct.generate.durations import read_durations
 from mlct.generate.samplers import SAMPLERS
 from mlct.io import read_format_json, strip_prefix
@@ -93,11 +92,9 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
     durations = read_durations(path, meta["text_encoder"], int(meta["text_dim"]))
     if durations is not None:  # the parts of a split prompt share the clip by it
         meta["durations"] = durations.to_json()
-    ae = meta["config"].get("ae", {})
-    critic = read_critic(path, meta["text_encoder"], int(meta["text_dim"]),
-                         int(ae.get("n_tokens", 0)) * int(ae.get("latent_dim", 0)))
-    if critic is not None:  # best-of-N sampling (critic.py)
-        meta["critic"] = critic
+    # where the bundle was read from: the generator reads its critic.safetensors (critic.py)
+    # from there; set on every read, so a config.json copied elsewhere never points back
+    meta["model_dir"] = str(path)
     try:
         tensors = load_file(str(weights))
     except Exception as err:  # safetensors raises several kinds on a damaged file

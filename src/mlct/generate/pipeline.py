@@ -20,7 +20,7 @@ import torch
 from torch import Tensor
 
 from mlct.generate.bundle import ENCODER_PREFIXES, read_bundle
-from mlct.generate.critic import Critic, check_candidates
+from mlct.generate.critic import Critic, check_candidates, read_critic
 from mlct.io import strip_prefix
 from mlct.config import Config, config_from_dict
 from mlct.devices import resolve_device
@@ -75,7 +75,10 @@ class MotionGenerator:
         self._text_memo: OrderedDict[str, Tensor] = OrderedDict()
         # best-of-N sampling (generate/critic.py): the critic beside the weights, if any, and
         # how many motions per prompt it chooses from by default
-        self.critic: Critic | None = meta.get("critic")
+        ae = self.config.ae
+        self.critic: Critic | None = (
+            read_critic(meta["model_dir"], meta["text_encoder"], int(meta["text_dim"]),
+                        ae.n_tokens * ae.latent_dim) if meta.get("model_dir") else None)
         self.candidates = self.critic.candidates if self.critic is not None else 1
 
     def _networks(self, tensors: dict[str, Tensor]) -> tuple[Any, Any]:
