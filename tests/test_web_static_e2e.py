@@ -169,7 +169,7 @@ def test_page_joints_match_the_python_onnx_path(page, reference, tmp_path):
     assert scale > 1.0 and gap <= 1e-3 * scale, f"{gap:.3g} m apart (scale {scale:.2f} m)"
     # another seed is another motion: the comparison above can fail
     _, other = generate_with_portable_noise(reference, PROMPT, 60, 5, 8)
-    assert np.abs(other - expected).max() > 100 * 1e-3 * scale
+    assert np.abs(other - expected).max() > 20 * 1e-3 * scale  # 20x the tolerance at least
     assert "ms" in page.inner_text("#timing")
 
     # the skeleton is drawn and moves
