@@ -16,7 +16,6 @@ slightly off-manifold latents a sampler returns.
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import time
@@ -29,6 +28,7 @@ import torch.nn.functional as F
 from torch import Tensor
 
 from mlct.config import config_from_dict
+from mlct.data.labels import LABELS_FILE, read_labels
 from mlct.data.layout import DatasetLayout
 from mlct.errors import MlctError
 from mlct.generate.bundle import bundle_autoencoder_state, read_bundle
@@ -175,10 +175,7 @@ def train_critic(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
         return ae.encode(x, lengths).z
 
     layout = DatasetLayout.existing(data_dir)
-    labels_path = Path(data_dir) / "labels.jsonl"
-    labels = ({json.loads(line)["name"]: json.loads(line)
-               for line in labels_path.read_text(encoding="utf-8").splitlines() if line.strip()}
-              if labels_path.is_file() else {})
+    labels = (read_labels(data_dir) if (Path(data_dir) / LABELS_FILE).is_file() else {})
     encoder = CachedTextEncoder(load_text_encoder(meta["text_encoder"]))
     started = time.perf_counter()
     train = CriticData(layout, layout.read_split(split), labels, encoder, encode, max_frames)

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from mlct.data.captions import format_text_line, tag_caption
+from mlct.data.labels import read_labels
 from mlct.data.layout import read_split
 from mlct.data.synth.everyday import EVERYDAY
 from mlct.data.synth.text import describe
@@ -34,22 +35,6 @@ def _link_or_copy(src: Path, dst: Path) -> None:
         os.link(src, dst)
     except OSError:  # another file system, or links not allowed
         shutil.copy2(src, dst)
-
-
-def _labels(src: Path) -> dict[str, dict[str, Any]]:
-    path = src / "labels.jsonl"
-    if not path.is_file():
-        raise MlctError(f"{src}: no labels.jsonl; `mlct data rephrase` needs a procedural "
-                        f"benchmark (`mlct data synth`)")
-    out = {}
-    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
-        if line.strip():
-            try:
-                record = json.loads(line)
-                out[record["name"]] = record
-            except (json.JSONDecodeError, KeyError, TypeError):
-                raise MlctError(f"{path}:{number}: not a label record") from None
-    return out
 
 
 def everyday_captions(record: dict[str, Any], rng: np.random.Generator, count: int) -> list[str]:
@@ -72,7 +57,7 @@ def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion:
         raise MlctError("--out must differ from the source dataset (it is copied, not edited)")
     if out.exists() and not overwrite:
         raise MlctError(f"{out} exists; pass --overwrite to replace it")
-    labels = _labels(src)
+    labels = read_labels(src)
     chosen: set[str] = set()
     for split in splits:
         if not (src / f"{split}.txt").is_file():

@@ -31,6 +31,7 @@ import torch.nn.functional as F
 from safetensors.torch import load_file, save_file
 from torch import Tensor, nn
 
+from mlct.data.labels import LABELS_FILE, read_labels  # noqa: F401 - re-exported
 from mlct.data.layout import DatasetLayout, load_npy
 from mlct.devices import resolve_device
 from mlct.errors import MlctError, first_line
@@ -41,7 +42,6 @@ FORMAT = "mlct-action-classifier"
 VERSION = 1
 META_FILE = "classifier.json"
 WEIGHTS_FILE = "model.safetensors"
-LABELS_FILE = "labels.jsonl"
 SIDE_PARAMS = ("side", "leg", "hand")  # parameters that name a side of the body
 THRESHOLD = 0.5
 JITTER_FRAMES = 4  # at most this many frames dropped at each end of a training motion
@@ -79,23 +79,6 @@ def multi_hot(target_sets: Sequence[set[str]], classes: Sequence[str]) -> Tensor
     for row, targets in enumerate(target_sets):
         out[row, [index[k] for k in targets]] = 1.0
     return out
-
-
-def read_labels(data_dir: str | os.PathLike) -> dict[str, dict[str, Any]]:
-    """labels.jsonl of a procedural benchmark, by motion name."""
-    path = Path(data_dir) / LABELS_FILE
-    if not path.is_file():
-        raise MlctError(f"{path}: missing; only procedural benchmarks (`mlct data synth`) carry "
-                        f"action labels")
-    records = {}
-    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
-        if line.strip():
-            try:
-                record = json.loads(line)
-                records[record["name"]] = record
-            except (ValueError, KeyError, TypeError) as error:
-                raise MlctError(f"{path}:{number}: not a label record ({error!r})") from None
-    return records
 
 
 # --- network ---------------------------------------------------------------------------------

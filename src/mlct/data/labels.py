@@ -1,0 +1,32 @@
+"""labels.jsonl: the procedural benchmark's ground truth per motion (its actions with their
+parameters and time windows, a concurrent action, the captions), one JSON record a line.
+`mlct data synth` writes it; the action classifier, the read-out benchmark, `mlct data
+rephrase` and the critic's trainer read it here."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+from mlct.errors import MlctError
+
+LABELS_FILE = "labels.jsonl"
+
+
+def read_labels(data_dir: str | os.PathLike) -> dict[str, dict[str, Any]]:
+    """labels.jsonl of a procedural benchmark, by motion name."""
+    path = Path(data_dir) / LABELS_FILE
+    if not path.is_file():
+        raise MlctError(f"{path}: missing; only procedural benchmarks (`mlct data synth`) carry "
+                        f"action labels")
+    records = {}
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+        if line.strip():
+            try:
+                record = json.loads(line)
+                records[record["name"]] = record
+            except (ValueError, KeyError, TypeError) as error:
+                raise MlctError(f"{path}:{number}: not a label record ({error!r})") from None
+    return records
