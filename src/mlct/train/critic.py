@@ -87,21 +87,23 @@ class CriticData:
             raise MlctError(f"{layout.root}: the motions have no captions")
         self.captions, self.owner = captions, torch.tensor(owner)
         self.text = encoder.encode(captions).float()
-        mirrors = [mirror_sides(c) for c in captions]
-        self.sided = torch.tensor([m != c for c, m in zip(captions, mirrors)])
-        self.mirror = self.text.clone()
-        sided = [i for i, s in enumerate(self.sided.tolist()) if s]
-        if sided:
-            self.mirror[sided] = encoder.encode([mirrors[i] for i in sided]).float()
-        recounts = [recount(c) for c in captions]
-        self.counted = torch.tensor([r != c for c, r in zip(captions, recounts)])
-        self.recount = self.text.clone()
-        counted = [i for i, s in enumerate(self.counted.tolist()) if s]
-        if counted:
-            self.recount[counted] = encoder.encode([recounts[i] for i in counted]).float()
+        self.sided, self.mirror = self._foils(mirror_sides, encoder)
+        self.counted, self.recount = self._foils(recount, encoder)
         keys = [labels.get(n, {}).get("label", n) for n in names]
         index = {k: g for g, k in enumerate(dict.fromkeys(keys))}
         self.group = torch.tensor([index[k] for k in keys])
+
+
+    def _foils(self, change: Any, encoder: Any) -> tuple[Tensor, Tensor]:
+        """(C,) which captions `change` alters, (C, c) the altered captions' vectors (a
+        caption's own where it is not altered)."""
+        changed = [change(c) for c in self.captions]
+        mask = torch.tensor([a != c for c, a in zip(self.captions, changed)])
+        vectors = self.text.clone()
+        rows = [i for i, m in enumerate(mask.tolist()) if m]
+        if rows:
+            vectors[rows] = encoder.encode([changed[i] for i in rows]).float()
+        return mask, vectors
 
 
 def _loss(critic: LatentCritic, data: CriticData, rows: Tensor, noise: float) -> Tensor:
