@@ -44,9 +44,10 @@ class FakeGenerator:
         self.entered = threading.Event()
 
     def generate(self, texts: Sequence[str], lengths: Sequence[int] | None = None,
-                 nfe: int | None = None, seed: Sequence[int] | None = None
-                 ) -> list[GeneratedMotion]:
+                 nfe: int | None = None, seed: Sequence[int] | None = None,
+                 candidates: int | None = None) -> list[GeneratedMotion]:
         self.calls.append((list(texts), nfe))
+        self.candidates_asked = getattr(self, "candidates_asked", []) + [candidates]
         self.entered.set()
         if self.gate is not None:
             assert self.gate.wait(10), "test gate never opened"
@@ -109,6 +110,25 @@ def test_json_reply_is_the_library_motion(model_client):
     np.testing.assert_allclose(np.array(motion["joints"]), expected, atol=2e-4)
     assert body["timing"]["batch_size"] == 1
     assert body["timing"]["server_ms"] >= body["timing"]["generate_ms"] > 0
+
+
+def test_candidates_pick_as_the_library_does(model_client):
+    client, generator = model_client
+    assert generator.candidates == 8  # the bundled model's critic
+    for asked in (1, 4, None):
+        body = {"text": "a person jumps twice.", "seconds": 2, "seed": 3}
+        if asked is not None:
+            body["candidates"] = asked
+        reply = client.post("/generate", json=body)
+        assert reply.status_code == 200, reply.text
+        motion = reply.json()["motions"][0]
+        assert motion["candidates"] == (asked or 8)
+        expected = generator.generate(["a person jumps twice."], lengths=[40], seed=[3],
+                                      candidates=asked or 8)[0].joints
+        np.testing.assert_allclose(np.array(motion["joints"]), expected, atol=2e-4)
+    one = client.post("/generate", json={"text": "a person jumps twice.", "seconds": 2,
+                                         "seed": 3, "candidates": 1, "format": "npy"})
+    assert one.headers["X-Mlct-Candidates"] == "1"
 
 
 def test_several_texts_and_seeds(model_client):
@@ -198,6 +218,9 @@ BAD_REQUESTS = [
     ({"text": "walk", "temperature": 2}, 422, "unknown field"),
     ({"text": "walk", "format": "glb", "rig": "blender"}, 422, "rig"),
     ({"text": "walk", "format": "gif", "rig": "mixamo"}, 422, "rig applies to"),
+    ({"text": "walk", "candidates": 0}, 422, "candidates"),
+    ({"text": "walk", "candidates": 65}, 422, "candidates"),
+    ({"text": "walk", "candidates": "8"}, 422, "candidates"),
 ]
 
 
@@ -343,6 +366,22 @@ def test_batches_split_by_nfe_and_a_bad_request_fails_alone():
         calls = [(len(t), nfe) for t, nfe in generator.calls[1:]]
         assert [c for c in calls if c[1] == 1] == [(3, 1), (1, 1), (1, 1), (1, 1)]
         assert [c for c in calls if c[1] == 4] == [(1, 4)]
+
+
+def test_requests_with_other_candidate_counts_are_not_merged():
+    gate = threading.Event()
+    client, generator = fake_client(gate, batch_wait_ms=0)
+    with client:
+        head, _ = post_async(client, GOOD)
+        assert generator.entered.wait(5)
+        waiting = [post_async(client, {**GOOD, "candidates": c}) for c in (2, 2, 1)]
+        wait_until(lambda: client.get("/health").json()["queue"]["queued"] == 3)
+        gate.set()
+        for thread, _ in [(head, None), *waiting]:
+            thread.join(5)
+        assert [box[0].status_code for _, box in waiting] == [200, 200, 200]
+        calls = list(zip([len(t) for t, _ in generator.calls], generator.candidates_asked))
+        assert sorted(calls[1:]) == [(1, 1), (2, 2)]  # the two asking 2 in one call
 
 
 # --- the rest of the surface -------------------------------------------------------------------

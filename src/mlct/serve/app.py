@@ -111,7 +111,7 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
             frames, control = body.frames(default_frames), None
             if body.control is not None:  # one motion, generated alone (generate/controlled.py)
                 frames, control = _control_of(generator, body, default_frames)
-            future = batcher.submit(texts, frames, body.nfe, seeds, control)
+            future = batcher.submit(texts, frames, body.nfe, seeds, control, body.candidates)
         except QueueFull as error:
             return _error(503, str(error), {"Retry-After": "1"})
         except MlctError as error:
@@ -126,12 +126,14 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
             return _error(500, f"generation failed ({type(error).__name__}); "
                           "the server keeps running")
         nfe = body.nfe if body.nfe is not None else generator.default_nfe
+        candidates = (body.candidates if body.candidates is not None
+                      else getattr(generator, "candidates", 1))
         timing = {"queue_ms": round(result.queue_s * 1e3, 1),
                   "generate_ms": round(result.generate_s * 1e3, 1),
                   "batch_size": result.batch_size}
         if body.format == "json":
             motions = await run_in_threadpool(
-                lambda: [{**motion_json(m), "seed": s, "nfe": nfe}
+                lambda: [{**motion_json(m), "seed": s, "nfe": nfe, "candidates": candidates}
                          for m, s in zip(result.motions, seeds)])
             timing["server_ms"] = round((time.perf_counter() - received) * 1e3, 1)
             return JSONResponse({"motions": motions, "timing": timing})
@@ -143,6 +145,7 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
         return Response(data, media_type=MEDIA_TYPES[body.format], headers={
             "Content-Disposition": f'attachment; filename="{name}"',
             "X-Mlct-Seed": str(seeds[0]), "X-Mlct-Nfe": str(nfe),
+            "X-Mlct-Candidates": str(candidates),
             "Server-Timing": ", ".join(f"{k[:-3]};dur={v}" for k, v in timing.items()
                                        if k.endswith("_ms"))})
 

@@ -30,7 +30,7 @@ class Generator(Protocol):
 
     def generate(self, texts: Sequence[str], lengths: Any = None, *,
                  nfe: int | None = None, seed: Sequence[int] | None = None,
-                 control: Any = None) -> list[Any]: ...
+                 control: Any = None, candidates: int | None = None) -> list[Any]: ...
 
 
 class QueueFull(Exception):
@@ -60,6 +60,7 @@ class _Job:
     future: concurrent.futures.Future = field(default_factory=concurrent.futures.Future)
     submitted: float = field(default_factory=time.perf_counter)
     control: Any = None  # a generate.control.Control: one text, run alone (never merged)
+    candidates: int | None = None  # best-of-N; None: the model's default
 
 
 _STOP = object()
@@ -100,13 +101,15 @@ class Batcher:
             self._thread = None
 
     def submit(self, texts: list[str], lengths: list[int], nfe: int | None,
-               seeds: list[int], control: Any = None) -> concurrent.futures.Future:
+               seeds: list[int], control: Any = None, candidates: int | None = None
+               ) -> concurrent.futures.Future:
         """Queue a request; its future gets a Result. QueueFull when the queue is full.
         control: a Control for one text; such a request is generated alone, on this worker
         thread like every other (the model is never called from two threads)."""
         if len(texts) > self.max_batch:
             raise MlctError(f"{len(texts)} texts exceed the batch limit of {self.max_batch}")
-        job = _Job(list(texts), list(lengths), nfe, list(seeds), control=control)
+        job = _Job(list(texts), list(lengths), nfe, list(seeds), control=control,
+                   candidates=candidates)
         try:
             self._queue.put_nowait(job)
         except queue.Full:
@@ -131,10 +134,10 @@ class Batcher:
             jobs = self._next_batch()
             if jobs is None:
                 return
-            by_nfe: dict[int | None, list[_Job]] = {}
-            for job in jobs:
-                by_nfe.setdefault(job.nfe, []).append(job)
-            for group in by_nfe.values():
+            by_call: dict[tuple[int | None, int | None], list[_Job]] = {}
+            for job in jobs:  # one model call per step count and candidate count
+                by_call.setdefault((job.nfe, job.candidates), []).append(job)
+            for group in by_call.values():
                 self._run(group)
 
     def _next_batch(self) -> list[_Job] | None:
@@ -173,16 +176,18 @@ class Batcher:
                                                   nfe=live[0].nfe, seed=live[0].seeds,
                                                   control=live[0].control)
             else:
+                extra = ({"candidates": live[0].candidates}
+                         if live[0].candidates is not None else {})
                 motions = self.generator.generate(
                     texts, lengths=[n for job in live for n in job.lengths], nfe=live[0].nfe,
-                    seed=[s for job in live for s in job.seeds])
+                    seed=[s for job in live for s in job.seeds], **extra)
         except MlctError as error:
             if len(live) == 1:
                 live[0].future.set_exception(error)
                 return
             for job in live:  # one bad request must not fail the others
                 retry = _Job(job.texts, job.lengths, job.nfe, job.seeds, submitted=job.submitted,
-                             control=job.control)
+                             control=job.control, candidates=job.candidates)
                 self._run([retry])
                 _forward(retry.future, job.future)
             return

@@ -14,6 +14,7 @@ from pydantic import (AfterValidator, BaseModel, BeforeValidator, ConfigDict, Fi
                       ValidationError, model_validator)
 
 from mlct.errors import MlctError
+from mlct.generate.critic import MAX_CANDIDATES
 from mlct.generate.prompts import clean_prompt
 
 Format = Literal["json", "npy", "bvh", "gif", "glb", "vrma", "npz"]
@@ -65,7 +66,8 @@ def request_model(limits: Limits) -> type[BaseModel]:
 
     class GenerateRequest(BaseModel):
         """Texts to motions. Give `texts` (a list) or `text` (one); `lengths` (frames) or
-        `seconds`, one per text or one for all (default 5 s); `seed`: an int s seeds text i
+        `seconds`, one per text or one for all (default 5 s); `candidates`: motions sampled per
+        text, the one the model's critic rates best kept (default: the model's); `seed`: an int s seeds text i
         with s + i (omitted: random, returned in the reply); `format`: json for every text,
         npy/bvh/gif/glb/vrma/npz for one text as a file download; `rig`: a retarget preset
         for bvh and glb (docs/export.md)."""
@@ -79,6 +81,8 @@ def request_model(limits: Limits) -> type[BaseModel]:
         seconds: Annotated[list[Seconds] | None, BeforeValidator(_as_list)] = Field(
             None, min_length=1, max_length=limits.max_texts)
         nfe: int | None = Field(None, strict=True, ge=1, le=limits.max_nfe)
+        # best of N by the model's critic (generate/critic.py); omitted: the model's default
+        candidates: int | None = Field(None, strict=True, ge=1, le=MAX_CANDIDATES)
         seed: Annotated[list[Seed] | None, BeforeValidator(_as_list)] = Field(
             None, min_length=1, max_length=limits.max_texts)
         format: Format = "json"
@@ -159,8 +163,8 @@ def one_line(error: ValidationError | list[dict[str, Any]]) -> str:
     if first.get("type") == "missing" and not where:
         message = "the request body is empty; send a JSON object such as {\"text\": \"...\"}"
     elif first.get("type") == "extra_forbidden":
-        message = ("unknown field (expected texts or text, lengths or seconds, nfe, seed, format, "
-                   "rig, control)")
+        message = ("unknown field (expected texts or text, lengths or seconds, nfe, candidates, "
+                   "seed, format, rig, control)")
     line = f"{where}: {message}" if where else message
     if len(errors) > 1:
         line += f" (and {len(errors) - 1} more)"
