@@ -41,13 +41,14 @@ class FakeGenerator:
         self.meta = {"sampler": "consistency", "text_encoder": "fake", "step": 0}
         self.gate = gate
         self.calls: list[tuple[list[str], int | None]] = []
+        self.candidates_asked: list[int | None] = []  # per call, beside self.calls
         self.entered = threading.Event()
 
     def generate(self, texts: Sequence[str], lengths: Sequence[int] | None = None,
                  nfe: int | None = None, seed: Sequence[int] | None = None,
                  candidates: int | None = None) -> list[GeneratedMotion]:
         self.calls.append((list(texts), nfe))
-        self.candidates_asked = getattr(self, "candidates_asked", []) + [candidates]
+        self.candidates_asked.append(candidates)
         self.entered.set()
         if self.gate is not None:
             assert self.gate.wait(10), "test gate never opened"
@@ -346,42 +347,39 @@ def test_concurrent_requests_share_a_batch():
         assert stats["batch_sizes"] == {"1": 1, "5": 1} and stats["largest_batch"] == 5
 
 
-def test_batches_split_by_nfe_and_a_bad_request_fails_alone():
+def queued_behind_one(bodies: list[dict]) -> tuple[list[int], FakeGenerator]:
+    """Hold the worker on one request, queue `bodies` behind it, release: their statuses, and
+    the fake generator (its calls after the first are the queued bodies' batches)."""
     gate = threading.Event()
     client, generator = fake_client(gate, batch_wait_ms=0)
     with client:
         head, _ = post_async(client, GOOD)
         assert generator.entered.wait(5)
-        bodies = [{**GOOD, "nfe": 1}, {**GOOD, "nfe": 4}, {**GOOD, "nfe": 1, "text": "explode"},
-                  {**GOOD, "nfe": 1, "text": "run"}]
         waiting = [post_async(client, body) for body in bodies]
-        wait_until(lambda: client.get("/health").json()["queue"]["queued"] == 4)
+        wait_until(lambda: client.get("/health").json()["queue"]["queued"] == len(bodies))
         gate.set()
         for thread, _ in [(head, None), *waiting]:
             thread.join(5)
-        statuses = [box[0].status_code for _, box in waiting]
-        assert statuses == [200, 200, 422, 200]
-        # nfe 1 (three texts, failed on 'explode', then one by one), nfe 4 (one text)
-        # (the two NFE groups run in the order their first requests arrived: either may be first)
-        calls = [(len(t), nfe) for t, nfe in generator.calls[1:]]
-        assert [c for c in calls if c[1] == 1] == [(3, 1), (1, 1), (1, 1), (1, 1)]
-        assert [c for c in calls if c[1] == 4] == [(1, 4)]
+        return [box[0].status_code for _, box in waiting], generator
+
+
+def test_batches_split_by_nfe_and_a_bad_request_fails_alone():
+    statuses, generator = queued_behind_one([
+        {**GOOD, "nfe": 1}, {**GOOD, "nfe": 4}, {**GOOD, "nfe": 1, "text": "explode"},
+        {**GOOD, "nfe": 1, "text": "run"}])
+    assert statuses == [200, 200, 422, 200]
+    # nfe 1 (three texts, failed on 'explode', then one by one), nfe 4 (one text)
+    # (the two NFE groups run in the order their first requests arrived: either may be first)
+    calls = [(len(t), nfe) for t, nfe in generator.calls[1:]]
+    assert [c for c in calls if c[1] == 1] == [(3, 1), (1, 1), (1, 1), (1, 1)]
+    assert [c for c in calls if c[1] == 4] == [(1, 4)]
 
 
 def test_requests_with_other_candidate_counts_are_not_merged():
-    gate = threading.Event()
-    client, generator = fake_client(gate, batch_wait_ms=0)
-    with client:
-        head, _ = post_async(client, GOOD)
-        assert generator.entered.wait(5)
-        waiting = [post_async(client, {**GOOD, "candidates": c}) for c in (2, 2, 1)]
-        wait_until(lambda: client.get("/health").json()["queue"]["queued"] == 3)
-        gate.set()
-        for thread, _ in [(head, None), *waiting]:
-            thread.join(5)
-        assert [box[0].status_code for _, box in waiting] == [200, 200, 200]
-        calls = list(zip([len(t) for t, _ in generator.calls], generator.candidates_asked))
-        assert sorted(calls[1:]) == [(1, 1), (2, 2)]  # the two asking 2 in one call
+    statuses, generator = queued_behind_one([{**GOOD, "candidates": c} for c in (2, 2, 1)])
+    assert statuses == [200, 200, 200]
+    calls = list(zip([len(t) for t, _ in generator.calls], generator.candidates_asked))
+    assert sorted(calls[1:]) == [(1, 1), (2, 2)]  # the two asking 2 in one call
 
 
 # --- the rest of the surface -------------------------------------------------------------------

@@ -21,7 +21,7 @@ from typing import Any
 
 import torch
 from safetensors import safe_open
-from safetensors.torch import load_file, save
+from safetensors.torch import save
 from torch import Tensor
 
 from mlct.errors import MlctError, first_line
@@ -74,9 +74,9 @@ def read_critic(model_dir: str | os.PathLike, text_encoder: str, text_dim: int,
     if not path.is_file():
         return None
     try:
-        with safe_open(str(path), framework="pt") as f:
+        with safe_open(str(path), framework="pt") as f:  # one read: metadata and tensors
             info = json.loads((f.metadata() or {})["mlct"])
-        tensors = load_file(str(path))
+            tensors = {name: f.get_tensor(name) for name in f.keys()}
         if info.get("format") != FORMAT or info.get("version") != VERSION:
             raise ValueError(f"not {FORMAT} version {VERSION}")
         network = LatentCritic(int(info["latent_size"]), int(info["text_dim"]),

@@ -125,10 +125,14 @@ class LatentAutoencoder(nn.Module):
     def decode(self, z: Tensor, lengths: Tensor, max_len: int | None = None) -> Tensor:
         raise NotImplementedError
 
-    def forward(self, x: Tensor, lengths: Tensor) -> tuple[Tensor, Latent]:
-        """Reconstruct x (B, T, D) through z: returns (D(z) (B, T, D), Latent)."""
+    def forward(self, x: Tensor, lengths: Tensor, decode_lengths: Tensor | None = None
+                ) -> tuple[Tensor, Latent]:
+        """Reconstruct x (B, T, D) through z: returns (D(z) (B, T, D), Latent). decode_lengths:
+        decode each item to this length instead (B, T' = its max), e.g. past the clip's end."""
         latent = self.encode(x, lengths)
-        return self.decode(latent.z, lengths, max_len=x.shape[1]), latent
+        if decode_lengths is None:
+            return self.decode(latent.z, lengths, max_len=x.shape[1]), latent
+        return self.decode(latent.z, decode_lengths, int(decode_lengths.max())), latent
 
 
 class MotionAutoencoder(LatentAutoencoder):

@@ -177,7 +177,7 @@ def train_critic(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
         return ae.encode(x, lengths).z
 
     layout = DatasetLayout.existing(data_dir)
-    labels = (read_labels(data_dir) if (Path(data_dir) / LABELS_FILE).is_file() else {})
+    labels = read_labels(data_dir) if (Path(data_dir) / LABELS_FILE).is_file() else {}
     encoder = CachedTextEncoder(load_text_encoder(meta["text_encoder"]))
     started = time.perf_counter()
     train = CriticData(layout, layout.read_split(split), labels, encoder, encode, max_frames)

@@ -111,8 +111,10 @@ class AutoencoderStage(Stage):
         lengths = batch["length"].to(self.device)
         frames = int(lengths.max())
         x = x[:, :frames]
-        if self.config.ae.hold_extension > 0 or self.config.ae.freeze_encoder:
-            recon, latent, x, lengths = self._decode_past_the_end(model, x, lengths, generator)
+        if self.config.ae.hold_extension > 0:  # some items decoded past their end
+            longer = self._extended_lengths(lengths, generator)
+            recon, latent = model(x, lengths, longer)  # (B, max(longer), D)
+            x, lengths = self._held_target(x, lengths, longer), longer
             frames = int(lengths.max())
         else:
             recon, latent = model(x, lengths)  # (B, frames, D)
@@ -137,33 +139,25 @@ class AutoencoderStage(Stage):
         out["loss"] = total
         return out
 
-    def _decode_past_the_end(self, model: nn.Module, x: Tensor, lengths: Tensor,
-                             generator: torch.Generator | None
-                             ) -> tuple[Tensor, Any, Tensor, Tensor]:
-        """Encode each clip at its length; decode a hold_extension share of them for longer, to
-        a target that holds the clip's last pose still (velocities 0, feet on the ground).
-        Returns recon, latent, the target and its lengths."""
-        ae = model.module if hasattr(model, "module") else model  # DDP wraps it
-        frozen = self.config.ae.freeze_encoder
-        with torch.set_grad_enabled(torch.is_grad_enabled() and not frozen):
-            latent = ae.encode(x, lengths)
-        max_len = self.config.data.max_motion_length
-        rows = torch.arange(len(lengths), device=x.device)
-        chosen = torch.rand(len(lengths), generator=generator).to(x.device) \
-            < self.config.ae.hold_extension
-        room = (max_len - lengths).clamp(min=0)
-        extra = (torch.rand(len(lengths), generator=generator).to(x.device) * (room + 1)).long()
-        extra = torch.where(chosen, extra, torch.zeros_like(extra))
-        longer = lengths + extra
+    def _extended_lengths(self, lengths: Tensor, generator: torch.Generator | None) -> Tensor:
+        """A hold_extension share of the items, lengthened by a random number of frames (up
+        to the horizon); the others as they are."""
+        draw = lambda: torch.rand(len(lengths), generator=generator).to(lengths.device)  # noqa: E731
+        chosen = draw() < self.config.ae.hold_extension
+        room = (self.config.data.max_motion_length - lengths).clamp(min=0)
+        extra = (draw() * (room + 1)).long()
+        return lengths + torch.where(chosen, extra, torch.zeros_like(extra))
+
+    def _held_target(self, x: Tensor, lengths: Tensor, longer: Tensor) -> Tensor:
+        """x (B, T, D) extended to max(longer) frames: past each clip's end, its last pose held
+        still (velocities 0, feet on the ground) up to `longer`, zeros after."""
         frames = int(longer.max())
-        held = self._held_pose(x[rows, lengths - 1])  # (B, D) normalized
+        held = self._held_pose(x[torch.arange(len(lengths), device=x.device), lengths - 1])
         steps = torch.arange(frames, device=x.device)[None, :]  # (1, frames)
         past = (steps >= lengths[:, None]) & (steps < longer[:, None])  # (B, frames)
         target = torch.zeros(len(lengths), frames, x.shape[-1], device=x.device, dtype=x.dtype)
         target[:, : x.shape[1]] = x
-        target = torch.where(past[..., None], held[:, None, :], target)
-        recon = ae.decode(latent.z, longer, frames)
-        return recon, latent, target, longer
+        return torch.where(past[..., None], held[:, None, :], target)
 
     def _held_pose(self, last: Tensor) -> Tensor:
         """(B, D) normalized last frames -> the same poses standing still, normalized."""
