@@ -74,6 +74,10 @@ class AutoencoderConfig(_Section):
     # Fraction of each batch whose decoding target runs past the clip, the last pose held still
     # for a random number of frames: teaches the decoder what to draw after an action ends.
     hold_extension: float = Field(0.0, ge=0.0, le=1.0)
+    # Set by `train ae --init MODEL ae.n_tokens=N` when N exceeds the model's token count (that
+    # count; 0 = not grown; nn/grow.py). With freeze_encoder, the encoder's rows of those first
+    # tokens stay frozen and only the new tokens' rows train, so their latents keep their meaning.
+    grown_from: int = Field(0, ge=0)
 
 
 class DenoiserConfig(_Section):

@@ -200,10 +200,30 @@ def train(stage: str, data_dir: str | Path, out: str | Path, config: Config | No
             else:
                 base = config.to_dict() if config is not None else Config().to_dict()
             config = config_from_dict(apply_overrides(base, overrides), "config + overrides")
+            if init is not None and stage == "ae":
+                config = _record_growth(config, int(initial.config["ae"]["n_tokens"]))
         return _train(stage, Path(data_dir), run, config, checkpoint, info, ae_path, progress,
                       stop_at, initial if init is not None else None)
     finally:
         distributed.teardown(info)
+
+
+def _record_growth(config: Config, old_n: int) -> Config:
+    """An autoencoder --init from a model with fewer latent tokens grows it (nn/grow.py): its
+    config says from how many, so a resumed run freezes the same encoder rows (0 when the
+    count stays: a model grown before is not grown again)."""
+    grown = config.to_dict()
+    if config.ae.n_tokens == old_n:
+        grown["ae"]["grown_from"] = 0
+        return config_from_dict(grown, "config + overrides")
+    if config.ae.n_tokens < old_n:
+        raise MlctError(f"ae.n_tokens={config.ae.n_tokens}: the model has {old_n} latent tokens, "
+                        f"and a latent can grow, not shrink")
+    if config.ae.architecture != "conv":
+        raise MlctError("growing the latent (ae.n_tokens above the model's) needs the conv "
+                        "autoencoder (ae.architecture: conv)")
+    grown["ae"]["grown_from"] = old_n
+    return config_from_dict(grown, "config + overrides")
 
 
 class InitialWeights:
@@ -231,11 +251,19 @@ class InitialWeights:
                    weights)
 
     def load_into(self, stage: Stage) -> None:
+        weights = self.weights
+        old_n, new_n = int(self.config["ae"]["n_tokens"]), stage.config.ae.n_tokens
+        if new_n != old_n:  # a grown latent (nn/grow.py): the autoencoder's or the denoiser's
+            from mlct.nn.grow import grow_tokens
+
+            network = stage.model if isinstance(stage, AutoencoderStage) else stage.denoiser
+            weights = grow_tokens(weights, network.state_dict(), old_n, new_n,
+                                  stage.config.ae.latent_dim)
         try:
             if isinstance(stage, AutoencoderStage):
-                stage.model.load_state_dict(self.weights)
+                stage.model.load_state_dict(weights)
             elif isinstance(stage, (ConsistencyStage, DiffusionStage)):
-                stage.start_from(self.weights)
+                stage.start_from(weights)
         except RuntimeError:
             raise MlctError(f"{self.path}: its weights do not fit this stage's network (were "
                             f"the architecture keys overridden?)") from None

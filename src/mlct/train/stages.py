@@ -100,6 +100,24 @@ class AutoencoderStage(Stage):
             for name, parameter in self.model.named_parameters():
                 if name.startswith(ENCODER_PREFIXES):
                     parameter.requires_grad_(False)
+            if config.ae.grown_from:
+                self._train_new_token_rows(config.ae.grown_from)
+
+    def _train_new_token_rows(self, old_n: int) -> None:
+        """A grown latent (nn/grow.py) under a frozen encoder: the new tokens' encoder rows
+        train, the old tokens' get no gradient (so AdamW, without weight decay, never moves
+        them) and keep their latents' meaning for the stage 2 trained on them."""
+        from mlct.nn.grow import old_token_rows
+
+        if self.config.train.ae.weight_decay:
+            raise MlctError("ae.grown_from with ae.freeze_encoder needs train.ae.weight_decay=0: "
+                            "weight decay would move the old tokens' frozen rows")
+        a = self.config.ae
+        for parameter in self.model.to_tokens.parameters():
+            keep = old_token_rows(parameter.shape[0], old_n, a.n_tokens, a.latent_dim)
+            keep = keep.to(parameter.device).view(-1, *[1] * (parameter.ndim - 1))
+            parameter.requires_grad_(True)
+            parameter.register_hook(lambda grad, keep=keep: grad.masked_fill(keep, 0.0))
 
     @property
     def trainable(self) -> nn.Module:

@@ -1,0 +1,66 @@
+"""Growing a trained model's latent from n to more tokens (ours; `ae.grown_from`).
+
+Why: three 64-d tokens of the small conv autoencoder hold a clip's gait or an arm action laid
+over it, not both (docs/training.md, "Where the autoencoder's 0.785 comes from"). Retraining a
+wider latent from scratch also throws away every stage-2 step trained on the old one. Grown
+instead, the old tokens keep their exact meaning (their encoder rows stay as they were) and the
+decoder starts out ignoring the new ones (their input columns are zero), so the grown
+autoencoder decodes exactly as before until training gives the new tokens something to carry,
+and a stage 2 fine-tuned on it starts from a model that already makes the old tokens.
+
+The tensors that depend on the token count:
+- the conv autoencoder's ``to_tokens`` (rows: the encoder's outputs, ``groups`` x n x d, the VAE
+  having a mean and a log-variance group) and ``from_tokens`` (columns: n x d inputs);
+- the denoiser's ``pos`` (1 + n positions).
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import Tensor
+
+from mlct.errors import MlctError
+
+
+def grow_tokens(old: dict[str, Tensor], fresh: dict[str, Tensor], old_n: int, new_n: int,
+                latent_dim: int) -> dict[str, Tensor]:
+    """`old`'s weights (a latent of old_n tokens) in the shapes of `fresh` (new_n tokens, newly
+    initialised): new encoder rows and positions keep their fresh initialisation, new decoder
+    input columns are zero. Every other tensor must have the same shape in both."""
+    if new_n < old_n:
+        raise MlctError(f"a latent can grow, not shrink: {old_n} -> {new_n} tokens")
+    if set(old) != set(fresh):
+        raise MlctError("the weights do not fit the grown network: different tensor names")
+    d = latent_dim
+    out = {}
+    for key, new in fresh.items():
+        was = old[key]
+        if was.shape == new.shape:
+            out[key] = was
+        elif key.endswith("to_tokens.weight") or key.endswith("to_tokens.bias"):
+            groups = was.shape[0] // (old_n * d)  # 1, or 2 for the VAE's mean and log-variance
+            grown = new.detach().clone().view(groups, new_n, d, *new.shape[1:])
+            grown[:, :old_n] = was.view(groups, old_n, d, *was.shape[1:])
+            out[key] = grown.view(new.shape)
+        elif key.endswith("from_tokens.weight"):
+            grown = new.detach().clone()
+            grown[:, : old_n * d] = was
+            grown[:, old_n * d:] = 0.0  # the decoder ignores the new tokens until trained
+            out[key] = grown
+        elif key.endswith("pos") and was.shape[1] == 1 + old_n:
+            grown = new.detach().clone()
+            grown[:, : 1 + old_n] = was
+            out[key] = grown
+        else:
+            raise MlctError(f"cannot grow {key} from {tuple(was.shape)} to {tuple(new.shape)}: "
+                            f"growing the latent supports the conv autoencoder and the denoiser")
+    return out
+
+
+def old_token_rows(n_rows: int, old_n: int, new_n: int, latent_dim: int) -> Tensor:
+    """Over a grown ``to_tokens`` tensor's n_rows outputs (groups x new_n x d): True on the rows
+    of the first old_n tokens of each group, the ones a frozen encoder keeps."""
+    groups = n_rows // (new_n * latent_dim)
+    mask = torch.zeros(groups, new_n, latent_dim, dtype=torch.bool)
+    mask[:, :old_n] = True
+    return mask.view(n_rows)

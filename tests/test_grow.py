@@ -1,0 +1,139 @@
+"""Growing a trained latent from n to more tokens (nn/grow.py, `ae.grown_from`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import torch
+
+from mlct.config import load_config
+from mlct.data.synth.build import synthesize_dataset
+from mlct.errors import MlctError
+from mlct.nn.autoencoder import MotionAutoencoder
+from mlct.nn.conv_autoencoder import ConvMotionAutoencoder
+from mlct.nn.denoiser import Denoiser
+from mlct.nn.grow import grow_tokens, old_token_rows
+from mlct.train.checkpoint import latest_checkpoint, load_checkpoint
+from mlct.train.loop import train
+
+D = 8  # latent_dim of the small networks below
+
+
+def _conv(n: int, latent_type: str = "quantized") -> ConvMotionAutoencoder:
+    torch.manual_seed(n)
+    return ConvMotionAutoencoder(263, latent_type, n, D, channels=16, max_len=40).eval()
+
+
+@pytest.mark.parametrize("latent_type", ["quantized", "vae", "plain"])
+def test_a_grown_autoencoder_encodes_and_decodes_as_before(latent_type: str) -> None:
+    old, new = _conv(2, latent_type), _conv(4, latent_type)
+    new.load_state_dict(grow_tokens(old.state_dict(), new.state_dict(), 2, 4, D))
+    x, lengths = torch.randn(3, 40, 263), torch.tensor([40, 25, 9])
+    with torch.no_grad():
+        z_old, z_new = old.encode(x, lengths).z, new.encode(x, lengths).z
+        torch.testing.assert_close(z_new[:, :2], z_old)
+        assert z_new[:, 2:].abs().sum() > 0  # the new tokens say something from the start
+        anything = torch.cat([z_old, torch.randn(3, 2, D)], dim=1)  # the decoder ignores them
+        torch.testing.assert_close(new.decode(anything, lengths), old.decode(z_old, lengths))
+
+
+def test_a_grown_denoiser_keeps_its_old_positions() -> None:
+    small, big = (Denoiser(D, n, 16, width=32, layers=3, heads=2, ff_dim=64) for n in (2, 5))
+    grown = grow_tokens(small.state_dict(), big.state_dict(), 2, 5, D)
+    torch.testing.assert_close(grown["pos"][:, :3], small.pos.detach())
+    torch.testing.assert_close(grown["pos"][:, 3:], big.pos.detach()[:, 3:])
+    big.load_state_dict(grown)
+
+
+def test_growth_refuses_to_shrink_and_the_transformer_autoencoder() -> None:
+    with pytest.raises(MlctError, match="grow, not shrink"):
+        grow_tokens(_conv(3).state_dict(), _conv(2).state_dict(), 3, 2, D)
+    small, big = (MotionAutoencoder(263, "quantized", n, D, layers=1, heads=2, ff_dim=16,
+                                    max_len=40) for n in (2, 3))
+    with pytest.raises(MlctError, match="cannot grow"):
+        grow_tokens(small.state_dict(), big.state_dict(), 2, 3, D)
+
+
+def test_old_token_rows_mark_the_first_tokens_of_each_group() -> None:
+    mask = old_token_rows(2 * 3 * D, 1, 3, D)  # a VAE: mean and log-variance groups
+    expected = torch.zeros(2, 3, D, dtype=torch.bool)
+    expected[:, 0] = True
+    assert torch.equal(mask, expected.view(-1))
+
+
+@pytest.fixture(scope="module")
+def conv_model(tmp_path_factory) -> tuple[Path, Path, str]:
+    """A tiny conv-autoencoder model (2 latent tokens), exported, and its data."""
+    from mlct.train.export import export_run
+
+    root = tmp_path_factory.mktemp("grow")
+    data = root / "data"
+    synthesize_dataset(data, num=32, seed=5, progress=False)
+    cache = f"text.cache_dir={root / 'cache'}"
+    conv = ["ae.architecture=conv", "ae.channels=16", "ae.latent_dim=8"]
+    train("ae", data, root / "run", load_config("tiny"), progress=False,
+          overrides=[cache, *conv, "train.ae.max_steps=4"])
+    train("cm", data, root / "run", load_config("tiny"), progress=False,
+          overrides=[cache, "train.cm.max_steps=2"])
+    return export_run(root / "run", root / "model"), data, cache
+
+
+def test_train_ae_grows_the_latent_with_the_old_tokens_frozen(
+        conv_model: tuple[Path, Path, str], tmp_path: Path) -> None:
+    """`train ae --init MODEL ae.n_tokens=3 ae.freeze_encoder=true`: the old token's encoder
+    rows and the convolutions stay as shipped, the new token's rows and the decoder learn; a
+    resumed run keeps them frozen; `train cm --init MODEL --ae RUN` grows the denoiser, and
+    the exported model generates with 3 tokens."""
+    import mlct
+    from mlct.generate.bundle import read_bundle
+    from mlct.train.export import export_run
+
+    model, data, cache = conv_model
+    run = tmp_path / "grown"
+    grow = [cache, "ae.n_tokens=3", "ae.freeze_encoder=true", "train.ae.lr=1e-2"]
+    train("ae", data, run, None, progress=False, init=model, stop_at=2,
+          overrides=[*grow, "train.ae.max_steps=4"])
+    train("ae", data, run, None, progress=False, resume=True)
+    ckpt = load_checkpoint(latest_checkpoint(run / "ae" / "checkpoints"), with_state=False)
+    assert ckpt.meta["config"]["ae"]["grown_from"] == 2
+    assert int(ckpt.meta["step"]) == 4
+    after = ckpt.module_state("ae")
+    _, before = read_bundle(model)
+    old = {k[len("ae_encoder."):]: v for k, v in before.items() if k.startswith("ae_encoder.")}
+    for key, value in old.items():
+        if key.startswith("to_tokens."):
+            assert torch.equal(after[key][: 2 * D], value)  # the old rows, unmoved
+            assert not torch.allclose(after[key][2 * D:], torch.zeros(1))
+        else:
+            assert torch.equal(after[key], value)  # the convolutions, unmoved
+    decoder = {k[len("decoder."):]: v for k, v in before.items() if k.startswith("decoder.")}
+    assert after["from_tokens.weight"][:, 2 * D:].abs().sum() > 0  # the new columns learned
+    assert any(not torch.allclose(after[k], v) for k, v in decoder.items()
+               if k != "from_tokens.weight")
+
+    train("cm", data, run, None, progress=False, init=model, ae_path=run,
+          overrides=[cache, "train.cm.max_steps=2"])
+    grown = export_run(run, tmp_path / "grown_model")
+    _, tensors = read_bundle(grown)
+    assert tensors["denoiser.pos"].shape[1] == 1 + 3
+    torch.testing.assert_close(tensors["denoiser.pos"][:, :3].float(),
+                               before["denoiser.pos"].float(), atol=0.05, rtol=0)
+    generator = mlct.load(grown)
+    motion = generator.generate("a person walks forward", seconds=2.0, seed=0)
+    joints = torch.as_tensor(motion.joints)
+    assert joints.shape[-2:] == (22, 3) and joints.shape[-3] == 40 and torch.isfinite(joints).all()
+
+
+def test_growing_needs_the_conv_autoencoder_and_refuses_fewer_tokens(
+        conv_model: tuple[Path, Path, str], tmp_path: Path) -> None:
+    model, data, cache = conv_model
+    with pytest.raises(MlctError, match="grow, not shrink"):
+        train("ae", data, tmp_path / "a", None, progress=False, init=model,
+              overrides=[cache, "ae.n_tokens=1"])
+    with pytest.raises(MlctError, match="weight_decay"):
+        train("ae", data, tmp_path / "b", None, progress=False, init=model,
+              overrides=[cache, "ae.n_tokens=3", "ae.freeze_encoder=true",
+                         "train.ae.weight_decay=0.01", "train.ae.max_steps=1"])
+    checkpoints = tmp_path / "b" / "ae" / "checkpoints"
+    assert not checkpoints.is_dir() or latest_checkpoint(checkpoints) is None
