@@ -21,6 +21,27 @@ from mlct.generate.long_motion import LongMotion
     ("walks forward then turns left", ["walks forward", "a person turns left"]),
     ("a man turns slightly left after sitting down", ["a man sits down",
                                                       "a man turns slightly left"]),
+    # listed with commas or "and": a verb we know starts the next action
+    ("the person claps three times and jabs with the right arm twice.",
+     ["the person claps three times", "the person jabs with the right arm twice"]),
+    ("a man punches twice, jogs straight ahead, after that walks backwards.",
+     ["a man punches twice", "a man jogs straight ahead", "a man walks backwards"]),
+    ("a person turns around to the left and quickly walks forward",
+     ["a person turns around to the left", "a person quickly walks forward"]),
+    ("a woman is spinning around to the left and pacing forward.",
+     ["a woman is spinning around to the left", "a woman paces forward"]),
+    # ... unless it completes the action before it
+    ("a man squats down and stands back up and bends forward and straightens up, then hops",
+     ["a man squats down and stands back up", "a man bends forward and straightens up",
+      "a man hops"]),
+    ("a person kneels, then stands and claps", ["a person kneels", "a person stands and claps"]),
+    ("she balances on the left leg and hops twice and does three jumps",
+     ["she balances on the left leg and hops twice", "she does three jumps"]),
+    # an adverb before the gerund of an after/before clause
+    ("a woman turns around before rapidly pacing forward.",
+     ["a woman turns around", "a woman rapidly paces forward"]),
+    ("a person spins to the right before bowing.", ["a person spins to the right",
+                                                    "a person bows"]),
 ])
 def test_sequences_split_into_parts_with_a_subject(text: str, parts: list[str]) -> None:
     assert split_actions(text) == parts
@@ -30,7 +51,12 @@ def test_sequences_split_into_parts_with_a_subject(text: str, parts: list[str]) 
     "a person walks forward",
     "a man turns slightly left after that",  # 'after that' + nothing: no second action
     "someone walks backward while waving both arms",  # at once, not in sequence
-    "a person turns around and walks back",  # 'and' alone: often one action
+    "a person squats down and stands back up",  # 'and' + a verb that completes the action
+    "a woman raises her arms above her head and bends to one side",  # one stretch
+    "a person walks forward and back",  # 'back' is a direction here
+    "a man stands on his left leg and hops",  # standing first: the action that follows
+    "a person bends the knees and drops low",  # one squat
+    "a person turns three hundred and sixty degrees",  # no verb after 'and'
     "a person walks to the next room",
     "Then a person jumps",  # nothing before the sequencing word
     "a person claps, followed by a bow",  # a noun phrase follows: no prompt of its own
