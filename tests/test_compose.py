@@ -56,6 +56,7 @@ def test_sequences_split_into_parts_with_a_subject(text: str, parts: list[str]) 
     "a person walks forward and back",  # 'back' is a direction here
     "a man stands on his left leg and hops",  # standing first: the action that follows
     "a person bends the knees and drops low",  # one squat
+    "a man walks forward and waves at the same time",  # at once: split_concurrent's
     "a person turns three hundred and sixty degrees",  # no verb after 'and'
     "a person walks to the next room",
     "Then a person jumps",  # nothing before the sequencing word
@@ -115,6 +116,13 @@ def test_whole_prompt_and_short_motions_are_not_split(pipe) -> None:
      "a person turns left, then walks forward", "a person claps"),
     ("walks backward while punching with the left hand", "walks backward",
      "a person punches with the left hand"),
+    # an adverb or "is" before the verb, a final period after "at the same time"
+    ("someone quickly walks ahead and claps five times at the same time.",
+     "someone quickly walks ahead", "someone claps five times"),
+    ("the person is slowly walking ahead and punching with their right fist at the same time.",
+     "the person is slowly walking ahead", "the person punches with their right fist"),
+    ("a figure is raising both hands up while walking forward.", "a figure walks forward",
+     "a figure is raising both hands up"),
 ])
 def test_an_arm_action_at_the_same_time_is_split_off(text: str, body: str, arms: str) -> None:
     assert split_concurrent(text) == (body, arms)

@@ -73,6 +73,8 @@ def _split_listed(phrase: str) -> list[str]:
     starts a new action unless it completes the one before (_RETURN_VERBS, _ONE_ACTION_PAIRS).
     "turns three hundred and sixty degrees" and "walks forward and back" stay whole. A piece led
     by a gerund ("running, and jabbing") is made finite."""
+    if _WHILE.search(phrase) or _SAME_TIME.search(phrase.strip(" ,;.")):
+        return [phrase]  # actions at once, not one after another
     subject, rest = _without_subject(phrase)
     pieces = _LISTED.split(rest)
     separators = [m.group(0) for m in _LISTED.finditer(rest)]
@@ -103,11 +105,12 @@ _ADVERBS = frozenset({"first", "finally", "also", "then", "again", "is", "are"})
 
 
 def _leading_verb(piece: str) -> str | None:
-    """The lemma of the verb a piece starts with, past one adverb ("quickly walks"); None when
+    """The lemma of the verb a piece starts with, past two adverbs ("is slowly walking"); None when
     it starts otherwise ("back", "sixty degrees")."""
     words = piece.lower().split()
-    if len(words) > 1 and (words[0].endswith("ly") or words[0] in _ADVERBS):
-        words = words[1:]
+    for _ in range(2):  # "is slowly walking"
+        if len(words) > 1 and (words[0].endswith("ly") or words[0] in _ADVERBS):
+            words = words[1:]
     if not words or words[0] == "back":  # "walks forward and back": a direction here
         return None
     return _lemma(words[0])
@@ -144,8 +147,7 @@ def _without_subject(phrase: str) -> tuple[str, str]:
 
 
 def _first_verb(phrase: str) -> str | None:
-    words = _without_subject(phrase)[1].split()
-    return _lemma(words[0]) if words else None
+    return _leading_verb(_without_subject(phrase)[1])
 
 
 def _is_arm_action(phrase: str) -> bool:
@@ -163,12 +165,13 @@ def _finite(phrase: str) -> str:
 def _split_phrase(phrase: str) -> tuple[str, str] | None:
     """(the body's phrase, the arms' phrase) of one phrase naming two actions at once, or None."""
     pairs = []
+    phrase = phrase.strip(" ,;.")
     if _WHILE.search(phrase):
         first, second = _WHILE.split(phrase, maxsplit=1)
         pairs.append((first, _finite(second)))
     elif _SAME_TIME.search(phrase):
         both = _SAME_TIME.sub("", phrase)
-        pairs += [(both[:m.start()], both[m.end():]) for m in _AND.finditer(both)]
+        pairs += [(both[:m.start()], _finite_lead(both[m.end():])) for m in _AND.finditer(both)]
     for first, second in pairs:
         first, second = first.strip(" ,;."), second.strip(" ,;.")
         if not first or not second:
