@@ -443,3 +443,25 @@ def test_holding_the_last_pose_zeroes_the_velocities(tiny) -> None:
     assert torch.allclose(held[:, groups["foot_contact"]], torch.ones(1), atol=1e-5)
     for name in ("root_height", "ric", "rotations"):
         torch.testing.assert_close(held[:, groups[name]], raw[:, groups[name]])
+
+
+def test_latent_noise_is_decoded_in_training_only(tiny) -> None:
+    """ae.latent_noise: the training loss decodes a noisy latent (a different, larger loss on
+    the same batch), validation the clean one."""
+    from mlct.config import config_from_dict
+    from mlct.train.stages import AutoencoderStage
+
+    mean, std = torch.zeros(263), torch.ones(263)
+    noisy = tiny.to_dict()
+    noisy["ae"]["latent_noise"] = 0.5
+    batch = {"motion": torch.randn(4, 40, 263), "length": torch.tensor([40, 30, 20, 12])}
+    losses = {}
+    for name, config in (("clean", tiny), ("noisy", config_from_dict(noisy))):
+        torch.manual_seed(0)
+        stage = AutoencoderStage(config, torch.device("cpu"), mean, std, "humanml3d")
+        for training in (True, False):
+            stage.model.train(training)
+            torch.manual_seed(1)
+            losses[name, training] = float(stage.loss(stage.model, batch)["loss"])
+    assert losses["noisy", True] != pytest.approx(losses["clean", True], rel=1e-4)
+    assert losses["noisy", False] == pytest.approx(losses["clean", False], rel=1e-6)

@@ -74,6 +74,14 @@ class AutoencoderConfig(_Section):
     # Fraction of each batch whose decoding target runs past the clip, the last pose held still
     # for a random number of frames: teaches the decoder what to draw after an action ends.
     hold_extension: float = Field(0.0, ge=0.0, le=1.0)
+    # Std of Gaussian noise added to the latent before decoding, in training only (ours). Why:
+    # latent noise of 0.13 (a third of a token's spread) turned 85 % of the bundled decoder's
+    # claps and half its waves into damped swings that never meet or sway (bench: a stage-2
+    # sample lies about that far from the latent of a real motion), while gaits survived
+    # it: the arms' oscillations lived in the latent's finest detail. Trained with noise, the
+    # encoder has to spread them over what the noise cannot hide (the latent is bounded in
+    # [-1, 1], so it cannot simply grow).
+    latent_noise: float = Field(0.0, ge=0.0)
     # Set by `train ae --init MODEL ae.n_tokens=N` when N exceeds the model's token count (that
     # count; 0 = not grown; nn/grow.py). With freeze_encoder, the encoder's rows of those first
     # tokens stay frozen and only the new tokens' rows train, so their latents keep their meaning.

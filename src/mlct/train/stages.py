@@ -129,13 +129,14 @@ class AutoencoderStage(Stage):
         lengths = batch["length"].to(self.device)
         frames = int(lengths.max())
         x = x[:, :frames]
+        noise = self.config.ae.latent_noise if model.training else 0.0
         if self.config.ae.hold_extension > 0:  # some items decoded past their end
             longer = self._extended_lengths(lengths, generator)
-            recon, latent = model(x, lengths, longer)  # (B, max(longer), D)
+            recon, latent = model(x, lengths, longer, noise)  # (B, max(longer), D)
             x, lengths = self._held_target(x, lengths, longer), longer
             frames = int(lengths.max())
         else:
-            recon, latent = model(x, lengths)  # (B, frames, D)
+            recon, latent = model(x, lengths, None, noise)  # (B, frames, D)
         mask = lengths_to_mask(lengths, frames).to(x.dtype)  # (B, frames)
         feature = _masked_smooth_l1(recon, x, mask)  # Eq. 9, first term
         # Eq. 9, second term: joint positions through recover_from_ric, on real units.
