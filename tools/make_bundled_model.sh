@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # Rebuild the bundled model (docs/model_card.md) from scratch, on a CPU:
 #   bash tools/make_bundled_model.sh [WORK_DIR] [CM_SEED]
-# About 3 h on 2 cores: the data 1 min, the autoencoder 40 min (10,000 steps), the consistency
+# On 2 cores: the data 1 min, the autoencoder 40 min (10,000 steps), the consistency
 # model 25-40 min (7,000 steps, the pooled MiniLM), 40-80 min of fine-tuning it with
 # side-contrasted text ('minilm+sides', text/sides.py; 12,000 steps, lr 3e-4), then 24,000 more
 # steps in three continuations (lr 2e-4; 70 min at 290-340 steps a minute on a free machine),
 # 6,000 steps on the same motions with everyday captions added (`mlct data rephrase`; 20 min),
 # the decoder retrained alone to hold still past an action's end (5,000 steps, 12 min), the
-# duration model (2 min) and the best-of-N critic (1-3 min). About 3 h 30 min in all on a free
-# machine. Resumable: run it
+# whole autoencoder fine-tuned to decode a noisy latent (5,000 steps, 12-20 min) and 10,000
+# stage-2 steps on its latents (30-40 min), the duration model (2 min) and the best-of-N critic
+# (1-3 min). About 4 h 20 min in all on a free machine. Resumable: run it
 # again with the same WORK_DIR after an interruption and each stage continues from its last
 # checkpoint. The result replaces src/mlct/assets/model (float16 weights). CM_SEED (default 0)
 # seeds stage 2 only, for the seed spread the model card reports.
@@ -56,6 +57,15 @@ stage hold ae --init "$work/model_rich" ae.freeze_encoder=true ae.hold_extension
 [ -f "$work/model_hold/config.json" ] || mlct export "$work/rich" --out "$work/model_hold" --half \
     --decoder-from "$work/hold"
 previous="$work/model_hold"
+# The whole autoencoder again, from that model: decoding a noisy latent (ae.latent_noise), so
+# that an arm's oscillation survives stage 2's error (docs/training.md, "A decoder that
+# survives stage 2's error"); its latents moved, so stage 2 continues on them.
+stage noise ae --init "$work/model_hold" ae.latent_noise=0.1 ae.hold_extension=0.5 \
+    train.ae.max_steps=5000 train.ae.lr=3e-4
+DATA="$work/synth_rich" stage noisecm cm --init "$work/model_hold" --ae "$work/noise" \
+    text.encoder=minilm+sides train.cm.max_steps=10000 train.cm.lr=2e-4 "train.cm.seed=$((seed + 7))"
+[ -f "$work/model_noise/config.json" ] || mlct export "$work/noisecm" --out "$work/model_noise" --half
+previous="$work/model_noise"
 rm -rf "$work/model"
 cp -r "$previous" "$work/model"
 # how long each action of a split prompt takes (generate/durations.py): seconds
