@@ -446,22 +446,34 @@ def test_holding_the_last_pose_zeroes_the_velocities(tiny) -> None:
 
 
 def test_latent_noise_is_decoded_in_training_only(tiny) -> None:
-    """ae.latent_noise: the training loss decodes a noisy latent (a different, larger loss on
-    the same batch), validation the clean one."""
+    """ae.latent_noise: the training loss decodes z + noise (the autoencoder's forward adds it),
+    validation the clean z."""
     from mlct.config import config_from_dict
+    from mlct.nn.conv_autoencoder import ConvMotionAutoencoder
     from mlct.train.stages import AutoencoderStage
 
-    mean, std = torch.zeros(263), torch.ones(263)
-    noisy = tiny.to_dict()
-    noisy["ae"]["latent_noise"] = 0.5
-    batch = {"motion": torch.randn(4, 40, 263), "length": torch.tensor([40, 30, 20, 12])}
-    losses = {}
-    for name, config in (("clean", tiny), ("noisy", config_from_dict(noisy))):
-        torch.manual_seed(0)
-        stage = AutoencoderStage(config, torch.device("cpu"), mean, std, "humanml3d")
-        for training in (True, False):
-            stage.model.train(training)
-            torch.manual_seed(1)
-            losses[name, training] = float(stage.loss(stage.model, batch)["loss"])
-    assert losses["noisy", True] != pytest.approx(losses["clean", True], rel=1e-4)
-    assert losses["noisy", False] == pytest.approx(losses["clean", False], rel=1e-6)
+    torch.manual_seed(0)
+    ae = ConvMotionAutoencoder(263, n_tokens=2, latent_dim=8, channels=16, max_len=40).eval()
+    x, lengths = torch.randn(2, 40, 263), torch.tensor([40, 25])
+    with torch.no_grad():
+        clean, latent = ae(x, lengths)
+        torch.manual_seed(5)
+        noisy, _ = ae(x, lengths, None, 0.5)
+        torch.manual_seed(5)
+        expected = ae.decode(latent.z + 0.5 * torch.randn_like(latent.z), lengths, 40)
+        torch.testing.assert_close(clean, ae.decode(latent.z, lengths, 40))
+        torch.testing.assert_close(noisy, expected)
+        assert not torch.equal(noisy, clean)
+
+    config = tiny.to_dict()
+    config["ae"]["latent_noise"] = 0.5
+    stage = AutoencoderStage(config_from_dict(config), torch.device("cpu"), torch.zeros(263),
+                             torch.ones(263), "humanml3d")
+    seen = []
+    forward = stage.model.forward
+    stage.model.forward = lambda *a: seen.append(a[3]) or forward(*a)  # what the loss asks for
+    batch = {"motion": torch.randn(2, 40, 263), "length": torch.tensor([40, 30])}
+    for training in (True, False):
+        stage.model.train(training)
+        stage.loss(stage.model, batch)
+    assert seen == [0.5, 0.0]
