@@ -15,35 +15,30 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from collections import defaultdict
 from pathlib import Path
 
+import numpy as np
 import torch
 
 from mlct.data.layout import DatasetLayout
 from mlct.eval.judge.action_classifier import read_labels
 from mlct.eval.readouts import evaluate_label
 from mlct.motion.features import features_to_joints
-from mlct.train.stages import find_autoencoder, load_frozen_autoencoder
 
-MAX_FRAMES = 196
+sys.path.insert(0, str(Path(__file__).parent))
+from motion_quality import MAX_FRAMES, reconstruct  # noqa: E402
 
 
-def pass_rates(run: Path, layout: DatasetLayout, labels: dict, names: list[str], noise: float,
+def pass_rates(run: Path, features: list[np.ndarray], labels: list[dict], noise: float,
                seed: int) -> dict[str, float]:
-    """Per family and overall: the share of `names` whose perturbed reconstruction passes."""
-    ae, norm, _ = load_frozen_autoencoder(find_autoencoder(run, None), torch.device("cpu"))
-    generator = torch.Generator().manual_seed(seed)
+    """Per family and overall: the share of the motions whose perturbed reconstruction passes."""
+    torch.manual_seed(seed)  # the same noise draws for every run of the same latent shape
     tally: dict[str, list[int]] = defaultdict(lambda: [0, 0])
-    for name in names:
-        x = torch.from_numpy(layout.load_features(name)[:MAX_FRAMES]).float()[None]
-        lengths = torch.tensor([x.shape[1]])
-        with torch.no_grad():
-            z = ae.encode((x - norm.mean) / norm.std, lengths).z
-            z = z + noise * torch.randn(z.shape, generator=generator)
-            features = norm.denormalize(ae.decode(z, lengths))[0].numpy()
-        ok = all(p for _, p in evaluate_label(features_to_joints(features), labels[name]))
-        for key in (labels[name]["actions"][0]["family"], "OVERALL"):
+    for made, label in zip(reconstruct(run, features, noise), labels):
+        ok = all(p for _, p in evaluate_label(features_to_joints(made), label))
+        for key in (label["actions"][0]["family"], "OVERALL"):
             tally[key][0] += ok
             tally[key][1] += 1
     return {k: v[0] / v[1] for k, v in sorted(tally.items())}
@@ -62,7 +57,9 @@ def main() -> None:
     names = [n for n in layout.read_split("test") if n in labels
              and len(labels[n]["actions"]) == 1 and not labels[n].get("concurrent")]
     levels = [float(v) for v in args.noise.split(",")]
-    columns = {f"{run.name} @{noise:g}": pass_rates(run, layout, labels, names, noise, args.seed)
+    features = [layout.load_features(n)[:MAX_FRAMES] for n in names]
+    chosen = [labels[n] for n in names]
+    columns = {f"{run.name} @{noise:g}": pass_rates(run, features, chosen, noise, args.seed)
                for run in args.ae for noise in levels}
     print(f"{len(names)} single-action test motions of {args.data}; pass rate of the "
           f"reconstruction with latent noise (autoencoder units)")

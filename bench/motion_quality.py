@@ -91,15 +91,17 @@ class Tally:
                 "families": {f: self.rate(v) for f, v in sorted(self.family.items())}}
 
 
-def reconstruct(run: Path, features: list[np.ndarray]) -> list[np.ndarray]:
-    """The autoencoder's reconstructions (real units) of feature arrays."""
+def reconstruct(run: Path, features: list[np.ndarray], latent_noise: float = 0.0
+                ) -> list[np.ndarray]:
+    """The autoencoder's reconstructions (real units) of feature arrays; latent_noise: decoded
+    from z + latent_noise * N(0, I) (torch's global generator) instead of z."""
     from mlct.train.stages import find_autoencoder, load_frozen_autoencoder
     ae, norm, _ = load_frozen_autoencoder(find_autoencoder(run, None), torch.device("cpu"))
     out = []
     for x in features:
         xt = (torch.from_numpy(x).float()[None] - norm.mean) / norm.std
         with torch.no_grad():
-            recon, _ = ae(xt, torch.tensor([len(x)]))
+            recon, _ = ae(xt, torch.tensor([len(x)]), None, latent_noise)
         out.append(norm.denormalize(recon)[0].numpy())
     return out
 

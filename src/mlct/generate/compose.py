@@ -71,8 +71,8 @@ def _split_listed(phrase: str) -> list[str]:
     """A phrase listing actions with commas or "and" ("claps twice and jabs with the right arm",
     "punches twice, jogs ahead"), one piece per action: a piece that starts with a verb we know
     starts a new action unless it completes the one before (_RETURN_VERBS, _ONE_ACTION_PAIRS).
-    "turns three hundred and sixty degrees" and "walks forward and back" stay whole. A piece led
-    by a gerund ("running, and jabbing") is made finite."""
+    "turns three hundred and sixty degrees" and "walks forward and back" stay whole. The pieces
+    after the first have no subject: split_actions gives them one (and makes a gerund finite)."""
     if _WHILE.search(phrase) or _SAME_TIME.search(phrase.strip(" ,;.")):
         return [phrase]  # actions at once, not one after another
     subject, rest = _without_subject(phrase)
@@ -96,8 +96,7 @@ def _split_listed(phrase: str) -> list[str]:
         current = verb
     if len(actions) == 1:
         return [phrase]
-    first = f"{subject} {actions[0]}" if subject else actions[0]
-    return [first] + [_finite_lead(a) for a in actions[1:]]
+    return [f"{subject} {actions[0]}" if subject else actions[0], *actions[1:]]
 
 
 # words before a verb that leave the piece's action as it is ("first hops", "is spinning")
