@@ -477,3 +477,37 @@ def test_latent_noise_is_decoded_in_training_only(tiny) -> None:
         stage.model.train(training)
         stage.loss(stage.model, batch)
     assert seen == [0.5, 0.0]
+
+
+def test_trajectory_term_reads_the_turned_angle(tiny) -> None:
+    """ae.trajectory_weight: the integrated heading is the angle the joints' read-out turns, and
+    a reconstruction that turns 10 % short costs exactly the smooth-L1 of that shortfall."""
+    from mlct.config import config_from_dict
+    from mlct.eval.readouts import heading_change
+    from mlct.motion.features import features_to_joints
+    from mlct.train.stages import AutoencoderStage, _root_trajectory
+
+    frames = 40
+    target = torch.zeros(1, frames, 263)
+    target[..., 0] = 0.02  # half-angle velocity: 2 x 0.02 x 39 = 1.56 rad by the last frame
+    target[..., 2] = 0.03  # walking forward, so the ground path bends with the heading
+    target[..., 3] = 0.9
+    target[..., 4:67] = torch.randn(63) * 0.2  # a fixed pose relative to the root
+    heading = _root_trajectory(target)[0, :, 0]
+    assert heading[-1].item() == pytest.approx(
+        heading_change(features_to_joints(target[0].numpy())), abs=0.02)
+
+    config = tiny.to_dict()
+    config["ae"]["trajectory_weight"] = 1.0
+    config["ae"]["hold_extension"] = 0.0
+    stage = AutoencoderStage(config_from_dict(config), torch.device("cpu"), torch.zeros(263),
+                             torch.ones(263), "humanml3d")
+    short = target.clone()
+    short[..., 0] *= 0.9
+    _, latent = stage.model(target, torch.tensor([frames]))
+    stage.model.forward = lambda *a: (short, latent)
+    out = stage.loss(stage.model, {"motion": target, "length": torch.tensor([frames])})
+    expected = torch.nn.functional.smooth_l1_loss(_root_trajectory(short),
+                                                  _root_trajectory(target))
+    torch.testing.assert_close(out["trajectory"], expected)
+    assert out["trajectory"] > 1e-3

@@ -67,6 +67,10 @@ class AutoencoderConfig(_Section):
     architecture: Literal["transformer", "conv"] = "transformer"
     channels: int = Field(128, ge=1)  # conv only: width of its 1-D convolutions
     velocity_weight: float = Field(0.0, ge=0.0)  # frame-to-frame feature differences
+    # The root's heading (radians) and ground path (metres), integrated from the per-frame
+    # velocities: a small per-frame bias the feature loss shrugs at sums to a short turn
+    # (the decoder turned 0.91 of the data's heading; docs/training.md "Turning by the angle").
+    trajectory_weight: float = Field(0.0, ge=0.0)
     frame_upsampler: bool = False  # transformer only: the latent reaches every frame query
     # Decoder-only training (train/stages.py): the encoder's weights stay as loaded (--init), so
     # a stage-2 model trained on its latents stays valid with the new decoder.

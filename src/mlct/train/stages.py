@@ -23,7 +23,7 @@ from mlct.diffusion.schedule import VPSchedule
 from mlct.errors import MlctError
 from mlct.generate.samplers import ConsistencySampler
 from mlct.nn.build import AnyAutoencoder, build_autoencoder, build_denoiser, latent_clamp
-from mlct.motion.features import recover_from_ric
+from mlct.motion.features import recover_from_ric, recover_root_rot_pos
 from mlct.nn.masks import lengths_to_mask
 from mlct.io import prefixed
 from mlct.train.checkpoint import Checkpoint, latest_checkpoint, load_checkpoint
@@ -37,6 +37,18 @@ def _masked_smooth_l1(a: Tensor, b: Tensor, mask: Tensor) -> Tensor:
     """Smooth-L1 averaged over the valid frames only. a, b (B, T, ...), mask (B, T)."""
     per = F.smooth_l1_loss(a, b, reduction="none").flatten(2).mean(2)  # (B, T)
     return (per * mask).sum() / mask.sum().clamp(min=1)
+
+
+def _root_trajectory(features: Tensor) -> Tensor:
+    """(B, T, D) real-unit features -> (B, T, 3): the root's heading (the running sum of its
+    angular velocities, radians) and its x, z on the ground (metres), as recover_root_rot_pos
+    integrates them: the quantities a turn's angle and a walk's distance are read from."""
+    _, position = recover_root_rot_pos(features)
+    # As recover_root_rot_pos: frame t faces the sum of the half-angle velocities before it;
+    # twice that, negated, is the read-outs' heading (radians, to the person's left positive).
+    half = torch.cumsum(features[..., :-1, 0], dim=-1)
+    heading = -2.0 * torch.cat([torch.zeros_like(half[..., :1]), half], dim=-1)
+    return torch.cat([heading[..., None], position[..., [0, 2]]], dim=-1)
 
 
 class Normalizer(nn.Module):
@@ -152,6 +164,11 @@ class AutoencoderStage(Stage):
             velocity = _masked_smooth_l1(recon.diff(dim=1), x.diff(dim=1), pairs)
             total = total + self.config.ae.velocity_weight * velocity
             out["velocity"] = velocity.detach()
+        if self.config.ae.trajectory_weight > 0:
+            trajectory = _masked_smooth_l1(_root_trajectory(self.norm.denormalize(recon).float()),
+                                           _root_trajectory(self.norm.denormalize(x).float()), mask)
+            total = total + self.config.ae.trajectory_weight * trajectory
+            out["trajectory"] = trajectory.detach()
         if latent.kl is not None:
             total = total + self.config.ae.kl_weight * latent.kl
             out["kl"] = latent.kl.detach()
