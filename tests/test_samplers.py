@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import torch
 
 from mlct.diffusion.consistency import pseudo_huber
@@ -151,6 +152,38 @@ def test_denoise_term_regresses_the_conditional_branch_on_the_guided_latent() ->
     per = (0.6**2 + c**2) ** 0.5 - c
     assert torch.allclose(out["denoise"], torch.tensor(per, dtype=torch.float64))
     assert torch.allclose(out["loss"], plain["loss"] + 0.5 * out["denoise"])
+
+
+def test_motion_term_compares_the_decoded_estimate_with_the_decoded_target() -> None:
+    """consistency.motion_weight: smooth-L1 of D(S(x_t, t, c)) against D(x_phi), the target
+    decoded without gradient; a decoder blind to a direction makes that direction free."""
+    x0 = torch.full((8, 2, 2), 0.2, dtype=torch.float64)
+    cond, null = torch.randn(8, 3, dtype=torch.float64), torch.zeros(3, dtype=torch.float64)
+    online, _ = _recorder()  # S(x_t, t, c) = 0
+    target, _ = _recorder()
+    seen = []
+    weights = torch.tensor([3.0, 0.0], dtype=torch.float64)  # the decoder ignores the 2nd dim
+
+    def decode(z):
+        seen.append((z.detach().clone(), torch.is_grad_enabled()))
+        return z * weights
+
+    kwargs = dict(guidance=2.0, huber_c=0.001, denoise_weight=0.5)
+    plain = consistency_training_loss(online, target, x0, cond, null, SCHEDULE, GRID,
+                                      generator=torch.Generator().manual_seed(0), **kwargs)
+    out = consistency_training_loss(online, target, x0, cond, null, SCHEDULE, GRID,
+                                    generator=torch.Generator().manual_seed(0), decode=decode,
+                                    motion_weight=2.0, **kwargs)
+    (target_z, target_grad), (online_z, online_grad) = seen
+    assert torch.allclose(target_z, torch.full_like(x0, 0.6))  # x_phi = 3 x 0.2 - 2 x 0
+    assert not target_grad and online_grad
+    assert torch.equal(online_z, torch.zeros_like(x0))
+    # |3 x 0.6 - 0| = 1.8 on half the entries (smooth-L1: 1.3), 0 on the ignored ones.
+    assert torch.allclose(out["motion"], torch.tensor(0.65, dtype=torch.float64))
+    assert torch.allclose(out["loss"], plain["loss"] + 2.0 * out["motion"])
+    with pytest.raises(ValueError, match="decode"):
+        consistency_training_loss(online, target, x0, cond, null, SCHEDULE, GRID,
+                                  motion_weight=1.0)
 
 
 def test_diffusion_loss_drops_the_condition_at_the_given_rate() -> None:

@@ -131,6 +131,11 @@ class ConsistencyConfig(_Section):
     # Ours (0 = the paper): weight of the direct term d(S(x_t, t, c), x_phi), see
     # diffusion/losses.py: the conditional branch also regresses the guided clean latent.
     denoise_weight: float = Field(0.0, ge=0.0)
+    # Ours (0 = off): the same direct term measured on the motion, through the frozen decoder:
+    # smooth-L1 between D(S(x_t, t, c)) and D(x_phi). The latent metric weighs every direction
+    # alike, so stage 2 drew the mean count of an arm's oscillation (claps, waves: the latent's
+    # small directions); the decoded metric weighs each as much as it moves the body.
+    motion_weight: float = Field(0.0, ge=0.0)
     huber_c: float = Field(0.001, gt=0.0)  # gamma of the pseudo-Huber metric
     target: Literal["ema", "online"] = "ema"  # EMA target network or online stop-gradient
     target_decay: float = Field(0.995, ge=0.0, lt=1.0)  # EMA rate of the target network

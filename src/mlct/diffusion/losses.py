@@ -37,6 +37,8 @@ def consistency_training_loss(
     clamp: float | None = 1.0,
     denoise_weight: float = 0.0,
     generator: torch.Generator | None = None,
+    decode: Callable[[Tensor], Tensor] | None = None,
+    motion_weight: float = 0.0,
 ) -> dict[str, Tensor]:
     """One step of conditionally guided consistency training (Algorithm 1, Eq. 13-15).
 
@@ -50,6 +52,10 @@ def consistency_training_loss(
     text's information up the 50-point grid one interval at a time; a short run (thousands of
     steps, not the authors' ~200k) then samples near the mean latent for every prompt. The
     direct term is the large-interval end of easy consistency tuning (ECT, Geng et al. 2024).
+
+    motion_weight > 0 (ours) with `decode` (latents -> motion features, differentiable, the
+    frozen decoder) adds the smooth-L1 of D(S(x_t, t_i, c)) against D(x_phi): the direct term
+    measured where the motion is judged.
     """
     batch = x0.shape[0]
     n = grid.shape[0]
@@ -84,6 +90,14 @@ def consistency_training_loss(
         denoise = pseudo_huber(s_cond, x_phi, huber_c)
         out["loss"] = out["loss"] + denoise_weight * denoise
         out["denoise"] = denoise.detach()
+    if motion_weight > 0:
+        if decode is None:
+            raise ValueError("motion_weight needs decode")
+        with torch.no_grad():
+            reference = decode(x_phi)
+        motion = torch.nn.functional.smooth_l1_loss(decode(s_cond), reference)
+        out["loss"] = out["loss"] + motion_weight * motion
+        out["motion"] = motion.detach()
     return out
 
 

@@ -9,7 +9,7 @@ The loop (train/loop.py) is the same for all three.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import torch
 import torch.nn.functional as F
@@ -346,7 +346,15 @@ class ConsistencyStage(LatentStage):
             model, target, self.latents(batch), self.text(batch["caption"]), self.text.null,
             self.schedule, self.grid, guidance=c.guidance, uncond_weight=c.uncond_weight,
             huber_c=c.huber_c, clamp=self.clamp, denoise_weight=c.denoise_weight,
-            generator=generator)
+            generator=generator, decode=self._decoder(batch) if c.motion_weight else None,
+            motion_weight=c.motion_weight)
+
+    def _decoder(self, batch: dict[str, Any]) -> Callable[[Tensor], Tensor]:
+        """Stage 2's latents -> the frozen decoder's motion features (normalized), padding
+        zero, at the batch's lengths: differentiable in the latent for consistency.motion_weight."""
+        lengths = batch["length"].to(self.device)
+        scale = self.config.schedule.latent_scale
+        return lambda z: self.ae.decode(z / scale, lengths, int(lengths.max()))
 
     def after_step(self) -> None:
         if self.target is not None:
