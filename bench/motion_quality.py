@@ -8,7 +8,8 @@ count, direction) implies, read from the joints alone. It prints the pass rate, 
 overall, of
   (a) the ground-truth test motions (must be >= 98%, or the read-outs are wrong);
   (b) the autoencoder's reconstructions of them (--ae RUN: a training run or its AE checkpoint),
-      with MPJPE and the pelvis-rise (jumps, hops) and foot-travel (walks) ratios to the truth;
+      with MPJPE and the pelvis-rise (jumps, hops), foot-travel (walks) and heading (turns) ratios
+      to the truth;
   (c) generations from the test captions at the real lengths, --nfe, --seeds seeds;
   (d) generations from hand-written paraphrases (bench/data/quality_prompts.json), and from
       held-out ones (quality_prompts_heldout.json: written after the everyday caption
@@ -36,7 +37,7 @@ import torch
 import mlct
 from mlct.data.layout import DatasetLayout
 from mlct.eval.judge.action_classifier import read_labels
-from mlct.eval.readouts import evaluate_label, foot_travel, pelvis_rise
+from mlct.eval.readouts import evaluate_label, foot_travel, heading_change, pelvis_rise
 from mlct.motion.features import features_to_joints
 
 PROMPTS = Path(__file__).parent / "data" / "quality_prompts.json"
@@ -163,7 +164,7 @@ def main() -> None:
 
     if args.ae is not None:
         recon = Tally()
-        mpjpe, rises, travels = [], defaultdict(list), []
+        mpjpe, rises, travels, turns = [], defaultdict(list), [], []
         for name, joints, feats in zip(names, real_joints, reconstruct(args.ae, real)):
             made = features_to_joints(feats)
             recon.add(labels[name], evaluate_label(made, labels[name]))
@@ -173,12 +174,17 @@ def main() -> None:
                 rises[families[0]].append((pelvis_rise(joints), pelvis_rise(made)))
             if len(families) == 1 and families[0] == "walk":
                 travels.append((sum(foot_travel(joints).values()), sum(foot_travel(made).values())))
+            if len(families) == 1 and families[0] == "turn":
+                turns.append((abs(heading_change(joints)), abs(heading_change(made))))
         columns["AE recon"] = recon.summary()
         ratios = {f"pelvis_rise_{f}": float(np.mean([m for _, m in v]) / np.mean([t for t, _ in v]))
                   for f, v in rises.items()}
         if travels:
             ratios["foot_travel_walk"] = float(np.mean([m for _, m in travels])
                                                / np.mean([t for t, _ in travels]))
+        if turns:
+            ratios["heading_turn"] = float(np.mean([m for _, m in turns])
+                                           / np.mean([t for t, _ in turns]))
         report["reconstruction"] = {"mpjpe_m": float(np.mean(mpjpe)), **ratios}
 
     if not args.skip_generation:
