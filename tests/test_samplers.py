@@ -181,6 +181,11 @@ def test_motion_term_compares_the_decoded_estimate_with_the_decoded_target() -> 
     # |3 x 0.6 - 0| = 1.8 on half the entries (smooth-L1: 1.3), 0 on the ignored ones.
     assert torch.allclose(out["motion"], torch.tensor(0.65, dtype=torch.float64))
     assert torch.allclose(out["loss"], plain["loss"] + 2.0 * out["motion"])
+    seen.clear()  # motion_items: the term on the first items only
+    consistency_training_loss(online, target, x0, cond, null, SCHEDULE, GRID,
+                              generator=torch.Generator().manual_seed(0), decode=decode,
+                              motion_weight=2.0, motion_items=3, **kwargs)
+    assert [len(z) for z, _ in seen] == [3, 3]
     with pytest.raises(ValueError, match="decode"):
         consistency_training_loss(online, target, x0, cond, null, SCHEDULE, GRID,
                                   motion_weight=1.0)

@@ -136,6 +136,9 @@ class ConsistencyConfig(_Section):
     # alike, so stage 2 drew the mean count of an arm's oscillation (claps, waves: the latent's
     # small directions); the decoded metric weighs each as much as it moves the body.
     motion_weight: float = Field(0.0, ge=0.0)
+    # Items of each batch decoded for it: decoding costs more than the denoiser's step, so a
+    # random share of the batch carries the term (batches are shuffled: the first items).
+    motion_items: int = Field(8, ge=1)
     huber_c: float = Field(0.001, gt=0.0)  # gamma of the pseudo-Huber metric
     target: Literal["ema", "online"] = "ema"  # EMA target network or online stop-gradient
     target_decay: float = Field(0.995, ge=0.0, lt=1.0)  # EMA rate of the target network

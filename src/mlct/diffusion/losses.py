@@ -39,6 +39,7 @@ def consistency_training_loss(
     generator: torch.Generator | None = None,
     decode: Callable[[Tensor], Tensor] | None = None,
     motion_weight: float = 0.0,
+    motion_items: int | None = None,
 ) -> dict[str, Tensor]:
     """One step of conditionally guided consistency training (Algorithm 1, Eq. 13-15).
 
@@ -55,7 +56,8 @@ def consistency_training_loss(
 
     motion_weight > 0 (ours) with `decode` (latents -> motion features, differentiable, the
     frozen decoder) adds the smooth-L1 of D(S(x_t, t_i, c)) against D(x_phi): the direct term
-    measured where the motion is judged.
+    measured where the motion is judged; on the first `motion_items` items only (all if None),
+    `decode` taking that many.
     """
     batch = x0.shape[0]
     n = grid.shape[0]
@@ -93,9 +95,10 @@ def consistency_training_loss(
     if motion_weight > 0:
         if decode is None:
             raise ValueError("motion_weight needs decode")
+        k = batch if motion_items is None else min(motion_items, batch)
         with torch.no_grad():
-            reference = decode(x_phi)
-        motion = torch.nn.functional.smooth_l1_loss(decode(s_cond), reference)
+            reference = decode(x_phi[:k])
+        motion = torch.nn.functional.smooth_l1_loss(decode(s_cond[:k]), reference)
         out["loss"] = out["loss"] + motion_weight * motion
         out["motion"] = motion.detach()
     return out

@@ -347,14 +347,19 @@ class ConsistencyStage(LatentStage):
             self.schedule, self.grid, guidance=c.guidance, uncond_weight=c.uncond_weight,
             huber_c=c.huber_c, clamp=self.clamp, denoise_weight=c.denoise_weight,
             generator=generator, decode=self._decoder(batch) if c.motion_weight else None,
-            motion_weight=c.motion_weight)
+            motion_weight=c.motion_weight, motion_items=c.motion_items)
 
     def _decoder(self, batch: dict[str, Any]) -> Callable[[Tensor], Tensor]:
-        """Stage 2's latents -> the frozen decoder's motion features (normalized), padding
-        zero, at the batch's lengths: differentiable in the latent for consistency.motion_weight."""
+        """Stage 2's latents of the batch's first items -> the frozen decoder's motion features
+        (normalized, padding zero) at their lengths: differentiable in the latent, for
+        consistency.motion_weight."""
         lengths = batch["length"].to(self.device)
         scale = self.config.schedule.latent_scale
-        return lambda z: self.ae.decode(z / scale, lengths, int(lengths.max()))
+
+        def decode(z: Tensor) -> Tensor:
+            items = lengths[: len(z)]
+            return self.ae.decode(z / scale, items, int(items.max()))
+        return decode
 
     def after_step(self) -> None:
         if self.target is not None:
