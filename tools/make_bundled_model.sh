@@ -65,7 +65,14 @@ stage noise ae --init "$work/model_hold" ae.latent_noise=0.1 ae.hold_extension=0
 DATA="$work/synth_rich" stage noisecm cm --init "$work/model_hold" --ae "$work/noise" \
     text.encoder=minilm+sides train.cm.max_steps=10000 train.cm.lr=2e-4 "train.cm.seed=$((seed + 7))"
 [ -f "$work/model_noise/config.json" ] || mlct export "$work/noisecm" --out "$work/model_noise" --half
-previous="$work/model_noise"
+# The decoder alone again, with the root's integrated heading and path in its loss, so that a
+# turn turns by the whole angle (docs/training.md, "Turning by the angle"); the encoder is
+# frozen, so the stage 2 above stays valid with it.
+stage traj ae --init "$work/model_noise" ae.freeze_encoder=true ae.trajectory_weight=1.0 \
+    ae.latent_noise=0.1 ae.hold_extension=0.5 train.ae.max_steps=3000 train.ae.lr=1e-4
+[ -f "$work/model_traj/config.json" ] || mlct export "$work/noisecm" --out "$work/model_traj" \
+    --half --decoder-from "$work/traj"
+previous="$work/model_traj"
 rm -rf "$work/model"
 cp -r "$previous" "$work/model"
 # how long each action of a split prompt takes (generate/durations.py): seconds
