@@ -114,13 +114,13 @@ def test_path_is_met_and_guidance_brings_the_motion_near_it(pipe) -> None:
         return np.linalg.norm(made[frames, 0][:, [0, 2]] - target, axis=1)
 
     plain = error(ControlMethod(guide=False, project=False, candidates=1))
-    # Guidance alone, over 6 seeds: it cut the waypoint error to 0.61 of plain sampling's with
-    # the noise-trained decoder and to 0.77 with the trajectory-trained one (docs/control.md),
-    # whose seed 3 alone it no longer helps; it must still help on average.
+    # Guidance alone, over 6 seeds: the waypoint error as a share of plain sampling's was 0.61
+    # with the noise-trained decoder, 0.77 with the trajectory-trained decoder under the stage 2
+    # trained before it (seed 3: 1.07), 0.64 with the bundled model, trained on that decoder.
     ratios = [error(ControlMethod(guide=True, project=False, candidates=1), s).mean()
               / error(ControlMethod(guide=False, project=False, candidates=1), s).mean()
               for s in range(6)]
-    assert np.mean(ratios) < 0.85, ratios
+    assert np.mean(ratios) < 0.75, ratios
     best = error(ControlMethod(guide=False, project=False, candidates=4))
     assert best.mean() <= plain.mean()  # the seed's own motion is one of the candidates
     both = pipe.generate("a person walks forward", lengths=120, seed=3,
