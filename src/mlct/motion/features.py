@@ -151,15 +151,21 @@ def joints_to_features(joints: np.ndarray, skeleton: Skeleton,
     return MotionFeatures(features=features.numpy().astype(dtype), joints=pos.numpy().astype(dtype))
 
 
+def root_half_angles(features: Tensor) -> Tensor:
+    """(..., T, D) -> (..., T): the root's yaw half-angle at each frame, the running sum of the
+    half-angle velocities before it (frame 0 faces +Z)."""
+    rot_vel = features[..., 0]  # (..., T)
+    return torch.cat([torch.zeros_like(rot_vel[..., :1]), torch.cumsum(rot_vel[..., :-1], dim=-1)],
+                     dim=-1)
+
+
 def recover_root_rot_pos(features: Tensor) -> tuple[Tensor, Tensor]:
     """(..., T, D) -> root yaw quaternions (..., T, 4) and root positions (..., T, 3).
 
     The yaw angle is the running sum of the half-angle velocities (frame 0 faces +Z); the root's
     xz is the running sum of the velocities turned back to the world frame; y is the root height.
     """
-    rot_vel = features[..., 0]  # (..., T)
-    half = torch.cat([torch.zeros_like(rot_vel[..., :1]), torch.cumsum(rot_vel[..., :-1], dim=-1)],
-                     dim=-1)
+    half = root_half_angles(features)  # (..., T)
     zero = torch.zeros_like(half)
     r_rot = torch.stack([torch.cos(half), zero, torch.sin(half), zero], dim=-1)  # (..., T, 4)
 

@@ -23,7 +23,7 @@ from mlct.diffusion.schedule import VPSchedule
 from mlct.errors import MlctError
 from mlct.generate.samplers import ConsistencySampler
 from mlct.nn.build import AnyAutoencoder, build_autoencoder, build_denoiser, latent_clamp
-from mlct.motion.features import recover_from_ric, recover_root_rot_pos
+from mlct.motion.features import recover_from_ric, recover_root_rot_pos, root_half_angles
 from mlct.nn.masks import lengths_to_mask
 from mlct.io import prefixed
 from mlct.train.checkpoint import Checkpoint, latest_checkpoint, load_checkpoint
@@ -44,10 +44,8 @@ def _root_trajectory(features: Tensor) -> Tensor:
     angular velocities, radians) and its x, z on the ground (metres), as recover_root_rot_pos
     integrates them: the quantities a turn's angle and a walk's distance are read from."""
     _, position = recover_root_rot_pos(features)
-    # As recover_root_rot_pos: frame t faces the sum of the half-angle velocities before it;
-    # twice that, negated, is the read-outs' heading (radians, to the person's left positive).
-    half = torch.cumsum(features[..., :-1, 0], dim=-1)
-    heading = -2.0 * torch.cat([torch.zeros_like(half[..., :1]), half], dim=-1)
+    # twice the yaw half-angle, negated: the read-outs' heading (to the person's left positive)
+    heading = -2.0 * root_half_angles(features)
     return torch.cat([heading[..., None], position[..., [0, 2]]], dim=-1)
 
 
@@ -152,8 +150,8 @@ class AutoencoderStage(Stage):
         mask = lengths_to_mask(lengths, frames).to(x.dtype)  # (B, frames)
         feature = _masked_smooth_l1(recon, x, mask)  # Eq. 9, first term
         # Eq. 9, second term: joint positions through recover_from_ric, on real units.
-        joints_hat = recover_from_ric(self.norm.denormalize(recon).float())
-        joints = recover_from_ric(self.norm.denormalize(x).float())
+        real_hat, real = self.norm.denormalize(recon).float(), self.norm.denormalize(x).float()
+        joints_hat, joints = recover_from_ric(real_hat), recover_from_ric(real)
         joint = _masked_smooth_l1(joints_hat, joints, mask)
         total = feature + self.config.ae.joint_weight * joint
         out = {"feature": feature.detach(), "joint": joint.detach()}
@@ -165,8 +163,7 @@ class AutoencoderStage(Stage):
             total = total + self.config.ae.velocity_weight * velocity
             out["velocity"] = velocity.detach()
         if self.config.ae.trajectory_weight > 0:
-            trajectory = _masked_smooth_l1(_root_trajectory(self.norm.denormalize(recon).float()),
-                                           _root_trajectory(self.norm.denormalize(x).float()), mask)
+            trajectory = _masked_smooth_l1(_root_trajectory(real_hat), _root_trajectory(real), mask)
             total = total + self.config.ae.trajectory_weight * trajectory
             out["trajectory"] = trajectory.detach()
         if latent.kl is not None:
