@@ -87,3 +87,19 @@ def test_at_most_a_few_sampler_graphs_are_built(backends) -> None:
     want = torch_gen.generate(TEXTS[:1], lengths=[40], nfe=MAX_SAMPLER_GRAPHS + 2, seed=0,
                               candidates=1)
     assert gap(want, got) < JOINTS_M  # the step loop beyond them
+
+
+def test_batch_one_runs_on_one_thread_and_larger_batches_on_all(backends) -> None:
+    from mlct.generate.onnx_backend import OnnxMotionGenerator
+
+    torch_gen, _ = backends
+    onnx_gen = OnnxMotionGenerator.load(Path(backends[1].graphs.denoiser).parent.parent,
+                                        threads=2)
+    for texts, lengths in ((TEXTS[:1], [50]), (TEXTS, LENGTHS)):
+        want = torch_gen.generate(texts, lengths=lengths, nfe=2, seed=7, candidates=1)
+        for _ in range(2):
+            got = onnx_gen.generate(texts, lengths=lengths, nfe=2, seed=7, candidates=1)
+        assert gap(want, got) < JOINTS_M
+    threads = {key: s.get_session_options().intra_op_num_threads
+               for key, s in onnx_gen._sessions.items()}
+    assert threads == {(2, 1): 1, (2, 2): 2}  # one graph, a session per thread count

@@ -73,6 +73,11 @@ class OnnxDecoder:
 # and the decoder's weights (20 MB for the bundled model, ~180 MB at paper size); step counts
 # beyond the first ones used run the step loop.
 MAX_SAMPLER_GRAPHS = 3
+# Batches up to this size run the sampler graph on one thread. At batch 1 its ~600 operators
+# take microseconds each, and handing part of each to a second thread (and waking it) costs more
+# than it saves: bundled model, 5 NFE, int8, 2 cores, warm 5.8 ms on 2 threads, 4.3 ms on one
+# (docs/performance.md). Larger batches have work enough to split and keep `threads`.
+ONE_THREAD_MAX_BATCH = 1
 
 
 class OnnxMotionGenerator(MotionGenerator):
@@ -97,7 +102,8 @@ class OnnxMotionGenerator(MotionGenerator):
                             f"torch backend's (--backend torch)")
         self.graphs, self.threads = graphs, threads
         self.fused = fused
-        self._fused: dict[int, Any] = {}  # step count -> its sampler graph's session (or None)
+        self._fused: dict[int, Any] = {}  # step count -> its sampler graph (bytes, or None)
+        self._sessions: dict[tuple[int, int], Any] = {}  # (step count, threads) -> session
         self._calls: dict[int, int] = {}  # step count -> sample_features calls with it
         super().__init__(meta, tensors, "cpu", "float32")
         self.clamp = latent_clamp(self.config)
@@ -125,7 +131,8 @@ class OnnxMotionGenerator(MotionGenerator):
         (onnx_sampler.py), built in memory at the second call with it (one-off commands never
         pay the build, a server or a batch loop does once) when `fused` and the onnx package is
         installed; otherwise sample_latents, then the decoder."""
-        session = self._sampler_session(self.check_nfe(nfe)) if self.fused else None
+        session = (self._sampler_session(self.check_nfe(nfe), cond.shape[0]) if self.fused
+                   else None)
         if session is None:
             return super().sample_features(cond, nfe, seed, guidance, lengths)
         feeds = self._feeds(cond, nfe, seed)
@@ -139,14 +146,15 @@ class OnnxMotionGenerator(MotionGenerator):
         shape = (cond.shape[0], *self.ae.latent_shape)
         return consistency_feeds(self.sampler, shape, generators_for(seed), self.check_nfe(nfe))
 
-    def _sampler_session(self, steps: int) -> Any:
-        """The sampler graph's session for `steps` steps, or None: not a consistency model, the
-        first call with this step count, MAX_SAMPLER_GRAPHS built already, or no onnx package
-        to build the graph with."""
+    def _sampler_session(self, steps: int, batch: int) -> Any:
+        """The sampler graph's session for `steps` steps at this batch size (one thread up to
+        ONE_THREAD_MAX_BATCH, else `threads`), or None: not a consistency model, the first call
+        with this step count, MAX_SAMPLER_GRAPHS built already, or no onnx package to build the
+        graph with."""
         if not isinstance(self.sampler, ConsistencySampler):
             return None
         self._calls[steps] = self._calls.get(steps, 0) + 1
-        built = sum(session is not None for session in self._fused.values())
+        built = sum(graph is not None for graph in self._fused.values())
         if steps not in self._fused and self._calls[steps] >= 2 and built < MAX_SAMPLER_GRAPHS:
             try:
                 import onnx  # noqa: F401 - the graph is assembled with it
@@ -157,8 +165,15 @@ class OnnxMotionGenerator(MotionGenerator):
                                   clamp=self.clamp,
                                   latent_scale=self.config.schedule.latent_scale,
                                   mean=self.mean.numpy(), std=self.std.numpy())
-            self._fused[steps] = session_from_bytes(model.SerializeToString(), self.threads)
-        return self._fused.get(steps)
+            self._fused[steps] = model.SerializeToString()
+        graph = self._fused.get(steps)
+        if graph is None:
+            return None
+        threads = 1 if batch <= ONE_THREAD_MAX_BATCH else self.threads
+        key = (steps, int(threads or torch.get_num_threads()))
+        if key not in self._sessions:
+            self._sessions[key] = session_from_bytes(graph, key[1])
+        return self._sessions[key]
 
     @property
     def text_encoder(self) -> TextEncoder:
