@@ -22,7 +22,7 @@ from torch import Tensor, nn
 from mlct.errors import MlctError, first_line
 from mlct.text.bert import BertConfig, BertModel, mean_pool
 from mlct.text.base import TextEncoder
-from mlct.text.sides import SIDES_SUFFIX, contrast_sides
+from mlct.text.sides import SIDES_SUFFIX, contrast_sides, mirror_sides
 
 # The sentence-transformers pipeline this loader reproduces, module by module (modules.json).
 _PIPELINE = ("Transformer", "Pooling", "Normalize")
@@ -89,10 +89,13 @@ class MiniLMEncoder(TextEncoder):
 
     @torch.no_grad()  # not inference_mode: its tensors would be refused later by autograd
     def _encode(self, texts: list[str]) -> Tensor:
-        embeddings = self._embed(texts)
-        if self.name.endswith(SIDES_SUFFIX):
-            embeddings = contrast_sides(texts, embeddings, self._embed)
-        return embeddings
+        if not self.name.endswith(SIDES_SUFFIX):
+            return self._embed(texts)
+        # The captions and the mirrors of those naming a side in one network run (a sided
+        # prompt at batch 1: one call instead of two), in contrast_sides' order.
+        mirrors = [m for t in texts if (m := mirror_sides(t)) != t]
+        both = self._embed(list(texts) + mirrors)
+        return contrast_sides(texts, both[: len(texts)], lambda _: both[len(texts):])
 
     def _embed(self, texts: list[str]) -> Tensor:
         """The network's embeddings, pooled (and token states), before any side contrast."""
