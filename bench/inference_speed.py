@@ -346,6 +346,10 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
 
     if spec["threads"]:
         torch.set_num_threads(spec["threads"])
+    if spec.get("one_thread_max_batch") is not None:
+        import mlct.generate.onnx_backend as onnx_backend
+
+        onnx_backend.ONE_THREAD_MAX_BATCH = spec["one_thread_max_batch"]
     preset, sampler, nfes = MODELS[spec["model"]]
     gen = in_memory_generator(preset, sampler, spec["device"], spec["dtype"])
     device = gen.device
@@ -403,7 +407,10 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
         import shutil
 
         shutil.rmtree(folder, ignore_errors=True)
+    from mlct.generate.onnx_backend import ONE_THREAD_MAX_BATCH
+
     return {"model": spec["model"], "dtype": spec["dtype"], "backend": spec["backend"],
+            "one_thread_max_batch": ONE_THREAD_MAX_BATCH,
             "device": str(device), "threads": torch.get_num_threads(), "aits": rows, "throughput": tput,
             "costs": costs, "bandwidth_gb_s": {k: v / 1e9 for k, v in bandwidth.items()}}
 
@@ -582,6 +589,10 @@ def report(results: list[dict[str, Any]], info: dict[str, Any], device: str) -> 
           + (f", {info['gpu']}" if "gpu" in info else "") + f"; torch {info['torch']}; "
           f"peak matmul " + ", ".join(f"{k} {v / 1e9:.0f} GFLOP/s"
                                       for k, v in info["peak_flops"].items()))
+    onnx = [r for r in results if r["backend"].startswith("onnx")]
+    if onnx:
+        print(f"onnx backends: batches up to {onnx[0]['one_thread_max_batch']} run the sampler "
+              f"graph on one thread (ONE_THREAD_MAX_BATCH)")
     print("\nAITS at batch 1, 196 frames, medians in ms (warm: text from the memo; cold: "
           "encoder run; limit / c.lim: the warm / cold limits)")
     head = (f"{'model':<10} {'backend':<14} {'dtype':<8} {'NFE':>3} {'text':>6} {'sampl':>7} {'decode':>6} "
@@ -648,6 +659,9 @@ def main() -> None:
                              "that can run here but torch-compiled, whose compilation takes "
                              "minutes; the onnx ones run on the CPU only)")
     parser.add_argument("--threads", type=int, default=0, help="intra-op threads (0: torch's)")
+    parser.add_argument("--one-thread-max-batch", type=int, default=None, metavar="B",
+                        help="onnx backends: batches up to B run the sampler graph on one thread "
+                             "(default: the backend's ONE_THREAD_MAX_BATCH; 0: never)")
     parser.add_argument("--runs", type=int, default=20, help="timed runs per AITS figure (at "
                         "most; fewer where a run is slow)")
     parser.add_argument("--json", default=None, help="write every figure to this file")
@@ -695,6 +709,7 @@ def main() -> None:
             print(f"measuring {model} ({backend}, {dtype}) ...", file=sys.stderr, flush=True)
             spec = {"model": model, "dtype": dtype, "backend": backend, "device": args.device,
                     "threads": args.threads, "quick": args.quick, "runs": args.runs,
+                    "one_thread_max_batch": args.one_thread_max_batch,
                     "aits_budget_s": 20.0,
                     "throughput_budget_s": args.throughput_budget or (
                         1.0 if args.quick else 15.0),
