@@ -103,3 +103,15 @@ def test_batch_one_runs_on_one_thread_and_larger_batches_on_all(backends) -> Non
     threads = {key: s.get_session_options().intra_op_num_threads
                for key, s in onnx_gen._sessions.items()}
     assert threads == {(2, 1): 1, (2, 2): 2}  # one graph, a session per thread count
+
+
+def test_a_large_graph_keeps_all_threads_at_batch_one(backends, monkeypatch) -> None:
+    import mlct.generate.onnx_backend as onnx_backend
+
+    monkeypatch.setattr(onnx_backend, "ONE_THREAD_MAX_BYTES", 1000)  # every graph is "large"
+    onnx_gen = onnx_backend.OnnxMotionGenerator.load(
+        Path(backends[1].graphs.denoiser).parent.parent, threads=2)
+    for _ in range(2):
+        onnx_gen.generate(TEXTS[:1], lengths=[50], nfe=2, seed=7, candidates=1)
+    assert [s.get_session_options().intra_op_num_threads
+            for s in onnx_gen._sessions.values()] == [2]

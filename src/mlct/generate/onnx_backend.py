@@ -73,11 +73,14 @@ class OnnxDecoder:
 # and the decoder's weights (20 MB for the bundled model, ~180 MB at paper size); step counts
 # beyond the first ones used run the step loop.
 MAX_SAMPLER_GRAPHS = 3
-# Batches up to this size run the sampler graph on one thread. At batch 1 its ~600 operators
-# take microseconds each, and handing part of each to a second thread (and waking it) costs more
-# than it saves: bundled model, 5 NFE, int8, 2 cores, warm 5.8 ms on 2 threads, 4.3 ms on one
-# (docs/performance.md). Larger batches have work enough to split and keep `threads`.
+# Batches up to this size run a sampler graph of at most ONE_THREAD_MAX_BYTES on one thread.
+# At batch 1 the bundled model's ~600 operators take microseconds each on weights that stay in
+# the cache, and handing part of each to a second thread (and waking it) costs more than it
+# saves: 5 NFE, 2 cores, warm 5.3 -> 4.4 ms (int8 denoiser), 8.4 -> 7.6 ms (float32). A bigger
+# graph streams its weights and has work enough to split: the paper-size model (68 MB in int8)
+# takes 38.7 ms on two threads and 44.1 on one (docs/performance.md, 2026-11-25 17:05 UTC).
 ONE_THREAD_MAX_BATCH = 1
+ONE_THREAD_MAX_BYTES = 32_000_000
 
 
 class OnnxMotionGenerator(MotionGenerator):
@@ -147,10 +150,10 @@ class OnnxMotionGenerator(MotionGenerator):
         return consistency_feeds(self.sampler, shape, generators_for(seed), self.check_nfe(nfe))
 
     def _sampler_session(self, steps: int, batch: int) -> Any:
-        """The sampler graph's session for `steps` steps at this batch size (one thread up to
-        ONE_THREAD_MAX_BATCH, else `threads`), or None: not a consistency model, the first call
-        with this step count, MAX_SAMPLER_GRAPHS built already, or no onnx package to build the
-        graph with."""
+        """The sampler graph's session for `steps` steps at this batch size (one thread for a
+        small batch of a small graph, else `threads`), or None: not a consistency model, the
+        first call with this step count, MAX_SAMPLER_GRAPHS built already, or no onnx package
+        to build the graph with."""
         if not isinstance(self.sampler, ConsistencySampler):
             return None
         self._calls[steps] = self._calls.get(steps, 0) + 1
@@ -169,7 +172,8 @@ class OnnxMotionGenerator(MotionGenerator):
         graph = self._fused.get(steps)
         if graph is None:
             return None
-        threads = 1 if batch <= ONE_THREAD_MAX_BATCH else self.threads
+        small = batch <= ONE_THREAD_MAX_BATCH and len(graph) <= ONE_THREAD_MAX_BYTES
+        threads = 1 if small else self.threads
         key = (steps, int(threads or torch.get_num_threads()))
         if key not in self._sessions:
             self._sessions[key] = session_from_bytes(graph, key[1])
