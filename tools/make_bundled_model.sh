@@ -9,9 +9,11 @@
 # the decoder retrained alone to hold still past an action's end (5,000 steps, 12 min), the
 # whole autoencoder fine-tuned to decode a noisy latent (5,000 steps, 12-20 min) and 10,000
 # stage-2 steps on its latents (30-40 min), the decoder again with the root's integrated path in
-# its loss (3,000 steps, 6 min) and 8,000 stage-2 steps with it (30 min), the duration model
-# (2 min) and the best-of-N critic (1-3 min). About 5 h in all on a free machine (issue 14 asks
-# for 3 h: not met). Resumable: run it
+# its loss (3,000 steps, 6 min) and 8,000 stage-2 steps with it (30 min), the decoder once
+# more with twice the latent noise (3,000 steps, 6 min) and two 10,000-step stage-2
+# continuations on it (35-37 min each), the duration model (2 min) and the best-of-N critic
+# (1-3 min). About 6 h 20 min in all on a free machine (issue 14 asks for 3 h: not met).
+# Resumable: run it
 # again with the same WORK_DIR after an interruption and each stage continues from its last
 # checkpoint. The result replaces src/mlct/assets/model (float16 weights). CM_SEED (default 0)
 # seeds stage 2 only, for the seed spread the model card reports.
@@ -78,7 +80,22 @@ stage traj ae --init "$work/model_noise" ae.freeze_encoder=true ae.trajectory_we
 DATA="$work/synth_rich" stage trajcm cm --init "$work/model_traj" --ae "$work/traj" \
     text.encoder=minilm+sides train.cm.max_steps=8000 train.cm.lr=2e-4 "train.cm.seed=$((seed + 9))"
 [ -f "$work/model_trajcm/config.json" ] || mlct export "$work/trajcm" --out "$work/model_trajcm" --half
-previous="$work/model_trajcm"
+# The decoder alone once more, with twice the latent noise, so that a wave's later sways
+# survive stage 2's error (docs/training.md, "Damped later cycles"); then two 10,000-step
+# continuations of stage 2 with it (lr 2e-4 cosine each, from the float16 export before).
+stage dnoise ae --init "$work/model_trajcm" ae.freeze_encoder=true ae.trajectory_weight=1.0 \
+    ae.latent_noise=0.2 ae.hold_extension=0.5 train.ae.max_steps=3000 train.ae.lr=1e-4
+[ -f "$work/model_dnoise/config.json" ] || mlct export "$work/trajcm" \
+    --out "$work/model_dnoise" --half --decoder-from "$work/dnoise"
+previous="$work/model_dnoise"
+for spec in dcont1:11 dcont2:12; do
+    IFS=: read -r run offset <<< "$spec"
+    DATA="$work/synth_rich" stage "$run" cm --init "$previous" --ae "$work/dnoise" \
+        text.encoder=minilm+sides train.cm.max_steps=10000 train.cm.lr=2e-4 \
+        "train.cm.seed=$((seed + offset))"
+    [ -f "$work/model_$run/config.json" ] || mlct export "$work/$run" --out "$work/model_$run" --half
+    previous="$work/model_$run"
+done
 rm -rf "$work/model"
 cp -r "$previous" "$work/model"
 # how long each action of a split prompt takes (generate/durations.py): seconds
