@@ -114,6 +114,15 @@ def atomic_dir(path: str | os.PathLike) -> Iterator[Path]:
         raise
 
 
+def link_or_copy(src: str | os.PathLike, dst: str | os.PathLike) -> None:
+    """A hard link of `src` at `dst` (a dataset copy shares its motions), else a copy: another
+    file system, or links not allowed."""
+    try:
+        os.link(src, dst)
+    except OSError:
+        shutil.copy2(src, dst)
+
+
 def save_npy(path: str | os.PathLike, array: np.ndarray) -> None:
     """np.save, atomically."""
     with atomic_path(path) as tmp:

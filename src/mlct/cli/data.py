@@ -1,4 +1,4 @@
-"""`mlct data synth|rephrase|stats|check|import`: make, check and describe datasets."""
+"""`mlct data synth|rephrase|oversample|stats|check|import`: make, check and describe datasets."""
 
 from __future__ import annotations
 
@@ -27,6 +27,17 @@ def run_rephrase(args: argparse.Namespace) -> int:
                                overwrite=args.overwrite)
     print(f"wrote {args.out}: {summary['captions']} everyday captions added to "
           f"{summary['motions']} motions ({args.splits})")
+    return 0
+
+
+def run_oversample(args: argparse.Namespace) -> int:
+    from mlct.data.oversample import oversample_dataset
+
+    summary = oversample_dataset(args.src, args.out, families=args.families.split(","),
+                                 times=args.times, split=args.split,
+                                 single_only=not args.with_sequences, overwrite=args.overwrite)
+    print(f"wrote {args.out}: {summary['chosen']} motions of {args.split} listed {args.times} "
+          f"times ({summary['items']} items)")
     return 0
 
 
@@ -86,6 +97,22 @@ def add_parser(commands: Commands) -> None:
     rephrase.add_argument("--seed", type=int, default=0)
     rephrase.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
     rephrase.set_defaults(func=run_rephrase)
+
+    oversample = data_commands.add_parser(
+        "oversample", help="copy a labelled dataset, listing some families' motions several "
+        "times in a split (rebalanced batches)")
+    oversample.add_argument("src", type=Path, help="a dataset with labels.jsonl (`mlct data synth`)")
+    oversample.add_argument("--out", required=True, type=Path, help="dataset directory to create")
+    oversample.add_argument("--families", required=True,
+                            help="comma-separated action families, e.g. clap,wave,turn")
+    oversample.add_argument("--times", type=int, default=3,
+                            help="how many times each chosen motion is listed (default 3)")
+    oversample.add_argument("--split", default="train", help="the split to rebalance (train)")
+    oversample.add_argument("--with-sequences", action="store_true",
+                            help="also motions where the family is one action of several "
+                            "(default: the family alone)")
+    oversample.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
+    oversample.set_defaults(func=run_oversample)
 
     stats = data_commands.add_parser("stats", help="write Mean/Std and print dataset statistics")
     stats.add_argument("dir", type=Path)

@@ -27,14 +27,7 @@ from mlct.data.layout import read_split
 from mlct.data.synth.everyday import EVERYDAY
 from mlct.data.synth.text import describe
 from mlct.errors import MlctError
-from mlct.io import atomic_dir, write_text
-
-
-def _link_or_copy(src: Path, dst: Path) -> None:
-    try:
-        os.link(src, dst)
-    except OSError:  # another file system, or links not allowed
-        shutil.copy2(src, dst)
+from mlct.io import atomic_dir, link_or_copy, write_text
 
 
 def everyday_captions(record: dict[str, Any], rng: np.random.Generator, count: int) -> list[str]:
@@ -76,7 +69,7 @@ def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion:
             if item.is_dir():
                 (work / item.name).mkdir()
                 for f in item.iterdir():
-                    _link_or_copy(f, work / item.name / f.name)
+                    link_or_copy(f, work / item.name / f.name)
             elif item.name != "synth.json":
                 shutil.copy2(item, work / item.name)
         (work / "texts").mkdir()
