@@ -123,6 +123,21 @@ def link_or_copy(src: str | os.PathLike, dst: str | os.PathLike) -> None:
         shutil.copy2(src, dst)
 
 
+def copy_dataset(src: str | os.PathLike, dst: str | os.PathLike, skip: set[str]) -> None:
+    """A dataset's files into the existing folder `dst`, but the top-level names in `skip`:
+    the files of its folders (motions, texts) hard-linked where possible, top files copied, so
+    that a derived dataset writes only what it changes."""
+    for item in sorted(Path(src).iterdir()):
+        if item.name in skip:
+            continue
+        if item.is_dir():
+            (Path(dst) / item.name).mkdir()
+            for f in item.iterdir():
+                link_or_copy(f, Path(dst) / item.name / f.name)
+        else:
+            shutil.copy2(item, Path(dst) / item.name)
+
+
 def save_npy(path: str | os.PathLike, array: np.ndarray) -> None:
     """np.save, atomically."""
     with atomic_path(path) as tmp:

@@ -15,14 +15,13 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 from pathlib import Path
 from typing import Any
 
 from mlct.data.labels import read_labels
 from mlct.data.layout import read_split
 from mlct.errors import MlctError
-from mlct.io import atomic_dir, link_or_copy, write_text
+from mlct.io import atomic_dir, copy_dataset, write_text
 
 
 def families_of(record: dict[str, Any]) -> list[str]:
@@ -79,13 +78,7 @@ def oversample_dataset(src: str | os.PathLike, out: str | os.PathLike, families:
                         + (" alone" if single_only else ""))
     listed = names + chosen * (times - 1)
     with atomic_dir(out) as work:
-        for item in sorted(src.iterdir()):
-            if item.is_dir():
-                (work / item.name).mkdir()
-                for f in item.iterdir():
-                    link_or_copy(f, work / item.name / f.name)
-            elif item.name not in (split_file.name, "synth.json"):
-                shutil.copy2(item, work / item.name)
+        copy_dataset(src, work, skip={split_file.name, "synth.json"})
         write_text(work / split_file.name, "\n".join(listed) + "\n")
         if (src / "synth.json").is_file():
             meta = json.loads((src / "synth.json").read_text(encoding="utf-8"))

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -27,7 +26,7 @@ from mlct.data.layout import read_split
 from mlct.data.synth.everyday import EVERYDAY
 from mlct.data.synth.text import describe
 from mlct.errors import MlctError
-from mlct.io import atomic_dir, link_or_copy, write_text
+from mlct.io import atomic_dir, copy_dataset, write_text
 
 
 def everyday_captions(record: dict[str, Any], rng: np.random.Generator, count: int) -> list[str]:
@@ -63,15 +62,7 @@ def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion:
     rng = np.random.default_rng(seed)
     added = 0
     with atomic_dir(out) as work:
-        for item in sorted(src.iterdir()):
-            if item.name == "texts":
-                continue
-            if item.is_dir():
-                (work / item.name).mkdir()
-                for f in item.iterdir():
-                    link_or_copy(f, work / item.name / f.name)
-            elif item.name != "synth.json":
-                shutil.copy2(item, work / item.name)
+        copy_dataset(src, work, skip={"texts", "synth.json"})
         (work / "texts").mkdir()
         for path in sorted((src / "texts").iterdir()):
             text = path.read_text(encoding="utf-8")
