@@ -13,7 +13,7 @@ from mlct.errors import MlctError
 from mlct.nn.autoencoder import MotionAutoencoder
 from mlct.nn.conv_autoencoder import ConvMotionAutoencoder
 from mlct.nn.denoiser import Denoiser
-from mlct.nn.grow import grow_tokens, old_token_rows, with_decoder_branch
+from mlct.nn.grow import grow_tokens, old_token_rows
 from mlct.train.checkpoint import latest_checkpoint, load_checkpoint
 from mlct.train.loop import train
 
@@ -137,54 +137,3 @@ def test_growing_needs_the_conv_autoencoder_and_refuses_fewer_tokens(
                          "train.ae.weight_decay=0.01", "train.ae.max_steps=1"])
     checkpoints = tmp_path / "b" / "ae" / "checkpoints"
     assert not checkpoints.is_dir() or latest_checkpoint(checkpoints) is None
-
-
-def test_a_decoder_branch_starts_at_zero_and_a_model_given_one_decodes_as_before() -> None:
-    old = _conv(2)
-    torch.manual_seed(9)
-    new = ConvMotionAutoencoder(263, "quantized", 2, D, channels=16, max_len=40,
-                                branch_channels=8).eval()
-    new.load_state_dict(with_decoder_branch(old.state_dict(), new.state_dict()))
-    x, lengths = torch.randn(3, 40, 263), torch.tensor([40, 25, 9])
-    with torch.no_grad():
-        torch.testing.assert_close(new(x, lengths)[0], old(x, lengths)[0])
-    plain = old.state_dict()
-    assert with_decoder_branch(plain, plain) is plain  # nothing to add
-    with pytest.raises(ValueError, match="branch_channels"):
-        ConvMotionAutoencoder(263, branch_channels=-1)
-
-
-def test_train_ae_adds_a_decoder_branch_under_a_frozen_encoder(
-        conv_model: tuple[Path, Path, str], tmp_path: Path) -> None:
-    """`train ae --init MODEL ae.decoder_branch_channels=C ae.freeze_encoder=true`: the branch
-    learns, the encoder stays as shipped, and the decoder exports beside the model's own stage 2
-    (`export --decoder-from`), which generates with it."""
-    import mlct
-    from mlct.generate.bundle import read_bundle
-    from mlct.train.export import export_run
-
-    model, data, cache = conv_model
-    run = tmp_path / "branch"
-    train("ae", data, run, None, progress=False, init=model,
-          overrides=[cache, "ae.decoder_branch_channels=8", "ae.freeze_encoder=true",
-                     "train.ae.lr=1e-2", "train.ae.max_steps=3"])
-    after = load_checkpoint(latest_checkpoint(run / "ae" / "checkpoints"),
-                            with_state=False).module_state("ae")
-    _, before = read_bundle(model)
-    for key, value in before.items():
-        if key.startswith("ae_encoder."):
-            assert torch.equal(after[key[len("ae_encoder."):]], value)
-    assert after["branch.15.weight"].abs().sum() > 0  # its last conv left zero and learned
-    exported = export_run(model.parent / "run", tmp_path / "model", decoder_from=run)
-    _, tensors = read_bundle(exported)
-    assert any(k.startswith("decoder.branch.") for k in tensors)
-    motion = mlct.load(exported).generate("a person walks forward", seconds=2.0, seed=0)
-    assert torch.isfinite(torch.as_tensor(motion.joints)).all()
-
-
-def test_a_decoder_branch_needs_the_conv_autoencoder(conv_model: tuple[Path, Path, str],
-                                                     tmp_path: Path) -> None:
-    _, data, cache = conv_model
-    with pytest.raises(MlctError, match="decoder_branch_channels needs"):
-        train("ae", data, tmp_path / "t", load_config("tiny"), progress=False,
-              overrides=[cache, "ae.decoder_branch_channels=8", "train.ae.max_steps=1"])

@@ -66,10 +66,6 @@ class AutoencoderConfig(_Section):
     # "transformer" = the paper's skip transformer; "conv" = nn/conv_autoencoder.py
     architecture: Literal["transformer", "conv"] = "transformer"
     channels: int = Field(128, ge=1)  # conv only: width of its 1-D convolutions
-    # conv only: width of a second decoder stream added to the first's output (0 = none; nn/
-    # conv_autoencoder.py): room for an arm's rhythm over a gait. Given to a trained model via
-    # --init, it starts at zero, so the grown model decodes as before.
-    decoder_branch_channels: int = Field(0, ge=0)
     velocity_weight: float = Field(0.0, ge=0.0)  # frame-to-frame feature differences
     # The root's heading (radians) and ground path (metres), integrated from the per-frame
     # velocities: a small per-frame bias the feature loss shrugs at sums to a short turn

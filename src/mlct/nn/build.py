@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from mlct.config import Config
-from mlct.errors import MlctError
 from mlct.nn.autoencoder import LatentAutoencoder, MotionAutoencoder
 from mlct.nn.conv_autoencoder import ConvMotionAutoencoder
 from mlct.nn.denoiser import Denoiser
@@ -15,14 +14,11 @@ AnyAutoencoder = LatentAutoencoder  # either architecture
 
 def build_autoencoder(config: Config, feature_dim: int) -> AnyAutoencoder:
     ae = config.ae
-    if ae.decoder_branch_channels and ae.architecture != "conv":
-        raise MlctError("ae.decoder_branch_channels needs ae.architecture=conv (the second "
-                        "decoder stream is the conv decoder's)")
     if ae.architecture == "conv":
         return ConvMotionAutoencoder(
             feature_dim, latent_type=ae.latent_type, n_tokens=ae.n_tokens,
             latent_dim=ae.latent_dim, levels=ae.levels, channels=ae.channels,
-            max_len=config.data.max_motion_length, branch_channels=ae.decoder_branch_channels)
+            max_len=config.data.max_motion_length)
     return MotionAutoencoder(
         feature_dim, latent_type=ae.latent_type, n_tokens=ae.n_tokens,
         latent_dim=ae.latent_dim, levels=ae.levels, layers=ae.layers, heads=ae.heads,

@@ -10,16 +10,6 @@ Same contract as `MotionAutoencoder`: frames (B, T, D) -> n latent tokens (B, n,
 Time is absolute: frame k of any clip sits at grid cell k // 8, as in the transformer's
 positional embeddings.
 
-Optionally (``ae.decoder_branch_channels`` > 0) D has a second stream of that width beside the
-first (its own Linear from the latent and upsampling stages), whose features are added to the
-first's. Why: of the motions that lay an arm action over a gait, the decoder drew the gait and
-only the family's average arm (claps that never meet), on the training split as on the test
-split, while the same decoder fitted 32 such clips alone from the frozen encoder's latents:
-the latent carries the arm, one 128-channel stream cannot draw every gait x arm combination
-(docs/training.md, "A second decoder stream"). Its last convolution starts at zero, so a model
-given the branch (`train ae --init MODEL ae.decoder_branch_channels=C`) decodes exactly as
-before until it trains, and the frozen encoder keeps stage 2's latents valid.
-
 Why beside the paper's skip transformer: on this project's 2-core CPU budget (a few epochs of
 the benchmark), the transformer learned the average pose per frame and drew no jump and almost no
 step (pelvis-rise ratio 0.00-0.01 after 600-2,500 steps; docs/training.md). In the same wall time
@@ -50,12 +40,6 @@ def _stage(channels: int, down: bool) -> list[nn.Module]:
     return layers
 
 
-def _upsampler(channels: int, feature_dim: int) -> nn.Sequential:
-    """(B, channels, coarse) -> (B, feature_dim, coarse * 8): three x2 stages, a last Conv1d."""
-    return nn.Sequential(*[m for _ in range(3) for m in _stage(channels, False)],
-                         nn.Conv1d(channels, feature_dim, 3, padding=1))
-
-
 class ConvMotionAutoencoder(LatentAutoencoder):
     """Convolutional E, D with a quantized (Eq. 8), VAE or plain latent of n x d."""
 
@@ -68,12 +52,9 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         levels: int = 1000,
         channels: int = 128,
         max_len: int = 196,
-        branch_channels: int = 0,
     ) -> None:
         if channels < 1:
             raise ValueError("channels must be >= 1")
-        if branch_channels < 0:
-            raise ValueError("branch_channels must be >= 0")
         super().__init__(feature_dim, latent_type, n_tokens, latent_dim, levels, max_len)
         self.channels = channels
         self.coarse = -(-max_len // FACTOR)  # grid cells covering max_len frames
@@ -83,13 +64,8 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         self.encoder = nn.Sequential(*stem, *[m for _ in range(3) for m in _stage(channels, True)])
         self.to_tokens = nn.Linear(self.coarse * channels, n_enc * latent_dim)
         self.from_tokens = nn.Linear(n_tokens * latent_dim, self.coarse * channels)
-        self.decoder = _upsampler(channels, feature_dim)
-        self.branch_channels = branch_channels
-        if branch_channels:
-            self.branch_from_tokens = nn.Linear(n_tokens * latent_dim, self.coarse * branch_channels)
-            self.branch = _upsampler(branch_channels, feature_dim)
-            nn.init.zeros_(self.branch[-1].weight)  # decodes as without the branch until trained
-            nn.init.zeros_(self.branch[-1].bias)
+        self.decoder = nn.Sequential(*[m for _ in range(3) for m in _stage(channels, False)],
+                                     nn.Conv1d(channels, feature_dim, 3, padding=1))
 
     def encode(self, x: Tensor, lengths: Tensor) -> Latent:
         """E: x (B, T, D) normalized features, lengths (B,) -> Latent with z (B, n, d)."""
@@ -108,12 +84,7 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         self._check_latent(z)
         t = int(lengths.max()) if max_len is None else max_len
         self._check_lengths(lengths, t)
-        flat = z.flatten(1)
-        h = self.from_tokens(flat).view(z.shape[0], self.channels, self.coarse)
-        out = self.decoder(h)  # (B, D, coarse * 8)
-        if self.branch_channels:
-            g = self.branch_from_tokens(flat).view(z.shape[0], self.branch_channels, self.coarse)
-            out = out + self.branch(g)
-        out = out[:, :, :t].transpose(1, 2)  # (B, T, D)
+        h = self.from_tokens(z.flatten(1)).view(z.shape[0], self.channels, self.coarse)
+        out = self.decoder(h)[:, :, :t].transpose(1, 2)  # (B, T, D)
         valid = lengths_to_mask(lengths.to(z.device), t)  # (B, T)
         return out.masked_fill(~valid.unsqueeze(-1), 0.0)  # padded frames exactly 0

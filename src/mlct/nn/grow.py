@@ -1,5 +1,4 @@
-"""Growing a trained model: its latent from n to more tokens (ours; `ae.grown_from`), or its
-conv decoder by a second stream (`ae.decoder_branch_channels`, `with_decoder_branch`).
+"""Growing a trained model's latent from n to more tokens (ours; `ae.grown_from`).
 
 Why: three 64-d tokens of the small conv autoencoder hold a clip's gait or an arm action laid
 over it, not both (docs/training.md, "Where the autoencoder's 0.785 comes from"). Retraining a
@@ -65,16 +64,3 @@ def old_token_rows(n_rows: int, old_n: int, new_n: int, latent_dim: int) -> Tens
     mask = torch.zeros(groups, new_n, latent_dim, dtype=torch.bool)
     mask[:, :old_n] = True
     return mask.view(n_rows)
-
-
-BRANCH_PREFIXES = ("branch_from_tokens.", "branch.")  # the conv decoder's second stream
-
-
-def with_decoder_branch(old: dict[str, Tensor], fresh: dict[str, Tensor]) -> dict[str, Tensor]:
-    """`old`'s weights plus the second decoder stream's fresh ones when `old` has none (a model
-    given the branch by --init): the branch's last layer is zero there, so the result decodes as
-    `old` did. Anything else missing or extra is left for load_state_dict to refuse."""
-    added = [k for k in fresh if k.startswith(BRANCH_PREFIXES) and k not in old]
-    if not added:
-        return old
-    return {**old, **{k: fresh[k] for k in added}}

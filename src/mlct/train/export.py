@@ -48,12 +48,8 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
     if not {"mean", "std"} <= ckpt.module_state("norm").keys():
         raise MlctError(f"{found}: holds no normalization (norm.mean, norm.std)")
     ae = ckpt.module_state("ae")
-    config = ckpt.meta["config"]
     if decoder_from is not None:
-        ae, decoder_config = _same_encoder(ae, decoder_from)
-        # the decoder's own shape: a second stream (ae.decoder_branch_channels) it may have grown
-        branch = int(decoder_config.get("ae", {}).get("decoder_branch_channels", 0))
-        config = {**config, "ae": {**config["ae"], "decoder_branch_channels": branch}}
+        ae = _same_encoder(ae, decoder_from)
     decoder = {k: v for k, v in ae.items() if not k.startswith(ENCODER_PREFIXES)}
     target = strip_prefix(ckpt.tensors, "target")
     if stage == "cm":
@@ -74,7 +70,7 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
         tensors = {k: (v.half() if v.is_floating_point() and not k.startswith("norm.") else v)
                    for k, v in tensors.items()}
     meta = {"format": BUNDLE_FORMAT, "version": BUNDLE_VERSION, "sampler": sampler.name,
-            "step": ckpt.meta["step"], "config": config,
+            "step": ckpt.meta["step"], "config": ckpt.meta["config"],
             "feature_dim": ckpt.meta["feature_dim"], "skeleton": ckpt.meta["skeleton"],
             "text_encoder": ckpt.meta["text_encoder"], "text_dim": ckpt.meta["text_dim"]}
     if decoder_from is not None:
@@ -94,16 +90,15 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
     return out
 
 
-def _same_encoder(ae: dict, decoder_from: str | os.PathLike) -> tuple[dict, dict]:
+def _same_encoder(ae: dict, decoder_from: str | os.PathLike) -> dict:
     """The autoencoder state of decoder_from (a run, its ae/ stage or a checkpoint), checked to
-    hold exactly the encoder of `ae`, and its run's config."""
+    hold exactly the encoder of `ae`."""
     path = Path(decoder_from)
     for checkpoints in (path / "ae" / "checkpoints", path / "checkpoints"):
         if checkpoints.is_dir() and (found := latest_checkpoint(checkpoints)) is not None:
             path = found
             break
-    loaded = load_checkpoint(path, with_state=False)
-    other = loaded.module_state("ae")
+    other = load_checkpoint(path, with_state=False).module_state("ae")
     encoder = [k for k in ae if k.startswith(ENCODER_PREFIXES)]
     # equal up to float16 storage: an --init from a --half bundle starts from rounded weights
     if not encoder or any(k not in other or other[k].shape != ae[k].shape
@@ -113,4 +108,4 @@ def _same_encoder(ae: dict, decoder_from: str | os.PathLike) -> tuple[dict, dict
         raise MlctError(f"{decoder_from}: its encoder is not the run's, so the denoiser's "
                         f"latents would mean nothing to its decoder; train it with "
                         f"ae.freeze_encoder=true from this model (--init)")
-    return other, loaded.meta.get("config", {})
+    return other

@@ -259,10 +259,6 @@ class InitialWeights:
             network = stage.model if isinstance(stage, AutoencoderStage) else stage.denoiser
             weights = grow_tokens(weights, network.state_dict(), old_n, new_n,
                                   stage.config.ae.latent_dim)
-        if isinstance(stage, AutoencoderStage):  # a second decoder stream added (nn/grow.py)
-            from mlct.nn.grow import with_decoder_branch
-
-            weights = with_decoder_branch(weights, stage.model.state_dict())
         try:
             if isinstance(stage, AutoencoderStage):
                 stage.model.load_state_dict(weights)
