@@ -80,3 +80,65 @@ def test_frame_upsampler_reaches_every_frame_and_trains() -> None:
     other = ae.decode(lat.z.roll(1, dims=0), LENGTHS)
     valid = lengths_to_mask(LENGTHS, 60)
     assert torch.all((other - recon)[valid].abs().sum(-1) > 0)
+
+
+def test_arm_columns_are_the_arm_joints_positions_rotations_and_velocities() -> None:
+    from mlct.motion.features import arm_feature_columns
+    from mlct.motion.skeleton import FeatureLayout
+
+    columns = arm_feature_columns(263)
+    groups = FeatureLayout(22).groups
+    # 8 arm joints (collars, shoulders, elbows, wrists) x (3 positions + 6 rotation + 3 velocity)
+    assert len(columns) == 8 * 12 == len(set(columns))
+    left_wrist = 20  # its root-relative position and velocity columns
+    assert {groups["ric"].start + 3 * (left_wrist - 1) + i for i in range(3)} <= set(columns)
+    assert {groups["local_velocity"].start + 3 * left_wrist + i for i in range(3)} <= set(columns)
+    pelvis_height, left_knee = groups["root_height"].start, groups["ric"].start + 3 * 3
+    assert pelvis_height not in columns and left_knee not in columns
+    assert len(arm_feature_columns(251)) == 6 * 12  # KIT: shoulders, elbows, wrists
+
+
+def test_arm_tokens_encode_and_decode_the_arms_alone() -> None:
+    """ae.arm_tokens: the arm features reach only the last token, and that token reaches only
+    the arm features; the contract (shapes, zero padding) is kept."""
+    from mlct.motion.features import arm_feature_columns
+
+    torch.manual_seed(0)
+    columns = arm_feature_columns(263)
+    body = [c for c in range(263) if c not in columns]
+    # plain latent: the quantizer's 1e-3 grid would hide an untrained encoder's small changes
+    ae = ConvMotionAutoencoder(263, latent_type="plain", n_tokens=3, latent_dim=8, channels=16,
+                               max_len=60, arm_tokens=1, arm_channels=8,
+                               arm_columns=columns).eval()
+    x = torch.randn(3, 60, 263)
+    with torch.no_grad():
+        z = ae.encode(x, LENGTHS).z
+        moved = x.clone()
+        moved[..., columns] += 1.0
+        torch.testing.assert_close(ae.encode(moved, LENGTHS).z[:, :2], z[:, :2])
+        assert not torch.allclose(ae.encode(moved, LENGTHS).z[:, 2], z[:, 2])
+        out = ae.decode(z, LENGTHS)
+        other = z.clone()
+        other[:, 2] = -other[:, 2]
+        changed = (ae.decode(other, LENGTHS) - out).abs().amax(dim=(0, 1))
+        assert changed[body].max() == 0 and changed[columns].max() > 0
+        assert torch.all(out[~lengths_to_mask(LENGTHS, 60)] == 0)
+    with pytest.raises(ValueError, match="arm_tokens"):
+        ConvMotionAutoencoder(263, n_tokens=2, arm_tokens=2, arm_columns=columns)
+    with pytest.raises(ValueError, match="VAE"):
+        ConvMotionAutoencoder(263, latent_type="vae", arm_tokens=1, arm_columns=columns)
+
+
+def test_config_arm_tokens_needs_the_conv_architecture() -> None:
+    from mlct.errors import MlctError
+
+    config = load_config("tiny").to_dict()
+    config["ae"].update(architecture="conv", arm_tokens=1, n_tokens=2, latent_dim=8, channels=8)
+    ae = build_autoencoder(config_from_dict(config, "test"), 263)
+    assert ae.arm_tokens == 1 and len(ae.arm_columns) == 96
+    config["ae"]["architecture"] = "transformer"
+    with pytest.raises(MlctError, match="arm_tokens needs"):
+        build_autoencoder(config_from_dict(config, "test"), 263)
+    config["ae"].update(architecture="conv", arm_tokens=2)
+    with pytest.raises(MlctError, match="ae: arm_tokens"):
+        build_autoencoder(config_from_dict(config, "test"), 263)

@@ -130,9 +130,10 @@ def test_the_server_runs_on_the_onnx_backend(backends, converted, monkeypatch) -
 
 # --- a random tiny model: transformer decoder, DDIM, "+tokens" ---------------------------------
 
-def random_bundle(path: Path, sampler: str, text_encoder: str) -> Path:
-    """A bundle of untrained tiny-preset networks (transformer AE), written as `mlct export`
-    writes one."""
+def random_bundle(path: Path, sampler: str, text_encoder: str,
+                  overrides: tuple[str, ...] = ()) -> Path:
+    """A bundle of untrained tiny-preset networks (transformer AE unless overridden), written as
+    `mlct export` writes one."""
     from safetensors.torch import save_file
 
     from mlct.config import load_config
@@ -140,7 +141,7 @@ def random_bundle(path: Path, sampler: str, text_encoder: str) -> Path:
     from mlct.text.encoders import token_slots_of
 
     torch.manual_seed(0)
-    config = load_config("tiny", [f"text.encoder={text_encoder}"])
+    config = load_config("tiny", [f"text.encoder={text_encoder}", *overrides])
     text_dim = 384 * (1 + token_slots_of(text_encoder))
     ae, denoiser = build_autoencoder(config, 263), build_denoiser(config, text_dim)
     ae_state = ae.state_dict()
@@ -167,6 +168,17 @@ def test_transformer_decoder_ddim_and_token_condition(tmp_path) -> None:
         a = torch_gen.generate(TEXTS[: len(lengths)], lengths=lengths, nfe=3, seed=1)
         b = onnx_gen.generate(TEXTS[: len(lengths)], lengths=lengths, nfe=3, seed=1)
         assert largest_gap(a, b) < JOINTS_M
+
+
+def test_conv_decoder_with_its_own_arm_pair(tmp_path) -> None:
+    """ae.arm_tokens: the body and arm decoders' features put back in order inside the graph."""
+    model = convert_to_onnx(random_bundle(
+        tmp_path / "arms", "consistency", "minilm",
+        ("ae.architecture=conv", "ae.channels=16", "ae.arm_tokens=1", "ae.arm_channels=8")))
+    torch_gen, onnx_gen = mlct.load(model), mlct.load(model, backend="onnx")
+    a = torch_gen.generate(TEXTS[:2], lengths=[64, 9], nfe=2, seed=1)
+    b = onnx_gen.generate(TEXTS[:2], lengths=[64, 9], nfe=2, seed=1)
+    assert largest_gap(a, b) < JOINTS_M
 
 
 # --- bad input: one line naming the problem and the fix ----------------------------------------

@@ -66,6 +66,10 @@ class AutoencoderConfig(_Section):
     # "transformer" = the paper's skip transformer; "conv" = nn/conv_autoencoder.py
     architecture: Literal["transformer", "conv"] = "transformer"
     channels: int = Field(128, ge=1)  # conv only: width of its 1-D convolutions
+    # conv only: the last arm_tokens of the n tokens encode and decode the arm joints' features
+    # by a pair of their own, arm_channels wide (0 = one pair for everything; nn/conv_autoencoder.py)
+    arm_tokens: int = Field(0, ge=0)
+    arm_channels: int = Field(64, ge=1)
     velocity_weight: float = Field(0.0, ge=0.0)  # frame-to-frame feature differences
     # The root's heading (radians) and ground path (metres), integrated from the per-frame
     # velocities: a small per-frame bias the feature loss shrugs at sums to a short turn

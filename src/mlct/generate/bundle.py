@@ -31,7 +31,8 @@ from mlct.io import read_format_json, strip_prefix
 
 BUNDLE_FORMAT = "mlct-model"
 BUNDLE_VERSION = 1
-ENCODER_PREFIXES = ("enc_in.", "enc_tokens", "enc_pos", "encoder.", "to_tokens.")
+ENCODER_PREFIXES = ("enc_in.", "enc_tokens", "enc_pos", "encoder.", "to_tokens.", "arm_encoder.",
+                    "arm_to_tokens.")
 ENCODER_KEY = "ae_encoder"  # the AE encoder's tensors in a bundle (since stage-1 fine-tuning)
 META_KEYS = ("sampler", "config", "feature_dim", "skeleton", "text_encoder", "text_dim")
 CONFIG, WEIGHTS = "config.json", "model.safetensors"

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 from mlct.config import Config
+from mlct.errors import MlctError
+from mlct.motion.features import arm_feature_columns
 from mlct.nn.autoencoder import LatentAutoencoder, MotionAutoencoder
 from mlct.nn.conv_autoencoder import ConvMotionAutoencoder
 from mlct.nn.denoiser import Denoiser
@@ -14,11 +16,18 @@ AnyAutoencoder = LatentAutoencoder  # either architecture
 
 def build_autoencoder(config: Config, feature_dim: int) -> AnyAutoencoder:
     ae = config.ae
+    if ae.arm_tokens and ae.architecture != "conv":
+        raise MlctError("ae.arm_tokens needs ae.architecture=conv")
     if ae.architecture == "conv":
-        return ConvMotionAutoencoder(
-            feature_dim, latent_type=ae.latent_type, n_tokens=ae.n_tokens,
-            latent_dim=ae.latent_dim, levels=ae.levels, channels=ae.channels,
-            max_len=config.data.max_motion_length)
+        try:
+            return ConvMotionAutoencoder(
+                feature_dim, latent_type=ae.latent_type, n_tokens=ae.n_tokens,
+                latent_dim=ae.latent_dim, levels=ae.levels, channels=ae.channels,
+                max_len=config.data.max_motion_length, arm_tokens=ae.arm_tokens,
+                arm_channels=ae.arm_channels,
+                arm_columns=arm_feature_columns(feature_dim) if ae.arm_tokens else None)
+        except ValueError as error:
+            raise MlctError(f"ae: {error}") from None
     return MotionAutoencoder(
         feature_dim, latent_type=ae.latent_type, n_tokens=ae.n_tokens,
         latent_dim=ae.latent_dim, levels=ae.levels, layers=ae.layers, heads=ae.heads,

@@ -10,6 +10,16 @@ Same contract as `MotionAutoencoder`: frames (B, T, D) -> n latent tokens (B, n,
 Time is absolute: frame k of any clip sits at grid cell k // 8, as in the transformer's
 positional embeddings.
 
+Optionally (``ae.arm_tokens`` = a > 0) the arms get their own pair: the features of the collar,
+shoulder, elbow and wrist joints (their root-relative positions, rotations and velocities;
+`arm_feature_columns`) go through a second E of ``arm_channels`` to the last a tokens, and a
+second D draws them from those tokens alone; the first pair does the rest from the first n - a.
+Why: of the motions that lay an arm action over a gait, the shared pair drew the gait and only
+the family's average arm (claps that never meet) on the training split as on the test split;
+neither a wider decoder nor oversampling those motions moved it (docs/training.md, "The
+autoencoder's concurrent arms"). Root-relative arm features of a clap are the same over a walk
+as standing still, so a pair that sees only them has one motion to draw, not a combination.
+
 Why beside the paper's skip transformer: on this project's 2-core CPU budget (a few epochs of
 the benchmark), the transformer learned the average pose per frame and drew no jump and almost no
 step (pelvis-rise ratio 0.00-0.01 after 600-2,500 steps; docs/training.md). In the same wall time
@@ -52,39 +62,92 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         levels: int = 1000,
         channels: int = 128,
         max_len: int = 196,
+        arm_tokens: int = 0,
+        arm_channels: int = 64,
+        arm_columns: list[int] | None = None,
     ) -> None:
-        if channels < 1:
-            raise ValueError("channels must be >= 1")
+        if channels < 1 or arm_channels < 1:
+            raise ValueError("channels and arm_channels must be >= 1")
+        if arm_tokens and not 0 < arm_tokens < n_tokens:
+            raise ValueError(f"arm_tokens must leave the body at least one of the {n_tokens} "
+                             f"tokens, got {arm_tokens}")
+        if arm_tokens and latent_type == "vae":
+            raise ValueError("arm_tokens supports the quantized and plain latents, not the VAE")
+        if arm_tokens and not arm_columns:
+            raise ValueError("arm_tokens needs the arm feature columns (arm_feature_columns)")
         super().__init__(feature_dim, latent_type, n_tokens, latent_dim, levels, max_len)
         self.channels = channels
         self.coarse = -(-max_len // FACTOR)  # grid cells covering max_len frames
-        n_enc = 2 * n_tokens if latent_type == "vae" else n_tokens
+        self.arm_tokens = arm_tokens
+        arm = sorted(arm_columns) if arm_tokens and arm_columns else []
+        body = [c for c in range(feature_dim) if c not in set(arm)]
+        self.body_columns, self.arm_columns = body, arm
+        # where each feature sits in cat(body, arm): the decoders' outputs put back in order
+        self.order = [0] * feature_dim
+        for position, column in enumerate(body + arm):
+            self.order[column] = position
+        body_tokens = n_tokens - arm_tokens
+        n_enc = 2 * n_tokens if latent_type == "vae" else body_tokens
 
-        stem = [nn.Conv1d(feature_dim + 1, channels, 3, padding=1), nn.GELU()]
-        self.encoder = nn.Sequential(*stem, *[m for _ in range(3) for m in _stage(channels, True)])
-        self.to_tokens = nn.Linear(self.coarse * channels, n_enc * latent_dim)
-        self.from_tokens = nn.Linear(n_tokens * latent_dim, self.coarse * channels)
-        self.decoder = nn.Sequential(*[m for _ in range(3) for m in _stage(channels, False)],
-                                     nn.Conv1d(channels, feature_dim, 3, padding=1))
+        self.encoder, self.to_tokens = self._encoder(len(body), channels, n_enc)
+        self.from_tokens, self.decoder = self._decoder(body_tokens, channels, len(body))
+        if arm_tokens:
+            self.arm_encoder, self.arm_to_tokens = self._encoder(len(arm), arm_channels,
+                                                                 arm_tokens)
+            self.arm_from_tokens, self.arm_decoder = self._decoder(arm_tokens, arm_channels,
+                                                                   len(arm))
+
+    def _encoder(self, features: int, channels: int, tokens: int) -> tuple[nn.Module, nn.Module]:
+        stem = [nn.Conv1d(features + 1, channels, 3, padding=1), nn.GELU()]
+        convs = nn.Sequential(*stem, *[m for _ in range(3) for m in _stage(channels, True)])
+        return convs, nn.Linear(self.coarse * channels, tokens * self.latent_dim)
+
+    def _decoder(self, tokens: int, channels: int, features: int) -> tuple[nn.Module, nn.Module]:
+        convs = nn.Sequential(*[m for _ in range(3) for m in _stage(channels, False)],
+                              nn.Conv1d(channels, features, 3, padding=1))
+        return nn.Linear(tokens * self.latent_dim, self.coarse * channels), convs
 
     def encode(self, x: Tensor, lengths: Tensor) -> Latent:
         """E: x (B, T, D) normalized features, lengths (B,) -> Latent with z (B, n, d)."""
         self._check_frames(x, lengths)
         b, t, _ = x.shape
         valid = lengths_to_mask(lengths.to(x.device), t).to(x.dtype).unsqueeze(-1)  # (B, T, 1)
-        h = torch.cat([x * valid, valid], dim=-1).transpose(1, 2)  # (B, D + 1, T)
-        h = nn.functional.pad(h, (0, self.coarse * FACTOR - t))  # (B, D + 1, coarse * 8)
-        h = self.encoder(h)  # (B, channels, coarse)
-        tokens = self.to_tokens(h.flatten(1)).view(b, -1, self.latent_dim)  # (B, n_enc, d)
+        x = x * valid
+        if not self.arm_tokens:
+            tokens = self._encode_part(x, valid, self.encoder, self.to_tokens)  # (B, n_enc, d)
+        else:
+            tokens = torch.cat([
+                self._encode_part(x[..., self.body_columns], valid, self.encoder, self.to_tokens),
+                self._encode_part(x[..., self.arm_columns], valid, self.arm_encoder,
+                                  self.arm_to_tokens)], dim=1)  # (B, n, d)
         return latent_of_tokens(tokens, self.latent_type, self.n_tokens, self.levels,
                                 self.training)
+
+    def _encode_part(self, x: Tensor, valid: Tensor, convs: nn.Module, linear: nn.Module
+                     ) -> Tensor:
+        """x (B, T, F) zero-padded, valid (B, T, 1) -> tokens (B, k, d)."""
+        h = torch.cat([x, valid], dim=-1).transpose(1, 2)  # (B, F + 1, T)
+        h = nn.functional.pad(h, (0, self.coarse * FACTOR - x.shape[1]))  # (B, F + 1, coarse * 8)
+        h = convs(h)  # (B, channels, coarse)
+        return linear(h.flatten(1)).view(x.shape[0], -1, self.latent_dim)
 
     def decode(self, z: Tensor, lengths: Tensor, max_len: int | None = None) -> Tensor:
         """D: z (B, n, d), lengths (B,) -> (B, T, D), T = max_len or max(lengths); pads are 0."""
         self._check_latent(z)
         t = int(lengths.max()) if max_len is None else max_len
         self._check_lengths(lengths, t)
-        h = self.from_tokens(z.flatten(1)).view(z.shape[0], self.channels, self.coarse)
-        out = self.decoder(h)[:, :, :t].transpose(1, 2)  # (B, T, D)
+        if not self.arm_tokens:
+            out = self._decode_part(z, self.from_tokens, self.decoder)  # (B, D, coarse * 8)
+        else:
+            k = self.n_tokens - self.arm_tokens
+            out = torch.cat([self._decode_part(z[:, :k], self.from_tokens, self.decoder),
+                             self._decode_part(z[:, k:], self.arm_from_tokens, self.arm_decoder)],
+                            dim=1)[:, self.order]  # body and arm features back in order
+        out = out[:, :, :t].transpose(1, 2)  # (B, T, D)
         valid = lengths_to_mask(lengths.to(z.device), t)  # (B, T)
         return out.masked_fill(~valid.unsqueeze(-1), 0.0)  # padded frames exactly 0
+
+    def _decode_part(self, z: Tensor, linear: nn.Module, convs: nn.Module) -> Tensor:
+        """z (B, k, d) -> (B, F, coarse * 8)."""
+        h = linear(z.flatten(1)).view(z.shape[0], -1, self.coarse)
+        return convs(h)
