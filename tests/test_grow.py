@@ -137,3 +137,57 @@ def test_growing_needs_the_conv_autoencoder_and_refuses_fewer_tokens(
                          "train.ae.weight_decay=0.01", "train.ae.max_steps=1"])
     checkpoints = tmp_path / "b" / "ae" / "checkpoints"
     assert not checkpoints.is_dir() or latest_checkpoint(checkpoints) is None
+
+
+def test_train_ae_adds_an_arm_pair_keeping_the_encoder_and_the_body(
+        conv_model: tuple[Path, Path, str], tmp_path: Path) -> None:
+    """`train ae --init MODEL ae.n_tokens=3 ae.arm_tokens=1 ae.freeze_encoder=true`: the old
+    encoder and its 2 tokens stay exactly as shipped, the decoder draws the body's columns as
+    before at step 0, the arm pair trains; stage 2 then grows its positions to 3 tokens."""
+    import mlct
+    from mlct.generate.bundle import read_bundle
+    from mlct.nn.build import build_autoencoder
+    from mlct.config import config_from_dict
+    from mlct.train.export import export_run
+
+    model, data, cache = conv_model
+    run = tmp_path / "arms"
+    arms = [cache, "ae.n_tokens=3", "ae.arm_tokens=1", "ae.arm_channels=8",
+            "ae.freeze_encoder=true", "train.ae.lr=1e-2", "train.ae.max_steps=3"]
+    train("ae", data, run, None, progress=False, init=model, overrides=arms)
+    ckpt = load_checkpoint(latest_checkpoint(run / "ae" / "checkpoints"), with_state=False)
+    after, config = ckpt.module_state("ae"), config_from_dict(ckpt.meta["config"], "run")
+    assert config.ae.grown_from == 2 and config.ae.arm_tokens == 1
+    meta, before = read_bundle(model)
+    for key, value in before.items():
+        if key.startswith("ae_encoder."):
+            assert torch.equal(after[key[len("ae_encoder."):]], value)  # old encoder, unmoved
+    assert after["arm_to_tokens.weight"].abs().sum() > 0
+    # at step 0 the body's columns decode as the shipped decoder drew them
+    from mlct.nn.grow import add_arm_pair
+
+    old_config = config_from_dict(meta["config"], "model")
+    old_ae = build_autoencoder(old_config, 263).eval()
+    old_ae.load_state_dict({**{k[len("decoder."):]: v.float() for k, v in before.items()
+                               if k.startswith("decoder.")},
+                            **{k[len("ae_encoder."):]: v.float() for k, v in before.items()
+                               if k.startswith("ae_encoder.")}})
+    new_ae = build_autoencoder(config, 263).eval()
+    new_ae.load_state_dict(add_arm_pair(old_ae.state_dict(), new_ae.state_dict(),
+                                        new_ae.body_columns))
+    x, lengths = torch.randn(2, 40, 263), torch.tensor([40, 17])
+    with torch.no_grad():
+        z_old, z_new = old_ae.encode(x, lengths).z, new_ae.encode(x, lengths).z
+        torch.testing.assert_close(z_new[:, :2], z_old)
+        body = new_ae.body_columns
+        torch.testing.assert_close(new_ae.decode(z_new, lengths)[..., body],
+                                   old_ae.decode(z_old, lengths)[..., body])
+
+    train("cm", data, run, None, progress=False, init=model, ae_path=run,
+          overrides=[cache, "train.cm.max_steps=2"])
+    exported = export_run(run, tmp_path / "arms_model")
+    motion = mlct.load(exported).generate("a person waves", seconds=2.0, seed=0)
+    assert torch.isfinite(torch.as_tensor(motion.joints)).all()
+    with pytest.raises(MlctError, match="needs ae.n_tokens=3"):
+        train("ae", data, tmp_path / "bad", None, progress=False, init=model,
+              overrides=[cache, "ae.n_tokens=4", "ae.arm_tokens=1", "train.ae.max_steps=1"])

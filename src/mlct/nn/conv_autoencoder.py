@@ -13,7 +13,8 @@ positional embeddings.
 Optionally (``ae.arm_tokens`` = a > 0) the arms get their own pair: the features of the collar,
 shoulder, elbow and wrist joints (their root-relative positions, rotations and velocities;
 `arm_feature_columns`) go through a second E of ``arm_channels`` to the last a tokens, and a
-second D draws them from those tokens alone; the first pair does the rest from the first n - a.
+second D draws them from those tokens alone; the first E still sees every feature and its D
+draws the rest from the first n - a tokens.
 Why: of the motions that lay an arm action over a gait, the shared pair drew the gait and only
 the family's average arm (claps that never meet) on the training split as on the test split;
 neither a wider decoder nor oversampling those motions moved it (docs/training.md, "The
@@ -89,7 +90,9 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         body_tokens = n_tokens - arm_tokens
         n_enc = 2 * n_tokens if latent_type == "vae" else body_tokens
 
-        self.encoder, self.to_tokens = self._encoder(len(body), channels, n_enc)
+        # the body's encoder sees every feature (the arms' swing keeps time with the gait); only
+        # its decoder is limited to the body's columns
+        self.encoder, self.to_tokens = self._encoder(feature_dim, channels, n_enc)
         self.from_tokens, self.decoder = self._decoder(body_tokens, channels, len(body))
         if arm_tokens:
             self.arm_encoder, self.arm_to_tokens = self._encoder(len(arm), arm_channels,
@@ -117,7 +120,7 @@ class ConvMotionAutoencoder(LatentAutoencoder):
             tokens = self._encode_part(x, valid, self.encoder, self.to_tokens)  # (B, n_enc, d)
         else:
             tokens = torch.cat([
-                self._encode_part(x[..., self.body_columns], valid, self.encoder, self.to_tokens),
+                self._encode_part(x, valid, self.encoder, self.to_tokens),
                 self._encode_part(x[..., self.arm_columns], valid, self.arm_encoder,
                                   self.arm_to_tokens)], dim=1)  # (B, n, d)
         return latent_of_tokens(tokens, self.latent_type, self.n_tokens, self.levels,

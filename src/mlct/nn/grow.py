@@ -1,4 +1,5 @@
-"""Growing a trained model's latent from n to more tokens (ours; `ae.grown_from`).
+"""Growing a trained model's latent from n to more tokens (ours; `ae.grown_from`), either as
+more tokens of the same pair or as an arm pair of its own (`ae.arm_tokens`; `add_arm_pair`).
 
 Why: three 64-d tokens of the small conv autoencoder hold a clip's gait or an arm action laid
 over it, not both (docs/training.md, "Where the autoencoder's 0.785 comes from"). Retraining a
@@ -64,3 +65,33 @@ def old_token_rows(n_rows: int, old_n: int, new_n: int, latent_dim: int) -> Tens
     mask = torch.zeros(groups, new_n, latent_dim, dtype=torch.bool)
     mask[:, :old_n] = True
     return mask.view(n_rows)
+
+
+ARM_PREFIXES = ("arm_encoder.", "arm_to_tokens.", "arm_from_tokens.", "arm_decoder.")
+
+
+def add_arm_pair(old: dict[str, Tensor], fresh: dict[str, Tensor], body_columns: list[int]
+                 ) -> dict[str, Tensor]:
+    """A conv autoencoder without an arm pair (`old`) in the shapes of one with it (`fresh`,
+    its n old tokens now the body's): the encoder and the n tokens stay exactly as they were
+    (so a stage 2 trained on them keeps its meaning), the decoder keeps its weights but draws
+    only the body's columns (its last convolution's rows for them), and the arm pair starts
+    fresh."""
+    arm = {k for k in fresh if k.startswith(ARM_PREFIXES)}
+    if any(k.startswith(ARM_PREFIXES) for k in old) or set(old) != set(fresh) - arm:
+        raise MlctError("an arm pair is added to a conv autoencoder without one, whose other "
+                        "weights keep their names")
+    last = max(int(k.split(".")[1]) for k in fresh if k.startswith("decoder."))
+    out = {}
+    for key, new in fresh.items():
+        if key in arm:
+            out[key] = new
+            continue
+        was = old[key]
+        if key in (f"decoder.{last}.weight", f"decoder.{last}.bias"):
+            was = was[body_columns]
+        if was.shape != new.shape:
+            raise MlctError(f"cannot add an arm pair: {key} is {tuple(was.shape)}, the network "
+                            f"wants {tuple(new.shape)} (keep ae.channels and the body's tokens)")
+        out[key] = was
+    return out

@@ -208,6 +208,18 @@ def train(stage: str, data_dir: str | Path, out: str | Path, config: Config | No
         distributed.teardown(info)
 
 
+def _adds_arm_pair(old: dict[str, Any], new: Config) -> bool:
+    """Does `train ae --init` give a model without an arm pair one (nn/grow.py add_arm_pair)?"""
+    if not new.ae.arm_tokens or int(old["ae"].get("arm_tokens", 0)):
+        return False
+    if new.ae.n_tokens != int(old["ae"]["n_tokens"]) + new.ae.arm_tokens:
+        raise MlctError(f"an arm pair of {new.ae.arm_tokens} token(s) added to a model of "
+                        f"{old['ae']['n_tokens']} needs ae.n_tokens="
+                        f"{int(old['ae']['n_tokens']) + new.ae.arm_tokens}: its tokens become "
+                        f"the body's")
+    return True
+
+
 def _record_growth(config: Config, old_n: int) -> Config:
     """An autoencoder --init from a model with fewer latent tokens grows it (nn/grow.py): its
     config says from how many, so a resumed run freezes the same encoder rows (0 when the
@@ -253,7 +265,11 @@ class InitialWeights:
     def load_into(self, stage: Stage) -> None:
         weights = self.weights
         old_n, new_n = int(self.config["ae"]["n_tokens"]), stage.config.ae.n_tokens
-        if new_n != old_n:  # a grown latent (nn/grow.py): the autoencoder's or the denoiser's
+        if isinstance(stage, AutoencoderStage) and _adds_arm_pair(self.config, stage.config):
+            from mlct.nn.grow import add_arm_pair  # the new tokens are an arm pair's
+
+            weights = add_arm_pair(weights, stage.model.state_dict(), stage.model.body_columns)
+        elif new_n != old_n:  # a grown latent (nn/grow.py): the autoencoder's or the denoiser's
             from mlct.nn.grow import grow_tokens
 
             network = stage.model if isinstance(stage, AutoencoderStage) else stage.denoiser

@@ -107,10 +107,13 @@ class AutoencoderStage(Stage):
         if config.ae.freeze_encoder:  # its gradients are never computed: AdamW skips them
             from mlct.generate.bundle import ENCODER_PREFIXES
 
+            # an arm pair added to a model (nn/grow.py add_arm_pair) is new: its encoder trains
+            added = (("arm_encoder.", "arm_to_tokens.")
+                     if config.ae.grown_from and config.ae.arm_tokens else ())
             for name, parameter in self.model.named_parameters():
-                if name.startswith(ENCODER_PREFIXES):
+                if name.startswith(ENCODER_PREFIXES) and not (added and name.startswith(added)):
                     parameter.requires_grad_(False)
-            if config.ae.grown_from:
+            if config.ae.grown_from and not added:
                 self._train_new_token_rows(config.ae.grown_from)
 
     def _train_new_token_rows(self, old_n: int) -> None:
