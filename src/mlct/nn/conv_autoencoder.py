@@ -80,13 +80,14 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         self.channels = channels
         self.coarse = -(-max_len // FACTOR)  # grid cells covering max_len frames
         self.arm_tokens = arm_tokens
-        arm = sorted(arm_columns) if arm_tokens and arm_columns else []
-        body = [c for c in range(feature_dim) if c not in set(arm)]
+        arm = sorted(set(arm_columns)) if arm_tokens and arm_columns else []
+        body = sorted(set(range(feature_dim)) - set(arm))
         self.body_columns, self.arm_columns = body, arm
-        # where each feature sits in cat(body, arm): the decoders' outputs put back in order
-        self.order = [0] * feature_dim
-        for position, column in enumerate(body + arm):
-            self.order[column] = position
+        if arm_tokens:  # index tensors built once, not per call; not part of the weights
+            self.register_buffer("arm_index", torch.tensor(arm), persistent=False)
+            # where each feature sits in cat(body, arm): the decoders' outputs put back in order
+            order = torch.argsort(torch.tensor(body + arm))
+            self.register_buffer("feature_order", order, persistent=False)
         body_tokens = n_tokens - arm_tokens
         n_enc = 2 * n_tokens if latent_type == "vae" else body_tokens
 
@@ -121,7 +122,7 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         else:
             tokens = torch.cat([
                 self._encode_part(x, valid, self.encoder, self.to_tokens),
-                self._encode_part(x[..., self.arm_columns], valid, self.arm_encoder,
+                self._encode_part(x.index_select(-1, self.arm_index), valid, self.arm_encoder,
                                   self.arm_to_tokens)], dim=1)  # (B, n, d)
         return latent_of_tokens(tokens, self.latent_type, self.n_tokens, self.levels,
                                 self.training)
@@ -145,7 +146,7 @@ class ConvMotionAutoencoder(LatentAutoencoder):
             k = self.n_tokens - self.arm_tokens
             out = torch.cat([self._decode_part(z[:, :k], self.from_tokens, self.decoder),
                              self._decode_part(z[:, k:], self.arm_from_tokens, self.arm_decoder)],
-                            dim=1)[:, self.order]  # body and arm features back in order
+                            dim=1).index_select(1, self.feature_order)  # features in order
         out = out[:, :, :t].transpose(1, 2)  # (B, T, D)
         valid = lengths_to_mask(lengths.to(z.device), t)  # (B, T)
         return out.masked_fill(~valid.unsqueeze(-1), 0.0)  # padded frames exactly 0
