@@ -30,22 +30,9 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from mlct.errors import MlctError, first_line
+from mlct.motion.body_parts import PARTS, joint_index
+from mlct.motion.body_parts import part_joints as body_part_joints
 from mlct.motion.skeleton import Skeleton
-
-# Named joint sets for body-part edits (HumanML3D's 22 joints); each takes its joints'
-# descendants too, so an edited joint never leaves a kept child hanging from it.
-PARTS: dict[str, tuple[str, ...]] = {
-    "upper": ("spine1",),
-    "lower": ("left_hip", "right_hip"),
-    "legs": ("left_hip", "right_hip"),
-    "arms": ("left_collar", "right_collar"),
-    "left_arm": ("left_collar",),
-    "right_arm": ("right_collar",),
-    "left_leg": ("left_hip",),
-    "right_leg": ("right_hip",),
-    "head": ("neck",),
-}
-
 
 @dataclass(frozen=True)
 class Keyframe:
@@ -170,39 +157,13 @@ def _frames_in_range(values: np.ndarray, frames: int, what: str) -> None:
 # ----------------------------------------------------------------------------- parsing
 
 
-def joint_index(name: Any, skeleton: Skeleton) -> int:
-    """A joint given by name ('left_wrist') or index; MlctError naming the choices."""
-    if isinstance(name, (int, np.integer)) and not isinstance(name, bool):
-        if 0 <= int(name) < skeleton.n_joints:
-            return int(name)
-        raise MlctError(f"joint {name} is not one of the {skeleton.n_joints} joints")
-    if isinstance(name, str) and name.strip().lower() in skeleton.joint_names:
-        return skeleton.joint_names.index(name.strip().lower())
-    raise MlctError(f"unknown joint {name!r}; joints: {', '.join(skeleton.joint_names)}")
-
-
 def part_joints(parts: str | Sequence[str], skeleton: Skeleton) -> tuple[int, ...]:
-    """The joints of named parts ('upper', 'left_arm', ... or joint names), with descendants."""
-    names = [p.strip() for p in parts.split(",")] if isinstance(parts, str) else list(parts)
-    roots: list[int] = []
-    for name in names:
-        if isinstance(name, str) and name.lower() in PARTS:
-            roots += [skeleton.joint_names.index(n) for n in PARTS[name.lower()]]
-        else:
-            try:
-                roots.append(joint_index(name, skeleton))
-            except MlctError:
-                raise MlctError(f"unknown part {name!r}: one of {', '.join(PARTS)} or a joint "
-                                f"name ({', '.join(skeleton.joint_names)})") from None
-    if not roots:
-        raise MlctError("parts is empty: name what the edit changes, e.g. 'upper'")
-    chosen = set(roots)
-    for joint in range(skeleton.n_joints):  # parents come before children in the skeleton
-        if skeleton.parents[joint] in chosen:
-            chosen.add(joint)
+    """The joints an edit makes anew: named parts (motion/body_parts.py) with descendants;
+    never the pelvis, which carries the kept motion's path."""
+    chosen = body_part_joints(parts, skeleton)
     if 0 in chosen:
         raise MlctError("an edit keeps the pelvis (the root): name limbs or 'upper'/'lower'")
-    return tuple(sorted(chosen))
+    return chosen
 
 
 def _array(value: Any, what: str, ndim: int | None = None) -> np.ndarray:

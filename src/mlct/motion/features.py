@@ -48,20 +48,17 @@ def n_joints_for_dim(feature_dim: int) -> int:
     return (feature_dim + 1) // 12
 
 
-ARM_JOINT_WORDS = ("collar", "shoulder", "elbow", "wrist")
-
-
 def arm_feature_columns(feature_dim: int) -> list[int]:
-    """The feature columns of the arm joints (collars, shoulders, elbows, wrists, by the
-    skeleton's joint names): their root-relative positions, rotations and local velocities."""
+    """The feature columns of the arms' joints (motion/body_parts.py 'arms': the collars or
+    shoulders and what hangs from them): their root-relative positions, rotations and local
+    velocities."""
+    from mlct.motion.body_parts import part_joints
     from mlct.motion.skeleton import skeleton_for_dim
 
     skeleton = skeleton_for_dim(feature_dim)
     groups = FeatureLayout(n_joints_for_dim(feature_dim)).groups
     columns = []
-    for joint, name in enumerate(skeleton.joint_names):
-        if joint == 0 or not any(word in name for word in ARM_JOINT_WORDS):
-            continue
+    for joint in part_joints("arms", skeleton):  # never the root, which has no ric/rotation
         columns += [groups["ric"].start + 3 * (joint - 1) + i for i in range(3)]
         columns += [groups["rotations"].start + 6 * (joint - 1) + i for i in range(6)]
         columns += [groups["local_velocity"].start + 3 * joint + i for i in range(3)]
