@@ -143,3 +143,23 @@ def test_config_arm_tokens_needs_the_conv_architecture() -> None:
     config["ae"].update(architecture="conv", arm_tokens=2)
     with pytest.raises(MlctError, match="ae: arm_tokens"):
         build_autoencoder(config_from_dict(config, "test"), 263)
+
+
+def test_bottleneck_mlp_between_grid_and_tokens() -> None:
+    """ae.bottleneck=h: MLPs of hidden width h both ways; the contract is unchanged and every
+    weight learns; the transformer refuses it by name."""
+    torch.manual_seed(0)
+    ae = ConvMotionAutoencoder(D, n_tokens=3, latent_dim=16, channels=24, max_len=60,
+                               bottleneck=32)
+    assert [m.out_features for m in ae.to_tokens if isinstance(m, torch.nn.Linear)] == [32, 48]
+    assert [m.in_features for m in ae.from_tokens if isinstance(m, torch.nn.Linear)] == [48, 32]
+    recon, lat = ae(_batch(), LENGTHS)
+    assert lat.z.shape == (3, 3, 16) and recon.shape == (3, 60, D)
+    assert torch.all(recon[~lengths_to_mask(LENGTHS, 60)] == 0)
+    recon.square().mean().backward()
+    assert all(p.grad is not None and p.grad.abs().sum() > 0 for p in ae.parameters())
+    config = config_from_dict({"ae": {"architecture": "conv", "bottleneck": 64}})
+    assert build_autoencoder(config, D).bottleneck == 64
+    from mlct.errors import MlctError
+    with pytest.raises(MlctError, match="ae.bottleneck needs ae.architecture=conv"):
+        build_autoencoder(config_from_dict({"ae": {"bottleneck": 64}}), D)

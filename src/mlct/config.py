@@ -70,6 +70,9 @@ class AutoencoderConfig(_Section):
     # by a pair of their own, arm_channels wide (0 = one pair for everything; nn/conv_autoencoder.py)
     arm_tokens: int = Field(0, ge=0)
     arm_channels: int = Field(64, ge=1)
+    # conv only: hidden width of a two-layer MLP between the coarse grid and the tokens, both
+    # ways (0 = one Linear each way, as before; nn/conv_autoencoder.py "bottleneck")
+    bottleneck: int = Field(0, ge=0)
     velocity_weight: float = Field(0.0, ge=0.0)  # frame-to-frame feature differences
     # The root's heading (radians) and ground path (metres), integrated from the per-frame
     # velocities: a small per-frame bias the feature loss shrugs at sums to a short turn

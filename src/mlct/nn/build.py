@@ -16,15 +16,16 @@ AnyAutoencoder = LatentAutoencoder  # either architecture
 
 def build_autoencoder(config: Config, feature_dim: int) -> AnyAutoencoder:
     ae = config.ae
-    if ae.arm_tokens and ae.architecture != "conv":
-        raise MlctError("ae.arm_tokens needs ae.architecture=conv")
+    for option in ("arm_tokens", "bottleneck"):
+        if getattr(ae, option) and ae.architecture != "conv":
+            raise MlctError(f"ae.{option} needs ae.architecture=conv")
     if ae.architecture == "conv":
         try:
             return ConvMotionAutoencoder(
                 feature_dim, latent_type=ae.latent_type, n_tokens=ae.n_tokens,
                 latent_dim=ae.latent_dim, levels=ae.levels, channels=ae.channels,
                 max_len=config.data.max_motion_length, arm_tokens=ae.arm_tokens,
-                arm_channels=ae.arm_channels,
+                arm_channels=ae.arm_channels, bottleneck=ae.bottleneck,
                 arm_columns=arm_feature_columns(feature_dim) if ae.arm_tokens else None)
         except ValueError as error:
             raise MlctError(f"ae: {error}") from None

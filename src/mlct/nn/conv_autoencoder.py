@@ -21,6 +21,12 @@ neither a wider decoder nor oversampling those motions moved it (docs/training.m
 autoencoder's concurrent arms"). Root-relative arm features of a clap are the same over a walk
 as standing still, so a pair that sees only them has one motion to draw, not a combination.
 
+Optionally (``ae.bottleneck`` = h > 0) the maps between the coarse grid and the tokens are
+two-layer MLPs of hidden width h instead of one Linear each. Why: with a Linear, the decoder's
+coarse grid is a linear function of the 192 latent numbers, so an event must have its own
+latent directions at each time it may happen, and the gait and an arm's oscillation compete for
+them; a hidden layer can place "a clap at time t" from a few numbers.
+
 Why beside the paper's skip transformer: on this project's 2-core CPU budget (a few epochs of
 the benchmark), the transformer learned the average pose per frame and drew no jump and almost no
 step (pelvis-rise ratio 0.00-0.01 after 600-2,500 steps; docs/training.md). In the same wall time
@@ -66,6 +72,7 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         arm_tokens: int = 0,
         arm_channels: int = 64,
         arm_columns: list[int] | None = None,
+        bottleneck: int = 0,
     ) -> None:
         if channels < 1 or arm_channels < 1:
             raise ValueError("channels and arm_channels must be >= 1")
@@ -78,6 +85,7 @@ class ConvMotionAutoencoder(LatentAutoencoder):
             raise ValueError("arm_tokens needs the arm feature columns (arm_feature_columns)")
         super().__init__(feature_dim, latent_type, n_tokens, latent_dim, levels, max_len)
         self.channels = channels
+        self.bottleneck = bottleneck
         self.coarse = -(-max_len // FACTOR)  # grid cells covering max_len frames
         self.arm_tokens = arm_tokens
         arm = sorted(set(arm_columns)) if arm_tokens and arm_columns else []
@@ -104,12 +112,20 @@ class ConvMotionAutoencoder(LatentAutoencoder):
     def _encoder(self, features: int, channels: int, tokens: int) -> tuple[nn.Module, nn.Module]:
         stem = [nn.Conv1d(features + 1, channels, 3, padding=1), nn.GELU()]
         convs = nn.Sequential(*stem, *[m for _ in range(3) for m in _stage(channels, True)])
-        return convs, nn.Linear(self.coarse * channels, tokens * self.latent_dim)
+        return convs, self._grid_map(self.coarse * channels, tokens * self.latent_dim)
 
     def _decoder(self, tokens: int, channels: int, features: int) -> tuple[nn.Module, nn.Module]:
         convs = nn.Sequential(*[m for _ in range(3) for m in _stage(channels, False)],
                               nn.Conv1d(channels, features, 3, padding=1))
-        return nn.Linear(tokens * self.latent_dim, self.coarse * channels), convs
+        return self._grid_map(tokens * self.latent_dim, self.coarse * channels), convs
+
+    def _grid_map(self, inputs: int, outputs: int) -> nn.Module:
+        """Coarse grid <-> flat tokens: one Linear, or with ``bottleneck`` an MLP whose hidden
+        layer lets one latent direction mean "this event at that time" (see the module doc)."""
+        if not self.bottleneck:
+            return nn.Linear(inputs, outputs)
+        return nn.Sequential(nn.Linear(inputs, self.bottleneck), nn.GELU(),
+                             nn.Linear(self.bottleneck, outputs))
 
     def encode(self, x: Tensor, lengths: Tensor) -> Latent:
         """E: x (B, T, D) normalized features, lengths (B,) -> Latent with z (B, n, d)."""
