@@ -146,18 +146,31 @@ def test_config_arm_tokens_needs_the_conv_architecture() -> None:
 
 
 def test_bottleneck_mlp_between_grid_and_tokens() -> None:
-    """ae.bottleneck=h: MLPs of hidden width h both ways; the contract is unchanged and every
-    weight learns; the transformer refuses it by name."""
+    """ae.bottleneck=h: an MLP of hidden width h beside each Linear, starting at zero (so the
+    model starts as the plain one); the contract is unchanged and every weight learns; the
+    transformer refuses it by name."""
     torch.manual_seed(0)
     ae = ConvMotionAutoencoder(D, n_tokens=3, latent_dim=16, channels=24, max_len=60,
                                bottleneck=32)
-    assert [m.out_features for m in ae.to_tokens if isinstance(m, torch.nn.Linear)] == [32, 48]
-    assert [m.in_features for m in ae.from_tokens if isinstance(m, torch.nn.Linear)] == [48, 32]
+    assert (ae.to_tokens.hidden.out_features, ae.to_tokens.out.out_features) == (32, 48)
+    assert (ae.from_tokens.hidden.in_features, ae.from_tokens.hidden.out_features) == (48, 32)
+    torch.manual_seed(0)
+    plain = ConvMotionAutoencoder(D, n_tokens=3, latent_dim=16, channels=24, max_len=60)
+    plain.to_tokens.load_state_dict(ae.to_tokens.linear.state_dict())
+    plain.from_tokens.load_state_dict(ae.from_tokens.linear.state_dict())
+    plain.encoder.load_state_dict(ae.encoder.state_dict())
+    plain.decoder.load_state_dict(ae.decoder.state_dict())
+    plain.eval(), ae.eval()
+    assert torch.allclose(plain(_batch(), LENGTHS)[0], ae(_batch(), LENGTHS)[0])
+    ae.train()
     recon, lat = ae(_batch(), LENGTHS)
     assert lat.z.shape == (3, 3, 16) and recon.shape == (3, 60, D)
     assert torch.all(recon[~lengths_to_mask(LENGTHS, 60)] == 0)
     recon.square().mean().backward()
-    assert all(p.grad is not None and p.grad.abs().sum() > 0 for p in ae.parameters())
+    # the hidden layers get gradient once their zero output layer has moved: not on step one
+    silent = [n for n, p in ae.named_parameters() if p.grad is None or p.grad.abs().sum() == 0]
+    assert sorted(silent) == ["from_tokens.hidden.bias", "from_tokens.hidden.weight",
+                              "to_tokens.hidden.bias", "to_tokens.hidden.weight"]
     config = config_from_dict({"ae": {"architecture": "conv", "bottleneck": 64}})
     assert build_autoencoder(config, D).bottleneck == 64
     from mlct.errors import MlctError

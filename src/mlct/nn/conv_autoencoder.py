@@ -22,7 +22,7 @@ autoencoder's concurrent arms"). Root-relative arm features of a clap are the sa
 as standing still, so a pair that sees only them has one motion to draw, not a combination.
 
 Optionally (``ae.bottleneck`` = h > 0) the maps between the coarse grid and the tokens are
-two-layer MLPs of hidden width h instead of one Linear each. Why: with a Linear, the decoder's
+one Linear each plus a two-layer MLP of hidden width h beside it. Why: with a Linear, the decoder's
 coarse grid is a linear function of the 192 latent numbers, so an event must have its own
 latent directions at each time it may happen, and the gait and an arm's oscillation compete for
 them; a hidden layer can place "a clap at time t" from a few numbers.
@@ -55,6 +55,23 @@ def _stage(channels: int, down: bool) -> list[nn.Module]:
     else:
         layers += [nn.Conv1d(channels, channels, 3, padding=1), nn.GELU()]
     return layers
+
+
+class _LinearPlusMLP(nn.Module):
+    """y = Linear(x) + W2 GELU(W1 x), W2 starting at zero: the map starts as the plain Linear
+    (a two-layer MLP alone trained 3x slower: val feature loss 0.206 against 0.070 at step
+    4,000) and adds what a hidden layer can express."""
+
+    def __init__(self, inputs: int, outputs: int, hidden: int) -> None:
+        super().__init__()
+        self.linear = nn.Linear(inputs, outputs)
+        self.hidden = nn.Linear(inputs, hidden)
+        self.out = nn.Linear(hidden, outputs)
+        nn.init.zeros_(self.out.weight)
+        nn.init.zeros_(self.out.bias)
+
+    def forward(self, x: Tensor) -> Tensor:
+        return self.linear(x) + self.out(nn.functional.gelu(self.hidden(x)))
 
 
 class ConvMotionAutoencoder(LatentAutoencoder):
@@ -120,12 +137,10 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         return self._grid_map(tokens * self.latent_dim, self.coarse * channels), convs
 
     def _grid_map(self, inputs: int, outputs: int) -> nn.Module:
-        """Coarse grid <-> flat tokens: one Linear, or with ``bottleneck`` an MLP whose hidden
-        layer lets one latent direction mean "this event at that time" (see the module doc)."""
+        """Coarse grid <-> flat tokens: one Linear, plus with ``bottleneck`` an MLP beside it."""
         if not self.bottleneck:
             return nn.Linear(inputs, outputs)
-        return nn.Sequential(nn.Linear(inputs, self.bottleneck), nn.GELU(),
-                             nn.Linear(self.bottleneck, outputs))
+        return _LinearPlusMLP(inputs, outputs, self.bottleneck)
 
     def encode(self, x: Tensor, lengths: Tensor) -> Latent:
         """E: x (B, T, D) normalized features, lengths (B,) -> Latent with z (B, n, d)."""
