@@ -354,6 +354,26 @@ def test_init_starts_from_a_model_for_fine_tuning(trained: Path, data: Path, cac
         train("ae", data, tmp_path / "again", None, overrides=[cache], progress=False, init=old)
 
 
+def test_init_from_an_autoencoder_run_continues_it_with_other_options(
+        trained: Path, data: Path, cache: str, tmp_path: Path) -> None:
+    """train ae --init RUN: a second AE stage (here with latent noise) starts from the first's
+    latest weights, config and normalization; stage 2 does not have to exist yet."""
+    first = load_checkpoint(latest_checkpoint(trained / "ae" / "checkpoints"), with_state=False)
+    run = tmp_path / "noisy"
+    still = ["train.ae.max_steps=1", "train.ae.lr=1e-12", "train.ae.lr_min=0"]
+    train("ae", data, run, None, overrides=[cache, "ae.latent_noise=0.1", *still],
+          progress=False, init=trained / "ae")
+    ckpt = load_checkpoint(latest_checkpoint(run / "ae" / "checkpoints"), with_state=False)
+    for key, value in first.module_state("ae").items():
+        torch.testing.assert_close(ckpt.module_state("ae")[key], value, rtol=0, atol=1e-6)
+    assert torch.equal(ckpt.tensors["norm.mean"], first.tensors["norm.mean"])
+    assert ckpt.meta["config"]["ae"]["latent_noise"] == 0.1
+    assert ckpt.meta["config"]["preset"] == first.meta["config"]["preset"]
+    with pytest.raises(MlctError, match="not an autoencoder run"):
+        train("ae", data, tmp_path / "bad", None, overrides=[cache], progress=False,
+              init=latest_checkpoint(trained / "cm" / "checkpoints"))
+
+
 def test_resume_survives_a_killed_write_and_a_broken_latest(data: Path, cache: str, tiny,
                                                             tmp_path: Path, capsys) -> None:
     """Issue 15: partial folders are removed on the next start; a broken `latest` falls back to

@@ -152,7 +152,8 @@ def add_parser(commands: Commands) -> None:
                              "(default: RUN/ae's latest)")
         parser_.add_argument("--init", default=None, metavar="MODEL_DIR",
                              help="fine-tune: start from a model's config, normalization and "
-                             "weights; 'bundled' = the model that ships with mlct")
+                             "weights; 'bundled' = the model that ships with mlct; for "
+                             "train ae also an autoencoder run (its latest checkpoint)")
         parser_.add_argument("--device", default=None,
                              help="cpu or cuda (default: cuda if available)")
         parser_.add_argument("--quiet", action="store_true", help="no progress bar")

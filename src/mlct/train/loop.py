@@ -148,7 +148,8 @@ def train(stage: str, data_dir: str | Path, out: str | Path, config: Config | No
 
     init: a model bundle (`mlct export`) to start from, for fine-tuning on other data: its
     config (plus `overrides`), its normalization and its weights (the AE for `ae`, the denoiser
-    for `cm` / `diffusion`). `config` is then ignored.
+    for `cm` / `diffusion`). `config` is then ignored. For `ae` it may also be an autoencoder
+    run (its latest checkpoint), to train on with other options.
 
     stop_at: leave after this step (checkpointed) as if interrupted; `resume` continues it
     exactly. For time-sliced jobs, and how the tests check exact resumption.
@@ -252,6 +253,8 @@ class InitialWeights:
         from mlct.generate.samplers import sampler_class
         from mlct.io import strip_prefix
 
+        if stage == "ae" and _is_autoencoder_run(Path(path)):
+            return cls._from_autoencoder_run(Path(path))
         meta, tensors = read_bundle(path)
         if stage == "ae":
             weights = bundle_autoencoder_state(tensors, path)
@@ -261,6 +264,18 @@ class InitialWeights:
             weights = strip_prefix(tensors, "denoiser")
         return cls(Path(path), meta["config"], tensors["norm.mean"], tensors["norm.std"],
                    weights)
+
+    @classmethod
+    def _from_autoencoder_run(cls, path: Path) -> "InitialWeights":
+        """An autoencoder run (RUN, RUN/ae or a checkpoint): its latest weights, config and
+        normalization, so that a later AE stage (latent noise, decoder only) can follow an
+        earlier one before any stage 2 exists to export a model from."""
+        checkpoint = load_checkpoint(find_autoencoder(path, path), with_state=False)
+        if "feature_dim" not in checkpoint.meta or checkpoint.meta.get("stage") != "ae":
+            raise MlctError(f"{path}: not an autoencoder run or checkpoint")
+        norm = checkpoint.module_state("norm")
+        return cls(path, checkpoint.meta["config"], norm["mean"], norm["std"],
+                   checkpoint.module_state("ae"))
 
     def load_into(self, stage: Stage) -> None:
         weights = self.weights
@@ -283,6 +298,12 @@ class InitialWeights:
         except RuntimeError:
             raise MlctError(f"{self.path}: its weights do not fit this stage's network (were "
                             f"the architecture keys overridden?)") from None
+
+
+def _is_autoencoder_run(path: Path) -> bool:
+    """A run, its ae/ folder or a checkpoint of it, rather than an exported model folder."""
+    return any((p / "checkpoints").is_dir() for p in (path, path / "ae")) or (
+        (path / "model.safetensors").is_file() and (path / "state.pt").is_file())
 
 
 def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoint: Any,
