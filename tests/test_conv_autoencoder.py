@@ -176,3 +176,30 @@ def test_bottleneck_mlp_between_grid_and_tokens() -> None:
     from mlct.errors import MlctError
     with pytest.raises(MlctError, match="ae.bottleneck needs ae.architecture=conv"):
         build_autoencoder(config_from_dict({"ae": {"bottleneck": 64}}), D)
+
+
+def test_temporal_tokens_each_hold_their_own_stretch_of_time() -> None:
+    """ae.temporal: token i encodes and draws only its stretch of the clip; changing the motion
+    late in the clip leaves the first token as it was, and the first token draws no late frame."""
+    torch.manual_seed(0)
+    ae = ConvMotionAutoencoder(D, latent_type="plain", n_tokens=3, latent_dim=16, channels=24,
+                               max_len=96, temporal=True).eval()  # 12 cells, 4 a token
+    x = torch.randn(1, 96, D)
+    lengths = torch.tensor([96])
+    late = x.clone()
+    late[:, 80:] += 1.0  # frames 80.. sit in cells 10-11: the third token's stretch
+    z, z_late = ae.encode(x, lengths).z, ae.encode(late, lengths).z
+    assert z.shape == (1, 3, 16)
+    # the encoder's convolutions reach a few frames back, not a whole token's stretch
+    assert torch.allclose(z[:, 0], z_late[:, 0]) and not torch.allclose(z[:, 2], z_late[:, 2])
+    moved = z.clone()
+    moved[:, 0] += 1.0
+    out, out_moved = ae.decode(z, lengths), ae.decode(moved, lengths)
+    changed = (out - out_moved).abs().amax(dim=(0, 2)) > 0  # (T,) frames the first token drew
+    assert changed[:32].all() and not changed[48:].any()
+    recon, _ = ae.train()(x, lengths)
+    recon.square().mean().backward()
+    assert all(p.grad is not None and p.grad.abs().sum() > 0 for p in ae.parameters())
+    with pytest.raises(ValueError, match="temporal tokens go without"):
+        ConvMotionAutoencoder(D, n_tokens=3, latent_dim=16, max_len=96, temporal=True,
+                              bottleneck=8)

@@ -73,6 +73,9 @@ class AutoencoderConfig(_Section):
     # conv only: hidden width of a two-layer MLP between the coarse grid and the tokens, both
     # ways (0 = one Linear each way, as before; nn/conv_autoencoder.py "bottleneck")
     bottleneck: int = Field(0, ge=0)
+    # conv only: token i encodes and draws the i-th stretch of the clip (a time series of
+    # tokens) instead of every token the whole clip (nn/conv_autoencoder.py "temporal")
+    temporal: bool = False
     velocity_weight: float = Field(0.0, ge=0.0)  # frame-to-frame feature differences
     # The root's heading (radians) and ground path (metres), integrated from the per-frame
     # velocities: a small per-frame bias the feature loss shrugs at sums to a short turn

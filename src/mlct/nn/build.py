@@ -16,7 +16,7 @@ AnyAutoencoder = LatentAutoencoder  # either architecture
 
 def build_autoencoder(config: Config, feature_dim: int) -> AnyAutoencoder:
     ae = config.ae
-    for option in ("arm_tokens", "bottleneck"):
+    for option in ("arm_tokens", "bottleneck", "temporal"):
         if getattr(ae, option) and ae.architecture != "conv":
             raise MlctError(f"ae.{option} needs ae.architecture=conv")
     if ae.architecture == "conv":
@@ -26,6 +26,7 @@ def build_autoencoder(config: Config, feature_dim: int) -> AnyAutoencoder:
                 latent_dim=ae.latent_dim, levels=ae.levels, channels=ae.channels,
                 max_len=config.data.max_motion_length, arm_tokens=ae.arm_tokens,
                 arm_channels=ae.arm_channels, bottleneck=ae.bottleneck,
+                temporal=ae.temporal,
                 arm_columns=arm_feature_columns(feature_dim) if ae.arm_tokens else None)
         except ValueError as error:
             raise MlctError(f"ae: {error}") from None

@@ -27,6 +27,12 @@ coarse grid is a linear function of the 192 latent numbers, so an event must hav
 latent directions at each time it may happen, and the gait and an arm's oscillation compete for
 them; a hidden layer can place "a clap at time t" from a few numbers.
 
+Optionally (``ae.temporal``) the tokens are a time series instead: token i encodes and draws
+only the i-th stretch of the grid (a Conv1d / ConvTranspose1d of stride cells / n in place of
+the Linear maps), as the temporal latents of the motion VQ-VAEs are. Why: with a global
+latent, an arm's oscillation over a gait must find latent directions of its own for each time
+it may happen; a token of its own stretch says what happens there, gait and arms together.
+
 Why beside the paper's skip transformer: on this project's 2-core CPU budget (a few epochs of
 the benchmark), the transformer learned the average pose per frame and drew no jump and almost no
 step (pelvis-rise ratio 0.00-0.01 after 600-2,500 steps; docs/training.md). In the same wall time
@@ -74,6 +80,34 @@ class _LinearPlusMLP(nn.Module):
         return self.linear(x) + self.out(nn.functional.gelu(self.hidden(x)))
 
 
+class _GridToTimeTokens(nn.Module):
+    """(B, channels x cells) -> (B, n x d): token i encodes the i-th stretch of ceil(cells / n)
+    grid cells (a strided Conv1d), so each token holds its own part of the clip."""
+
+    def __init__(self, channels: int, cells: int, tokens: int, dim: int) -> None:
+        super().__init__()
+        self.channels, self.cells, self.span = channels, cells, -(-cells // tokens)
+        self.pad = self.span * tokens - cells
+        self.conv = nn.Conv1d(channels, dim, self.span, stride=self.span)
+
+    def forward(self, flat: Tensor) -> Tensor:
+        h = nn.functional.pad(flat.view(flat.shape[0], self.channels, self.cells), (0, self.pad))
+        return self.conv(h).transpose(1, 2).flatten(1)  # (B, n * d), token-major
+
+
+class _TimeTokensToGrid(nn.Module):
+    """(B, n x d) -> (B, channels x cells): token i draws the i-th stretch of the grid."""
+
+    def __init__(self, channels: int, cells: int, tokens: int, dim: int) -> None:
+        super().__init__()
+        self.cells, self.tokens, self.dim, self.span = cells, tokens, dim, -(-cells // tokens)
+        self.conv = nn.ConvTranspose1d(dim, channels, self.span, stride=self.span)
+
+    def forward(self, flat: Tensor) -> Tensor:
+        z = flat.view(flat.shape[0], self.tokens, self.dim).transpose(1, 2)  # (B, d, n)
+        return self.conv(z)[:, :, :self.cells].flatten(1)
+
+
 class ConvMotionAutoencoder(LatentAutoencoder):
     """Convolutional E, D with a quantized (Eq. 8), VAE or plain latent of n x d."""
 
@@ -90,6 +124,7 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         arm_channels: int = 64,
         arm_columns: list[int] | None = None,
         bottleneck: int = 0,
+        temporal: bool = False,
     ) -> None:
         if channels < 1 or arm_channels < 1:
             raise ValueError("channels and arm_channels must be >= 1")
@@ -98,11 +133,14 @@ class ConvMotionAutoencoder(LatentAutoencoder):
                              f"tokens, got {arm_tokens}")
         if arm_tokens and latent_type == "vae":
             raise ValueError("arm_tokens supports the quantized and plain latents, not the VAE")
+        if temporal and (arm_tokens or bottleneck or latent_type == "vae"):
+            raise ValueError("temporal tokens go without arm_tokens, bottleneck and the VAE")
         if arm_tokens and not arm_columns:
             raise ValueError("arm_tokens needs the arm feature columns (arm_feature_columns)")
         super().__init__(feature_dim, latent_type, n_tokens, latent_dim, levels, max_len)
         self.channels = channels
         self.bottleneck = bottleneck
+        self.temporal = temporal
         self.coarse = -(-max_len // FACTOR)  # grid cells covering max_len frames
         self.arm_tokens = arm_tokens
         arm = sorted(set(arm_columns)) if arm_tokens and arm_columns else []
@@ -129,11 +167,15 @@ class ConvMotionAutoencoder(LatentAutoencoder):
     def _encoder(self, features: int, channels: int, tokens: int) -> tuple[nn.Module, nn.Module]:
         stem = [nn.Conv1d(features + 1, channels, 3, padding=1), nn.GELU()]
         convs = nn.Sequential(*stem, *[m for _ in range(3) for m in _stage(channels, True)])
+        if self.temporal:
+            return convs, _GridToTimeTokens(channels, self.coarse, tokens, self.latent_dim)
         return convs, self._grid_map(self.coarse * channels, tokens * self.latent_dim)
 
     def _decoder(self, tokens: int, channels: int, features: int) -> tuple[nn.Module, nn.Module]:
         convs = nn.Sequential(*[m for _ in range(3) for m in _stage(channels, False)],
                               nn.Conv1d(channels, features, 3, padding=1))
+        if self.temporal:
+            return _TimeTokensToGrid(channels, self.coarse, tokens, self.latent_dim), convs
         return self._grid_map(tokens * self.latent_dim, self.coarse * channels), convs
 
     def _grid_map(self, inputs: int, outputs: int) -> nn.Module:
