@@ -1,12 +1,14 @@
 """Training throughput (samples/s) and peak memory of each stage, at preset sizes.
 
     python bench/train_speed.py [--presets small humanml3d] [--stages ae cm diffusion]
-                                [--steps 5] [--device cpu|cuda]
+                                [--steps 5] [--device cpu|cuda] [--precision auto fp32 bf16]
 
 Each (preset, stage) runs in its own process on synthetic batches of the real shapes (motion
 crops of 196 frames, 263-d features, 384-d text embeddings), so the figures are the model's and
 the optimizer's, not the disk's. Peak memory: the process's max RSS on CPU, the allocator's
-peak on CUDA. One warm-up step is not timed.
+peak on CUDA. One warm-up step is not timed. --precision as train.*.precision ('auto': bf16
+autocast on CUDA, float32 on CPU); several values time each one and print the ratios to the
+first, in the same run (on a CPU with avx512_bf16, bf16 autocast is the recipe's choice).
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ import sys
 import time
 
 
-def _run_one(preset: str, stage: str, steps: int, device: str) -> dict:
+def _run_one(preset: str, stage: str, steps: int, device: str, precision: str) -> dict:
     import torch
 
     from mlct.config import load_config
@@ -74,7 +76,7 @@ def _run_one(preset: str, stage: str, steps: int, device: str) -> dict:
                 return diffusion_training_loss(model, x0, cond, null, schedule)["loss"]
         assert (n, d) == ae.latent_shape
     optimizer = torch.optim.AdamW(model.parameters(), lr=1e-4)
-    use_bf16 = dev.type == "cuda"
+    use_bf16 = precision == "bf16" or (precision == "auto" and dev.type == "cuda")
 
     def one_step():
         with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=use_bf16):
@@ -102,7 +104,7 @@ def _run_one(preset: str, stage: str, steps: int, device: str) -> dict:
     return {"preset": preset, "stage": stage, "batch": batch, "params_m": params / 1e6,
             "s_per_step": seconds, "samples_per_s": batch / seconds, "peak_mb": peak_mb,
             "rss_before_mb": rss_before / 1024, "threads": torch.get_num_threads(),
-            "device": device}
+            "device": device, "precision": "bf16" if use_bf16 else "fp32"}
 
 
 def main() -> None:
@@ -111,23 +113,33 @@ def main() -> None:
     parser.add_argument("--stages", nargs="+", default=["ae", "cm", "diffusion"])
     parser.add_argument("--steps", type=int, default=5)
     parser.add_argument("--device", default="cpu")
-    parser.add_argument("--one", nargs=2, help=argparse.SUPPRESS)  # child process
+    parser.add_argument("--precision", nargs="+", default=["auto"],
+                        choices=["auto", "fp32", "bf16"])
+    parser.add_argument("--one", nargs=3, help=argparse.SUPPRESS)  # child process
     args = parser.parse_args()
     if args.one:
-        print(json.dumps(_run_one(args.one[0], args.one[1], args.steps, args.device)))
+        print(json.dumps(_run_one(args.one[0], args.one[1], args.steps, args.device,
+                                  args.one[2])))
         return
     rows = []
     for preset in args.presets:
         for stage in args.stages:
-            out = subprocess.run([sys.executable, __file__, "--one", preset, stage, "--steps",
-                                  str(args.steps), "--device", args.device],
-                                 capture_output=True, text=True, check=True)
-            rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
-            r = rows[-1]
-            print(f"{r['preset']:>10} {r['stage']:>9}  batch {r['batch']:>3}  "
-                  f"{r['params_m']:6.2f} M params  {r['s_per_step']:7.3f} s/step  "
-                  f"{r['samples_per_s']:8.1f} samples/s  peak {r['peak_mb']:7.0f} MB  "
-                  f"({r['device']}, {r['threads']} threads)", flush=True)
+            first = None
+            for precision in args.precision:
+                out = subprocess.run([sys.executable, __file__, "--one", preset, stage,
+                                      precision, "--steps", str(args.steps), "--device",
+                                      args.device], capture_output=True, text=True, check=True)
+                r = json.loads(out.stdout.strip().splitlines()[-1])
+                first = first or r
+                ratio = (f"  {r['samples_per_s'] / first['samples_per_s']:.2f}x {first['precision']}"
+                         if r is not first else "")
+                print(f"{r['preset']:>10} {r['stage']:>9}  batch {r['batch']:>3}  "
+                      f"{r['params_m']:6.2f} M params  {r['s_per_step']:7.3f} s/step  "
+                      f"{r['samples_per_s']:8.1f} samples/s  peak {r['peak_mb']:7.0f} MB  "
+                      f"({r['device']}, {r['threads']} threads, {r['precision']}){ratio}",
+                      flush=True)
+                if precision == args.precision[0]:
+                    rows.append(r)
     by = {(r["preset"], r["stage"]): r for r in rows}
     for stage in args.stages:
         if ("small", stage) in by and ("humanml3d", stage) in by:
