@@ -23,15 +23,7 @@ set -euo pipefail
 work="${1:-mlct-bundled}"
 seed="${2:-0}"
 repo="$(cd "$(dirname "$0")/.." && pwd)"
-stage() {  # stage RUN NAME ARGS...: train, or resume when the stage already has checkpoints
-    local run="$1" name="$2"; shift 2
-    local data="${DATA:-$work/synth}"  # DATA=DIR stage ...: another dataset
-    if ls "$work/$run/$name/checkpoints"/step-* >/dev/null 2>&1; then
-        mlct train "$name" --data "$data" --out "$work/$run" --resume
-    else
-        mlct train "$name" --data "$data" --out "$work/$run" "$@"
-    fi
-}
+source "$(dirname "$0")/recipe_stage.sh"
 [ -f "$work/synth/synth.json" ] || mlct data synth --out "$work/synth" --num 4000 --seed 0 --workers 2
 stage run ae --config small
 stage run cm --config small "train.cm.seed=$seed"

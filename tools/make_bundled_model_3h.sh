@@ -20,18 +20,7 @@
 set -euo pipefail
 work="${1:-mlct-bundled-3h}"
 seed="${2:-0}"
-stage() {  # stage RUN NAME ARGS...: train, or resume when the stage already has checkpoints
-    local run="$1" name="$2"; shift 2
-    local data="${DATA:-$work/synth}"  # DATA=DIR stage ...: another dataset
-    local ae=()  # AE=RUN stage ...: stage 2 on that autoencoder, when resumed too
-    [ -n "${AE:-}" ] && ae=(--ae "$AE")
-    if ls "$work/$run/$name/checkpoints"/step-* >/dev/null 2>&1; then
-        mlct train "$name" --data "$data" --out "$work/$run" "${ae[@]}" --resume
-    else
-        mlct train "$name" --data "$data" --out "$work/$run" "${ae[@]}" "$@"
-    fi
-}
-stamp() { echo "[$(date -u +%H:%M:%S)] $*"; }
+source "$(dirname "$0")/recipe_stage.sh"
 stamp data
 [ -f "$work/synth/synth.json" ] || mlct data synth --out "$work/synth" --num 4000 --seed 0 --workers 2
 [ -f "$work/synth_rich/synth.json" ] || mlct data rephrase "$work/synth" --out "$work/synth_rich"

@@ -1,0 +1,37 @@
+"""The bundled-model recipes (tools/make_bundled_model*.sh): they parse, and their shared
+`stage` trains a stage anew or resumes it, keeping the data and autoencoder it was given."""
+
+import subprocess
+from pathlib import Path
+
+import pytest
+
+TOOLS = Path(__file__).resolve().parents[1] / "tools"
+
+
+@pytest.mark.parametrize("script", ["make_bundled_model.sh", "make_bundled_model_3h.sh"])
+def test_recipe_parses(script):
+    subprocess.run(["bash", "-n", str(TOOLS / script)], check=True)
+
+
+def _stage(tmp_path: Path, env: str, args: str) -> str:
+    """Run `stage ARGS` with a stand-in `mlct` that prints its arguments."""
+    fake = tmp_path / "bin"
+    fake.mkdir(exist_ok=True)
+    (fake / "mlct").write_text('#!/usr/bin/env bash\necho "mlct $*"\n')
+    (fake / "mlct").chmod(0o755)
+    script = (f'set -euo pipefail; export PATH="{fake}:$PATH"; work="{tmp_path}/w"; '
+              f'source "{TOOLS}/recipe_stage.sh"; {env} stage {args}')
+    return subprocess.run(["bash", "-c", script], check=True, capture_output=True,
+                          text=True).stdout.strip()
+
+
+def test_stage_trains_then_resumes_with_its_data_and_autoencoder(tmp_path):
+    w = tmp_path / "w"
+    first = _stage(tmp_path, f'DATA="{w}/rich" AE="{w}/noise"', "cm cm --config small x=1")
+    assert first == f"mlct train cm --data {w}/rich --out {w}/cm --ae {w}/noise --config small x=1"
+    (w / "cm" / "cm" / "checkpoints" / "step-00000250").mkdir(parents=True)
+    again = _stage(tmp_path, f'DATA="{w}/rich" AE="{w}/noise"', "cm cm --config small x=1")
+    assert again == f"mlct train cm --data {w}/rich --out {w}/cm --ae {w}/noise --resume"
+    plain = _stage(tmp_path, "", "run ae --config small")
+    assert plain == f"mlct train ae --data {w}/synth --out {w}/run --config small"
