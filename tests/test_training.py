@@ -372,6 +372,10 @@ def test_init_from_an_autoencoder_run_continues_it_with_other_options(
     with pytest.raises(MlctError, match="not an autoencoder run"):
         train("ae", data, tmp_path / "bad", None, overrides=[cache], progress=False,
               init=latest_checkpoint(trained / "cm" / "checkpoints"))
+    with pytest.raises(MlctError, match="not with ae.temporal or ae.bottleneck"):
+        train("ae", data, tmp_path / "grow", None, progress=False, init=trained / "ae",
+              overrides=[cache, "ae.architecture=conv", "ae.temporal=true",
+                         f"ae.n_tokens={first.meta['config']['ae']['n_tokens'] + 1}"])
 
 
 def test_resume_survives_a_killed_write_and_a_broken_latest(data: Path, cache: str, tiny,

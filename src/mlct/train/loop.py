@@ -29,8 +29,9 @@ from mlct.errors import MlctError
 from mlct.io import write_text
 from mlct.train import distributed
 from mlct.train.batches import fixed_batches, step_loader
-from mlct.train.checkpoint import (intact_checkpoints, latest_checkpoint, load_checkpoint,
-                                   remove_partial_writes, resume_checkpoint, save_checkpoint)
+from mlct.train.checkpoint import (STATE, WEIGHTS, intact_checkpoints, latest_checkpoint,
+                                   load_checkpoint, remove_partial_writes, resume_checkpoint,
+                                   save_checkpoint)
 from mlct.train.stages import (AutoencoderStage, ConsistencyStage, DiffusionStage, Stage,
                                TextTable, find_autoencoder)
 
@@ -270,7 +271,7 @@ class InitialWeights:
         """An autoencoder run (RUN, RUN/ae or a checkpoint): its latest weights, config and
         normalization, so that a later AE stage (latent noise, decoder only) can follow an
         earlier one before any stage 2 exists to export a model from."""
-        checkpoint = load_checkpoint(find_autoencoder(path, path), with_state=False)
+        checkpoint = load_checkpoint(find_autoencoder(path, ae_path=path), with_state=False)
         if "feature_dim" not in checkpoint.meta or checkpoint.meta.get("stage") != "ae":
             raise MlctError(f"{path}: not an autoencoder run or checkpoint")
         norm = checkpoint.module_state("norm")
@@ -286,6 +287,12 @@ class InitialWeights:
             weights = add_arm_pair(weights, stage.model.state_dict(), stage.model.body_columns)
         elif new_n != old_n:  # a grown latent (nn/grow.py): the autoencoder's or the denoiser's
             from mlct.nn.grow import grow_tokens
+
+            ae = stage.config.ae
+            if isinstance(stage, AutoencoderStage) and (ae.temporal or ae.bottleneck):
+                # grow_tokens knows the Linear maps' token rows, not a strided conv's or an MLP's
+                raise MlctError("a latent grows (ae.n_tokens) with the conv autoencoder's plain "
+                                "Linear maps only, not with ae.temporal or ae.bottleneck")
 
             network = stage.model if isinstance(stage, AutoencoderStage) else stage.denoiser
             weights = grow_tokens(weights, network.state_dict(), old_n, new_n,
@@ -303,7 +310,7 @@ class InitialWeights:
 def _is_autoencoder_run(path: Path) -> bool:
     """A run, its ae/ folder or a checkpoint of it, rather than an exported model folder."""
     return any((p / "checkpoints").is_dir() for p in (path, path / "ae")) or (
-        (path / "model.safetensors").is_file() and (path / "state.pt").is_file())
+        (path / WEIGHTS).is_file() and (path / STATE).is_file())
 
 
 def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoint: Any,
