@@ -20,8 +20,9 @@ SRC = Path(mlct.__file__).resolve().parent  # src/mlct
 # the units of one layer are siblings and do not import each other.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("errors",),  # MlctError and the one-line helper
-    # files written atomically, device choice, the typed config, ONNX graphs written and run
-    ("io", "devices", "config", "onnx_io"),
+    # files written atomically, device choice, the typed config, ONNX graphs written and run,
+    # CUDA graphs captured and replayed
+    ("io", "devices", "config", "onnx_io", "cuda_graphs"),
     ("motion",),  # skeletons, features <-> joints, BVH, rendering
     ("data",),  # the dataset layout, captions, statistics, torch datasets, the benchmark
     ("text",),  # frozen text encoders and their cache

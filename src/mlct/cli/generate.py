@@ -116,8 +116,8 @@ def add_parser(commands: Commands) -> None:
                           help="precision of the networks' products (docs/performance.md)")
     generate.add_argument("--backend", default="auto",
                           help="auto (default: onnx on the CPU when onnxruntime is installed, "
-                          "else torch; --verbose says which), torch, or onnx: ONNX Runtime on "
-                          "the CPU")
+                          "cuda-graphs on a GPU, else torch; --verbose says which), torch, "
+                          "onnx (ONNX Runtime on the CPU) or cuda-graphs (a GPU)")
     generate.add_argument("--whole-prompt", action="store_true",
                           help="give the model a prompt that names actions in sequence ('walks, "
                                "then waves') as one text, instead of one part per action, chained")

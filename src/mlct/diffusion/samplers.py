@@ -74,11 +74,13 @@ def sample_ddim(model: DenoiseFn, x: Tensor, times: Tensor, schedule: VPSchedule
     """Deterministic DDIM (first-order, Eq. 12) from x at times[0] to times[-1] = 0.
     guide: a correction of each step's clean estimate x0 (sampling-time control)."""
     x0 = x
-    for t, s in zip(times[:-1], times[1:]):
+    last = len(times) - 2  # the step to times[-1] = 0 lands on x0: no solver step after it
+    for k, (t, s) in enumerate(zip(times[:-1], times[1:])):
         x0 = model(x, t.expand(x.shape[0]))
         if clamp is not None:
             x0 = x0.clamp(-clamp, clamp)
         if guide is not None:
             x0 = guide(x0) if clamp is None else guide(x0).clamp(-clamp, clamp)
-        x = x0 if s == 0 else dpm_solver_1_step(x, x0, t, s, schedule)
+        if k < last:  # by index, not by reading s: a CUDA graph cannot read the device
+            x = dpm_solver_1_step(x, x0, t, s, schedule)
     return x0

@@ -4,7 +4,7 @@ backend that can run the model here, and one line saying which and why (`--verbo
 The onnx backend when ONNX Runtime is installed, the model runs on the CPU in float32 and its
 text encoder has an ONNX graph: at batch 1 it is 1.3-2x faster than eager PyTorch on the
 bundled model (docs/performance.md) and gives the same motions for the same seeds (within
-0.01 mm; tests/test_onnx.py). Otherwise the torch backend (a GPU, bfloat16, another text
+0.01 mm; tests/test_onnx.py). On a CUDA device the cuda-graphs backend. Otherwise the torch backend (a GPU, bfloat16, another text
 encoder, no onnxruntime). MLCT_BACKEND=torch|onnx overrides the choice.
 
 Where the graphs come from: MODEL_DIR/onnx/ when `mlct convert` put them there; else the
@@ -37,6 +37,9 @@ def choose_backend(path: Path, device: Any, dtype: Any) -> tuple[str, Path | Non
     """(backend, the directory of its ONNX graphs or None, why) for model directory `path`."""
     from mlct.devices import resolve_device
 
+    if device is not None and resolve_device(device).type == "cuda":
+        return "cuda-graphs", None, (f"the model runs on {device}, where launching kernels one "
+                                     "by one costs more than their arithmetic")
     if device is not None and resolve_device(device).type != "cpu":
         return "torch", None, f"the model runs on {device}"
     if dtype not in ("float32", torch.float32):

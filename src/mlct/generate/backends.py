@@ -2,6 +2,7 @@
 
 - torch: the networks in PyTorch (mlct.nn.inference's layers), on the CPU or a GPU, float32 or
   bfloat16 products (pipeline.py);
+- cuda-graphs: the torch pipeline on a GPU, replayed from CUDA graphs (cuda_graph_backend.py);
 - onnx: the same pipeline with the three networks as ONNX graphs run by ONNX Runtime on the CPU
   (onnx_backend.py; the graphs come from `mlct convert MODEL_DIR --onnx` or the cache);
 - auto (the default): the fastest of them that can run the model here (auto_backend.py).
@@ -17,12 +18,14 @@ import torch
 
 from mlct.errors import MlctError
 from mlct.generate.auto_backend import ENV, choose_backend
+from mlct.generate.cuda_graph_backend import CudaGraphMotionGenerator
 from mlct.generate.onnx_backend import OnnxMotionGenerator
 from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
 
 BACKENDS: dict[str, Callable[..., MotionGenerator]] = {
     "torch": MotionGenerator.load,
     "onnx": OnnxMotionGenerator.load,
+    "cuda-graphs": CudaGraphMotionGenerator.load,
 }
 
 
@@ -54,6 +57,8 @@ def load(path: str | os.PathLike | None = None, device: torch.device | str | Non
             generator = OnnxMotionGenerator.load(folder, device, dtype, graphs=graphs)
         except MlctError as err:  # e.g. a graph ONNX Runtime cannot load: torch still can
             chosen, why = "torch", f"the onnx backend failed to load ({err})"
+    if chosen == "cuda-graphs":
+        generator = CudaGraphMotionGenerator.load(folder, device, dtype)
     if chosen == "torch":
         generator = MotionGenerator.load(folder, device, dtype)
     generator.backend_note = f"{chosen} (auto: {why})"

@@ -186,8 +186,8 @@ class MotionGenerator:
         lens = torch.tensor(list(lengths), device=self.device)
         z = z / self.config.schedule.latent_scale  # back to the autoencoder's latent
         feats = self.ae.decode(z, lens, max(lengths))  # (B, T, D) normalized
-        feats = feats.float().cpu() * self.std + self.mean
-        return [feats[i, :n].numpy() for i, n in enumerate(lengths)]
+        feats = (feats.float().cpu() * self.std + self.mean).numpy()
+        return [feats[i, :n] for i, n in enumerate(lengths)]  # numpy views: cheap per item
 
     def sample_features(self, cond: Tensor, nfe: int | None, seed: int | Sequence[int] | None,
                         guidance: float | None, lengths: Sequence[int]) -> list[np.ndarray]:

@@ -24,7 +24,7 @@ not the condition token alone: a short CPU run learns the text far faster (docs/
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import torch
 import torch.nn.functional as F
@@ -53,6 +53,10 @@ class ConditionCache:
     text_emb: Tensor  # (B, text_dim) the condition the terms were computed for
     text: list[Tensor]  # W_c,i LN(c) of every block i: `layers` x (B, width)
     times: dict[float, list[Tensor]]  # t -> W_t,i sinusoid(t), `layers` x (1, width); CPU only
+    # On a GPU: the same terms of each of `times` in order, taken one per forward call (the
+    # samplers evaluate the network once per time, in order): no read of t from the device,
+    # which a CUDA graph could not do and which would otherwise stall every step.
+    in_order: list[list[Tensor]] = field(default_factory=list)
 
 
 class Denoiser(nn.Module):
@@ -135,17 +139,16 @@ class Denoiser(nn.Module):
     def condition_terms(self, text_emb: Tensor, times: Tensor) -> ConditionCache:
         """The text terms of text_emb and the time terms of each of `times` (the times a
         sampler evaluates the network at), for forward's `cache`. Inference only: the terms
-        carry no gradient. The time terms are looked up by reading t, so they are kept on the
-        CPU only (on a GPU the lookup would wait for the device at every step)."""
+        carry no gradient. On the CPU the time terms are looked up by t; on a GPU, where reading
+        t would wait for the device at every step, they are taken in the order of `times`."""
         times = times.reshape(-1)
         with torch.no_grad():
             text = self.text_terms(text_emb)
-            steps: dict[float, list[Tensor]] = {}
-            if times.device.type == "cpu":
-                terms = self.time_terms(times, text[0].dtype)  # `layers` x (K, width)
-                steps = {v: [term[k : k + 1] for term in terms]
-                         for k, v in enumerate(times.tolist())}
-        return ConditionCache(text_emb, text, steps)
+            terms = self.time_terms(times, text[0].dtype)  # `layers` x (K, width)
+            rows = [[term[k : k + 1] for term in terms] for k in range(len(times))]
+        if times.device.type == "cpu":
+            return ConditionCache(text_emb, text, dict(zip(times.tolist(), rows)))
+        return ConditionCache(text_emb, text, {}, rows)
 
     def forward(self, x_t: Tensor, t: Tensor, text_emb: Tensor,
                 cache: ConditionCache | None = None) -> Tensor:
@@ -167,7 +170,9 @@ class Denoiser(nn.Module):
         t = torch.as_tensor(t, device=x_t.device).reshape(-1).expand(b)  # (B,)
         text = cache.text if cache is not None else self.text_terms(text_emb.to(x_t.dtype))
         time = None
-        if cache is not None and cache.times and bool((t == t[0]).all()):
+        if cache is not None and cache.in_order:
+            time = cache.in_order.pop(0)  # this call's time, by the samplers' order
+        elif cache is not None and cache.times and bool((t == t[0]).all()):
             time = cache.times.get(float(t[0]))  # (1, w) each, broadcast over the batch
         if time is None:
             time = self.time_terms(t, x_t.dtype)

@@ -31,12 +31,17 @@ _MEAN_POOLING = {"pooling_mode_mean_tokens": True, "pooling_mode_cls_token": Fal
 _DEFAULT_MAX_SEQ_LENGTH = 256  # sentence-transformers' default when the model names none
 
 
+GRAPH_TOKEN_STEP = 16  # caption lengths are padded to a multiple of this under CUDA graphs
+
+
 class MiniLMEncoder(TextEncoder):
     """A BERT sentence-transformers directory with mean pooling and normalisation, in plain torch.
 
     encode -> (B, D) unit vectors (side-contrasted by text/sides.py for 'minilm+sides'), or with `token_slots` K > 0, (B, (1 + K) D): the pooled vector
     then the first K token states ([CLS] first), zero rows past the caption's end.
     """
+
+    _graphs: Any = None  # a GraphCache once use_cuda_graphs() is called
 
     def __init__(
         self,
@@ -79,6 +84,7 @@ class MiniLMEncoder(TextEncoder):
         tokenizer.no_padding()
         tokenizer.enable_truncation(max_length)
         self.tokenizer = tokenizer
+        self.max_length = max_length  # tokens per caption, [CLS] and [SEP] included
         self.device = torch.device("cpu" if device is None else device)
         self.name = name
         self.path = path
@@ -114,7 +120,28 @@ class MiniLMEncoder(TextEncoder):
 
     def _run(self, ids: Tensor, mask: Tensor) -> tuple[Tensor, Tensor]:
         """Token ids and mask (b, L) -> the unit sentence vectors (b, D), the states (b, L, D)."""
-        return self.network(ids, mask)
+        if self._graphs is None:
+            return self.network(ids, mask)
+        # Padded to a bucket of rows and tokens so that a few graphs serve every caption: the
+        # padded tokens are masked out of attention and pooling, the padded rows (copies of
+        # the first) are dropped.
+        b, n = ids.shape
+        rows = 1 << (b - 1).bit_length()
+        tokens = min(-(-n // GRAPH_TOKEN_STEP) * GRAPH_TOKEN_STEP, self.max_length)
+        ids = torch.cat([ids, ids[:1].expand(rows - b, -1)])
+        mask = torch.cat([mask, mask[:1].expand(rows - b, -1)])
+        ids = torch.nn.functional.pad(ids, (0, tokens - n))
+        mask = torch.nn.functional.pad(mask, (0, tokens - n))
+        pooled, states = self._graphs(None, ids, mask)
+        return pooled[:b].clone(), states[:b, :n].clone()
+
+    def use_cuda_graphs(self, max_graphs: int = 16) -> None:
+        """Run the network from CUDA graphs (cuda_graphs.py), one per bucket of batch size
+        (a power of two) and caption length (a multiple of GRAPH_TOKEN_STEP): at batch 1 on a
+        GPU it is launch-bound, ~100 kernels. On the CPU the same padded path runs eagerly."""
+        from mlct.cuda_graphs import GraphCache
+
+        self._graphs = GraphCache(lambda _, ids, mask: self.network(ids, mask), max_graphs)
 
     def _pad(self, ids: list[list[int]]) -> tuple[Tensor, Tensor]:
         """Right-pad token ids to the batch's longest: (b, L) ids and (b, L) 0/1 mask."""

@@ -85,6 +85,12 @@ class Sampler(ABC):
             raise MlctError(f"nfe must be within 1..{self.max_steps}, got {steps}")
         return steps
 
+    def noise_draws(self, steps: int) -> int:
+        """How many draws of fresh noise, each of x_T's shape, a run of `steps` makes after
+        x_T, in order (a CUDA graph takes them all as one input): none, for a deterministic
+        sampler."""
+        return 0
+
     def noise(self, shape: tuple[int, ...], generator: Generators = None) -> Tensor:
         """x_T ~ N(0, I) of `shape` (B, n, d) on the sampler's device, float32 (see draw_noise)."""
         return draw_noise(shape, generator, torch.empty(0, device=self.device))

@@ -45,6 +45,9 @@ class ConsistencySampler(Sampler):
     def guidance(self, scale: float | None = None) -> float:
         return self._trained_guidance  # w is trained in; a scale given here does not apply
 
+    def noise_draws(self, steps: int) -> int:
+        return steps - 1  # Algorithm 2 re-noises before every step but the first
+
     def times(self, steps: int) -> Tensor:
         return sampling_times(self.grid, steps)  # (K,)
 
