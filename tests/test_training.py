@@ -535,3 +535,35 @@ def test_trajectory_term_reads_the_turned_angle(tiny) -> None:
                                                   _root_trajectory(target))
     torch.testing.assert_close(out["trajectory"], expected)
     assert out["trajectory"] > 1e-3
+
+
+def test_joint_beta_makes_a_missed_hand_cost_its_size(tiny) -> None:
+    """ae.joint_beta: the joint term's smooth-L1 beta in metres. With the default 1 a wrist
+    15 cm off costs 0.5 x 0.15^2; with 0.02 it costs 0.15 - 0.01, its size."""
+    from mlct.config import config_from_dict
+    from mlct.motion.features import recover_from_ric
+    from mlct.motion.skeleton import FeatureLayout
+    from mlct.train.stages import AutoencoderStage
+
+    frames = 20
+    target = torch.zeros(1, frames, 263)
+    target[..., 3] = 0.9
+    moved = target.clone()
+    wrist = 20  # left wrist: its root-relative position is ric joint 20 - 1
+    ric = FeatureLayout(22).groups["ric"]
+    moved[..., ric.start + 3 * (wrist - 1)] += 0.15
+    gap = (recover_from_ric(moved) - recover_from_ric(target)).abs()
+    assert gap.max().item() == pytest.approx(0.15, abs=1e-5)  # one coordinate of one joint
+    costs = {}
+    for beta in (1.0, 0.02):
+        config = tiny.to_dict()
+        config["ae"].update(joint_beta=beta, hold_extension=0.0)
+        stage = AutoencoderStage(config_from_dict(config), torch.device("cpu"), torch.zeros(263),
+                                 torch.ones(263), "humanml3d")
+        _, latent = stage.model(target, torch.tensor([frames]))
+        stage.model.forward = lambda *a: (moved, latent)
+        costs[beta] = stage.loss(stage.model, {"motion": target, "length": torch.tensor([frames])}
+                                 )["joint"].item()
+    per_value = 1 / (22 * 3)  # the term averages over the joints' coordinates
+    assert costs[1.0] == pytest.approx(0.5 * 0.15**2 * per_value, rel=1e-3)
+    assert costs[0.02] == pytest.approx((0.15 - 0.01) * per_value, rel=1e-3)

@@ -61,6 +61,10 @@ class AutoencoderConfig(_Section):
     ff_dim: int = Field(1024, ge=1)
     dropout: float = Field(0.1, ge=0.0, lt=1.0)
     joint_weight: float = Field(1e-3, ge=0.0)  # lambda_j (Eq. 9)
+    # Ours: the smooth-L1 beta of the joint term, in metres. 1 (the default) is quadratic for
+    # any error a body makes, so a 15 cm miss of a clapping hand costs ~0.01; a few cm makes
+    # the term L1-like, so such misses cost their size (docs/training.md "The joint term").
+    joint_beta: float = Field(1.0, gt=0.0)
     kl_weight: float = Field(1e-4, ge=0.0)  # for latent_type = vae (MLD's value)
     # Ours, beyond Eq. 9 (0 / off = the paper): see nn/autoencoder.py and train/stages.py.
     # "transformer" = the paper's skip transformer; "conv" = nn/conv_autoencoder.py

@@ -33,9 +33,9 @@ def schedule_of(config: Config) -> VPSchedule:
     return VPSchedule(beta_min=config.schedule.beta_min, beta_max=config.schedule.beta_max)
 
 
-def _masked_smooth_l1(a: Tensor, b: Tensor, mask: Tensor) -> Tensor:
+def _masked_smooth_l1(a: Tensor, b: Tensor, mask: Tensor, beta: float = 1.0) -> Tensor:
     """Smooth-L1 averaged over the valid frames only. a, b (B, T, ...), mask (B, T)."""
-    per = F.smooth_l1_loss(a, b, reduction="none").flatten(2).mean(2)  # (B, T)
+    per = F.smooth_l1_loss(a, b, reduction="none", beta=beta).flatten(2).mean(2)  # (B, T)
     return (per * mask).sum() / mask.sum().clamp(min=1)
 
 
@@ -155,7 +155,7 @@ class AutoencoderStage(Stage):
         # Eq. 9, second term: joint positions through recover_from_ric, on real units.
         real_hat, real = self.norm.denormalize(recon).float(), self.norm.denormalize(x).float()
         joints_hat, joints = recover_from_ric(real_hat), recover_from_ric(real)
-        joint = _masked_smooth_l1(joints_hat, joints, mask)
+        joint = _masked_smooth_l1(joints_hat, joints, mask, self.config.ae.joint_beta)
         total = feature + self.config.ae.joint_weight * joint
         out = {"feature": feature.detach(), "joint": joint.detach()}
         if self.config.ae.velocity_weight > 0 and frames > 1:
