@@ -35,3 +35,29 @@ def test_stage_trains_then_resumes_with_its_data_and_autoencoder(tmp_path):
     assert again == f"mlct train cm --data {w}/rich --out {w}/cm --ae {w}/noise --resume"
     plain = _stage(tmp_path, "", "run ae --config small")
     assert plain == f"mlct train ae --data {w}/synth --out {w}/run --config small"
+
+
+def test_recipe_time_counts_training_and_skips_pauses(tmp_path):
+    """tools/recipe_time.py: logged intervals under the gap count, a stopped session does not;
+    a resumed stage (a second events file) adds its own intervals."""
+    import sys
+
+    from torch.utils.tensorboard import SummaryWriter
+
+    tb = tmp_path / "w" / "cm" / "cm" / "tb"
+    for times in ([0, 60, 120], [120 + 3600, 120 + 3660]):  # a pause of an hour, then 1 min
+        writer = SummaryWriter(str(tb), filename_suffix=f".{times[0]}")
+        for i, t in enumerate(times):
+            writer.add_scalar("loss", 1.0, 100 * i, walltime=1_000_000 + t)
+        writer.close()
+    sys.path.insert(0, str(TOOLS))
+    try:
+        from recipe_time import stage_time
+    finally:
+        sys.path.remove(str(TOOLS))
+    seconds, step, pauses, processes = stage_time(tb, gap_s=600)
+    assert (seconds, step, processes) == (180.0, 200, 2)
+    assert pauses == []  # the hour lies between two processes' files, not inside one
+    out = subprocess.run([sys.executable, str(TOOLS / "recipe_time.py"), str(tmp_path / "w")],
+                         check=True, capture_output=True, text=True).stdout
+    assert "cm/cm" in out and "3.0" in out
