@@ -104,6 +104,15 @@ def test_the_backend_needs_a_cuda_device() -> None:
         mlct.load(device="cuda")
 
 
+def test_read_copies_the_outputs_out() -> None:
+    """`read` gets the function's outputs (on a GPU the graph's buffers, under the cache's
+    lock); without one the outputs come back as they are."""
+    graphs = GraphCache(lambda key, x: x * key)
+    x = torch.arange(3.0)
+    assert torch.equal(graphs(2, x), x * 2)
+    assert graphs(2, x, read=lambda out: out.sum().item()) == 6.0
+
+
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a GPU")
 def test_a_bucket_is_captured_once_and_kept_least_recently_used() -> None:
     calls = []

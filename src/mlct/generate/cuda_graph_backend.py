@@ -115,14 +115,15 @@ class CudaGraphMotionGenerator(MotionGenerator):
         steps = self.check_nfe(nfe)
         batch = cond.shape[0]
         inputs = self._sampler_inputs(cond, steps, seed)
-        return self._graphs(("latents", steps, guidance), *inputs)[:batch].clone()
+        return self._graphs(("latents", steps, guidance), *inputs,
+                            read=lambda z: z[:batch].clone())
 
     @torch.inference_mode()
     def decode(self, z: Tensor, lengths: Sequence[int]) -> list[np.ndarray]:
         frames = self._frames(lengths)
-        out = self._graphs(("decode", frames), _pad_rows(z, _bucket(len(z)) - len(z)),
-                           self._lengths_tensor(lengths, frames))
-        return _to_host(out, lengths)
+        return self._graphs(("decode", frames), _pad_rows(z, _bucket(len(z)) - len(z)),
+                            self._lengths_tensor(lengths, frames),
+                            read=lambda out: _to_host(out, lengths))
 
     @torch.inference_mode()
     def sample_features(self, cond: Tensor, nfe: int | None, seed: int | Sequence[int] | None,
@@ -131,9 +132,9 @@ class CudaGraphMotionGenerator(MotionGenerator):
         steps = self.check_nfe(nfe)
         frames = self._frames(lengths)
         cond, noise, *uncond = self._sampler_inputs(cond, steps, seed)
-        out = self._graphs(("features", steps, guidance, frames), cond, noise,
-                           self._lengths_tensor(lengths, frames), *uncond)
-        return _to_host(out, lengths)
+        return self._graphs(("features", steps, guidance, frames), cond, noise,
+                            self._lengths_tensor(lengths, frames), *uncond,
+                            read=lambda out: _to_host(out, lengths))
 
     def _sampler_inputs(self, cond: Tensor, steps: int, seed: int | Sequence[int] | None
                         ) -> list[Tensor]:

@@ -132,8 +132,8 @@ class MiniLMEncoder(TextEncoder):
         mask = torch.cat([mask, mask[:1].expand(rows - b, -1)])
         ids = torch.nn.functional.pad(ids, (0, tokens - n))
         mask = torch.nn.functional.pad(mask, (0, tokens - n))
-        pooled, states = self._graphs(None, ids, mask)
-        return pooled[:b].clone(), states[:b, :n].clone()
+        return self._graphs(None, ids, mask,
+                            read=lambda out: (out[0][:b].clone(), out[1][:b, :n].clone()))
 
     def use_cuda_graphs(self, max_graphs: int = 16) -> None:
         """Run the network from CUDA graphs (cuda_graphs.py), one per bucket of batch size
