@@ -171,13 +171,6 @@ def variant(meta: dict[str, Any], tensors: dict[str, Any], layers: str, text_onc
     return gen
 
 
-def in_memory_generator(preset: str, sampler: str, device: str, dtype: str) -> Any:
-    from mlct.generate.pipeline import MotionGenerator
-
-    meta, tensors = bundle_in_memory(preset, sampler)
-    return MotionGenerator(meta, tensors, device, dtype)
-
-
 def onnx_generator(preset: str, sampler: str, folder: str, threads: int | None = None,
                    int8: bool = False) -> Any:
     """The model of bundle_in_memory written to folder as a bundle, converted (mlct convert
@@ -345,6 +338,7 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
     import torch
 
     from mlct.eval.aits import time_inference
+    from mlct.generate.pipeline import MotionGenerator
     from mlct.text import load_text_encoder
 
     if spec["threads"]:
@@ -354,7 +348,8 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
 
         onnx_backend.ONE_THREAD_MAX_BATCH = spec["one_thread_max_batch"]
     preset, sampler, nfes = MODELS[spec["model"]]
-    gen = in_memory_generator(preset, sampler, spec["device"], spec["dtype"])
+    bundle = bundle_in_memory(preset, sampler)  # read (or built) once for every generator here
+    gen = MotionGenerator(*bundle, spec["device"], spec["dtype"])
     device = gen.device
     sync = _syncer(device)
     if device.type == "cuda":
@@ -364,7 +359,7 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
     if spec["backend"] == "cuda-graphs":
         from mlct.generate.cuda_graph_backend import CudaGraphMotionGenerator
 
-        gen = CudaGraphMotionGenerator(*bundle_in_memory(preset, sampler), spec["device"],
+        gen = CudaGraphMotionGenerator(*bundle, spec["device"],
                                        spec["dtype"])  # its text encoder on the GPU, graphed
         gen.encode_text([""])
     elif spec["backend"] == "torch-compiled" and device.type == "cuda":
@@ -375,7 +370,7 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
         gen.encode_text([""])
     elif spec["backend"] == "torch-compiled" and device.type == "cpu":
         # inductor cannot lower the packed products
-        gen = variant(*bundle_in_memory(preset, sampler), "fast", True, dtype=spec["dtype"])
+        gen = variant(*bundle, "fast", True, dtype=spec["dtype"])
         _compile_for_cpu(gen)
     bandwidth = {part: read_bandwidth(int(c["bytes"]), device) for part, c in costs.items()}
     peak = spec["peak_flops"][spec["dtype"] if device.type == "cpu" else "bfloat16"]

@@ -14,6 +14,7 @@ import torch
 
 import mlct
 from mlct.errors import MlctError
+from mlct.generate.bundle import read_bundle
 from mlct.generate.cuda_graph_backend import CudaGraphMotionGenerator, QueuedNoise
 from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
 from mlct.cuda_graphs import GraphCache
@@ -31,13 +32,7 @@ TEXTS = ["a person walks forward", "a person jumps up high", "someone waves with
 def pair(request) -> tuple[MotionGenerator, CudaGraphMotionGenerator]:
     folder = bundled_model_dir()
     return (MotionGenerator.load(folder, request.param),
-            CudaGraphMotionGenerator(*_read(folder), request.param))
-
-
-def _read(folder):
-    from mlct.generate.bundle import read_bundle
-
-    return read_bundle(folder)
+            CudaGraphMotionGenerator(*read_bundle(folder), request.param))
 
 
 def largest_gap(a, b) -> float:
@@ -82,7 +77,7 @@ def test_ddim_and_transformer_decoder(tmp_path) -> None:
     folder = random_bundle(tmp_path / "tiny", "ddim", "minilm")
     for device in DEVICES:
         eager = MotionGenerator.load(folder, device)
-        graphed = CudaGraphMotionGenerator(*_read(folder), device)
+        graphed = CudaGraphMotionGenerator(*read_bundle(folder), device)
         a = eager.generate(TEXTS[:2], lengths=[64, 9], nfe=3, seed=1, split_actions=False)
         b = graphed.generate(TEXTS[:2], lengths=[64, 9], nfe=3, seed=1, split_actions=False)
         assert largest_gap(a, b) < JOINTS_M

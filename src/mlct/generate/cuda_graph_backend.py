@@ -182,11 +182,10 @@ def _to_host(out: Tensor, lengths: Sequence[int]) -> list[np.ndarray]:
     """One (T_i, D) array per item from the graph's output buffer: one copy to the host (into
     pinned memory on a GPU, so the copy runs at the bus's speed), then views."""
     out = out[: len(lengths)]
+    host = out  # on the CPU the function's own fresh output: no graph buffer to copy out of
     if out.device.type == "cuda":
         host = torch.empty(out.shape, dtype=out.dtype, pin_memory=True)
         host.copy_(out, non_blocking=True)
         torch.cuda.current_stream(out.device).synchronize()
-    else:
-        host = out.clone()
     array = host.numpy()  # numpy's slicing: a torch view per item costs ~10x more
     return [array[i, :n] for i, n in enumerate(lengths)]
