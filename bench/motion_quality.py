@@ -7,9 +7,12 @@ Every motion is scored by mlct.eval.readouts: the checks that a benchmark label 
 count, direction) implies, read from the joints alone. It prints the pass rate, per family and
 overall, of
   (a) the ground-truth test motions (must be >= 98%, or the read-outs are wrong);
-  (b) the autoencoder's reconstructions of them (--ae RUN: a training run or its AE checkpoint),
-      with MPJPE and the pelvis-rise (jumps, hops), foot-travel (walks) and heading (turns) ratios
-      to the truth;
+  (b) the autoencoder's reconstructions of them (--ae RUN: a training run, its AE checkpoint,
+      or a model folder), with MPJPE and the pelvis-rise (jumps, hops), foot-travel (walks) and
+      heading (turns) ratios to the truth; "AE recon" gives the autoencoder each clip whole,
+      "as pipeline" composes the clip as generate() composes a motion (each action of a
+      sequence alone, then chained; a concurrent arm action alone, standing, its arms then
+      re-attached: mlct/eval/pipeline_recon.py), the best the pipeline's stage 2 could reach;
   (c) generations from the test captions at the real lengths, --nfe, --seeds seeds;
   (d) generations from hand-written paraphrases (bench/data/quality_prompts.json), and from
       held-out ones (quality_prompts_heldout.json: written after the everyday caption
@@ -29,7 +32,7 @@ import json
 import time
 from collections import defaultdict
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import torch
@@ -37,8 +40,10 @@ import torch
 import mlct
 from mlct.data.layout import DatasetLayout
 from mlct.eval.judge.action_classifier import read_labels
+from mlct.eval.pipeline_recon import pipeline_reconstruction
 from mlct.eval.readouts import evaluate_label, foot_travel, heading_change, pelvis_rise
 from mlct.motion.features import features_to_joints
+from mlct.motion.skeleton import HUMANML3D
 
 PROMPTS = Path(__file__).parent / "data" / "quality_prompts.json"
 # paraphrases written after the everyday caption vocabulary, none of whose new verbs they use
@@ -92,19 +97,30 @@ class Tally:
                 "families": {f: self.rate(v) for f, v in sorted(self.family.items())}}
 
 
-def reconstruct(run: Path, features: list[np.ndarray], latent_noise: float = 0.0
-                ) -> list[np.ndarray]:
-    """The autoencoder's reconstructions (real units) of feature arrays; latent_noise: decoded
-    from z + latent_noise * N(0, I) (torch's global generator) instead of z."""
+def autoencoder(path: Path) -> Callable[[np.ndarray], np.ndarray]:
+    """features (T, D) in real units -> the autoencoder's reconstruction (T, D); path: a
+    training run, an AE checkpoint, or a model folder (its encoder and decoder)."""
     from mlct.train.stages import find_autoencoder, load_frozen_autoencoder
-    ae, norm, _ = load_frozen_autoencoder(find_autoencoder(run, None), torch.device("cpu"))
-    out = []
-    for x in features:
-        xt = (torch.from_numpy(x).float()[None] - norm.mean) / norm.std
+    if (path / "config.json").is_file():  # a model folder: the autoencoder it generates with
+        from mlct.config import config_from_dict
+        from mlct.generate.bundle import bundle_autoencoder_state, read_bundle
+        from mlct.nn.build import build_autoencoder
+        meta, tensors = read_bundle(path)
+        ae = build_autoencoder(config_from_dict(meta["config"], "model config"),
+                               int(meta["feature_dim"]))
+        ae.load_state_dict(bundle_autoencoder_state(tensors, path))
+        ae.eval().requires_grad_(False)
+        mean, std = tensors["norm.mean"].float(), tensors["norm.std"].float()
+    else:
+        ae, norm, _ = load_frozen_autoencoder(find_autoencoder(path, None), torch.device("cpu"))
+        mean, std = norm.mean, norm.std
+
+    def run(x: np.ndarray) -> np.ndarray:
+        xt = (torch.from_numpy(np.asarray(x)).float()[None] - mean) / std
         with torch.no_grad():
-            recon, _ = ae(xt, torch.tensor([len(x)]), None, latent_noise)
-        out.append(norm.denormalize(recon)[0].numpy())
-    return out
+            recon, _ = ae(xt, torch.tensor([len(x)]), None, 0.0)
+        return (recon[0] * std + mean).numpy()
+    return run
 
 
 def prompt_label(actions: list[dict[str, Any]], seconds: float) -> dict[str, Any]:
@@ -163,12 +179,18 @@ def main() -> None:
     columns = {"ground truth": truth.summary()}
 
     if args.ae is not None:
-        recon = Tally()
-        mpjpe, rises, travels, turns = [], defaultdict(list), [], []
-        for name, joints, feats in zip(names, real_joints, reconstruct(args.ae, real)):
-            made = features_to_joints(feats)
+        ae = autoencoder(args.ae)
+        recon, composed = Tally(), Tally()
+        mpjpe, composed_mpjpe, rises, travels, turns = [], [], defaultdict(list), [], []
+        for name, joints, feats in zip(names, real_joints, real):
+            made = features_to_joints(ae(feats))
             recon.add(labels[name], evaluate_label(made, labels[name]))
             mpjpe.append(float(np.linalg.norm(made - joints, axis=-1).mean()))
+            # (b'): stage 1 as the pipeline uses it (mlct/eval/pipeline_recon.py)
+            whole = pipeline_reconstruction(feats, labels[name], lambda f: features_to_joints(ae(f)),
+                                            HUMANML3D, joints)
+            composed.add(labels[name], evaluate_label(whole, labels[name]))
+            composed_mpjpe.append(float(np.linalg.norm(whole - joints, axis=-1).mean()))
             families = [a["family"] for a in labels[name]["actions"]]
             if len(families) == 1 and families[0] in ("jump", "hop"):
                 rises[families[0]].append((pelvis_rise(joints), pelvis_rise(made)))
@@ -177,6 +199,7 @@ def main() -> None:
             if len(families) == 1 and families[0] == "turn":
                 turns.append((abs(heading_change(joints)), abs(heading_change(made))))
         columns["AE recon"] = recon.summary()
+        columns["as pipeline"] = composed.summary()
         ratios = {f"pelvis_rise_{f}": float(np.mean([m for _, m in v]) / np.mean([t for t, _ in v]))
                   for f, v in rises.items()}
         if travels:
@@ -185,7 +208,9 @@ def main() -> None:
         if turns:
             ratios["heading_turn"] = float(np.mean([m for _, m in turns])
                                            / np.mean([t for t, _ in turns]))
-        report["reconstruction"] = {"mpjpe_m": float(np.mean(mpjpe)), **ratios}
+        report["reconstruction"] = {"mpjpe_m": float(np.mean(mpjpe)),
+                                    "mpjpe_as_pipeline_m": float(np.mean(composed_mpjpe)),
+                                    **ratios}
 
     if not args.skip_generation:
         pipe = mlct.load(args.model, backend=args.backend)
