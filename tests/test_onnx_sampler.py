@@ -102,7 +102,12 @@ def test_batch_one_runs_on_one_thread_and_larger_batches_on_all(backends) -> Non
         assert gap(want, got) < JOINTS_M
     threads = {key: s.get_session_options().intra_op_num_threads
                for key, s in onnx_gen._sessions.items()}
-    assert threads == {(2, 1): 1, (2, 2): 2}  # one graph, a session per thread count
+    # one graph, a session per thread count; batch 1's with its batch dimension fixed
+    assert threads == {(2, 1, True): 1, (2, 2, False): 2}
+    fixed = onnx_gen._sessions[(2, 1, True)]
+    assert [i.shape[0] for i in fixed.get_inputs() if i.name in ("x", "text", "valid")] == [1] * 3
+    # the step times and coefficients are the graph's constants, not inputs
+    assert not {"times", "coef"} & {i.name for i in fixed.get_inputs()}
 
 
 def test_a_large_graph_keeps_all_threads_at_batch_one(backends, monkeypatch) -> None:

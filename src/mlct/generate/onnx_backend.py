@@ -21,7 +21,8 @@ from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
 from mlct.generate.onnx_bundle import DECODER_IO, DENOISER_IO, OnnxGraphs, read_onnx
-from mlct.generate.onnx_sampler import consistency_feeds, run_steps, sampler_model
+from mlct.generate.onnx_sampler import (consistency_feeds, fixed_batch, run_steps,
+                                        sampler_model, step_coefficients)
 from mlct.generate.pipeline import MotionGenerator, generators_for
 from mlct.generate.samplers import ConsistencySampler
 from mlct.nn.build import latent_clamp
@@ -141,7 +142,8 @@ class OnnxMotionGenerator(MotionGenerator):
         feeds = self._feeds(cond, nfe, seed)
         feeds["text"] = _array(cond.float())
         feeds["valid"] = lengths_to_mask(torch.tensor(list(lengths)), max(lengths)).numpy()
-        (features,) = session.run(["features"], feeds)
+        wanted = {i.name for i in session.get_inputs()}  # times and coef are the graph's own
+        (features,) = session.run(["features"], {k: v for k, v in feeds.items() if k in wanted})
         return [features[i, :n] for i, n in enumerate(lengths)]
 
     def _feeds(self, cond: Tensor, nfe: int | None, seed: int | Sequence[int] | None
@@ -167,16 +169,19 @@ class OnnxMotionGenerator(MotionGenerator):
             model = sampler_model(self.graphs.denoiser, self.graphs.decoder, steps,
                                   clamp=self.clamp,
                                   latent_scale=self.config.schedule.latent_scale,
-                                  mean=self.mean.numpy(), std=self.std.numpy())
+                                  mean=self.mean.numpy(), std=self.std.numpy(),
+                                  coefficients=step_coefficients(self.sampler, steps))
             self._fused[steps] = model.SerializeToString()
         graph = self._fused.get(steps)
         if graph is None:
             return None
         small = batch <= ONE_THREAD_MAX_BATCH and len(graph) <= ONE_THREAD_MAX_BYTES
         threads = 1 if small else self.threads
-        key = (steps, int(threads or torch.get_num_threads()))
+        key = (steps, int(threads or torch.get_num_threads()), batch == 1)
         if key not in self._sessions:
-            self._sessions[key] = session_from_bytes(graph, key[1])
+            # batch 1, the size a person waits on, gets a graph of fixed shapes (fewer operators)
+            self._sessions[key] = session_from_bytes(fixed_batch(graph, 1) if batch == 1
+                                                     else graph, key[1])
         return self._sessions[key]
 
     @property
