@@ -1,15 +1,21 @@
 """backend="auto" (the default of mlct.load, `mlct generate` and `mlct serve`): the fastest
 backend that can run the model here, and one line saying which and why (`--verbose`).
 
-The onnx backend when ONNX Runtime is installed, the model runs on the CPU in float32 and its
-text encoder has an ONNX graph: at batch 1 it is 1.3-2x faster than eager PyTorch on the
-bundled model (docs/performance.md) and gives the same motions for the same seeds (within
-0.01 mm; tests/test_onnx.py). On a CUDA device the cuda-graphs backend. Otherwise the torch backend (a GPU, bfloat16, another text
-encoder, no onnxruntime). MLCT_BACKEND=torch|onnx overrides the choice.
+The onnx-int8 backend when ONNX Runtime is installed, the model runs on the CPU in float32 and
+its text encoder has an ONNX graph: the onnx backend's graphs with the denoiser's matrix
+products in int8 (weights per channel, activations quantized at run time). On the bundled
+model at batch 1 it samples ~1.9x faster than float32 ONNX and ~3x faster than eager PyTorch;
+its motions are not bit-for-bit the float32 ones (joints 5-9 mm apart on average) but the
+read-outs of bench/motion_quality.py stay within 1 point of float32's (docs/performance.md,
+"int8 by default"). `--backend onnx` is the float32 graphs (the same motions as torch within
+0.01 mm; tests/test_onnx.py). On a CUDA device the cuda-graphs backend. Otherwise the torch
+backend (a GPU, bfloat16, another text encoder, no onnxruntime). MLCT_BACKEND=torch|onnx|...
+overrides the choice.
 
-Where the graphs come from: MODEL_DIR/onnx/ when `mlct convert` put them there; else the
-cache, default_cache_dir()/onnx/KEY (KEY: a digest of the weights, the config and the graph
-format), made on first use when the onnx package (which writes graphs) is installed. Making
+Where the graphs come from: MODEL_DIR/onnx/ when `mlct convert` put them there (used as they
+are: float32, or int8 after `--int8`); else the cache, default_cache_dir()/onnx/KEY (KEY: a
+digest of the weights, the config, the graph format and int8), made on first use when the onnx
+package (which writes graphs) is installed. Making
 them takes a few seconds once; it goes into a fresh directory beside the entry that is renamed
 into place, so a reader never sees half a conversion and two processes converting at once
 both succeed (the second one's copy is dropped).
@@ -59,32 +65,54 @@ def choose_backend(path: Path, device: Any, dtype: Any) -> tuple[str, Path | Non
         return "torch", None, f"the text encoder {meta['text_encoder']!r} has no ONNX graph"
     runtime = f"ONNX Runtime {onnxruntime.__version__}"
     if (path / ONNX_DIR / MANIFEST).is_file():
-        try:
-            read_onnx(path, meta["text_encoder"])  # made from these weights?
-            return "onnx", path / ONNX_DIR, f"{runtime}, graphs in {path / ONNX_DIR}"
+        try:  # graphs `mlct convert` put there, made from these weights: as they are
+            graphs = read_onnx(path, meta["text_encoder"])
+            chosen = "onnx-int8" if graphs.manifest.get("int8") else "onnx"
+            return chosen, path / ONNX_DIR, f"{runtime}, graphs in {path / ONNX_DIR}"
         except MlctError:
             pass  # stale graphs there: the cache's, made from these weights, are used instead
-    cached = default_graph_dir(path)
+    try:
+        cached = find_graphs(path, meta["text_encoder"], int8=True)
+    except MlctError as err:
+        return "torch", None, str(err)
+    return "onnx-int8", cached, (f"{runtime}, graphs in {cached}, the denoiser's products in "
+                                 f"int8")
+
+
+def find_graphs(path: Path, text_encoder: str, int8: bool) -> Path:
+    """The folder of the model's ONNX graphs of this kind (float32, or the denoiser's products in
+    int8): MODEL_DIR/onnx when `mlct convert` put such graphs there, else the cache's entry,
+    converted on first use. MlctError saying why when there are none and none can be made."""
+    from mlct.generate.onnx_bundle import MANIFEST, ONNX_DIR, read_onnx
+
+    if (path / ONNX_DIR / MANIFEST).is_file():
+        try:
+            if bool(read_onnx(path, text_encoder).manifest.get("int8")) == int8:
+                return path / ONNX_DIR
+        except MlctError:
+            pass  # stale: the cache's
+    cached = default_graph_dir(path, int8)
     if (cached / MANIFEST).is_file():
         try:
-            read_onnx(path, meta["text_encoder"], cached)
+            read_onnx(path, text_encoder, cached)
         except MlctError:  # damaged: made again
             shutil.rmtree(cached, ignore_errors=True)
     if not (cached / MANIFEST).is_file():
         try:
             import onnx  # noqa: F401 - writes the graphs
         except ImportError:
-            return "torch", None, ("the model has no ONNX graphs and the onnx package that "
-                                   "writes them is not installed")
+            raise MlctError("the model has no ONNX graphs and the onnx package that writes "
+                            "them is not installed") from None
         try:
-            convert_into_cache(path, cached)
+            convert_into_cache(path, cached, int8)
         except MlctError as err:
-            return "torch", None, f"converting to ONNX failed ({err})"
-    return "onnx", cached, f"{runtime}, graphs in {cached}"
+            raise MlctError(f"converting to ONNX failed ({err})") from None
+    return cached
 
 
-def default_graph_dir(path: Path) -> Path:
-    """The cache entry of the ONNX graphs of the model in `path`."""
+def default_graph_dir(path: Path, int8: bool = False) -> Path:
+    """The cache entry of the ONNX graphs of the model in `path` (int8: with the denoiser's
+    products in int8)."""
     from mlct.generate.onnx_bundle import ONNX_VERSION, weights_digest
     from mlct.text import default_cache_dir
 
@@ -92,10 +120,12 @@ def default_graph_dir(path: Path) -> Path:
     key.update(weights_digest(path).encode())
     key.update((path / CONFIG).read_bytes())
     key.update(f"mlct-onnx {ONNX_VERSION} torch {torch.__version__}".encode())
+    if int8:
+        key.update(b" int8 denoiser")
     return default_cache_dir() / "onnx" / key.hexdigest()[:24]
 
 
-def convert_into_cache(path: Path, entry: Path) -> Path:
+def convert_into_cache(path: Path, entry: Path, int8: bool = False) -> Path:
     """Write the model's graphs into the cache entry `entry` (see the module docstring)."""
     from mlct.generate.onnx_bundle import write_onnx_graphs
 
@@ -105,7 +135,7 @@ def convert_into_cache(path: Path, entry: Path) -> Path:
     except OSError as err:
         raise MlctError(f"cannot write the ONNX cache {entry.parent}: {err}") from None
     try:
-        write_onnx_graphs(path, work)
+        write_onnx_graphs(path, work, int8)
         work.chmod(0o755)
         try:
             os.rename(work, entry)  # fails when another process got there first: theirs stays

@@ -4,7 +4,9 @@
   bfloat16 products (pipeline.py);
 - cuda-graphs: the torch pipeline on a GPU, replayed from CUDA graphs (cuda_graph_backend.py);
 - onnx: the same pipeline with the three networks as ONNX graphs run by ONNX Runtime on the CPU
-  (onnx_backend.py; the graphs come from `mlct convert MODEL_DIR --onnx` or the cache);
+  (onnx_backend.py; the graphs come from `mlct convert MODEL_DIR --onnx`);
+- onnx-int8: the same with the denoiser's matrix products in int8 (the graphs from `mlct
+  convert MODEL_DIR --onnx --int8` or made once into the cache; auto's choice on the CPU);
 - auto (the default): the fastest of them that can run the model here (auto_backend.py).
 """
 
@@ -17,14 +19,26 @@ from typing import Callable
 import torch
 
 from mlct.errors import MlctError
-from mlct.generate.auto_backend import ENV, choose_backend
+from mlct.generate.auto_backend import ENV, choose_backend, find_graphs
 from mlct.generate.cuda_graph_backend import CudaGraphMotionGenerator
 from mlct.generate.onnx_backend import OnnxMotionGenerator
 from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
 
+def _onnx_int8(path: Path, device: torch.device | str | None = None,
+               dtype: str | torch.dtype = "float32") -> OnnxMotionGenerator:
+    from mlct.generate.bundle import read_bundle
+    from mlct.onnx_io import onnxruntime_module
+
+    onnxruntime_module()  # its absence first: the fix for it comes before converting
+    meta, _ = read_bundle(path)  # a model, or one line saying what is wrong, before converting
+    return OnnxMotionGenerator.load(path, device, dtype,
+                                    graphs=find_graphs(path, meta["text_encoder"], int8=True))
+
+
 BACKENDS: dict[str, Callable[..., MotionGenerator]] = {
     "torch": MotionGenerator.load,
     "onnx": OnnxMotionGenerator.load,
+    "onnx-int8": _onnx_int8,
     "cuda-graphs": CudaGraphMotionGenerator.load,
 }
 
@@ -49,14 +63,16 @@ def load(path: str | os.PathLike | None = None, device: torch.device | str | Non
     folder = bundled_model_dir() if path is None else Path(path)
     if backend != "auto":
         generator = BACKENDS[backend](folder, device, dtype)
+        generator.backend = backend
         generator.backend_note = f"{backend} ({origin})"
         return generator
     chosen, graphs, why = choose_backend(folder, device, dtype)
-    if chosen == "onnx":
+    if chosen in ("onnx", "onnx-int8"):
         try:
             generator = OnnxMotionGenerator.load(folder, device, dtype, graphs=graphs)
+            generator.backend = chosen
         except MlctError as err:  # e.g. a graph ONNX Runtime cannot load: torch still can
-            chosen, why = "torch", f"the onnx backend failed to load ({err})"
+            chosen, why = "torch", f"the {chosen} backend failed to load ({err})"
     if chosen == "cuda-graphs":
         generator = CudaGraphMotionGenerator.load(folder, device, dtype)
     if chosen == "torch":

@@ -56,7 +56,8 @@ def run_server(model: Any = None, host: str = "127.0.0.1", port: int = 8000,
         print(f"mlct serve: warning: listening on {host}: any machine that can reach this one "
               f"may use the API; bind 127.0.0.1 unless you mean it, or require a token "
               f"(--token or MLCT_TOKEN)", file=sys.stderr)
-    if device is None and backend != "onnx":  # a GPU when there is one; onnx runs on the CPU
+    # a GPU when there is one; the onnx backends run on the CPU
+    if device is None and not backend.startswith("onnx"):
         device = resolve_device(None)
     generator = mlct.load(model, device=device, backend=backend)
     _fetch_three()
