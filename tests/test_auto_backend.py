@@ -1,6 +1,6 @@
-"""backend="auto" (generate/auto_backend.py): onnx-int8 where it can run, its graphs found in
-the model directory or made once into the cache, atomically; torch otherwise; --verbose says
-which."""
+"""backend="auto" (generate/auto_backend.py): onnx where it can run, its graphs found in the
+model directory (int8 ones too) or made once into the cache, atomically; torch otherwise;
+--verbose says which. onnx-int8 asked for by name."""
 
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ def cache(tmp_path_factory) -> Path:
         patch.setenv("MLCT_CACHE", str(folder))
         patch.delenv("MLCT_BACKEND")
         gen = mlct.load()
-    assert gen.backend == "onnx-int8", gen.backend_note
+    assert gen.backend == "onnx", gen.backend_note
     return folder
 
 
@@ -45,17 +45,16 @@ def auto(cache, monkeypatch) -> Path:
 def test_first_use_converts_into_the_cache_atomically_and_once(auto, monkeypatch) -> None:
     entries = list((auto / "onnx").iterdir())
     assert len(entries) == 1 and (entries[0] / MANIFEST).is_file()  # no partial directory left
-    assert entries[0] == auto_backend.default_graph_dir(bundled_model_dir(), int8=True)
-    assert entries[0] != auto_backend.default_graph_dir(bundled_model_dir())
+    assert entries[0] == auto_backend.default_graph_dir(bundled_model_dir())
+    assert entries[0] != auto_backend.default_graph_dir(bundled_model_dir(), int8=True)
 
     def fail(*args):
         raise AssertionError("converted again")
 
     monkeypatch.setattr("mlct.generate.onnx_bundle.write_onnx_graphs", fail)
     gen = mlct.load()
-    assert gen.backend == "onnx-int8" and str(entries[0]) in gen.backend_note
-    assert gen.backend_note.startswith("onnx-int8 (auto: ONNX Runtime")
-    assert gen.backend_note.endswith("the denoiser's products in int8)")
+    assert gen.backend == "onnx" and str(entries[0]) in gen.backend_note
+    assert gen.backend_note.startswith("onnx (auto: ONNX Runtime")
 
 
 def _gap(want, got) -> tuple[float, float]:
@@ -65,23 +64,26 @@ def _gap(want, got) -> tuple[float, float]:
     return float(gaps.mean()), float(gaps.max())
 
 
-def test_auto_is_the_torch_backends_motions_up_to_int8(auto) -> None:
-    """auto's int8 denoiser moves the joints by millimetres on average, not metres; --backend
-    onnx is float32, the torch backend's motions within 1 mm."""
-    texts = ["a person walks forward", "someone jumps", "a man waves his right hand",
-             "a person kicks with the left leg"]
-    lengths = [120, 40, 80, 100]
-    want = mlct.load(backend="torch").generate(texts, lengths=lengths, nfe=5, seed=2,
-                                               candidates=1)
+def test_auto_gives_the_torch_backends_motions(auto) -> None:
+    texts, lengths = ["a person walks forward", "someone jumps"], [120, 40]
+    want = mlct.load(backend="torch").generate(texts, lengths=lengths, nfe=5, seed=2)
     for _ in range(2):  # the step loop, then the sampler graph
-        got = mlct.load().generate(texts, lengths=lengths, nfe=5, seed=2, candidates=1)
-        mean, _ = _gap(want, got)
-        assert 0 < mean < 0.02
-    model = convert_to_onnx(bundled_model_dir(), auto / "float32", read_only=True)
-    for _ in range(2):
-        got = mlct.load(model, backend="onnx").generate(texts, lengths=lengths, nfe=5, seed=2,
-                                                        candidates=1)
+        got = mlct.load().generate(texts, lengths=lengths, nfe=5, seed=2)
         assert _gap(want, got)[1] < 1e-3
+
+
+def test_onnx_int8_moves_the_joints_by_millimetres_not_metres(auto) -> None:
+    """Asked for by name, the int8 denoiser: other motions than float32's, near them on
+    average for these prompts (docs/performance.md measures it on the benchmark)."""
+    texts = ["a person walks forward", "a man waves his right hand"]
+    want = mlct.load(backend="torch").generate(texts, lengths=[120, 80], nfe=5, seed=2,
+                                               candidates=1)
+    gen = mlct.load(backend="onnx-int8")
+    assert gen.backend == "onnx-int8" and gen.backend_note == "onnx-int8 (asked for)"
+    assert gen.graphs.manifest["int8"] == ["denoiser"]
+    for _ in range(2):
+        got = gen.generate(texts, lengths=[120, 80], nfe=5, seed=2, candidates=1)
+        assert 0 < _gap(want, got)[0] < 0.05
 
 
 def test_graphs_in_the_model_directory_come_first(auto, tmp_path) -> None:
@@ -91,12 +93,6 @@ def test_graphs_in_the_model_directory_come_first(auto, tmp_path) -> None:
     model8 = convert_to_onnx(bundled_model_dir(), tmp_path / "model8", read_only=True, int8=True)
     gen = mlct.load(model8)
     assert gen.backend == "onnx-int8" and str(model8 / "onnx") in gen.backend_note
-
-
-def test_onnx_int8_asked_for_uses_the_cache(auto) -> None:
-    gen = mlct.load(backend="onnx-int8")
-    assert gen.backend == "onnx-int8" and gen.backend_note == "onnx-int8 (asked for)"
-    assert gen.graphs.manifest["int8"] == ["denoiser"]
 
 
 def test_a_concurrent_conversion_keeps_the_first(tmp_path, monkeypatch) -> None:
@@ -152,7 +148,7 @@ def test_cli_verbose_says_which_backend(auto, tmp_path, capsys) -> None:
     assert main(["generate", "a person walks forward", "--seconds", "1", "--seed", "0",
                  "--out", str(out), "--quiet", "--verbose"]) == 0
     err = capsys.readouterr().err
-    assert "mlct: backend onnx-int8 (auto: ONNX Runtime" in err
+    assert "mlct: backend onnx (auto: ONNX Runtime" in err
     assert np.load(out).shape == (20, 22, 3)
     assert main(["generate", "a person walks forward", "--seconds", "1", "--seed", "0",
                  "--out", str(out), "--quiet", "--verbose", "--backend", "torch"]) == 0

@@ -115,10 +115,11 @@ def add_parser(commands: Commands) -> None:
     generate.add_argument("--dtype", default="float32", choices=["float32", "bfloat16"],
                           help="precision of the networks' products (docs/performance.md)")
     generate.add_argument("--backend", default="auto",
-                          help="auto (default: onnx-int8 on the CPU when onnxruntime is "
-                          "installed, cuda-graphs on a GPU, else torch; --verbose says which), "
-                          "torch, onnx (ONNX Runtime on the CPU, float32: torch's motions), "
-                          "onnx-int8 (the denoiser's products in int8) or cuda-graphs (a GPU)")
+                          help="auto (default: onnx on the CPU when onnxruntime is installed, "
+                          "cuda-graphs on a GPU, else torch; --verbose says which), torch, "
+                          "onnx (ONNX Runtime on the CPU), onnx-int8 (the denoiser's products "
+                          "in int8: ~2x faster, other motions of the same quality) or "
+                          "cuda-graphs (a GPU)")
     generate.add_argument("--whole-prompt", action="store_true",
                           help="give the model a prompt that names actions in sequence ('walks, "
                                "then waves') as one text, instead of one part per action, chained")

@@ -36,9 +36,9 @@ def add_parser(commands: Commands) -> None:
     serve.add_argument("--port", type=_port, default=8000, help="default 8000")
     serve.add_argument("--device", default=None, help="cpu or cuda (default: cuda if available)")
     serve.add_argument("--backend", default="auto",
-                       help="auto (default: cuda-graphs on a GPU, else onnx-int8 when "
-                       "onnxruntime is installed), torch, onnx (ONNX Runtime on the CPU, "
-                       "float32), onnx-int8 or cuda-graphs")
+                       help="auto (default: cuda-graphs on a GPU, else onnx when onnxruntime "
+                       "is installed), torch, onnx (ONNX Runtime on the CPU), onnx-int8 (its "
+                       "denoiser in int8: faster, other motions) or cuda-graphs")
     serve.add_argument("--token", default=None,
                        help="require 'Authorization: Bearer TOKEN' on POST /generate "
                        "(default: $MLCT_TOKEN; the page takes it as #token=TOKEN)")

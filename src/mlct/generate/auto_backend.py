@@ -1,15 +1,15 @@
 """backend="auto" (the default of mlct.load, `mlct generate` and `mlct serve`): the fastest
 backend that can run the model here, and one line saying which and why (`--verbose`).
 
-The onnx-int8 backend when ONNX Runtime is installed, the model runs on the CPU in float32 and
-its text encoder has an ONNX graph: the onnx backend's graphs with the denoiser's matrix
-products in int8 (weights per channel, activations quantized at run time). On the bundled
-model at batch 1 it samples ~1.9x faster than float32 ONNX and ~3x faster than eager PyTorch;
-its motions are not bit-for-bit the float32 ones (joints 5-9 mm apart on average) but the
-read-outs of bench/motion_quality.py stay within 1 point of float32's (docs/performance.md,
-"int8 by default"). `--backend onnx` is the float32 graphs (the same motions as torch within
-0.01 mm; tests/test_onnx.py). On a CUDA device the cuda-graphs backend. Otherwise the torch
-backend (a GPU, bfloat16, another text encoder, no onnxruntime). MLCT_BACKEND=torch|onnx|...
+The onnx backend when ONNX Runtime is installed, the model runs on the CPU in float32 and its
+text encoder has an ONNX graph: at batch 1 it is 1.3-2x faster than eager PyTorch on the
+bundled model (docs/performance.md) and gives the same motions for the same seeds (within
+0.01 mm; tests/test_onnx.py). Not onnx-int8 (the denoiser's products in int8, ~2x faster
+again): its motions are as good by the read-outs but not the same motions (on the benchmark's
+test captions the joints move 31 mm on average, 44% of the motions by more than 1 cm:
+docs/performance.md), so it is asked for by name, or by graphs `mlct convert --onnx --int8` put
+in the model directory. On a CUDA device the cuda-graphs backend. Otherwise the torch backend
+(a GPU, bfloat16, another text encoder, no onnxruntime). MLCT_BACKEND=torch|onnx|...
 overrides the choice.
 
 Where the graphs come from: MODEL_DIR/onnx/ when `mlct convert` put them there (used as they
@@ -67,16 +67,17 @@ def choose_backend(path: Path, device: Any, dtype: Any) -> tuple[str, Path | Non
     if (path / ONNX_DIR / MANIFEST).is_file():
         try:  # graphs `mlct convert` put there, made from these weights: as they are
             graphs = read_onnx(path, meta["text_encoder"])
-            chosen = "onnx-int8" if graphs.manifest.get("int8") else "onnx"
-            return chosen, path / ONNX_DIR, f"{runtime}, graphs in {path / ONNX_DIR}"
+            if graphs.manifest.get("int8"):
+                return "onnx-int8", path / ONNX_DIR, (f"{runtime}, graphs in {path / ONNX_DIR}"
+                                                      f", the denoiser's products in int8")
+            return "onnx", path / ONNX_DIR, f"{runtime}, graphs in {path / ONNX_DIR}"
         except MlctError:
             pass  # stale graphs there: the cache's, made from these weights, are used instead
     try:
-        cached = find_graphs(path, meta["text_encoder"], int8=True)
+        cached = find_graphs(path, meta["text_encoder"], int8=False)
     except MlctError as err:
         return "torch", None, str(err)
-    return "onnx-int8", cached, (f"{runtime}, graphs in {cached}, the denoiser's products in "
-                                 f"int8")
+    return "onnx", cached, f"{runtime}, graphs in {cached}"
 
 
 def find_graphs(path: Path, text_encoder: str, int8: bool) -> Path:

@@ -6,7 +6,8 @@
 - onnx: the same pipeline with the three networks as ONNX graphs run by ONNX Runtime on the CPU
   (onnx_backend.py; the graphs come from `mlct convert MODEL_DIR --onnx`);
 - onnx-int8: the same with the denoiser's matrix products in int8 (the graphs from `mlct
-  convert MODEL_DIR --onnx --int8` or made once into the cache; auto's choice on the CPU);
+  convert MODEL_DIR --onnx --int8` or made once into the cache): ~2x faster sampling, motions
+  as good by the read-outs but not the float32 ones (asked for by name: docs/performance.md);
 - auto (the default): the fastest of them that can run the model here (auto_backend.py).
 """
 
