@@ -143,3 +143,70 @@ def test_a_bundles_meta_stays_json_and_points_at_its_own_folder(trained: Path,
     (copy / "config.json").write_text(json.dumps(meta))  # model_dir names the original
     gen = mlct.load(copy, backend="torch")
     assert gen.critic is None and gen.meta["model_dir"] == str(copy)
+
+
+def test_the_ranking_term_orders_passing_candidates_first() -> None:
+    """ranking_loss falls when a passing candidate scores above a failing one, and training on
+    it makes the critic's best candidate a passing one."""
+    from mlct.nn.critic import LatentCritic
+    from mlct.train.critic_samples import SampledFoils, ranking_accuracy, ranking_loss
+
+    torch.manual_seed(0)
+    critic = LatentCritic(6, 5, 40)
+    rows, k = 12, 4
+    latents = torch.randn(rows, k, 2, 3)
+    passed = torch.zeros(rows, k, dtype=torch.bool)
+    passed[:, 0] = True  # candidate 0 passes, the rest fail
+    latents[:, 0] += 2.0  # and lies apart, so that it can be told from them
+    foils = SampledFoils(torch.randn(rows, 5), latents, torch.full((rows,), 30), passed, {})
+    everything = torch.arange(rows)
+    with torch.no_grad():
+        before = float(ranking_loss(critic, foils, everything))
+    optimizer = torch.optim.Adam(critic.parameters(), lr=1e-2)
+    for _ in range(100):
+        loss = ranking_loss(critic, foils, everything)
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+    assert float(ranking_loss(critic, foils, everything)) < before / 4
+    assert ranking_accuracy(critic, foils) == 1.0
+
+
+def test_training_with_samples_ranks_the_models_own_candidates(tmp_path: Path,
+                                                                monkeypatch) -> None:
+    """`--samples K` samples the model for the one-action training motions, judges each
+    candidate with the read-outs (here a stand-in that passes every other candidate, so that
+    every motion has some to rank) and records how often its best one passes."""
+    import itertools
+
+    import mlct.train.critic_samples as critic_samples
+    from mlct.data.synth.build import synthesize_dataset
+    from mlct.train.critic import train_critic
+
+    verdicts = itertools.cycle([[("check", True)], [("check", False)]])
+    judged = []
+
+    def alternate(joints, label):
+        judged.append((joints.shape, label["actions"][0]["family"]))
+        return next(verdicts)
+
+    monkeypatch.setattr(critic_samples, "evaluate_label", alternate)
+    synthesize_dataset(tmp_path / "synth", num=40, seed=0, progress=False)
+    model = tmp_path / "model"
+    shutil.copytree(bundled_model_dir(), model)
+    (model / FILE).unlink(missing_ok=True)
+    summary = train_critic(tmp_path / "synth", model, steps=10, batch_size=16, candidates=4,
+                           samples=4, eval_split=None, log=lambda _: None)
+    info = summary["samples"]
+    assert info["samples"] == 4 and info["mixed"] == info["motions_sampled"] > 0
+    assert len(judged) == 4 * info["motions_sampled"]  # every candidate judged, as joints
+    assert all(len(shape) == 3 and shape[1:] == (22, 3) for shape, _ in judged)
+    assert info["train_random_passes"] == 0.5 and 0 <= info["train_best_passes"] <= 1
+    assert mlct.load(model, backend="torch").critic is not None
+
+
+def test_samples_needs_candidates_to_rank(tmp_path: Path) -> None:
+    from mlct.train.critic_samples import sample_foils
+
+    with pytest.raises(MlctError, match="--samples must be >= 2"):
+        sample_foils(bundled_model_dir(), None, [], {}, 1, 0, 196)  # type: ignore[arg-type]

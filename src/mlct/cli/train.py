@@ -104,7 +104,7 @@ def run_critic(args: argparse.Namespace) -> int:
     model_dir = bundled_model_dir() if args.model == "bundled" else Path(args.model)
     check_candidates(args.candidates)
     summary = train_critic(args.data, model_dir, split=args.split, steps=args.steps,
-                           seed=args.seed, candidates=args.candidates,
+                           seed=args.seed, candidates=args.candidates, samples=args.samples,
                            log=(lambda _: None) if args.quiet else print)
     held = summary.get("test")
     print(f"critic: {summary['captions']} captions, {summary['steps']} steps, "
@@ -181,6 +181,9 @@ def add_parser(commands: Commands) -> None:
     critic.add_argument("--seed", type=int, default=0)
     critic.add_argument("--candidates", type=int, default=8,
                         help="the model's default best-of-N (default 8)")
+    critic.add_argument("--samples", type=int, default=0, metavar="K",
+                        help="also rank the model's own K samples of each one-action training "
+                        "motion by the benchmark's read-outs (needs labels.jsonl; 0: off)")
     critic.add_argument("--quiet", action="store_true", help="print only the summary")
     critic.set_defaults(func=run_critic)
 

@@ -38,6 +38,7 @@ from mlct.nn.critic import LatentCritic
 from mlct.text.sides import mirror_sides
 
 LATENT_NOISE = 0.15
+FOIL_BATCH = 64  # sampled motions per step whose candidates are ranked (critic_samples.py)
 MASKED = -1e4  # a logit that softmax ignores
 
 _NUMBERS = ("one", "two", "three", "four", "five")
@@ -151,9 +152,13 @@ def measure(critic: LatentCritic, data: CriticData) -> dict[str, float]:
 def train_critic(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
                  split: str = "train", steps: int = 3000, batch_size: int = 256, lr: float = 1e-3,
                  seed: int = 0, eval_split: str | None = "test",
-                 candidates: int = DEFAULT_CANDIDATES, log: Any = print) -> dict[str, Any]:
+                 candidates: int = DEFAULT_CANDIDATES, samples: int = 0,
+                 log: Any = print) -> dict[str, Any]:
     """Train the critic of the model in `model_dir` on `split` and write critic.safetensors
-    there; returns what it measured (on `eval_split` when the data has it)."""
+    there; returns what it measured (on `eval_split` when the data has it).
+
+    samples: K > 0 also ranks the model's own K samples of each one-action training motion by
+    the benchmark's read-outs (train/critic_samples.py; needs labels.jsonl)."""
     if steps < 1 or batch_size < 2:
         raise MlctError(f"steps must be >= 1 and batch size >= 2, got {steps} and {batch_size}")
     from mlct.text import load_text_encoder
@@ -187,6 +192,15 @@ def train_critic(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
                           max_frames)
     log(f"critic: {len(train.names)} motions, {len(train.captions)} captions of '{split}' "
         f"encoded in {time.perf_counter() - started:.0f} s")
+    foils = held_foils = None
+    if samples:
+        from mlct.train.critic_samples import sample_foils
+
+        foils = sample_foils(model_dir, layout, train.names, labels, samples, seed, max_frames,
+                             log)
+        if held is not None:
+            held_foils = sample_foils(model_dir, layout, held.names, labels, samples, seed + 1,
+                                      max_frames, log)
     shape = train.latents.shape
     critic = LatentCritic(shape[1] * shape[2], train.text.shape[1], max_frames)
     optimizer = torch.optim.AdamW(critic.parameters(), lr=lr, weight_decay=1e-4)
@@ -196,6 +210,12 @@ def train_critic(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
     for step in range(1, steps + 1):
         rows = torch.randint(len(train.captions), (batch_size,), generator=generator)
         loss = _loss(critic, train, rows, noise)
+        if foils is not None:
+            from mlct.train.critic_samples import ranking_loss
+
+            picked = torch.randint(len(foils.text), (min(FOIL_BATCH, len(foils.text)),),
+                                   generator=generator)
+            loss = loss + ranking_loss(critic, foils, picked)
         optimizer.zero_grad(set_to_none=True)
         loss.backward()
         optimizer.step()
@@ -208,5 +228,16 @@ def train_critic(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
                 "train": measure(critic, train)}
     if held is not None:
         training[eval_split] = measure(critic, held)
+    if foils is not None:
+        from mlct.train.critic_samples import base_rate, ranking_accuracy
+
+        training["samples"] = {**foils.info,
+                               "train_best_passes": ranking_accuracy(critic, foils),
+                               "train_random_passes": base_rate(foils)}
+        if held_foils is not None:
+            training["samples"][f"{eval_split}_best_passes"] = ranking_accuracy(critic,
+                                                                                held_foils)
+            training["samples"][f"{eval_split}_random_passes"] = base_rate(held_foils)
+            training["samples"][f"{eval_split}_mixed"] = held_foils.info["mixed"]
     save_critic(model_dir, critic, training, meta["text_encoder"], candidates)
     return training
