@@ -109,8 +109,9 @@ rm -rf "$work/model"
 cp -r "$previous" "$work/model"
 # how long each action of a split prompt takes (generate/durations.py): seconds
 mlct train durations --data "$work/synth" --model "$work/model"
-# the critic of best-of-8 sampling (generate/critic.py), on the captioned-richly train split
-mlct train critic --data "$work/synth_rich" --model "$work/model"
+# the critic of best-of-8 sampling (generate/critic.py), on the captioned-richly train split,
+# also ranking the model's own 8 samples of each one-action motion by the read-outs (~4 min)
+mlct train critic --data "$work/synth_rich" --model "$work/model" --samples 8
 rm -rf "$repo/src/mlct/assets/model"
 cp -r "$work/model" "$repo/src/mlct/assets/model"
 echo "$repo/src/mlct/assets/model"

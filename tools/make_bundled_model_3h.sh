@@ -47,7 +47,7 @@ if [ ! -f "$work/model/critic.safetensors" ]; then
     mlct export "$work/cm" --out "$work/model" --half --decoder-from "$work/dnoise"
     stamp durations and critic
     mlct train durations --data "$work/synth" --model "$work/model"
-    mlct train critic --data "$work/synth_rich" --model "$work/model"
+    mlct train critic --data "$work/synth_rich" --model "$work/model" --samples 8
 fi
 stamp done
 echo "$work/model"

@@ -115,11 +115,12 @@ def ranking_loss(critic: Any, foils: SampledFoils, rows: Tensor) -> Tensor:
 @torch.no_grad()
 def ranking_accuracy(critic: Any, foils: SampledFoils) -> float:
     """Of the rows, how often the critic's best candidate is one that passed."""
+    was_training = critic.training
     critic.eval()
     b, k = foils.passed.shape
     scores = critic.score(foils.latents.flatten(0, 1), foils.frames.repeat_interleave(k),
                           foils.text.repeat_interleave(k, dim=0)).view(b, k)
-    critic.train()
+    critic.train(was_training)
     best = scores.argmax(dim=1)
     return round(float(foils.passed[torch.arange(b), best].float().mean()), 4)
 
