@@ -21,6 +21,7 @@ import torch
 import mlct
 from mlct.data.layout import DatasetLayout
 from mlct.eval.judge.action_classifier import read_labels
+from mlct.eval.readouts import evaluate_label
 from mlct.train.critic_samples import (SampledFoils, base_rate, ranking_accuracy,
                                       sample_foils)
 
@@ -38,7 +39,8 @@ def main() -> None:
     labels = read_labels(args.data)
     first = mlct.load(args.models[0], backend="torch")
     sets = [sample_foils(args.models[0], layout, layout.read_split(args.split), labels,
-                         args.samples, seed, first.max_frames, log=lambda _: None)
+                         args.samples, seed, first.max_frames, evaluate_label,
+                         log=lambda _: None)
             for seed in args.seeds]
     foils = SampledFoils(torch.cat([f.text for f in sets]), torch.cat([f.latents for f in sets]),
                          torch.cat([f.frames for f in sets]), torch.cat([f.passed for f in sets]),

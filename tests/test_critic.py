@@ -168,18 +168,17 @@ def test_the_ranking_term_orders_passing_candidates_first() -> None:
         optimizer.zero_grad()
         loss.backward()
         optimizer.step()
-    assert float(ranking_loss(critic, foils, everything)) < before / 4
+    with torch.no_grad():
+        assert float(ranking_loss(critic, foils, everything)) < before / 4
     assert ranking_accuracy(critic, foils) == 1.0
 
 
-def test_training_with_samples_ranks_the_models_own_candidates(tmp_path: Path,
-                                                                monkeypatch) -> None:
+def test_training_with_samples_ranks_the_models_own_candidates(tmp_path: Path) -> None:
     """`--samples K` samples the model for the one-action training motions, judges each
     candidate with the read-outs (here a stand-in that passes every other candidate, so that
     every motion has some to rank) and records how often its best one passes."""
     import itertools
 
-    import mlct.train.critic_samples as critic_samples
     from mlct.data.synth.build import synthesize_dataset
     from mlct.train.critic import train_critic
 
@@ -190,13 +189,12 @@ def test_training_with_samples_ranks_the_models_own_candidates(tmp_path: Path,
         judged.append((joints.shape, label["actions"][0]["family"]))
         return next(verdicts)
 
-    monkeypatch.setattr(critic_samples, "evaluate_label", alternate)
     synthesize_dataset(tmp_path / "synth", num=40, seed=0, progress=False)
     model = tmp_path / "model"
     shutil.copytree(bundled_model_dir(), model)
     (model / FILE).unlink(missing_ok=True)
     summary = train_critic(tmp_path / "synth", model, steps=10, batch_size=16, candidates=4,
-                           samples=4, eval_split=None, log=lambda _: None)
+                           samples=4, judge=alternate, eval_split=None, log=lambda _: None)
     info = summary["samples"]
     assert info["samples"] == 4 and info["mixed"] == info["motions_sampled"] > 0
     assert len(judged) == 4 * info["motions_sampled"]  # every candidate judged, as joints
@@ -209,4 +207,5 @@ def test_samples_needs_candidates_to_rank(tmp_path: Path) -> None:
     from mlct.train.critic_samples import sample_foils
 
     with pytest.raises(MlctError, match="--samples must be >= 2"):
-        sample_foils(bundled_model_dir(), None, [], {}, 1, 0, 196)  # type: ignore[arg-type]
+        sample_foils(bundled_model_dir(), None, [], {}, 1, 0, 196,  # type: ignore[arg-type]
+                     lambda joints, label: [])

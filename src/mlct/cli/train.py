@@ -99,13 +99,14 @@ def run_critic(args: argparse.Namespace) -> int:
     """Train the best-of-N critic (train/critic.py) and write it beside the model's weights."""
     from mlct.generate.critic import check_candidates
     from mlct.generate.pipeline import bundled_model_dir
+    from mlct.eval.readouts import evaluate_label
     from mlct.train.critic import train_critic
 
     model_dir = bundled_model_dir() if args.model == "bundled" else Path(args.model)
     check_candidates(args.candidates)
     summary = train_critic(args.data, model_dir, split=args.split, steps=args.steps,
                            seed=args.seed, candidates=args.candidates, samples=args.samples,
-                           log=(lambda _: None) if args.quiet else print)
+                           judge=evaluate_label, log=(lambda _: None) if args.quiet else print)
     held = summary.get("test")
     print(f"critic: {summary['captions']} captions, {summary['steps']} steps, "
           f"{summary['seconds']:.0f} s" + (f"; test label top-1 {held['label_top1']:.3f}, "

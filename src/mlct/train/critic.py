@@ -153,12 +153,13 @@ def train_critic(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
                  split: str = "train", steps: int = 3000, batch_size: int = 256, lr: float = 1e-3,
                  seed: int = 0, eval_split: str | None = "test",
                  candidates: int = DEFAULT_CANDIDATES, samples: int = 0,
-                 log: Any = print) -> dict[str, Any]:
+                 judge: Any = None, log: Any = print) -> dict[str, Any]:
     """Train the critic of the model in `model_dir` on `split` and write critic.safetensors
     there; returns what it measured (on `eval_split` when the data has it).
 
     samples: K > 0 also ranks the model's own K samples of each one-action training motion by
-    the benchmark's read-outs (train/critic_samples.py; needs labels.jsonl)."""
+    the benchmark's read-outs, `judge` (mlct.eval.readouts.evaluate_label; train/
+    critic_samples.py; needs labels.jsonl)."""
     if steps < 1 or batch_size < 2:
         raise MlctError(f"steps must be >= 1 and batch size >= 2, got {steps} and {batch_size}")
     from mlct.text import load_text_encoder
@@ -196,11 +197,14 @@ def train_critic(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
     if samples:
         from mlct.train.critic_samples import sample_foils
 
+        if judge is None:
+            raise MlctError("ranking the model's samples needs the read-outs' judge "
+                            "(mlct.eval.readouts.evaluate_label)")
         foils = sample_foils(model_dir, layout, train.names, labels, samples, seed, max_frames,
-                             log)
+                             judge, log)
         if held is not None:
             held_foils = sample_foils(model_dir, layout, held.names, labels, samples, seed + 1,
-                                      max_frames, log)
+                                      max_frames, judge, log)
     shape = train.latents.shape
     critic = LatentCritic(shape[1] * shape[2], train.text.shape[1], max_frames)
     optimizer = torch.optim.AdamW(critic.parameters(), lr=lr, weight_decay=1e-4)

@@ -21,7 +21,7 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import torch
@@ -30,10 +30,12 @@ from torch import Tensor
 
 from mlct.data.layout import DatasetLayout
 from mlct.errors import MlctError
-from mlct.eval.readouts import evaluate_label
 from mlct.motion.features import features_to_joints
 
 BATCH = 32  # motions per sampling batch (x K candidates)
+# joints (T, J, 3) and a benchmark label -> [(check name, passed)]: mlct.eval.readouts'
+# evaluate_label, handed in by the caller (eval sits beside train, not below it)
+Judge = Callable[[np.ndarray, dict[str, Any]], list[tuple[str, bool]]]
 
 
 @dataclass
@@ -50,9 +52,9 @@ class SampledFoils:
 
 def sample_foils(model_dir: str | os.PathLike, layout: DatasetLayout, names: list[str],
                  labels: dict[str, Any], samples: int, seed: int, max_frames: int,
-                 log: Any = print) -> SampledFoils:
+                 judge: Judge, log: Any = print) -> SampledFoils:
     """K = `samples` candidates per one-action motion of `names` (module docstring), kept where
-    their read-outs disagree."""
+    the judge's read-outs disagree."""
     if samples < 2:
         raise MlctError(f"--samples must be >= 2 (candidates to rank), got {samples}")
     from mlct.generate.backends import load
@@ -78,7 +80,7 @@ def sample_foils(model_dir: str | os.PathLike, layout: DatasetLayout, names: lis
             feats = pipe.decode(z, [n for n in lengths for _ in range(samples)])
         z = z.float().cpu().view(len(chunk), samples, *z.shape[1:])
         for i, name in enumerate(chunk):
-            ok = torch.tensor([all(p for _, p in evaluate_label(
+            ok = torch.tensor([all(p for _, p in judge(
                 features_to_joints(feats[i * samples + k]), labels[name]))
                 for k in range(samples)])
             total += 1
