@@ -187,8 +187,9 @@ def main() -> None:
             recon.add(labels[name], evaluate_label(made, labels[name]))
             mpjpe.append(float(np.linalg.norm(made - joints, axis=-1).mean()))
             # (b'): stage 1 as the pipeline uses it (mlct/eval/pipeline_recon.py)
-            whole = pipeline_reconstruction(feats, labels[name], lambda f: features_to_joints(ae(f)),
-                                            HUMANML3D, joints)
+            whole = pipeline_reconstruction(feats, labels[name],
+                                            lambda f: features_to_joints(ae(f)), HUMANML3D,
+                                            joints)
             composed.add(labels[name], evaluate_label(whole, labels[name]))
             composed_mpjpe.append(float(np.linalg.norm(whole - joints, axis=-1).mean()))
             families = [a["family"] for a in labels[name]["actions"]]

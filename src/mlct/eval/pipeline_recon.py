@@ -30,7 +30,7 @@ from mlct.generate.control import part_joints
 from mlct.generate.control_fit import reattach
 from mlct.generate.long_motion import BLEND_SECONDS, chain_segments
 from mlct.generate.pipeline import MIN_PART_SECONDS
-from mlct.motion.features import joints_to_features
+from mlct.motion.features import features_to_joints, joints_to_features
 from mlct.motion.skeleton import Skeleton
 
 Reconstruct = Callable[[np.ndarray], np.ndarray]  # features (T, D) -> joints (T, J, 3)
@@ -92,8 +92,6 @@ def pipeline_reconstruction(features: np.ndarray, label: Mapping[str, Any],
     if not label.get("concurrent"):
         return body
     if truth is None:
-        from mlct.motion.features import features_to_joints
-
         truth = features_to_joints(features)
     arms = part_joints("arms", skeleton)
     made = reconstruct(as_features(arms_over_standing(truth, arms, skeleton), skeleton))

@@ -1,5 +1,6 @@
 """backend="auto" (the default of mlct.load, `mlct generate` and `mlct serve`): the fastest
-backend that can run the model here, and one line saying which and why (`--verbose`).
+backend that can run the model here and gives the model's own motions, and one line saying
+which and why (`--verbose`).
 
 The onnx backend when ONNX Runtime is installed, the model runs on the CPU in float32 and its
 text encoder has an ONNX graph: at batch 1 it is 1.3-2x faster than eager PyTorch on the

@@ -8,7 +8,8 @@
 - onnx-int8: the same with the denoiser's matrix products in int8 (the graphs from `mlct
   convert MODEL_DIR --onnx --int8` or made once into the cache): ~2x faster sampling, motions
   as good by the read-outs but not the float32 ones (asked for by name: docs/performance.md);
-- auto (the default): the fastest of them that can run the model here (auto_backend.py).
+- auto (the default): the fastest of them that can run the model here and gives its own
+  motions (float32; auto_backend.py).
 """
 
 from __future__ import annotations
@@ -25,8 +26,11 @@ from mlct.generate.cuda_graph_backend import CudaGraphMotionGenerator
 from mlct.generate.onnx_backend import OnnxMotionGenerator
 from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
 
+
 def _onnx_int8(path: Path, device: torch.device | str | None = None,
                dtype: str | torch.dtype = "float32") -> OnnxMotionGenerator:
+    """The onnx backend on graphs whose denoiser products are int8: the model folder's when
+    `mlct convert --onnx --int8` made them, else the cache's (made once)."""
     from mlct.generate.bundle import read_bundle
     from mlct.onnx_io import onnxruntime_module
 
