@@ -98,7 +98,8 @@ def test_graphs_in_the_model_directory_come_first(auto, tmp_path) -> None:
 def test_a_concurrent_conversion_keeps_the_first(tmp_path, monkeypatch) -> None:
     entry = tmp_path / "onnx" / "key"
 
-    def other_process_finishes_first(model_dir, into, int8=False):  # it renames its entry in meanwhile
+    # it renames its entry in meanwhile
+    def other_process_finishes_first(model_dir, into, int8=False):
         entry.mkdir(parents=True)
         (entry / MANIFEST).write_text("theirs")
         (Path(into) / MANIFEST).write_text("ours")
