@@ -209,3 +209,19 @@ def test_samples_needs_candidates_to_rank(tmp_path: Path) -> None:
     with pytest.raises(MlctError, match="--samples must be >= 2"):
         sample_foils(bundled_model_dir(), None, [], {}, 1, 0, 196,  # type: ignore[arg-type]
                      lambda joints, label: [])
+
+
+def test_samples_without_labels_say_what_is_missing(tmp_path: Path) -> None:
+    """Imported data has captions but no benchmark labels: --samples names what it needs."""
+    from mlct.data.synth.build import synthesize_dataset
+    from mlct.train.critic import train_critic
+
+    synthesize_dataset(tmp_path / "synth", num=16, seed=0, progress=False)
+    (tmp_path / "synth" / "labels.jsonl").unlink()
+    model = tmp_path / "model"
+    shutil.copytree(bundled_model_dir(), model)
+    (model / FILE).unlink(missing_ok=True)
+    with pytest.raises(MlctError, match="no one-action motions with a benchmark label"):
+        train_critic(tmp_path / "synth", model, steps=5, batch_size=8, samples=4,
+                     judge=lambda joints, label: [], eval_split=None, log=lambda _: None)
+    assert not (model / FILE).exists()  # nothing half-written
