@@ -1,7 +1,9 @@
 """The bundled-model recipes (tools/make_bundled_model*.sh): they parse, and their shared
 `stage` trains a stage anew or resumes it, keeping the data and autoencoder it was given."""
 
+import json
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -61,3 +63,29 @@ def test_recipe_time_counts_training_and_skips_pauses(tmp_path):
     out = subprocess.run([sys.executable, str(TOOLS / "recipe_time.py"), str(tmp_path / "w")],
                          check=True, capture_output=True, text=True).stdout
     assert "cm/cm" in out and "3.0" in out
+
+
+def test_self_samples_adds_passing_samples_and_leaves_the_source_alone(tmp_path):
+    """tools/self_samples.py: a hard-linked copy whose train split and labels gain the model's
+    own samples that pass their motion's read-outs; the source's files keep their bytes."""
+    from mlct.data.synth.build import synthesize_dataset
+
+    src = tmp_path / "src"
+    synthesize_dataset(src, num=24, seed=0, progress=False)
+    before = {name: (src / name).read_bytes() for name in ("train.txt", "labels.jsonl")}
+    out = subprocess.run([sys.executable, str(TOOLS / "self_samples.py"), "--data", str(src),
+                          "--out", str(tmp_path / "dst"), "--samples", "4"],
+                         check=True, capture_output=True, text=True)
+    assert "one-action training motions have a passing sample" in out.stdout
+    assert {name: (src / name).read_bytes() for name in before} == before
+    train = (tmp_path / "dst" / "train.txt").read_text().split()
+    added = [n for n in train if n.startswith("s")]
+    assert added  # the bundled model passes most one-action motions (9 of 9 here)
+    assert train[:len(train) - len(added)] == before["train.txt"].decode().split()
+    labels = [json.loads(line) for line in (tmp_path / "dst" / "labels.jsonl").open()]
+    assert {r["name"] for r in labels} >= set(added)
+    for name in added:  # each added motion has its features, joints and the source's captions
+        assert (tmp_path / "dst" / "new_joint_vecs" / f"{name}.npy").is_file()
+        original = name[1:].rsplit("_", 1)[0]
+        assert ((tmp_path / "dst" / "texts" / f"{name}.txt").read_text()
+                == (src / "texts" / f"{original}.txt").read_text())
