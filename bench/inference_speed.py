@@ -29,7 +29,8 @@ of B: B times the FLOPs, the same bytes (the weights are read once per pass).
 Backends: torch, eager PyTorch through mlct.nn.inference's layers, in every dtype; onnx, the
 ONNX Runtime backend (CPU, float32; the model is written to a temporary directory and converted
 first, untimed); onnx-int8, the same converted with `mlct convert --onnx --int8` (the
-denoiser's MatMuls dynamically quantized to int8; `--backend onnx-int8`, not the default: docs/performance.md);
+denoiser's MatMuls dynamically quantized to int8; `--backend onnx-int8`, not the default:
+docs/performance.md);
 torch-compiled (only when named: compiling takes minutes per model and batch size), the
 denoiser backbone and decoder under torch.compile with plain (unpacked) products, which inductor
 can lower. The limit is the model's, whichever backend runs it.

@@ -4,9 +4,9 @@
 
 A recipe (tools/make_bundled_model*.sh) may run in parts: stopped with its session and resumed
 later, or beside other jobs. Every run under WORK_DIR with a tb/ folder (WORK/RUN/STAGE/tb) is
-read (or the --runs named): the time between consecutive logged steps of one process, where that interval is under
---gap-minutes, counts as training; longer intervals are pauses (a stopped session) and are
-listed, not counted. What a resume replays (the steps after the last checkpoint) counts again,
+read (or the --runs named): the time between consecutive logged steps of one process, where
+that interval is under --gap-minutes, counts as training; longer intervals are pauses (a
+stopped session) and are listed, not counted. What a resume replays (the steps after the last checkpoint) counts again,
 as it was spent again. Start-up before the first logged step (data loading, the text cache) is
 not in the logs and not counted: a few seconds to a minute per part.
 """

@@ -21,15 +21,13 @@ import shutil
 from pathlib import Path
 
 import numpy as np
-import torch
 
 import mlct
 from mlct.data.layout import DatasetLayout
 from mlct.eval.judge.action_classifier import read_labels
 from mlct.eval.readouts import evaluate_label
-from mlct.motion.features import features_to_joints
+from mlct.train.critic_samples import judged_candidates, one_action_names
 
-BATCH = 32
 LISTS = ("train.txt", "labels.jsonl")  # written in DST: copied, never linked
 
 
@@ -54,38 +52,26 @@ def main() -> None:
     copy_linked(args.data, args.out)
     layout = DatasetLayout.existing(args.out)
     labels = read_labels(args.out)
-    single = [n for n in sorted(set(layout.read_split("train"))) if n in labels
-              and len(labels[n]["actions"]) == 1 and not labels[n].get("concurrent")]
+    single = one_action_names(sorted(set(layout.read_split("train"))), labels)
     gen = mlct.load(args.model, backend="torch")
-    k_count = args.samples
     added, rows = [], []
-    for start in range(0, len(single), BATCH):
-        chunk = single[start:start + BATCH]
-        lengths = [min(len(layout.load_features(n)), gen.max_frames) for n in chunk]
-        cond = gen.encode_text([layout.read_texts(n)[0].caption for n in chunk])
-        seeds = [(args.seed + (start + i) * k_count + k) % (2**31 - 1)
-                 for i in range(len(chunk)) for k in range(k_count)]
-        with torch.inference_mode():
-            z = gen.sample_latents(cond.repeat_interleave(k_count, dim=0), None, seeds, None)
-            feats = gen.decode(z, [n for n in lengths for _ in range(k_count)])
-        for i, name in enumerate(chunk):
-            for k in range(k_count):
-                features = feats[i * k_count + k]
-                joints = features_to_joints(features)
-                if all(passed for _, passed in evaluate_label(joints, labels[name])):
-                    new = f"s{name}_{k}"
-                    np.save(layout.features_path(new), features.astype(np.float32))
-                    np.save(layout.joints_path(new), joints.astype(np.float32))
-                    shutil.copy(layout.text_path(name), layout.text_path(new))
-                    added.append(new)
-                    rows.append(dict(labels[name], name=new))
-                    break
+    for judged in judged_candidates(gen, layout, single, labels, args.samples, args.seed,
+                                    gen.max_frames, evaluate_label):
+        if not judged.passed.any():
+            continue
+        k = int(judged.passed.nonzero()[0])  # the first candidate that passes
+        new = f"s{judged.name}_{k}"
+        np.save(layout.features_path(new), judged.features[k].astype(np.float32))
+        np.save(layout.joints_path(new), judged.joints[k].astype(np.float32))
+        shutil.copy(layout.text_path(judged.name), layout.text_path(new))
+        added.append(new)
+        rows.append(dict(labels[judged.name], name=new))
     with open(args.out / "train.txt", "a", encoding="utf-8") as handle:
         handle.write("".join(f"{n}\n" for n in added))
     with open(args.out / "labels.jsonl", "a", encoding="utf-8") as handle:
         handle.write("".join(json.dumps(r) + "\n" for r in rows))
     print(f"{args.out}: {len(added)} of {len(single)} one-action training motions have a passing "
-          f"sample among {k_count}; added to the train split")
+          f"sample among {args.samples}; added to the train split")
 
 
 if __name__ == "__main__":

@@ -21,7 +21,7 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import numpy as np
 import torch
@@ -50,6 +50,48 @@ class SampledFoils:
     info: dict[str, Any]
 
 
+@dataclass
+class Judged:
+    """One motion's K sampled candidates and the judge's verdict on each."""
+
+    name: str
+    text: Tensor  # (c,) its caption's text vector
+    latents: Tensor  # (K, n, d) in the autoencoder's units
+    features: list[np.ndarray]  # K x (T, D), real units
+    joints: list[np.ndarray]  # K x (T, J, 3)
+    passed: Tensor  # (K,) bool
+
+
+def one_action_names(names: list[str], labels: dict[str, Any]) -> list[str]:
+    """The names with a benchmark label of one action and no concurrent one, in order."""
+    return [n for n in names if n in labels and len(labels[n]["actions"]) == 1
+            and not labels[n].get("concurrent")]
+
+
+def judged_candidates(pipe: Any, layout: DatasetLayout, names: list[str],
+                      labels: dict[str, Any], samples: int, first_seed: int, max_frames: int,
+                      judge: Judge) -> Iterator[Judged]:
+    """For each motion of `names` (one-action, labelled), `samples` candidates from its first
+    caption at its length, candidate k of the i-th motion with seed first_seed + i * samples + k,
+    each judged on its joints against the motion's label."""
+    for start in range(0, len(names), BATCH):
+        chunk = names[start:start + BATCH]
+        lengths = [min(len(layout.load_features(n)), max_frames) for n in chunk]
+        cond = pipe.encode_text([layout.read_texts(n)[0].caption for n in chunk])
+        seeds = [(first_seed + (start + i) * samples + k) % (2**31 - 1)
+                 for i in range(len(chunk)) for k in range(samples)]
+        with torch.inference_mode():
+            z = pipe.sample_latents(cond.repeat_interleave(samples, dim=0), None, seeds, None)
+            feats = pipe.decode(z, [n for n in lengths for _ in range(samples)])
+        z = z.float().cpu().view(len(chunk), samples, *z.shape[1:])
+        for i, name in enumerate(chunk):
+            mine = feats[i * samples:(i + 1) * samples]
+            joints = [features_to_joints(f) for f in mine]
+            passed = torch.tensor([all(p for _, p in judge(j, labels[name])) for j in joints])
+            yield Judged(name, cond[i].float().cpu(), z[i] / pipe.config.schedule.latent_scale,
+                         mine, joints, passed)
+
+
 def sample_foils(model_dir: str | os.PathLike, layout: DatasetLayout, names: list[str],
                  labels: dict[str, Any], samples: int, seed: int, max_frames: int,
                  judge: Judge, log: Any = print) -> SampledFoils:
@@ -60,42 +102,27 @@ def sample_foils(model_dir: str | os.PathLike, layout: DatasetLayout, names: lis
     from mlct.generate.backends import load
 
     pipe = load(model_dir, backend="torch")
-    single = [n for n in names if n in labels and len(labels[n]["actions"]) == 1
-              and not labels[n].get("concurrent")]
+    single = one_action_names(names, labels)
     if not single:
         raise MlctError(f"{layout.root}: no one-action motions with a benchmark label "
                         f"(labels.jsonl) to sample for the critic")
     started = time.perf_counter()
     text, latents, frames, passed = [], [], [], []
-    total = mixed = 0
-    for start in range(0, len(single), BATCH):
-        chunk = single[start:start + BATCH]
-        captions = [layout.read_texts(n)[0].caption for n in chunk]
-        lengths = [min(len(layout.load_features(n)), max_frames) for n in chunk]
-        cond = pipe.encode_text(captions)
-        seeds = [(seed * 1_000_003 + (start + i) * samples + k) % (2**31 - 1)
-                 for i in range(len(chunk)) for k in range(samples)]
-        with torch.inference_mode():
-            z = pipe.sample_latents(cond.repeat_interleave(samples, dim=0), None, seeds, None)
-            feats = pipe.decode(z, [n for n in lengths for _ in range(samples)])
-        z = z.float().cpu().view(len(chunk), samples, *z.shape[1:])
-        for i, name in enumerate(chunk):
-            ok = torch.tensor([all(p for _, p in judge(
-                features_to_joints(feats[i * samples + k]), labels[name]))
-                for k in range(samples)])
-            total += 1
-            if ok.any() and not ok.all():
-                mixed += 1
-                text.append(cond[i].float().cpu())
-                latents.append(z[i] / pipe.config.schedule.latent_scale)
-                frames.append(lengths[i])
-                passed.append(ok)
-        if (start // BATCH) % 20 == 0:
-            log(f"critic: sampled {min(start + BATCH, len(single))} of {len(single)} motions "
-                f"x {samples}, {mixed} with mixed read-outs")
-    info = {"samples": samples, "motions_sampled": total, "mixed": mixed,
+    total = 0
+    for judged in judged_candidates(pipe, layout, single, labels, samples, seed * 1_000_003,
+                                    max_frames, judge):
+        total += 1
+        if judged.passed.any() and not judged.passed.all():
+            text.append(judged.text)
+            latents.append(judged.latents)
+            frames.append(len(judged.features[0]))
+            passed.append(judged.passed)
+        if total % (20 * BATCH) == 0 or total == len(single):
+            log(f"critic: sampled {total} of {len(single)} motions x {samples}, "
+                f"{len(text)} with mixed read-outs")
+    info = {"samples": samples, "motions_sampled": total, "mixed": len(text),
             "seconds": round(time.perf_counter() - started, 1)}
-    if not mixed:
+    if not text:
         raise MlctError("no motion's samples disagree on the read-outs: nothing to rank")
     return SampledFoils(torch.stack(text), torch.stack(latents), torch.tensor(frames),
                         torch.stack(passed), info)
