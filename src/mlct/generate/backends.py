@@ -31,11 +31,15 @@ def _onnx_int8(path: Path, device: torch.device | str | None = None,
                dtype: str | torch.dtype = "float32") -> OnnxMotionGenerator:
     """The onnx backend on graphs whose denoiser products are int8: the model folder's when
     `mlct convert --onnx --int8` made them, else the cache's (made once)."""
-    from mlct.generate.bundle import read_bundle
+    from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION, CONFIG, read_bundle
+    from mlct.io import read_format_json
     from mlct.onnx_io import onnxruntime_module
 
     onnxruntime_module()  # its absence first: the fix for it comes before converting
-    meta, _ = read_bundle(path)  # a model, or one line saying what is wrong, before converting
+    if not (path / CONFIG).is_file():
+        read_bundle(path)  # not a model: one line saying what is wrong, before converting
+    # config.json only: the weights are read once, by the backend that loads them
+    meta = read_format_json(path / CONFIG, BUNDLE_FORMAT, BUNDLE_VERSION, "an mlct model config")
     return OnnxMotionGenerator.load(path, device, dtype,
                                     graphs=find_graphs(path, meta["text_encoder"], int8=True))
 
