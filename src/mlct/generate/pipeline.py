@@ -30,8 +30,6 @@ from mlct.generate.samplers import Sampler, sampler_class
 from mlct.nn.autoencoder import LatentAutoencoder
 from mlct.nn.build import build_autoencoder, build_denoiser
 from mlct.nn.denoiser import Denoiser
-from mlct.generate.control import part_joints
-from mlct.generate.control_fit import reattach
 from mlct.motion.features import joints_to_features, recover_from_ric
 from mlct.motion.skeleton import get_skeleton
 from mlct.nn.inference import for_inference, weight_dtype
@@ -307,6 +305,10 @@ class MotionGenerator:
         its guidance pulls the arm sample toward the body, which reattach replaces anyway, and
         its candidates are chosen by that, not by the critic; on the benchmark's concurrent
         test captions the arms passed 0.843 that way, 0.899 this way (docs/training.md)."""
+        # imported here: control_fit needs scipy, which a cold start must not load
+        from mlct.generate.control import part_joints
+        from mlct.generate.control_fit import reattach
+
         made = self.generate(body, lengths=frames, nfe=nfe, seed=seed, guidance=guidance,
                              candidates=candidates)[0]
         standing = self.generate(arms, lengths=frames, nfe=nfe, seed=seed, guidance=guidance,
