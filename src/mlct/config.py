@@ -185,6 +185,10 @@ class TrainConfig(_Section):
     # refused as everywhere else in mlct.
     seed: int = Field(0, ge=0, le=2**53 - 1)
     precision: Literal["auto", "fp32", "bf16"] = "auto"  # auto: bf16 autocast on CUDA only
+    # Ours: on a GPU, the whole step (the frozen encoder, forward, backward, clipping, AdamW,
+    # the EMA) replayed from one CUDA graph, the motions held on the device
+    # (train/captured_step.py); elsewhere the same fixed-shape step runs without a graph.
+    cuda_graph: bool = False
 
 
 class StageTrainConfigs(_Section):

@@ -190,13 +190,22 @@ class Text2MotionDataset(Dataset):
     def _sample(self, index: int, rng: torch.Generator | None = None
                 ) -> tuple[TextRecord, torch.Tensor, int]:
         """A random caption of item `index` and a random crop, padded: (record, motion, length)."""
+        record, start, length = self.choose(index, rng)
+        item = self.items[index]
+        motion = torch.zeros(self.max_motion_length, item.motion.shape[1], dtype=torch.float32)
+        motion[:length] = torch.from_numpy(item.motion[start:start + length])
+        return record, motion, length
+
+    def choose(self, index: int, rng: torch.Generator | None = None
+               ) -> tuple[TextRecord, int, int]:
+        """What `_sample` draws for item `index`, without copying the motion: (caption record,
+        first frame, length of the crop). A trainer holding the motions on its device gathers
+        the crop there (train/resident.py) from these three."""
         item = self.items[index]
         record = item.captions[self._randint(0, len(item.captions) - 1, rng)]
         length = min(self.crop_length(len(item.motion), rng), len(item.motion))
         start = self._randint(0, len(item.motion) - length, rng)
-        motion = torch.zeros(self.max_motion_length, item.motion.shape[1], dtype=torch.float32)
-        motion[:length] = torch.from_numpy(item.motion[start:start + length])
-        return record, motion, length
+        return record, start, length
 
     def __getitem__(self, index: int) -> Sample:
         record, motion, length = self._sample(index)

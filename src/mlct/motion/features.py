@@ -201,7 +201,8 @@ def recover_from_ric(features: Tensor, n_joints: int | None = None) -> Tensor:
     ric = features[..., 4:4 + (n_joints - 1) * 3]
     ric = ric.reshape(ric.shape[:-1] + (n_joints - 1, 3))  # (..., T, J-1, 3)
     world = qrot(qinv(r_rot)[..., None, :], ric)
-    world = world + r_pos[..., None, :] * r_pos.new_tensor([1.0, 0.0, 1.0])
+    ground = torch.stack([r_pos[..., 0], torch.zeros_like(r_pos[..., 1]), r_pos[..., 2]], dim=-1)
+    world = world + ground[..., None, :]  # the root's x, z (no tensor from the host: graph-safe)
     return torch.cat([r_pos[..., None, :], world], dim=-2)
 
 

@@ -33,7 +33,9 @@ def qmul(q: Tensor, r: Tensor) -> Tensor:
 
 def qinv(q: Tensor) -> Tensor:
     """Conjugate [w, -x, -y, -z]: the inverse of a unit quaternion."""
-    return q * q.new_tensor([1.0, -1.0, -1.0, -1.0])
+    # negated, not multiplied by a new tensor of signs: a CUDA graph cannot copy one from the
+    # host (train/captured_step.py captures the autoencoder's joint loss)
+    return torch.cat([q[..., :1], -q[..., 1:]], dim=-1)
 
 
 def qnormalize(q: Tensor) -> Tensor:

@@ -34,6 +34,26 @@ class _SeededItems(Dataset):
         return self.dataset.sample(index, generator)
 
 
+class _SeededChoices(_SeededItems):
+    """The same draws as _SeededItems, without the motion: for a trainer that holds the motions
+    on its device (train/resident.py) and gathers each crop there."""
+
+    def __getitem__(self, key: tuple[int, int]) -> tuple[str, int, int, int]:
+        index, item_seed = key
+        generator = torch.Generator()
+        generator.manual_seed(item_seed)
+        record, start, length = self.dataset.choose(index, generator)
+        return record.caption, index, start, length
+
+
+def collate_choices(choices: list[tuple[str, int, int, int]]) -> dict:
+    """Captions as a list; item index, first frame and length as (B,) long tensors."""
+    captions, index, start, length = zip(*choices)
+    return {"caption": list(captions), "index": torch.tensor(index, dtype=torch.long),
+            "start": torch.tensor(start, dtype=torch.long),
+            "length": torch.tensor(length, dtype=torch.long)}
+
+
 class StepBatches(Sampler[list[tuple[int, int]]]):
     """Yields, for steps start..stop-1, this rank's share of each global batch."""
 
@@ -73,14 +93,20 @@ class StepBatches(Sampler[list[tuple[int, int]]]):
 
 
 def step_loader(dataset: Text2MotionDataset, batch_size: int, seed: int, start: int, stop: int,
-                rank: int = 0, world: int = 1, num_workers: int = 0) -> DataLoader:
-    """A DataLoader over steps start..stop-1 of the deterministic batch sequence."""
+                rank: int = 0, world: int = 1, num_workers: int = 0,
+                choices_only: bool = False) -> DataLoader:
+    """A DataLoader over steps start..stop-1 of the deterministic batch sequence.
+
+    choices_only: each batch holds what was drawn (caption, item index, first frame, length;
+    collate_choices), not the motions: the same batches, for motions kept on the device."""
     sampler = StepBatches(len(dataset), batch_size, seed, start, stop, rank, world)
     # Its own generator: a DataLoader otherwise draws its worker base seed from the global RNG,
     # which would shift the training noise stream on resume.
     generator = torch.Generator()
     generator.manual_seed(seed)
-    return DataLoader(_SeededItems(dataset), batch_sampler=sampler, collate_fn=collate,
+    items, collate_fn = ((_SeededChoices(dataset), collate_choices) if choices_only
+                         else (_SeededItems(dataset), collate))
+    return DataLoader(items, batch_sampler=sampler, collate_fn=collate_fn,
                       num_workers=num_workers, generator=generator)
 
 

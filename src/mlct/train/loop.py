@@ -29,9 +29,11 @@ from mlct.errors import MlctError
 from mlct.io import write_text
 from mlct.train import distributed
 from mlct.train.batches import fixed_batches, step_loader
+from mlct.train.captured_step import CapturedStep, optimizer_update, restore_optimizer
 from mlct.train.checkpoint import (STATE, WEIGHTS, intact_checkpoints, latest_checkpoint,
                                    load_checkpoint, remove_partial_writes, resume_checkpoint,
                                    save_checkpoint)
+from mlct.train.resident import ResidentMotions
 from mlct.train.stages import (AutoencoderStage, ConsistencyStage, DiffusionStage, Stage,
                                TextTable, find_autoencoder)
 
@@ -55,11 +57,35 @@ class JsonlLog:
             handle.write(json.dumps(record) + "\n")
 
 
-def _autocast(device: torch.device, precision: str) -> contextlib.AbstractContextManager:
+def _autocast(device: torch.device, precision: str,
+              cache: bool = True) -> contextlib.AbstractContextManager:
+    """bf16 autocast where asked. cache=False for a CUDA graph: autocast's cache of cast
+    weights would outlive the capture (torch.cuda.make_graphed_callables says the same)."""
     use_bf16 = precision == "bf16" or (precision == "auto" and device.type == "cuda")
     if not use_bf16:
         return contextlib.nullcontext()
-    return torch.autocast(device_type=device.type, dtype=torch.bfloat16)
+    return torch.autocast(device_type=device.type, dtype=torch.bfloat16, cache_enabled=cache)
+
+
+def _check_capturable(config: Config, stage: str, info: distributed.DistInfo) -> None:
+    """What train.<stage>.cuda_graph cannot hold yet, refused before any work."""
+    if info.enabled:
+        raise MlctError(f"train.{stage}.cuda_graph runs in one process; DDP's gradient "
+                        f"all-reduce is not captured: drop cuda_graph or run without torchrun")
+    if stage == "ae" and config.ae.hold_extension > 0:
+        raise MlctError("train.ae.cuda_graph cannot hold ae.hold_extension (its lengths are "
+                        "drawn on the host each step): set one of them to 0")
+    if stage == "cm" and config.consistency.motion_weight > 0:
+        raise MlctError("train.cm.cuda_graph cannot hold consistency.motion_weight (its decode "
+                        "is cut at each batch's longest item): set one of them to 0")
+
+
+def _finite_loss(loss: Tensor, step: int, stage_dir: Path, info: distributed.DistInfo) -> None:
+    reduced = distributed.mean_over_ranks(loss.detach().float(), info)
+    if not math.isfinite(float(reduced)):
+        latest = latest_checkpoint(stage_dir / "checkpoints")
+        raise MlctError(f"loss is {float(reduced)} at step {step}; training stopped. "
+                        f"The last good checkpoint is {latest or 'none (none was saved)'}")
 
 
 def _autoencoder_stats(path: Path) -> tuple[Tensor, Tensor]:
@@ -355,13 +381,18 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
         initial.load_into(stage)
     config = stage.config
     model = stage.trainable
-    optimizer = torch.optim.AdamW(model.parameters(), lr=tc.lr, weight_decay=tc.weight_decay)
+    graphed = tc.cuda_graph and info.device.type == "cuda"
+    if tc.cuda_graph:
+        _check_capturable(config, stage_name, info)
+    # capturable: AdamW's step count on the device, which a CUDA graph needs
+    optimizer = torch.optim.AdamW(model.parameters(), lr=tc.lr, weight_decay=tc.weight_decay,
+                                  capturable=graphed)
     scheduler = torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, T_max=tc.max_steps,
                                                            eta_min=tc.lr_min)
     step = 0
     if checkpoint is not None:
         stage.load(checkpoint)
-        optimizer.load_state_dict(checkpoint.state["optimizer"])
+        restore_optimizer(optimizer, checkpoint.state["optimizer"])
         scheduler.load_state_dict(checkpoint.state["scheduler"])
         _set_rng_state(checkpoint.state["rng"][min(info.rank, len(checkpoint.state["rng"]) - 1)],
                        info.device)
@@ -377,7 +408,11 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
     val_batches = fixed_batches(val, tc.batch_size, tc.val_batches) if val is not None else []
     stop = tc.max_steps if stop_at is None else min(stop_at, tc.max_steps)
     loader = step_loader(data, tc.batch_size, tc.seed, step, stop, info.rank, info.world,
-                         dc.num_workers)
+                         dc.num_workers, choices_only=tc.cuda_graph)
+    captured = None
+    if tc.cuda_graph:  # the motions on the device, the step replayed (train/captured_step.py)
+        captured = CapturedStep(stage, model, optimizer, ResidentMotions(data, info.device),
+                                tc.grad_clip, lambda: _autocast(info.device, tc.precision, False))
     if val_batches and checkpoint is None:  # the starting point, for comparison
         record = {"step": 0, **_validate(stage, val_batches, tc.seed, info.device, tc.precision)}
         if log is not None:
@@ -389,20 +424,16 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
     samples, started = 0, time.perf_counter()
     model.train()
     for batch in loader:
-        with _autocast(info.device, tc.precision):
-            terms = stage.loss(wrapped, batch)
-        loss = terms["loss"]
-        reduced = distributed.mean_over_ranks(loss.detach().float(), info)
-        if not math.isfinite(float(reduced)):
-            latest = latest_checkpoint(stage_dir / "checkpoints")
-            raise MlctError(f"loss is {float(reduced)} at step {step + 1}; training stopped. "
-                            f"The last good checkpoint is {latest or 'none (none was saved)'}")
-        optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        grad_norm = torch.nn.utils.clip_grad_norm_(model.parameters(), tc.grad_clip)
-        optimizer.step()
+        if captured is None:
+            with _autocast(info.device, tc.precision):
+                terms = stage.loss(wrapped, batch)
+            _finite_loss(terms["loss"], step + 1, stage_dir, info)
+            grad_norm = optimizer_update(model, optimizer, terms["loss"], tc.grad_clip)
+            stage.after_step()
+        else:  # the same update from one graph; the loss is checked after it (nothing saved)
+            terms, grad_norm = captured(batch)
+            _finite_loss(terms["loss"], step + 1, stage_dir, info)
         scheduler.step()
-        stage.after_step()
         step += 1
         samples += len(batch["caption"]) * info.world
         bar.update(1)
@@ -412,7 +443,8 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
                     for k, v in terms.items()}
             elapsed = time.perf_counter() - started
             record = {"step": step, **last, "grad_norm": float(grad_norm),
-                      "lr": scheduler.get_last_lr()[0], "samples_per_s": samples / elapsed}
+                      "lr": scheduler.get_last_lr()[0], "samples_per_s": samples / elapsed,
+                      "time": round(time.time(), 3)}  # wall clock: lines up with a GPU monitor
             bar.set_postfix(loss=f"{last['loss']:.4g}")
             if log is not None:
                 log.write(record)
@@ -472,5 +504,5 @@ def _tb_write(writer: Any, record: dict[str, Any], step: int) -> None:
     if writer is None:
         return
     for key, value in record.items():
-        if key != "step" and isinstance(value, (int, float)):
+        if key not in ("step", "time") and isinstance(value, (int, float)):
             writer.add_scalar(key, value, step)

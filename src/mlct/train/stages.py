@@ -8,6 +8,7 @@ The loop (train/loop.py) is the same for all three.
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 from typing import Any, Callable
 
@@ -31,6 +32,13 @@ from mlct.train.checkpoint import Checkpoint, latest_checkpoint, load_checkpoint
 
 def schedule_of(config: Config) -> VPSchedule:
     return VPSchedule(beta_min=config.schedule.beta_min, beta_max=config.schedule.beta_max)
+
+
+def longest(batch: dict[str, Any], lengths: Tensor) -> int:
+    """The frames a batch is cut to: its longest item's. A fixed-shape batch (train/
+    captured_step.py: "static") keeps its whole padded width, since a CUDA graph cannot read the
+    lengths; masks make the two the same computation."""
+    return batch["motion"].shape[1] if batch.get("static") else int(lengths.max())
 
 
 def _masked_smooth_l1(a: Tensor, b: Tensor, mask: Tensor, beta: float = 1.0) -> Tensor:
@@ -80,6 +88,10 @@ class Stage:
 
     def after_step(self) -> None:
         """Called after each optimizer step (EMA updates)."""
+
+    def after_step_in_graph(self) -> None:
+        """after_step as a CUDA graph can hold it (train/captured_step.py), once after_step ran."""
+        self.after_step()
 
     def tensors(self) -> dict[str, Tensor]:
         raise NotImplementedError
@@ -140,7 +152,7 @@ class AutoencoderStage(Stage):
              generator: torch.Generator | None = None) -> dict[str, Tensor]:
         x = batch["motion"].to(self.device)  # (B, L, D) normalized, zero-padded
         lengths = batch["length"].to(self.device)
-        frames = int(lengths.max())
+        frames = longest(batch, lengths)
         x = x[:, :frames]
         noise = self.config.ae.latent_noise if model.training else 0.0
         if self.config.ae.hold_extension > 0:  # some items decoded past their end
@@ -219,6 +231,22 @@ class AutoencoderStage(Stage):
         self.norm.load_state_dict(checkpoint.module_state("norm"))
 
 
+def update_ema_in_graph(ema: AveragedModel, module: nn.Module) -> None:
+    """AveragedModel.update_parameters (use_buffers=True) for an EMA updated once already,
+    without its first-call test: bool(n_averaged == 0) reads the device, which a CUDA graph
+    cannot. The same multi_avg_fn over the parameters and buffers, grouped by dtype as there."""
+    ours = [t.detach() for t in itertools.chain(ema.module.parameters(), ema.module.buffers())]
+    theirs = [t.detach() for t in itertools.chain(module.parameters(), module.buffers())]
+    groups: dict[torch.dtype, tuple[list[Tensor], list[Tensor]]] = {}
+    for mine, source in zip(ours, theirs, strict=True):
+        pair = groups.setdefault(mine.dtype, ([], []))
+        pair[0].append(mine)
+        pair[1].append(source)
+    for mine_list, source_list in groups.values():
+        ema.multi_avg_fn(mine_list, source_list, ema.n_averaged)
+    ema.n_averaged += 1
+
+
 def find_autoencoder(run: Path, ae_path: str | Path | None) -> Path:
     """The AE checkpoint a stage-2 run builds on: --ae PATH, else RUN/ae's latest.
 
@@ -264,12 +292,22 @@ class TextTable:
         self.table = embeddings.float().to(device)  # (N, c)
         self.null = encoder.null_embedding().float().to(device)  # (c,) the embedding of ""
 
-    def __call__(self, captions: list[str]) -> Tensor:
+    def rows(self, captions: list[str]) -> Tensor:
+        """(B,) long, on the host: each caption's row of the table."""
         try:
-            rows = [self.index[c] for c in captions]
+            return torch.tensor([self.index[c] for c in captions], dtype=torch.long)
         except KeyError as err:
             raise MlctError(f"caption {err} was not embedded at start-up") from None
-        return self.table[torch.tensor(rows, device=self.table.device)]  # (B, c)
+
+    def __call__(self, captions: list[str]) -> Tensor:
+        return self.table[self.rows(captions).to(self.table.device)]  # (B, c)
+
+    def of_batch(self, batch: dict[str, Any]) -> Tensor:
+        """The batch's embeddings: from its rows when it carries them (a fixed-shape batch,
+        train/captured_step.py), else looked up by caption."""
+        if "text_rows" in batch:
+            return self.table[batch["text_rows"]]
+        return self(batch["caption"])
 
 
 class LatentStage(Stage):
@@ -295,12 +333,13 @@ class LatentStage(Stage):
         x = batch["motion"].to(self.device)
         lengths = batch["length"].to(self.device)
         with torch.no_grad():
-            z = self.ae.encode(x[:, : int(lengths.max())], lengths).z.float()  # (B, n, d)
+            z = self.ae.encode(x[:, : longest(batch, lengths)], lengths).z.float()  # (B, n, d)
         return z * self.config.schedule.latent_scale  # stage 2's latent space
 
     def _ema(self, module: nn.Module) -> AveragedModel:
-        ema = AveragedModel(module, multi_avg_fn=get_ema_multi_avg_fn(self.ema_decay),
-                            use_buffers=True)
+        # its update count on the module's device, where a CUDA graph can count (captured_step)
+        ema = AveragedModel(module, device=self.device,
+                            multi_avg_fn=get_ema_multi_avg_fn(self.ema_decay), use_buffers=True)
         return ema.eval().requires_grad_(False)
 
     def _frozen_and_online(self) -> dict[str, Tensor]:
@@ -343,7 +382,7 @@ class ConsistencyStage(LatentStage):
         c = self.config.consistency
         target = self.target.module if self.target is not None else self.online
         return consistency_training_loss(
-            model, target, self.latents(batch), self.text(batch["caption"]), self.text.null,
+            model, target, self.latents(batch), self.text.of_batch(batch), self.text.null,
             self.schedule, self.grid, guidance=c.guidance, uncond_weight=c.uncond_weight,
             huber_c=c.huber_c, clamp=self.clamp, denoise_weight=c.denoise_weight,
             generator=generator, decode=self._decoder(batch) if c.motion_weight else None,
@@ -364,6 +403,10 @@ class ConsistencyStage(LatentStage):
     def after_step(self) -> None:
         if self.target is not None:
             self.target.update_parameters(self.online)
+
+    def after_step_in_graph(self) -> None:
+        if self.target is not None:
+            update_ema_in_graph(self.target, self.online)
 
     def start_from(self, denoiser: dict[str, Tensor]) -> None:
         """Fine-tuning: the denoiser's weights from a model; the EMA target restarts from them."""
@@ -404,11 +447,14 @@ class DiffusionStage(LatentStage):
     def loss(self, model: nn.Module, batch: dict[str, Any],
              generator: torch.Generator | None = None) -> dict[str, Tensor]:
         return diffusion_training_loss(
-            model, self.latents(batch), self.text(batch["caption"]), self.text.null,
+            model, self.latents(batch), self.text.of_batch(batch), self.text.null,
             self.schedule, cond_dropout=self.config.diffusion.cond_dropout, generator=generator)
 
     def after_step(self) -> None:
         self.ema.update_parameters(self.denoiser)
+
+    def after_step_in_graph(self) -> None:
+        update_ema_in_graph(self.ema, self.denoiser)
 
     def start_from(self, denoiser: dict[str, Tensor]) -> None:
         """Fine-tuning: the denoiser's weights from a model; the EMA restarts from them."""
