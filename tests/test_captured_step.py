@@ -102,7 +102,9 @@ def test_the_fixed_shape_step_trains_as_the_eager_loop(data: Path, cache: str,
         eager, fixed = _losses(tmp_path / "eager", stage), _losses(tmp_path / "fixed", stage)
         assert [r[:2] for r in eager] == [r[:2] for r in fixed]
         for (step, key, a), (_, _, b) in zip(eager, fixed):
-            assert b == pytest.approx(a, rel=1e-5, abs=1e-6), (stage, step, key)
+            # equal here; within float rounding on other CPUs (the attention's sums run over
+            # the padded width instead of the cut one: 3e-5 seen on the H200 machine's host)
+            assert b == pytest.approx(a, rel=2e-4, abs=1e-6), (stage, step, key)
 
 
 def test_a_run_with_it_resumes_without_it(data: Path, cache: str, tmp_path: Path) -> None:

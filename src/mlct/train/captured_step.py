@@ -119,6 +119,9 @@ class CapturedStep:
         with self.autocast():
             terms = self.stage.loss(self.model, batch)
         grad_norm = optimizer_update(self.model, self.optimizer, terms["loss"], self.grad_clip)
+        # detached: a loss kept by the caller would keep this step's autograd graph alive into
+        # the next one, whose backward then runs on another stream (torch warns of it)
+        terms = {**terms, "loss": terms["loss"].detach()}
         if in_graph:
             self.stage.after_step_in_graph()
         else:
