@@ -107,6 +107,19 @@ def test_the_fixed_shape_step_trains_as_the_eager_loop(data: Path, cache: str,
             assert b == pytest.approx(a, rel=2e-4, abs=1e-6), (stage, step, key)
 
 
+def test_the_decoder_held_past_the_end_trains_the_same(data: Path, cache: str,
+                                                      tmp_path: Path) -> None:
+    """ae.hold_extension (the recipe's decoder stages): the extension drawn as before, decoded
+    to the whole padded width instead of the longest extension."""
+    extra = ["ae.hold_extension=0.5", "ae.latent_noise=0.1", "ae.freeze_encoder=true"]
+    _run(data, tmp_path / "eager", cache, graph=False, stages=(("ae", 12),), extra=extra)
+    _run(data, tmp_path / "fixed", cache, graph=True, stages=(("ae", 12),), extra=extra)
+    eager, fixed = _losses(tmp_path / "eager", "ae"), _losses(tmp_path / "fixed", "ae")
+    assert [r[:2] for r in eager] == [r[:2] for r in fixed]
+    for (step, key, a), (_, _, b) in zip(eager, fixed):
+        assert b == pytest.approx(a, rel=2e-4, abs=1e-6), (step, key)
+
+
 def test_a_run_with_it_resumes_without_it(data: Path, cache: str, tmp_path: Path) -> None:
     whole = tmp_path / "whole"
     _run(data, whole, cache, graph=True, stages=(("ae", 12),))
@@ -135,10 +148,11 @@ def test_restoring_an_optimizer_keeps_its_own_capturable_flag() -> None:
 
 
 def test_what_it_cannot_hold_is_refused_up_front(data: Path, cache: str, tmp_path: Path) -> None:
-    with pytest.raises(MlctError, match="hold_extension"):
-        train("ae", data, tmp_path / "a", load_config("tiny"), progress=False,
-              overrides=[cache, "train.ae.cuda_graph=true", "ae.hold_extension=0.5"])
-    assert not (tmp_path / "a" / "ae" / "checkpoints").exists()
+    _run(data, tmp_path / "a", cache, graph=False, stages=(("ae", 3),))
+    with pytest.raises(MlctError, match="motion_weight"):
+        train("cm", data, tmp_path / "a", load_config("tiny"), progress=False,
+              overrides=[cache, "train.cm.cuda_graph=true", "consistency.motion_weight=1.0"])
+    assert not (tmp_path / "a" / "cm" / "checkpoints").exists()
 
 
 @pytest.mark.skipif(not GPU, reason="needs a CUDA GPU (bench/gpu_train_check.sh runs it there)")

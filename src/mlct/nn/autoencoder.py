@@ -129,15 +129,18 @@ class LatentAutoencoder(nn.Module):
         raise NotImplementedError
 
     def forward(self, x: Tensor, lengths: Tensor, decode_lengths: Tensor | None = None,
-                latent_noise: float = 0.0) -> tuple[Tensor, Latent]:
+                latent_noise: float = 0.0, decode_frames: int | None = None
+                ) -> tuple[Tensor, Latent]:
         """Reconstruct x (B, T, D) through z: returns (D(z) (B, T, D), Latent). decode_lengths:
-        decode each item to this length instead (B, T' = its max), e.g. past the clip's end.
+        decode each item to this length instead (B, T' = its max, or decode_frames where given:
+        a CUDA graph cannot read the max), e.g. past the clip's end.
         latent_noise: decode z + latent_noise * N(0, I) instead of z (`ae.latent_noise`)."""
         latent = self.encode(x, lengths)
         z = latent.z + latent_noise * torch.randn_like(latent.z) if latent_noise else latent.z
         if decode_lengths is None:
             return self.decode(z, lengths, max_len=x.shape[1]), latent
-        return self.decode(z, decode_lengths, int(decode_lengths.max())), latent
+        width = int(decode_lengths.max()) if decode_frames is None else decode_frames
+        return self.decode(z, decode_lengths, width), latent
 
 
 class MotionAutoencoder(LatentAutoencoder):

@@ -72,9 +72,6 @@ def _check_capturable(config: Config, stage: str, info: distributed.DistInfo) ->
     if info.enabled:
         raise MlctError(f"train.{stage}.cuda_graph runs in one process; DDP's gradient "
                         f"all-reduce is not captured: drop cuda_graph or run without torchrun")
-    if stage == "ae" and config.ae.hold_extension > 0:
-        raise MlctError("train.ae.cuda_graph cannot hold ae.hold_extension (its lengths are "
-                        "drawn on the host each step): set one of them to 0")
     if stage == "cm" and config.consistency.motion_weight > 0:
         raise MlctError("train.cm.cuda_graph cannot hold consistency.motion_weight (its decode "
                         "is cut at each batch's longest item): set one of them to 0")

@@ -54,7 +54,7 @@ def _root_trajectory(features: Tensor) -> Tensor:
     _, position = recover_root_rot_pos(features)
     # twice the yaw half-angle, negated: the read-outs' heading (to the person's left positive)
     heading = -2.0 * root_half_angles(features)
-    return torch.cat([heading[..., None], position[..., [0, 2]]], dim=-1)
+    return torch.cat([heading[..., None], position[..., 0::2]], dim=-1)
 
 
 class Normalizer(nn.Module):
@@ -156,10 +156,13 @@ class AutoencoderStage(Stage):
         x = x[:, :frames]
         noise = self.config.ae.latent_noise if model.training else 0.0
         if self.config.ae.hold_extension > 0:  # some items decoded past their end
-            longer = self._extended_lengths(lengths, generator)
-            recon, latent = model(x, lengths, longer, noise)  # (B, max(longer), D)
-            x, lengths = self._held_target(x, lengths, longer), longer
-            frames = int(lengths.max())
+            static = bool(batch.get("static"))
+            longer = self._extended_lengths(lengths, generator, on_device=static)
+            # a fixed-shape batch keeps its whole padded width, which no extension passes
+            width = frames if static else int(longer.max())
+            recon, latent = model(x, lengths, longer, noise, decode_frames=width)  # (B, width, D)
+            x, lengths = self._held_target(x, lengths, longer, width), longer
+            frames = width
         else:
             recon, latent = model(x, lengths, None, noise)  # (B, frames, D)
         mask = lengths_to_mask(lengths, frames).to(x.dtype)  # (B, frames)
@@ -187,19 +190,23 @@ class AutoencoderStage(Stage):
         out["loss"] = total
         return out
 
-    def _extended_lengths(self, lengths: Tensor, generator: torch.Generator | None) -> Tensor:
+    def _extended_lengths(self, lengths: Tensor, generator: torch.Generator | None,
+                          on_device: bool = False) -> Tensor:
         """A hold_extension share of the items, lengthened by a random number of frames (up
-        to the horizon); the others as they are."""
-        draw = lambda: torch.rand(len(lengths), generator=generator).to(lengths.device)  # noqa: E731
+        to the horizon); the others as they are. Drawn on the host (the generator's device
+        where one is given), or on_device, as a CUDA graph needs."""
+        where = lengths.device if on_device else (
+            generator.device if generator is not None else torch.device("cpu"))
+        draw = lambda: torch.rand(len(lengths), generator=generator,  # noqa: E731
+                                  device=where).to(lengths.device)
         chosen = draw() < self.config.ae.hold_extension
         room = (self.config.data.max_motion_length - lengths).clamp(min=0)
         extra = (draw() * (room + 1)).long()
         return lengths + torch.where(chosen, extra, torch.zeros_like(extra))
 
-    def _held_target(self, x: Tensor, lengths: Tensor, longer: Tensor) -> Tensor:
-        """x (B, T, D) extended to max(longer) frames: past each clip's end, its last pose held
-        still (velocities 0, feet on the ground) up to `longer`, zeros after."""
-        frames = int(longer.max())
+    def _held_target(self, x: Tensor, lengths: Tensor, longer: Tensor, frames: int) -> Tensor:
+        """x (B, T, D) extended to `frames` (>= max(longer)): past each clip's end, its last
+        pose held still (velocities 0, feet on the ground) up to `longer`, zeros after."""
         held = self._held_pose(x[torch.arange(len(lengths), device=x.device), lengths - 1])
         steps = torch.arange(frames, device=x.device)[None, :]  # (1, frames)
         past = (steps >= lengths[:, None]) & (steps < longer[:, None])  # (B, frames)
