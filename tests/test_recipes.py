@@ -11,7 +11,8 @@ import pytest
 TOOLS = Path(__file__).resolve().parents[1] / "tools"
 
 
-@pytest.mark.parametrize("script", ["make_bundled_model.sh", "make_bundled_model_3h.sh"])
+@pytest.mark.parametrize("script", ["make_bundled_model.sh", "make_bundled_model_3h.sh",
+                                    "make_bundled_model_gpu.sh"])
 def test_recipe_parses(script):
     subprocess.run(["bash", "-n", str(TOOLS / script)], check=True)
 
@@ -89,3 +90,35 @@ def test_self_samples_adds_passing_samples_and_leaves_the_source_alone(tmp_path)
         original = name[1:].rsplit("_", 1)[0]
         assert ((tmp_path / "dst" / "texts" / f"{name}.txt").read_text()
                 == (src / "texts" / f"{original}.txt").read_text())
+
+
+def test_join_model_parts_gives_the_weights_back(tmp_path):
+    """The GPU recipe sends a model in two files; joined, they are the model's tensors."""
+    import numpy as np
+    import torch
+    from safetensors.torch import load_file, save_file
+
+    sys.path.insert(0, str(TOOLS))
+    try:
+        from join_model_parts import join
+    finally:
+        sys.path.pop(0)
+    tensors = {"denoiser.a": torch.randn(3, 2).half(), "decoder.b": torch.randn(4).half(),
+               "norm.mean": torch.zeros(5)}
+    parts = tmp_path / "parts"
+    parts.mkdir()
+    save_file({k: v for k, v in tensors.items() if k.startswith("denoiser.")},
+              str(parts / "model_part1.safetensors"), metadata={"sampler": "cm"})
+    save_file({k: v for k, v in tensors.items() if not k.startswith("denoiser.")},
+              str(parts / "model_part2.safetensors"), metadata={"sampler": "cm"})
+    (parts / "config.json").write_text("{}")
+    np.save(parts / "Mean.npy", np.zeros(5))
+    np.save(parts / "Std.npy", np.ones(5))
+    out = join(parts, tmp_path / "model")
+    joined = load_file(str(out / "model.safetensors"))
+    assert set(joined) == set(tensors)
+    assert all(torch.equal(joined[k], v) for k, v in tensors.items())
+    assert (out / "Std.npy").is_file()
+    (parts / "model_part2.safetensors").unlink()
+    with pytest.raises(SystemExit, match="model_part2"):
+        join(parts, tmp_path / "again")
