@@ -78,6 +78,7 @@ def _check_capturable(config: Config, stage: str, info: distributed.DistInfo) ->
 
 
 def _finite_loss(loss: Tensor, step: int, stage_dir: Path, info: distributed.DistInfo) -> None:
+    """Stop the run on a non-finite loss (averaged over ranks), naming the last good checkpoint."""
     reduced = distributed.mean_over_ranks(loss.detach().float(), info)
     if not math.isfinite(float(reduced)):
         latest = latest_checkpoint(stage_dir / "checkpoints")
