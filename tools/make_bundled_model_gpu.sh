@@ -10,6 +10,8 @@
 #
 #   bash tools/make_bundled_model_gpu.sh [CARRY_DIR]     (AE_STEPS, CM_STEPS to change the budget)
 #
+# Checkpoints every 5,000 steps: a stage stopped at its time limit leaves its last one, which
+# the next stage and the export take up (step() carries on after a failed step).
 # $OUT receives the model in two float16 files (model_part1/2.safetensors: a device call returns
 # files of a limited size), its config.json, Mean.npy, Std.npy and the logs. Here, on the CPU:
 #   python tools/join_model_parts.py OUT --out MODEL   (then durations and critic, as the recipes do:
@@ -35,7 +37,7 @@ step oversample 60 mlct data oversample "$work/synth_rich" --out "$work/synth_fo
     --families clap,wave,turn --times 3
 step ae 240 mlct train ae --data "$work/synth" --out "$work/run" --config small "${on[@]}" \
     train.ae.cuda_graph=true "train.ae.batch_size=$batch" "train.ae.max_steps=$ae_steps" \
-    train.ae.val_every=5000 "train.ae.ckpt_every=$ae_steps"
+    train.ae.val_every=5000 train.ae.ckpt_every=5000
 # the whole autoencoder decoding a noisy latent, held past the end, with the root's path
 step noise 90 mlct train ae --data "$work/synth" --out "$work/noise" --init "$work/run" "${on[@]}" \
     ae.latent_noise=0.1 ae.hold_extension=0.5 ae.trajectory_weight=1.0 \
@@ -44,7 +46,7 @@ step noise 90 mlct train ae --data "$work/synth" --out "$work/noise" --init "$wo
 step cm 330 mlct train cm --data "$work/synth_focus" --out "$work/cm" --config small \
     --ae "$work/noise" "${on[@]}" text.encoder=minilm+sides train.cm.cuda_graph=true \
     "train.cm.batch_size=$batch" "train.cm.max_steps=$cm_steps" train.cm.lr=4e-4 \
-    train.cm.log_every=500 train.cm.val_every=5000 "train.cm.ckpt_every=$cm_steps"
+    train.cm.log_every=500 train.cm.val_every=5000 train.cm.ckpt_every=5000
 step export 60 mlct export "$work/cm" --out "$work/model_cm" --half
 # the decoder alone with twice the noise; the encoder frozen, so stage 2's latents keep
 step dnoise 60 mlct train ae --data "$work/synth" --out "$work/dnoise" --init "$work/model_cm" \
