@@ -18,6 +18,13 @@ from mlct.data.dataset import Sample, Text2MotionDataset, collate
 _MIX = 1_000_003  # spreads (seed, step, position) over distinct generator seeds
 
 
+def _seeded(item_seed: int) -> torch.Generator:
+    """The generator an item's caption and crop are drawn from."""
+    generator = torch.Generator()
+    generator.manual_seed(item_seed)
+    return generator
+
+
 class _SeededItems(Dataset):
     """Items addressed by (index, item_seed): the dataset samples with that seed."""
 
@@ -29,9 +36,7 @@ class _SeededItems(Dataset):
 
     def __getitem__(self, key: tuple[int, int]) -> Sample:
         index, item_seed = key
-        generator = torch.Generator()
-        generator.manual_seed(item_seed)
-        return self.dataset.sample(index, generator)
+        return self.dataset.sample(index, _seeded(item_seed))
 
 
 class _SeededChoices(_SeededItems):
@@ -40,9 +45,7 @@ class _SeededChoices(_SeededItems):
 
     def __getitem__(self, key: tuple[int, int]) -> tuple[str, int, int, int]:
         index, item_seed = key
-        generator = torch.Generator()
-        generator.manual_seed(item_seed)
-        record, start, length = self.dataset.choose(index, generator)
+        record, start, length = self.dataset.choose(index, _seeded(item_seed))
         return record.caption, index, start, length
 
 
