@@ -191,3 +191,36 @@ def test_train_ae_adds_an_arm_pair_keeping_the_encoder_and_the_body(
     with pytest.raises(MlctError, match="needs ae.n_tokens=3"):
         train("ae", data, tmp_path / "bad", None, progress=False, init=model,
               overrides=[cache, "ae.n_tokens=4", "ae.arm_tokens=1", "train.ae.max_steps=1"])
+
+
+def test_an_arm_pair_started_from_the_body_draws_the_arms_as_the_old_pair() -> None:
+    """`ae.arm_init=body` (nn/grow.py arm_pair_from_body): the arm pair is the old pair
+    restricted to the arms' columns, so on a motion whose other features are zero (the mean
+    pose's) its tokens are the old encoder's and its decoder draws the arm columns as the old
+    decoder drew them; a pair of another width cannot be copied and says so."""
+    from mlct.motion.features import arm_feature_columns
+    from mlct.nn.grow import add_arm_pair
+
+    torch.manual_seed(0)
+    arms = arm_feature_columns(263)
+    old = ConvMotionAutoencoder(263, "plain", n_tokens=2, latent_dim=8, channels=16,
+                                max_len=40).eval()
+    new = ConvMotionAutoencoder(263, "plain", n_tokens=4, latent_dim=8, channels=16,
+                                max_len=40, arm_tokens=2, arm_channels=16,
+                                arm_columns=arms).eval()
+    new.load_state_dict(add_arm_pair(old.state_dict(), new.state_dict(), new.body_columns,
+                                     new.arm_columns))
+    x, lengths = torch.zeros(2, 40, 263), torch.tensor([40, 23])
+    x[..., arms] = torch.randn(2, 40, len(arms))
+    with torch.no_grad():
+        z_old, z_new = old.encode(x, lengths).z, new.encode(x, lengths).z
+        torch.testing.assert_close(z_new[:, 2:], z_old)  # the arm tokens: the old ones
+        drawn_old, drawn_new = old.decode(z_old, lengths), new.decode(z_new, lengths)
+        torch.testing.assert_close(drawn_new[..., arms], drawn_old[..., arms])
+        body = new.body_columns  # and the body draws its own columns as before
+        torch.testing.assert_close(drawn_new[..., body], drawn_old[..., body])
+    narrow = ConvMotionAutoencoder(263, "plain", n_tokens=4, latent_dim=8, channels=16,
+                                   max_len=40, arm_tokens=2, arm_channels=8, arm_columns=arms)
+    with pytest.raises(MlctError, match="arm_channels"):
+        add_arm_pair(old.state_dict(), narrow.state_dict(), narrow.body_columns,
+                     narrow.arm_columns)

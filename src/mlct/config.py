@@ -74,6 +74,9 @@ class AutoencoderConfig(_Section):
     # by a pair of their own, arm_channels wide (0 = one pair for everything; nn/conv_autoencoder.py)
     arm_tokens: int = Field(0, ge=0)
     arm_channels: int = Field(64, ge=1)
+    # an arm pair added by `train ae --init MODEL` starts "fresh" or as a copy of the model's
+    # own pair restricted to the arms' columns, "body" (nn/grow.py arm_pair_from_body)
+    arm_init: Literal["fresh", "body"] = "fresh"
     # conv only: hidden width of a two-layer MLP between the coarse grid and the tokens, both
     # ways (0 = one Linear each way, as before; nn/conv_autoencoder.py "bottleneck")
     bottleneck: int = Field(0, ge=0)

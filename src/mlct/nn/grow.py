@@ -70,22 +70,25 @@ def old_token_rows(n_rows: int, old_n: int, new_n: int, latent_dim: int) -> Tens
 ARM_PREFIXES = ("arm_encoder.", "arm_to_tokens.", "arm_from_tokens.", "arm_decoder.")
 
 
-def add_arm_pair(old: dict[str, Tensor], fresh: dict[str, Tensor], body_columns: list[int]
-                 ) -> dict[str, Tensor]:
+def add_arm_pair(old: dict[str, Tensor], fresh: dict[str, Tensor], body_columns: list[int],
+                 arm_columns: list[int] | None = None) -> dict[str, Tensor]:
     """A conv autoencoder without an arm pair (`old`) in the shapes of one with it (`fresh`,
     its n old tokens now the body's): the encoder and the n tokens stay exactly as they were
     (so a stage 2 trained on them keeps its meaning), the decoder keeps its weights but draws
-    only the body's columns (its last convolution's rows for them), and the arm pair starts
-    fresh."""
+    only the body's columns (its last convolution's rows for them). The arm pair starts fresh,
+    or, given `arm_columns` (`ae.arm_init=body`), as a copy of the body's pair restricted to the
+    arms' columns (`arm_pair_from_body`)."""
     arm = {k for k in fresh if k.startswith(ARM_PREFIXES)}
     if any(k.startswith(ARM_PREFIXES) for k in old) or set(old) != set(fresh) - arm:
         raise MlctError("an arm pair is added to a conv autoencoder without one, whose other "
                         "weights keep their names")
     last = max(int(k.split(".")[1]) for k in fresh if k.startswith("decoder."))
+    copied = (arm_pair_from_body(old, {k: fresh[k] for k in arm}, arm_columns, last)
+              if arm_columns is not None else {})
     out = {}
     for key, new in fresh.items():
         if key in arm:
-            out[key] = new
+            out[key] = copied.get(key, new)
             continue
         was = old[key]
         if key in (f"decoder.{last}.weight", f"decoder.{last}.bias"):
@@ -94,4 +97,37 @@ def add_arm_pair(old: dict[str, Tensor], fresh: dict[str, Tensor], body_columns:
             raise MlctError(f"cannot add an arm pair: {key} is {tuple(was.shape)}, the network "
                             f"wants {tuple(new.shape)} (keep ae.channels and the body's tokens)")
         out[key] = was
+    return out
+
+
+def arm_pair_from_body(old: dict[str, Tensor], arm: dict[str, Tensor], arm_columns: list[int],
+                       last: int) -> dict[str, Tensor]:
+    """The arm pair's weights (`arm`, fresh, for their shapes) as a copy of the old pair's,
+    restricted to the arms: the encoder's first convolution keeps its input channels of the arm
+    columns and of the validity mask (its last input), the decoder's last convolution its rows
+    of the arm columns; every other tensor is the old one as it is.
+
+    Why: an arm pair trained from fresh weights learnt to hold an arm's pose but drew no
+    oscillation in 8,000 steps, not even a one-action clap's (docs/training.md, "The
+    autoencoder's concurrent arms"); the old pair already draws claps and waves, so a copy of
+    it restricted to the arms starts where those are drawn. Needs ae.arm_channels equal to
+    ae.channels and as many arm tokens as the old latent has."""
+    stem = old["encoder.0.weight"]  # (channels, features + 1, kernel): the mask is the last input
+    inputs = torch.tensor([*arm_columns, stem.shape[1] - 1])
+    out = {}
+    for key, new in arm.items():
+        prefix, rest = key.split(".", 1)
+        source = {"arm_encoder": "encoder", "arm_to_tokens": "to_tokens",
+                  "arm_from_tokens": "from_tokens", "arm_decoder": "decoder"}[prefix] + "." + rest
+        was = old[source]
+        if source == "encoder.0.weight":
+            was = was.index_select(1, inputs)
+        elif source in (f"decoder.{last}.weight", f"decoder.{last}.bias"):
+            was = was[arm_columns]
+        if was.shape != new.shape:
+            raise MlctError(f"cannot start the arm pair from the body's: {key} would be "
+                            f"{tuple(was.shape)}, the network wants {tuple(new.shape)} (set "
+                            f"ae.arm_channels to ae.channels and as many arm tokens as the model "
+                            f"has)")
+        out[key] = was.clone()
     return out

@@ -308,7 +308,10 @@ class InitialWeights:
         if isinstance(stage, AutoencoderStage) and _adds_arm_pair(self.config, stage.config):
             from mlct.nn.grow import add_arm_pair  # the new tokens are an arm pair's
 
-            weights = add_arm_pair(weights, stage.model.state_dict(), stage.model.body_columns)
+            model = stage.model
+            weights = add_arm_pair(weights, model.state_dict(), model.body_columns,
+                                   model.arm_columns if stage.config.ae.arm_init == "body"
+                                   else None)
         elif new_n != old_n:  # a grown latent (nn/grow.py): the autoencoder's or the denoiser's
             from mlct.nn.grow import grow_tokens
 
