@@ -27,12 +27,8 @@ import mlct
 import mlct.generate.pipeline as pipeline
 from mlct.data.layout import DatasetLayout
 from mlct.eval.judge.action_classifier import read_labels
-from mlct.eval.readouts import evaluate_label
+from mlct.eval.readouts import passes
 from mlct.generate.durations import split_frames
-
-
-def passes(joints: np.ndarray, label: dict[str, Any]) -> bool:
-    return all(ok for _, ok in evaluate_label(joints, label))
 
 
 def own_windows(label: dict[str, Any], seams: tuple[int, ...], blend: int, fps: float,

@@ -67,7 +67,10 @@ def old_token_rows(n_rows: int, old_n: int, new_n: int, latent_dim: int) -> Tens
     return mask.view(n_rows)
 
 
-ARM_PREFIXES = ("arm_encoder.", "arm_to_tokens.", "arm_from_tokens.", "arm_decoder.")
+# each arm-pair module and the body-pair module it mirrors (arm_pair_from_body copies them)
+ARM_MODULES = {"arm_encoder": "encoder", "arm_to_tokens": "to_tokens",
+               "arm_from_tokens": "from_tokens", "arm_decoder": "decoder"}
+ARM_PREFIXES = tuple(f"{name}." for name in ARM_MODULES)
 
 
 def add_arm_pair(old: dict[str, Tensor], fresh: dict[str, Tensor], body_columns: list[int],
@@ -116,9 +119,8 @@ def arm_pair_from_body(old: dict[str, Tensor], arm: dict[str, Tensor], arm_colum
     inputs = torch.tensor([*arm_columns, stem.shape[1] - 1])
     out = {}
     for key, new in arm.items():
-        prefix, rest = key.split(".", 1)
-        source = {"arm_encoder": "encoder", "arm_to_tokens": "to_tokens",
-                  "arm_from_tokens": "from_tokens", "arm_decoder": "decoder"}[prefix] + "." + rest
+        module, rest = key.split(".", 1)
+        source = f"{ARM_MODULES[module]}.{rest}"
         was = old[source]
         if source == "encoder.0.weight":
             was = was.index_select(1, inputs)
