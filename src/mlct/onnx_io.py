@@ -28,7 +28,8 @@ if TYPE_CHECKING:
     import onnxruntime
 
 OPSET = 17  # LayerNormalization is one operator from opset 17 (ONNX Runtime >= 1.14)
-INSTALL = "pip install 'mlct[onnx]' (or: pip install onnxruntime==1.32.0 onnx==1.23.2)"
+INSTALL = ("pip install 'mlct[onnx]' (or: pip install onnxruntime==1.32.0 onnx==1.23.2 "
+           "onnx-ir==1.1.0)")
 
 
 def export_graph(module: nn.Module, args: tuple[torch.Tensor, ...], path: str | os.PathLike,

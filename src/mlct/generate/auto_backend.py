@@ -123,7 +123,7 @@ def default_graph_dir(path: Path, int8: bool = False) -> Path:
     key.update((path / CONFIG).read_bytes())
     key.update(f"mlct-onnx {ONNX_VERSION} torch {torch.__version__}".encode())
     if int8:
-        key.update(b" int8 denoiser")
+        key.update(b" int8 denoiser, blockwise")  # not the per-column graphs of before
     return default_cache_dir() / "onnx" / key.hexdigest()[:24]
 
 

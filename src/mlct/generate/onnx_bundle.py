@@ -94,12 +94,12 @@ def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike,
     """Write the ONNX graphs of the bundle in model_dir into the (empty) directory `into`,
     each checked against its torch module on a probe; returns `into`.
 
-    int8: then the denoiser's matrix products are quantized dynamically to int8 (ONNX Runtime;
-    weights per channel, activations at run time): sampling about 1.8x faster on one CPU
-    thread, joints 9 mm from float32's on average (docs/performance.md; tests/test_onnx.py
-    bounds them). The decoder stays float32 (its convolutions ran 3x slower quantized), and so
-    does the text encoder: quantized, it was 2x faster but moved the joints 27 mm on average,
-    as a slightly different sentence would."""
+    int8: then the denoiser's matrix products run in int8 with a scale per 32 weights
+    (ONNX Runtime's MatMulNBits, onnx_compact.quantize_blockwise_int8): sampling faster on one
+    CPU thread, joints a few mm from float32's on average (docs/performance.md, "Blockwise
+    int8"; tests/test_onnx.py bounds them). The decoder stays float32 (its convolutions ran 3x
+    slower quantized), and so does the text encoder: quantized, it was 2x faster but moved the
+    joints 27 mm on average, as a slightly different sentence would."""
     model_dir, into = Path(model_dir), Path(into)
     meta, tensors = read_bundle(model_dir)
     spec = check_onnx_spec(meta["text_encoder"])  # before any work
@@ -136,10 +136,11 @@ def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike,
                 "graphs": {"text_encoder": TEXT_ENCODER, "denoiser": DENOISER,
                            "decoder": DECODER}}
     if int8:
-        from mlct.generate.onnx_compact import quantize_int8
+        from mlct.generate.onnx_compact import INT8_BLOCK, quantize_blockwise_int8
 
-        quantize_int8(into / DENOISER, into / DENOISER, ("MatMul",))
+        quantize_blockwise_int8(into / DENOISER, into / DENOISER)
         manifest["int8"] = ["denoiser"]
+        manifest["int8_block"] = INT8_BLOCK
     (into / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
     return into
 
