@@ -16,6 +16,9 @@ are 20 MB (denoiser), 4 MB (decoder) and 90 MB (MiniLM).
   weights dequantized to float32 inside the graph: cosine 0.999, but ONNX Runtime Web
   dequantizes on every run (~8x slower in the page). The Python reference of the site
   (tests/test_web_static_e2e.py) runs the same quantized graph as the page.
+
+And one for the CPU backend: `quantize_blockwise_int8`, the denoiser of `onnx-int8` (mlct
+convert --onnx --int8), int8 with a scale per 32 weights (ONNX Runtime's MatMulNBits).
 """
 
 from __future__ import annotations
