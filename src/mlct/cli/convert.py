@@ -33,6 +33,7 @@ def add_parser(commands: Commands) -> None:
                          help="copy the model here with its graphs (default: MODEL/onnx/; "
                          "needed for 'bundled')")
     convert.add_argument("--int8", action="store_true",
-                         help="quantize the denoiser's matrix products to int8 (sampling ~1.8x "
-                         "faster on a CPU; joints ~9 mm from float32's: docs/performance.md)")
+                         help="quantize the denoiser's matrix products to int8, a scale per 32 "
+                         "weights (~1.4x faster on a CPU; joints 2-12 mm from float32's on "
+                         "average: docs/performance.md)")
     convert.set_defaults(func=run)

@@ -118,7 +118,7 @@ def add_parser(commands: Commands) -> None:
                           help="auto (default: onnx on the CPU when onnxruntime is installed, "
                           "cuda-graphs on a GPU, else torch; --verbose says which), torch, "
                           "onnx (ONNX Runtime on the CPU), onnx-int8 (the denoiser's products "
-                          "in int8: ~2x faster, other motions of the same quality) or "
+                          "in int8: ~1.4x faster, motions a few mm off float32's) or "
                           "cuda-graphs (a GPU)")
     generate.add_argument("--whole-prompt", action="store_true",
                           help="give the model a prompt that names actions in sequence ('walks, "
