@@ -225,26 +225,3 @@ def test_samples_without_labels_say_what_is_missing(tmp_path: Path) -> None:
         train_critic(tmp_path / "synth", model, steps=5, batch_size=8, samples=4,
                      judge=lambda joints, label: [], eval_split=None, log=lambda _: None)
     assert not (model / FILE).exists()  # nothing half-written
-
-
-@pytest.mark.parametrize("caption, foil", [
-    ("a person claps four times.", "a person claps five times."),
-    ("a man pivots 90 degrees to the left.", "a man pivots 180 degrees to the left."),
-    # a turn's angle in words: the benchmark's 45 "slight", 90 plain, 135 "sharp", 180 "around"
-    ("a person turns left.", "a person turns slightly left."),
-    ("the woman is turning to the right.", "the woman is turning slightly to the right."),
-    ("a person turns slightly to the left.", "a person turns sharply to the left."),
-    ("a man makes a sharp left turn.", "a man makes a slight left turn."),
-    ("a person makes a quarter turn to the left.", "a person makes a half turn to the left."),
-    ("someone turns around to the left.", "someone turns to the left."),
-    ("a man rotates 90 degrees clockwise.", "a man rotates 180 degrees clockwise."),
-    ("a person walks forward, then turns left twice.",
-     "a person walks forward, then turns slightly left three times."),
-    # no count, no angle: the caption itself (no foil)
-    ("a person waves the left hand.", "a person waves the left hand."),
-    ("someone makes a full turn to the right.", "someone makes a full turn to the right."),
-])
-def test_recount_says_another_count_or_angle(caption: str, foil: str) -> None:
-    from mlct.train.critic import recount
-
-    assert recount(caption) == foil

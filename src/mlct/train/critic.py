@@ -8,8 +8,7 @@ CLIP's symmetric InfoNCE over a batch of (caption, latent) pairs, with two chang
   counted as negatives of each other: the benchmark has many "walks forward" motions;
 - a caption that names a side also competes with its mirror ("left" and "right" swapped,
   text/sides.py) as a negative for its own motion, and one that states a count or an angle
-  with its recount ("four times" -> "five times", "45 degrees" -> "135 degrees", "turns
-  slightly left" -> "turns sharply left", "turns left" -> "turns slightly left"): the critic
+  with its recount ("four times" -> "five times", "45 degrees" -> "135 degrees"): the critic
   must tell sides and counts apart, what stage 2 gets wrong most often (docs/training.md).
 The latents get Gaussian noise (LATENT_NOISE of their spread) so that the critic also rates the
 slightly off-manifold latents a sampler returns.
@@ -52,34 +51,9 @@ _QUANTITY = re.compile(
     r"|\b(?P<count>once|twice|one|two|three|four|five|[1-5])\b(?P<times> times?\b)?")
 
 
-# A turn's angle said in words (the benchmark's 45-degree turns are "slight", its 135 "sharp",
-# its 90 a plain "turns left" or "a quarter turn", its 180 "turns around" or "a half turn"): the
-# foil says another angle. The pooled vectors of "turns left" and "turns slightly left" have a
-# cosine of 0.94, and stage 2 turns 72 degrees on average for the first (docs/training.md).
-_TURN_WORDS = {"slightly": "sharply", "sharply": "slightly", "slight": "sharp", "sharp": "slight",
-               "quarter turn": "half turn", "half turn": "quarter turn",
-               "turns around": "turns", "turning around": "turning"}
-_TURN_WORD = re.compile(r"\b(" + "|".join(sorted(_TURN_WORDS, key=len, reverse=True)) + r")\b")
-_TURN_VERBS = "turns|turning|rotates|rotating|pivots|pivoting|twists|twisting"
-# a plain turn to a side ("turns left", "turning to the right"), which the benchmark says of 90
-_PLAIN_TURN = re.compile(rf"\b({_TURN_VERBS})(?= (?:to (?:the|his|her|their) )?(?:left|right)\b)")
-
-
-def reangle(text: str) -> str:
-    """The caption with a turn's angle said in words swapped for another ("slightly" <->
-    "sharply", "a quarter turn" <-> "a half turn", "turns around" -> "turns", a plain "turns
-    left" -> "turns slightly left"); the caption itself when it says none."""
-    if _TURN_WORD.search(text):
-        return _TURN_WORD.sub(lambda m: _TURN_WORDS[m.group(1)], text)
-    if "degrees" in text or "clockwise" in text:
-        return text  # an angle in numbers: recount's
-    return _PLAIN_TURN.sub(lambda m: f"{m.group(1)} slightly", text)
-
-
 def recount(text: str) -> str:
     """The caption with every count one more (five wraps to two) and every angle swapped for
-    another (45 <-> 135, 90 <-> 180, and in words: `reangle`); the caption itself when it
-    states neither."""
+    another (45 <-> 135, 90 <-> 180); the caption itself when it states neither."""
     def swap(match: re.Match[str]) -> str:
         if match.group("angle"):
             return _ANGLES[match.group("angle")]
@@ -92,7 +66,7 @@ def recount(text: str) -> str:
         if word in ("once", "twice") or times:
             return {2: "twice"}.get(m, f"{_NUMBERS[m - 1]} times")
         return _NUMBERS[m - 1]
-    return reangle(_QUANTITY.sub(swap, text))
+    return _QUANTITY.sub(swap, text)
 
 
 class CriticData:
