@@ -34,6 +34,6 @@ def add_parser(commands: Commands) -> None:
                          "needed for 'bundled')")
     convert.add_argument("--int8", action="store_true",
                          help="quantize the denoiser's matrix products to int8, a scale per 32 "
-                         "weights (~1.4x faster on a CPU; joints 2-12 mm from float32's on "
+                         "weights (~1.4x faster on a CPU; joints 1-8 mm from float32's on "
                          "average: docs/performance.md)")
     convert.set_defaults(func=run)
