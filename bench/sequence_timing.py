@@ -110,7 +110,8 @@ def main() -> None:
                                                          seed=seed * 100_000)))
         finally:
             pipeline.split_frames = split_frames
-        print(f"  every cut {shift:+.2f} s earlier: label windows {ok}/{total} = {ok / total:.3f}")
+        when = f"{abs(shift):.2f} s {'earlier' if shift > 0 else 'later'}"
+        print(f"  every cut {when}: label windows {ok}/{total} = {ok / total:.3f}")
 
 
 if __name__ == "__main__":
