@@ -81,8 +81,8 @@ def test_a_sequence_is_chained_from_its_parts(pipe) -> None:
                                                       "a person squats")
     # the parts share the 120 frames by their predicted durations (the bundled durations.json)
     assert pipe.durations is not None
-    share = split_frames(pipe.durations.seconds(pipe.encode_text(list(chained.texts)).numpy()),
-                         120, 20)
+    weights = pipe.durations.part_weights(pipe.encode_text(list(chained.texts)).numpy(), 6.0, 1.0)
+    share = split_frames(weights, 120, 20)
     assert share[0] != 60 and sum(share) == 120
     assert chained.joints.shape[0] == 120 and chained.seams == (share[0],)
     assert chained.features.shape[1] == 263 and chained.seed == 0

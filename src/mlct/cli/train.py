@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
 from mlct.cli.parser import Commands, Parser
@@ -66,32 +67,67 @@ def run_classifier(args: argparse.Namespace) -> int:
 
 
 def run_durations(args: argparse.Namespace) -> int:
-    """Fit the part-duration model (generate/durations.py) on the dataset's single-action
-    motions of one split, in the model's text space, and write it beside the model's weights."""
+    """Fit the part-duration model (train/durations.py) on one split of a labelled dataset, in
+    the model's text space, and write it beside the model's weights."""
     import numpy as np
 
     import mlct
     from mlct.data.layout import DatasetLayout
     from mlct.eval.judge.action_classifier import read_labels
-    from mlct.generate.durations import describe, fit_durations, single_action_captions
-    from mlct.generate.pipeline import bundled_model_dir
+    from mlct.generate.compose import split_actions
+    from mlct.generate.durations import describe
+    from mlct.generate.pipeline import MIN_PART_SECONDS, bundled_model_dir
+    from mlct.train.durations import (cut_errors, fit_durations, fit_offsets,
+                                      sequence_examples, single_action_captions)
 
     model_dir = bundled_model_dir() if args.model == "bundled" else Path(args.model)
     generator = mlct.load(model_dir, backend="torch")
-    names = set(DatasetLayout.existing(args.data).read_split(args.split))
-    labels = {k: v for k, v in read_labels(args.data).items() if k in names}
+    layout = DatasetLayout.existing(args.data)
+    all_labels = read_labels(args.data)
+    labels = {k: v for k, v in all_labels.items() if k in set(layout.read_split(args.split))}
     texts, seconds, groups = single_action_captions(labels)
-    embeddings = np.concatenate([generator.encode_text(texts[i:i + 256]).float().numpy()
-                                 for i in range(0, len(texts), 256)])
-    model = fit_durations(embeddings, seconds, generator.meta["text_encoder"], groups)
+    sequences = sequence_examples(labels, split_actions)
+    parts = [p for e in sequences for p in e.parts]
+    part_seconds = [s for e in sequences for s in e.seconds]
+    part_groups = [e.motion for e in sequences for _ in e.parts]
+    memo: dict[str, np.ndarray] = {}
+
+    def embed(batch: list[str]) -> np.ndarray:
+        new = sorted({t for t in batch if t not in memo})
+        for i in range(0, len(new), 256):
+            memo.update(zip(new[i:i + 256],
+                            generator.encode_text(new[i:i + 256]).float().numpy()))
+        return np.stack([memo[t] for t in batch])
+
+    model = fit_durations(embed(texts + parts), np.concatenate([seconds, part_seconds]),
+                          generator.meta["text_encoder"], np.concatenate([groups, part_groups]))
+    model = fit_offsets(model, sequences, embed)
+    fps = generator.skeleton.fps
+    fit = dict(model.fit, single_action_captions=len(texts), sequence_parts=len(parts))
+    report = [("fitted", sequences)]
+    if args.split != "test" and "test" in layout.splits():
+        held = {k: v for k, v in all_labels.items() if k in set(layout.read_split("test"))}
+        report.append(("test", sequence_examples(held, split_actions)))
+    for name, examples in report:
+        if examples:
+            errors = np.abs(cut_errors(model, examples, embed, fps, MIN_PART_SECONDS))
+            fit[f"cut_error_seconds_{name}"] = {"mean": round(float(errors.mean()), 3),
+                                                "p90": round(float(np.percentile(errors, 90)), 3),
+                                                "sequences": len(examples)}
+    model = dataclasses.replace(model, fit=fit)
     path = model.save(model_dir)
-    fit = model.fit
-    print(f"durations: {fit['captions']} captions of {fit['motions']} single-action motions "
-          f"({args.split}); held-out r2 {fit['held_out_r2']:.3f}, median error "
-          f"{100 * fit['held_out_median_error']:.1f} %; {path}")
+    print(f"durations: {len(texts)} single-action captions and {len(parts)} sequence parts "
+          f"({args.split}); held-out median error {100 * fit['held_out_median_error']:.1f} %, "
+          f"r2 {fit['held_out_r2']:.3f}; offsets by place "
+          + ", ".join(f"{k} {v:+.2f} s" for k, v in model.offsets.items()) + f"; {path}")
+    for name, _ in report:
+        if f"cut_error_seconds_{name}" in fit:
+            err = fit[f"cut_error_seconds_{name}"]
+            print(f"  parts' cuts from the data's ({name} sequences, {err['sequences']}): mean "
+                  f"{err['mean']:.2f} s, 90th percentile {err['p90']:.2f} s")
     examples = ["a person walks forward", "a person turns slightly left",
                 "a person sits down and stands up", "a person jumps twice"]
-    print(describe(model, examples, generator.encode_text(examples).float().numpy()))
+    print(describe(model, examples, embed(examples)))
     return 0
 
 

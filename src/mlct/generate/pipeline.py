@@ -286,12 +286,13 @@ class MotionGenerator:
         """One motion of `frames` doing parts[k] in turn, under the whole text."""
         from mlct.generate.long_motion import generate_long
 
-        # each part's share in proportion to how long its action takes (durations.py; equal
-        # when the model has no duration model)
-        weights = (self.durations.seconds(self.encode_text(parts).float().cpu().numpy())
+        # each part's share by how long its action takes and its place in the sequence
+        # (durations.py; equal when the model has no duration model)
+        fps = self.skeleton.fps
+        weights = (self.durations.part_weights(self.encode_text(parts).float().cpu().numpy(),
+                                               frames / fps, MIN_PART_SECONDS)
                    if self.durations else np.ones(len(parts)))
         share = split_frames(weights, frames, self.frames_for(MIN_PART_SECONDS))
-        fps = self.skeleton.fps
         made = generate_long(self, parts, [n / fps for n in share], nfe=nfe, seed=seed,
                              guidance=guidance, candidates=candidates)
         return dataclasses.replace(made, text=text)
