@@ -186,3 +186,59 @@ def test_split_prompt_parts_share_the_clip_by_predicted_duration(tmp_path):
 def pipe_without(folder):
     (folder / FILE).unlink()
     return mlct.load(folder, backend="torch")
+
+
+def test_auto_seconds_come_from_the_text():
+    pipe = mlct.load(backend="torch")
+    durations = pipe.durations
+    assert durations is not None and durations.offsets  # the bundled model's version 2
+    texts = ["a person jumps", "a person walks in a circle",
+             "a person walks forward, then turns left",
+             "a person walks forward while waving the left hand"]
+    auto = pipe.auto_seconds(texts)
+    jump, circle = durations.seconds(pipe.encode_text(texts[:2]).numpy())
+    assert auto[0] == pytest.approx(jump + durations.single_extra)
+    assert auto[1] == pytest.approx(circle + durations.single_extra)
+    assert auto[1] > 2 * auto[0]  # a circle at walking pace is far longer than a jump
+    parts = pipe.encode_text(["a person walks forward", "a person turns left"]).numpy()
+    assert auto[2] == pytest.approx(float(durations.part_seconds(parts).sum()))
+    # an arm action during another lasts as long as the other
+    assert auto[3] == pytest.approx(pipe.auto_seconds(["a person walks forward"])[0])
+    out = pipe.generate(texts[:2], seconds="auto", seed=0)
+    assert [m.joints.shape[0] for m in out] == [pipe.frames_for(s) for s in auto[:2]]
+    mixed = pipe.generate(texts[:2], seconds=["auto", 3.0], seed=0)
+    assert [m.joints.shape[0] for m in mixed] == [pipe.frames_for(auto[0]), 60]
+    np.testing.assert_allclose(mixed[0].joints, out[0].joints, atol=1e-5)
+    with pytest.raises(MlctError, match='seconds must be a number, a list of them or "auto"'):
+        pipe.generate("a person jumps", seconds="soon")
+
+
+def test_auto_seconds_need_a_duration_model(tmp_path):
+    folder = tmp_path / "m"
+    shutil.copytree(bundled_model_dir(), folder)
+    bare = pipe_without(folder)
+    with pytest.raises(MlctError, match="no duration model.*mlct train durations"):
+        bare.generate("a person jumps", seconds="auto")
+
+
+def test_the_cli_takes_seconds_auto(tmp_path, capsys):
+    from mlct.cli import main
+
+    out = tmp_path / "jump.npy"
+    assert main(["generate", "a person jumps", "--seconds", "auto", "--seed", "0",
+                 "--out", str(out), "--quiet"]) == 0
+    pipe = mlct.load(backend="torch")
+    assert np.load(out).shape[0] == pipe.frames_for(pipe.auto_seconds(["a person jumps"])[0])
+    long = tmp_path / "long.npy"
+    prompts = ["a person walks forward", "a person turns left", "a person squats"]
+    assert main(["generate", *prompts, "--seconds", "auto", "--seed", "0", "--out", str(long),
+                 "--quiet"]) == 0
+    natural = pipe.durations.part_seconds(pipe.encode_text(prompts).numpy())
+    # the segments overlap by their blends, so the motion is the sum of the shares
+    expected = sum(pipe.frames_for(max(s, 1.0)) for s in natural)
+    assert np.load(long).shape[0] == expected
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as error:
+        main(["generate", "a person jumps", "--seconds", "soon", "--out", str(out)])
+    assert error.value.code == 2
+    assert "not a number of seconds or 'auto'" in capsys.readouterr().err

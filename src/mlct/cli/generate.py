@@ -81,11 +81,23 @@ def _control(args: argparse.Namespace) -> Any:
     frames = None  # the length an end_pose needs; a bad --seconds is reported by generation
     if args.length is not None and len(args.length) == 1:
         frames = args.length[0]
-    elif args.seconds is not None and len(args.seconds) == 1 and 0 < args.seconds[0] < 1e6:
+    elif (args.seconds is not None and len(args.seconds) == 1
+          and isinstance(args.seconds[0], float) and 0 < args.seconds[0] < 1e6):
         frames = int(round(args.seconds[0] * skeleton.fps))
     return control_from_files(skeleton, control=args.control, path=args.path,
                               keyframes=args.keyframes, edit=args.edit, parts=args.parts,
                               prefix=args.prefix, frames=frames)
+
+
+def _seconds(value: str) -> float | str:
+    """--seconds: a number, or 'auto' (from the text)."""
+    if value.strip().lower() == "auto":
+        return "auto"
+    try:
+        return float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds or 'auto': {value!r}"
+                                         ) from None
 
 
 def add_parser(commands: Commands) -> None:
@@ -101,8 +113,9 @@ def add_parser(commands: Commands) -> None:
     generate.add_argument("--model", type=Path, default=None,
                           help="model directory (default: the bundled model)")
     length = generate.add_mutually_exclusive_group()
-    length.add_argument("--seconds", type=float, nargs="+", default=None,
-                        help="duration; one per prompt for a long motion (default 5)")
+    length.add_argument("--seconds", type=_seconds, nargs="+", default=None,
+                        help="duration; one per prompt for a long motion (default 5); 'auto' "
+                             "takes it from the text (the model's duration model)")
     length.add_argument("--length", type=int, nargs="+", default=None, help="frames")
     generate.add_argument("--nfe", type=int, default=None, help="sampling steps (default 5)")
     generate.add_argument("--seed", type=int, default=None,

@@ -78,7 +78,8 @@ def run_durations(args: argparse.Namespace) -> int:
     from mlct.generate.durations import describe
     from mlct.generate.pipeline import MIN_PART_SECONDS, bundled_model_dir
     from mlct.train.durations import (cut_errors, fit_durations, fit_offsets,
-                                      sequence_examples, single_action_captions)
+                                      sequence_examples, single_action_captions,
+                                      single_action_extra)
 
     model_dir = bundled_model_dir() if args.model == "bundled" else Path(args.model)
     generator = mlct.load(model_dir, backend="torch")
@@ -101,7 +102,8 @@ def run_durations(args: argparse.Namespace) -> int:
 
     model = fit_durations(embed(texts + parts), np.concatenate([seconds, part_seconds]),
                           generator.meta["text_encoder"], np.concatenate([groups, part_groups]))
-    model = fit_offsets(model, sequences, embed)
+    model = dataclasses.replace(fit_offsets(model, sequences, embed),
+                                single_extra=single_action_extra(labels))
     fps = generator.skeleton.fps
     fit = dict(model.fit, single_action_captions=len(texts), sequence_parts=len(parts))
     report = [("fitted", sequences)]
@@ -119,7 +121,8 @@ def run_durations(args: argparse.Namespace) -> int:
     print(f"durations: {len(texts)} single-action captions and {len(parts)} sequence parts "
           f"({args.split}); held-out median error {100 * fit['held_out_median_error']:.1f} %, "
           f"r2 {fit['held_out_r2']:.3f}; offsets by place "
-          + ", ".join(f"{k} {v:+.2f} s" for k, v in model.offsets.items()) + f"; {path}")
+          + ", ".join(f"{k} {v:+.2f} s" for k, v in model.offsets.items())
+          + f", a one-action clip {model.single_extra:.2f} s beyond its action; {path}")
     for name, _ in report:
         if f"cut_error_seconds_{name}" in fit:
             err = fit[f"cut_error_seconds_{name}"]

@@ -35,6 +35,9 @@ FILE = "durations.json"
 FORMAT, VERSIONS = "mlct-durations", (1, 2)
 PLACES = ("first", "middle", "last")  # a part's place in its sequence, for the share's offset
 MIN_WEIGHT = 0.05  # seconds beyond the shortest share that any part keeps (see part_weights)
+# Seconds a one-action clip lasts beyond its action (the lead-in and the tail), for a file that
+# does not say: the median of the procedural benchmark's single-action motions.
+SINGLE_EXTRA = 0.4
 
 
 @dataclass(frozen=True)
@@ -50,6 +53,7 @@ class DurationModel:
     hidden_weight: np.ndarray | None = None  # (c, h)
     hidden_bias: np.ndarray | None = None  # (h,)
     offsets: Mapping[str, float] = field(default_factory=dict)  # by PLACES; none in version 1
+    single_extra: float = SINGLE_EXTRA  # a one-action clip's seconds beyond its action
 
     @property
     def input_dim(self) -> int:
@@ -77,6 +81,21 @@ class DurationModel:
         wanted = np.maximum(wanted, MIN_WEIGHT)
         return np.maximum(wanted * total_seconds / wanted.sum() - min_seconds, MIN_WEIGHT)
 
+    def clip_seconds(self, embeddings: np.ndarray) -> float:
+        """How long a clip doing the (B, c) parts in order lasts when nobody says (generate's
+        seconds="auto"): one action, its duration and the lead-in and tail around it; several,
+        their shares (each duration plus its place's offset, which hold the lead-in, the
+        overlaps and the tail)."""
+        return float(self.part_seconds(embeddings).sum())
+
+    def part_seconds(self, embeddings: np.ndarray) -> np.ndarray:
+        """(B,) each part's own share of a clip of its natural length (see clip_seconds)."""
+        seconds = self.seconds(embeddings)
+        if len(seconds) == 1:
+            return seconds + self.single_extra
+        offsets = [self.offsets.get(p, 0.0) for p in place_names(len(seconds))]
+        return np.maximum(seconds + np.array(offsets), MIN_WEIGHT)
+
     def to_json(self) -> dict[str, Any]:
         data: dict[str, Any] = {"format": FORMAT, "version": 1 if self.hidden_weight is None
                                 and not self.offsets else 2, "text_encoder": self.text_encoder,
@@ -87,6 +106,7 @@ class DurationModel:
             data["hidden_bias"] = (None if self.hidden_bias is None else
                                    _floats(self.hidden_bias))
             data["offsets"] = {p: float(self.offsets.get(p, 0.0)) for p in PLACES}
+            data["single_extra"] = float(self.single_extra)
         data["fit"] = self.fit
         return data
 
@@ -99,6 +119,7 @@ class DurationModel:
             bias = float(data["bias"])
             hidden_weight = hidden_bias = None
             offsets: dict[str, float] = {}
+            extra = SINGLE_EXTRA
             if data["version"] == 2:
                 if data.get("hidden_weight") is not None:
                     hidden_weight = np.asarray(data["hidden_weight"], dtype=np.float64)
@@ -107,12 +128,13 @@ class DurationModel:
                             or weight.shape != hidden_bias.shape):
                         raise ValueError("the hidden layer's shapes do not fit its weight")
                 offsets = {p: float(data["offsets"][p]) for p in PLACES}
-            arrays = [weight, np.asarray([bias, *offsets.values()])]
+                extra = float(data.get("single_extra", SINGLE_EXTRA))
+            arrays = [weight, np.asarray([bias, extra, *offsets.values()])]
             arrays += [] if hidden_weight is None else [hidden_weight, hidden_bias]
             if weight.ndim != 1 or not all(np.isfinite(a).all() for a in arrays):
                 raise ValueError("weight must be a list of finite numbers")
             return cls(weight, bias, str(data["text_encoder"]), dict(data.get("fit", {})),
-                       hidden_weight, hidden_bias, offsets)
+                       hidden_weight, hidden_bias, offsets, extra)
         except (AttributeError, KeyError, TypeError, ValueError) as error:
             raise MlctError(f"{where}: not a duration model ({first_line(error)})") from None
 

@@ -10,6 +10,7 @@ Every output path is checked before the model loads, so a typo costs no generati
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,7 +35,7 @@ class Request:
     """What to generate: prompts (one motion each), or one long motion when `long` is set."""
 
     prompts: list[str]
-    seconds: list[float] | None = None
+    seconds: list[float | str] | None = None  # "auto": from the text
     lengths: list[int] | None = None
     num: int = 1
     nfe: int | None = None
@@ -97,10 +98,14 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
 
         if request.seconds is None:
             raise MlctError("a long motion needs one duration a prompt: --seconds 3 2 2")
+        if request.seconds == ["auto"]:  # one "auto" for every prompt
+            request = dataclasses.replace(request, seconds=["auto"] * len(request.prompts))
         if len(request.seconds) != len(request.prompts):
             raise MlctError(f"{len(request.prompts)} prompts but {len(request.seconds)} "
                             f"durations; give one each")
-        motion = generate_long(load(), request.prompts, request.seconds, request.nfe,
+        generator = load()
+        seconds = generator.long_part_seconds(request.prompts, request.seconds)
+        motion = generate_long(generator, request.prompts, seconds, request.nfe,
                                request.seed, candidates=request.candidates)
         motion.save(paths[0], features, rig)
         return [paths[0]]

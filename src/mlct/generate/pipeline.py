@@ -231,6 +231,9 @@ class MotionGenerator:
         made as one motion per action, chained (generate/compose.py), when each part gets at
         least MIN_PART_SECONDS; False gives the model the whole text at once.
 
+        seconds: per text or one for all; "auto" (or "auto" items in a list) takes the length
+        from the text, by the model's duration model (auto_seconds).
+
         seed: an int s gives item i the seed s + i, a sequence one seed per item; either way an
         item's motion depends only on its text, length, nfe and seed, not on the rest of the
         batch (generate(["a", "b"], seed=0)[1] is generate("b", seed=1)[0], up to float
@@ -244,6 +247,8 @@ class MotionGenerator:
                  for i, t in enumerate(texts)]
         if not texts:
             return Generation([])
+        if _wants_auto(seconds):
+            seconds = self.auto_seconds(texts, seconds, split_actions)
         if control is not None:
             from mlct.generate.controlled import generate_with_control
 
@@ -280,6 +285,44 @@ class MotionGenerator:
             out[i] = self._chained(texts[i], plans[i], frames[i], nfe, seeds[i], guidance,
                                    candidates)
         return Generation(out)  # type: ignore[arg-type]
+
+    def auto_seconds(self, texts: Sequence[str], seconds: Any = "auto",
+                     split_actions: bool = True) -> list[float]:
+        """Each text's seconds, those given as "auto" predicted from the text as its parts
+        would be made (DurationModel.clip_seconds: an arm action done during another lasts as
+        long as the other), within MIN_AUTO_SECONDS and the model's window."""
+        given = [seconds] * len(texts) if isinstance(seconds, str) else list(seconds)
+        if len(given) != len(texts):
+            raise MlctError(f"{len(given)} seconds for {len(texts)} texts")
+        if self.durations is None:
+            raise MlctError("this model has no duration model to take seconds from the text "
+                            "(make one with `mlct train durations`); give the seconds")
+        longest = self.max_frames / self.skeleton.fps
+        out = []
+        for text, value in zip(texts, given):
+            if not _wants_auto(value):
+                out.append(value)
+                continue
+            pair = split_concurrent(text) if split_actions else None
+            body = text if pair is None else pair[0]
+            parts = split_actions_of(body) if split_actions else [body]
+            clip = self.durations.clip_seconds(self.encode_text(parts).float().cpu().numpy())
+            out.append(float(np.clip(clip, MIN_AUTO_SECONDS, longest)))
+        return out
+
+    def long_part_seconds(self, prompts: Sequence[str], seconds: Sequence[Any]) -> list[Any]:
+        """The seconds of a long motion's prompts (generate_long), those given as "auto" each
+        prompt's share of the whole as the duration model times a sequence's parts
+        (DurationModel.part_seconds), at least MIN_PART_SECONDS."""
+        if not _wants_auto(list(seconds)):
+            return list(seconds)
+        if self.durations is None:
+            raise MlctError("this model has no duration model to take seconds from the text "
+                            "(make one with `mlct train durations`); give the seconds")
+        natural = self.durations.part_seconds(self.encode_text(list(prompts)).float().cpu()
+                                              .numpy())
+        return [max(float(n), MIN_PART_SECONDS) if _wants_auto(s) else s
+                for s, n in zip(seconds, natural)]
 
     def _chained(self, text: str, parts: list[str], frames: int, nfe: int | None, seed: int,
                  guidance: float | None, candidates: int) -> GeneratedMotion:
@@ -367,6 +410,7 @@ def bundle_networks(config: Config, meta: dict, tensors: dict[str, Tensor]
 
 # The shortest share of a sequence's part: below it the blend (0.75 s) would be most of the part.
 MIN_PART_SECONDS = 1.0
+MIN_AUTO_SECONDS = 1.0  # the shortest clip seconds="auto" makes (a part's shortest share)
 TEXT_MEMO_SIZE = 2048  # texts whose embeddings a generator keeps (LRU): <= 64 MB with tokens
 _SEED_STRIDE = 0x9E3779B97F4A7C15  # candidate k of seed s samples with s + k * this (mod 2^63)
 MAX_SEED = 2**63 - 1  # torch.Generator.manual_seed takes 64 bits; kept signed for portability
@@ -399,3 +443,14 @@ def _numbers(value: object, count: int, name: str) -> list[float]:
 def bundled_model_dir() -> Path:
     """The model shipped inside the package (docs/model_card.md): small preset, MiniLM text."""
     return Path(__file__).resolve().parent.parent / "assets" / "model"
+
+
+def _wants_auto(seconds: Any) -> bool:
+    """seconds="auto", or a list with an "auto" item (any case)."""
+    if isinstance(seconds, str):
+        if seconds.strip().lower() != "auto":
+            raise MlctError(f'seconds must be a number, a list of them or "auto", '
+                            f"got {seconds!r}")
+        return True
+    return isinstance(seconds, (list, tuple)) and any(
+        isinstance(s, str) and _wants_auto(s) for s in seconds)

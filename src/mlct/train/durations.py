@@ -15,6 +15,7 @@ the predicted durations.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
@@ -156,8 +157,19 @@ def fit_offsets(model: DurationModel, examples: Sequence[SequenceExample],
         for place, share, guess in zip(place_names(len(shares)), shares, seconds):
             residual[place].append(share - guess)
     offsets = {p: round(float(np.median(r)), 4) if r else 0.0 for p, r in residual.items()}
-    return DurationModel(model.weight, model.bias, model.text_encoder, model.fit,
-                         model.hidden_weight, model.hidden_bias, offsets)
+    return dataclasses.replace(model, offsets=offsets)
+
+
+def single_action_extra(labels: Mapping[str, Mapping[str, Any]]) -> float:
+    """The median of (clip length - action duration) over the single-action motions: the
+    lead-in and tail a one-action clip has around its action."""
+    extra = [float(label["seconds"]) - (float(a["end"]) - float(a["start"]))
+             for label in labels.values()
+             if len(actions := label.get("actions") or []) == 1 and not label.get("concurrent")
+             and label.get("seconds") for a in actions[:1]]
+    if not extra:
+        raise MlctError("no labelled single-action motions with their clip's seconds")
+    return round(float(np.median(extra)), 4)
 
 
 def cut_errors(model: DurationModel, examples: Sequence[SequenceExample],
