@@ -86,10 +86,16 @@ def test_the_offsets_and_cut_errors_come_from_the_sequences():
     examples = [SequenceExample(["a", "b", "c"], np.array([3.0, 2.0, 4.0]),
                                 np.array([0.2 + 3.0 - 0.2, 0.2 + 3.0 - 0.4 + 2.0 - 0.2]),
                                 0.2 + 3.0 + 2.0 + 4.0 - 0.8 + 0.3, 0)]
-    fitted = fit_offsets(model, examples, embed)
+    fitted = fit_offsets(model, examples, embed, shift=0.0)
     assert fitted.offsets == pytest.approx({"first": 0.0, "middle": -0.4, "last": 0.1})
-    assert np.abs(cut_errors(fitted, examples, embed, 20, 1.0)).max() < 0.06
-    assert np.abs(cut_errors(model, examples, embed, 20, 1.0)).max() > 0.2  # proportional
+    assert np.abs(cut_errors(fitted, examples, embed, 20, 1.0, shift=0.0)).max() < 0.06
+    assert np.abs(cut_errors(model, examples, embed, 20, 1.0, shift=0.0)).max() > 0.2
+    # every cut earlier by the shift: the first part shorter, the last longer by it
+    early = fit_offsets(model, examples, embed, shift=0.2)
+    assert early.offsets == pytest.approx({"first": -0.2, "middle": -0.4, "last": 0.3})
+    np.testing.assert_allclose(cut_errors(early, examples, embed, 20, 1.0, shift=0.0), -0.2,
+                               atol=0.06)
+    assert np.abs(cut_errors(early, examples, embed, 20, 1.0, shift=0.2)).max() < 0.06
 
 
 def test_sequence_examples_take_the_captions_that_split_into_the_label():

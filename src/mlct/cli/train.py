@@ -77,7 +77,7 @@ def run_durations(args: argparse.Namespace) -> int:
     from mlct.generate.compose import split_actions
     from mlct.generate.durations import describe
     from mlct.generate.pipeline import MIN_PART_SECONDS, bundled_model_dir
-    from mlct.train.durations import (cut_errors, fit_durations, fit_offsets,
+    from mlct.train.durations import (CUT_SHIFT, cut_errors, fit_durations, fit_offsets,
                                       sequence_examples, single_action_captions,
                                       single_action_extra)
 
@@ -126,7 +126,8 @@ def run_durations(args: argparse.Namespace) -> int:
     for name, _ in report:
         if f"cut_error_seconds_{name}" in fit:
             err = fit[f"cut_error_seconds_{name}"]
-            print(f"  parts' cuts from the data's ({name} sequences, {err['sequences']}): mean "
+            print(f"  parts' cuts from the data's, less {CUT_SHIFT:.2f} s ({name} sequences, "
+                  f"{err['sequences']}): mean "
                   f"{err['mean']:.2f} s, 90th percentile {err['p90']:.2f} s")
     examples = ["a person walks forward", "a person turns slightly left",
                 "a person sits down and stands up", "a person jumps twice"]
