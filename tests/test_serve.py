@@ -113,6 +113,27 @@ def test_json_reply_is_the_library_motion(model_client):
     assert body["timing"]["server_ms"] >= body["timing"]["generate_ms"] > 0
 
 
+def test_seconds_auto_takes_the_length_from_the_text(model_client):
+    client, generator = model_client
+    texts = ["a person jumps.", "a person walks in a circle."]
+    reply = client.post("/generate", json={"texts": texts, "seconds": ["auto", 3], "seed": 5,
+                                           "nfe": 3, "candidates": 1})
+    assert reply.status_code == 200, reply.text
+    jump, circle = reply.json()["motions"]
+    assert jump["frames"] == generator.frames_for(generator.auto_seconds([texts[0]])[0])
+    assert circle["frames"] == 60
+    expected = generator.generate(texts[:1], seconds="auto", nfe=3, seed=[5],
+                                  candidates=1)[0].joints
+    np.testing.assert_allclose(np.array(jump["joints"]), expected, atol=2e-4)
+    bad = client.post("/generate", json={"text": "a person jumps.", "seconds": "soon"})
+    assert bad.status_code == 422
+    with_control = client.post("/generate", json={
+        "text": "a person walks.", "seconds": "auto",
+        "control": {"path": [[0.0, 0.0, 0], [1.0, 0.0, 40]]}})
+    assert with_control.status_code == 422
+    assert "seconds 'auto' does not go with a control" in with_control.text
+
+
 def test_candidates_pick_as_the_library_does(model_client):
     client, generator = model_client
     assert generator.candidates == 8  # the bundled model's critic

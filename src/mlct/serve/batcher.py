@@ -178,8 +178,11 @@ class Batcher:
             else:
                 extra = ({"candidates": live[0].candidates}
                          if live[0].candidates is not None else {})
+                lengths = [n for job in live for n in job.lengths]
+                if None in lengths:  # seconds "auto": from the text, on the model's thread
+                    lengths = _auto_lengths(self.generator, texts, lengths)
                 motions = self.generator.generate(
-                    texts, lengths=[n for job in live for n in job.lengths], nfe=live[0].nfe,
+                    texts, lengths=lengths, nfe=live[0].nfe,
                     seed=[s for job in live for s in job.seeds], **extra)
         except MlctError as error:
             if len(live) == 1:
@@ -205,6 +208,17 @@ class Batcher:
             job.future.set_result(Result(motions[start:start + len(job.texts)], len(texts),
                                          started - job.submitted, elapsed))
             start += len(job.texts)
+
+
+def _auto_lengths(generator: Any, texts: list[str], lengths: list[int | None]) -> list[int]:
+    """The lengths with each None (seconds "auto") taken from its text by the model's
+    duration model (MotionGenerator.auto_seconds); MlctError when it has none."""
+    need = [i for i, n in enumerate(lengths) if n is None]
+    seconds = generator.auto_seconds([texts[i] for i in need])
+    out = list(lengths)
+    for i, s in zip(need, seconds):
+        out[i] = generator.frames_for(s)
+    return out  # type: ignore[return-value]
 
 
 def _forward(source: concurrent.futures.Future, target: concurrent.futures.Future) -> None:

@@ -6,12 +6,13 @@ the OpenAPI page shows them. A scalar `lengths`, `seconds` or `seed` stands for 
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
 from pydantic import (AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field,
-                      ValidationError, model_validator)
+                      PlainValidator, ValidationError, model_validator)
 
 from mlct.errors import MlctError
 from mlct.generate.critic import MAX_CANDIDATES
@@ -60,13 +61,25 @@ def request_model(limits: Limits) -> type[BaseModel]:
                      AfterValidator(lambda text: check_text(text, limits.max_text_chars))]
     Frames = Annotated[int, Field(strict=True, ge=1, le=limits.max_frames)]
     # strict: a number (an int is one), not "3" or true (which lax parsing read as 1 s)
-    Seconds = Annotated[float, Field(strict=True, gt=0, le=round(limits.max_seconds, 6),
-                                     allow_inf_nan=False)]
+    def seconds_item(value: Any) -> float | str:
+        # a number (not "3" or true, which lax parsing read as 1 s), or "auto": from the text
+        if value == "auto":
+            return "auto"
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"should be a number of seconds or 'auto', got {value!r}")
+        if not math.isfinite(value):
+            raise ValueError(f"should be a finite number of seconds, got {value}")
+        if not 0 < value <= round(limits.max_seconds, 6):
+            raise ValueError(f"should be more than 0 and at most "
+                             f"{round(limits.max_seconds, 6):g} seconds, got {value}")
+        return float(value)
+
+    Seconds = Annotated[Any, PlainValidator(seconds_item)]
     Seed = Annotated[int, Field(strict=True, ge=0, le=MAX_SEED)]
 
     class GenerateRequest(BaseModel):
         """Texts to motions. Give `texts` (a list) or `text` (one); `lengths` (frames) or
-        `seconds`, one per text or one for all (default 5 s); `candidates`: motions sampled per
+        `seconds`, one per text or one for all (default 5 s; "auto": from the text); `candidates`: motions sampled per
         text, the one the model's critic rates best kept (default: the model's); `seed`: an int s seeds text i
         with s + i (omitted: random, returned in the reply); `format`: json for every text,
         npy/bvh/gif/glb/vrma/npz for one text as a file download; `rig`: a retarget preset
@@ -106,6 +119,8 @@ def request_model(limits: Limits) -> type[BaseModel]:
                                      "give one, or one per text")
             if self.control is not None and count != 1:
                 raise ValueError(f"a control goes with one text, got {count}")
+            if self.control is not None and "auto" in (self.seconds or []):
+                raise ValueError("seconds 'auto' does not go with a control; give the seconds")
             if self.rig is not None:
                 from mlct.generate.exports import check_rig
 
@@ -117,7 +132,7 @@ def request_model(limits: Limits) -> type[BaseModel]:
                 raise ValueError(f"format '{self.format}' is a file of one motion; "
                                  f"got {count} texts (use format 'json' for several)")
             for frames in self.frames(default=1):
-                if frames < 1:
+                if frames is not None and frames < 1:
                     raise ValueError(f"seconds must be at least {0.5 / limits.fps:g} "
                                      f"(one frame at {limits.fps:g} fps)")
             return self
@@ -126,13 +141,15 @@ def request_model(limits: Limits) -> type[BaseModel]:
         def prompts(self) -> list[str]:
             return list(self.texts) if self.texts is not None else [self.text or ""]
 
-        def frames(self, default: int) -> list[int]:
-            """Frames per text: lengths, or seconds at the model's fps, or the default."""
+        def frames(self, default: int) -> list[int | None]:
+            """Frames per text: lengths, or seconds at the model's fps, or the default; None
+            where the seconds are "auto" (the batcher asks the model, on its thread)."""
             count = len(self.prompts)
             if self.lengths is not None:
                 values = list(self.lengths)
             elif self.seconds is not None:
-                values = [round(s * limits.fps) for s in self.seconds]
+                values = [None if s == "auto" else round(s * limits.fps)
+                          for s in self.seconds]
             else:
                 values = [default]
             return values * count if len(values) == 1 else values
