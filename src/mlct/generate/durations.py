@@ -74,11 +74,9 @@ class DurationModel:
         changes by the same factor). split_frames gives every part min_seconds first and the
         rest in proportion to the weights, so a weight is the stretched share less that
         minimum. Version 1 models: the durations themselves, as they were used."""
-        seconds = self.seconds(embeddings)
         if not self.offsets:
-            return seconds
-        wanted = seconds + np.array([self.offsets[p] for p in place_names(len(seconds))])
-        wanted = np.maximum(wanted, MIN_WEIGHT)
+            return self.seconds(embeddings)
+        wanted = self.part_seconds(embeddings)
         return np.maximum(wanted * total_seconds / wanted.sum() - min_seconds, MIN_WEIGHT)
 
     def clip_seconds(self, embeddings: np.ndarray) -> float:

@@ -290,25 +290,26 @@ class MotionGenerator:
                      split_actions: bool = True) -> list[float]:
         """Each text's seconds, those given as "auto" predicted from the text as its parts
         would be made (DurationModel.clip_seconds: an arm action done during another lasts as
-        long as the other), within MIN_AUTO_SECONDS and the model's window."""
+        long as the other), within MIN_PART_SECONDS and the model's window."""
         given = [seconds] * len(texts) if isinstance(seconds, str) else list(seconds)
         if len(given) != len(texts):
             raise MlctError(f"{len(given)} seconds for {len(texts)} texts")
-        if self.durations is None:
-            raise MlctError("this model has no duration model to take seconds from the text "
-                            "(make one with `mlct train durations`); give the seconds")
+        durations = self._duration_model()
+        plans = {}  # text index -> its parts, as generate() would make them
+        for i, (text, value) in enumerate(zip(texts, given)):
+            if _wants_auto(value):
+                pair = split_concurrent(text) if split_actions else None
+                body = text if pair is None else pair[0]
+                plans[i] = split_actions_of(body) if split_actions else [body]
+        parts = [p for plan in plans.values() for p in plan]
+        vectors = self.encode_text(parts).float().cpu().numpy() if parts else None
         longest = self.max_frames / self.skeleton.fps
-        out = []
-        for text, value in zip(texts, given):
-            if not _wants_auto(value):
-                out.append(value)
-                continue
-            pair = split_concurrent(text) if split_actions else None
-            body = text if pair is None else pair[0]
-            parts = split_actions_of(body) if split_actions else [body]
-            clip = self.durations.clip_seconds(self.encode_text(parts).float().cpu().numpy())
-            out.append(float(np.clip(clip, MIN_AUTO_SECONDS, longest)))
-        return out
+        start = 0
+        for i, plan in plans.items():  # one text-encoder call for all of them
+            clip = durations.clip_seconds(vectors[start:start + len(plan)])
+            given[i] = float(np.clip(clip, MIN_PART_SECONDS, longest))
+            start += len(plan)
+        return given
 
     def long_part_seconds(self, prompts: Sequence[str], seconds: Sequence[Any]) -> list[Any]:
         """The seconds of a long motion's prompts (generate_long), those given as "auto" each
@@ -316,13 +317,17 @@ class MotionGenerator:
         (DurationModel.part_seconds), at least MIN_PART_SECONDS."""
         if not _wants_auto(list(seconds)):
             return list(seconds)
+        natural = self._duration_model().part_seconds(
+            self.encode_text(list(prompts)).float().cpu().numpy())
+        return [max(float(n), MIN_PART_SECONDS) if _wants_auto(s) else s
+                for s, n in zip(seconds, natural)]
+
+    def _duration_model(self) -> DurationModel:
+        """The model's duration model; MlctError when it has none (seconds "auto")."""
         if self.durations is None:
             raise MlctError("this model has no duration model to take seconds from the text "
                             "(make one with `mlct train durations`); give the seconds")
-        natural = self.durations.part_seconds(self.encode_text(list(prompts)).float().cpu()
-                                              .numpy())
-        return [max(float(n), MIN_PART_SECONDS) if _wants_auto(s) else s
-                for s, n in zip(seconds, natural)]
+        return self.durations
 
     def _chained(self, text: str, parts: list[str], frames: int, nfe: int | None, seed: int,
                  guidance: float | None, candidates: int) -> GeneratedMotion:
@@ -410,7 +415,6 @@ def bundle_networks(config: Config, meta: dict, tensors: dict[str, Tensor]
 
 # The shortest share of a sequence's part: below it the blend (0.75 s) would be most of the part.
 MIN_PART_SECONDS = 1.0
-MIN_AUTO_SECONDS = 1.0  # the shortest clip seconds="auto" makes (a part's shortest share)
 TEXT_MEMO_SIZE = 2048  # texts whose embeddings a generator keeps (LRU): <= 64 MB with tokens
 _SEED_STRIDE = 0x9E3779B97F4A7C15  # candidate k of seed s samples with s + k * this (mod 2^63)
 MAX_SEED = 2**63 - 1  # torch.Generator.manual_seed takes 64 bits; kept signed for portability

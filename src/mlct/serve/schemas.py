@@ -79,11 +79,12 @@ def request_model(limits: Limits) -> type[BaseModel]:
 
     class GenerateRequest(BaseModel):
         """Texts to motions. Give `texts` (a list) or `text` (one); `lengths` (frames) or
-        `seconds`, one per text or one for all (default 5 s; "auto": from the text); `candidates`: motions sampled per
-        text, the one the model's critic rates best kept (default: the model's); `seed`: an int s seeds text i
-        with s + i (omitted: random, returned in the reply); `format`: json for every text,
-        npy/bvh/gif/glb/vrma/npz for one text as a file download; `rig`: a retarget preset
-        for bvh and glb (docs/export.md)."""
+        `seconds`, one per text or one for all (default 5 s; "auto": from the text);
+        `candidates`: motions sampled per text, the one the model's critic rates best kept
+        (default: the model's); `seed`: an int s seeds text i with s + i (omitted: random,
+        returned in the reply); `format`: json for every text, npy/bvh/gif/glb/vrma/npz for
+        one text as a file download; `rig`: a retarget preset for bvh and glb
+        (docs/export.md)."""
 
         model_config = ConfigDict(extra="forbid")
 

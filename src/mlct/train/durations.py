@@ -157,7 +157,7 @@ def fit_offsets(model: DurationModel, examples: Sequence[SequenceExample],
     if not examples:
         raise MlctError("no labelled sequences whose captions split into their actions, to fit "
                         "the parts' offsets on")
-    predicted = _predicted(model, examples, embed)
+    predicted = [model.seconds(embed(e.parts)) for e in examples]
     residual: dict[str, list[float]] = {p: [] for p in PLACES}
     for example, seconds in zip(examples, predicted):
         shares = np.diff(np.concatenate([[0.0], example.cuts - shift, [example.total]]))
@@ -193,7 +193,3 @@ def cut_errors(model: DurationModel, examples: Sequence[SequenceExample],
         errors.extend(np.cumsum(share)[:-1] / fps - (example.cuts - shift))
     return np.asarray(errors)
 
-
-def _predicted(model: DurationModel, examples: Sequence[SequenceExample],
-               embed: Callable[[list[str]], np.ndarray]) -> list[np.ndarray]:
-    return [model.seconds(embed(e.parts)) for e in examples]
