@@ -2,9 +2,12 @@
 text (the model's duration model) instead of one length for every prompt?
 
 bench/motion_quality.py makes each hand-written paraphrase in 4 s and each two-action prompt in
-7 s. Some actions do not fit: a circle walked at the data's pace takes ~7.5 s, so in 4 s it
-turns ~215 degrees and fails. This makes the same prompts both ways, same seeds, one run, and
-prints the read-out pass rates side by side, with the lengths "auto" chose.
+7 s; `generate` without a length makes 5 s. Some actions do not fit: a circle walked at the
+data's pace takes ~7.5 s, so in 4 s it turns ~215 degrees and fails. This makes the same
+prompts at the bench's length, at 5 s and at "auto", same seeds, one run, and prints the
+read-out pass rates side by side, with the lengths "auto" chose. Two-action prompts
+are judged as bench/motion_quality.py judges them: in order, at the motion's own cut, and (the
+"halves" row) in equal halves, which also judges where the cut falls.
 
     python bench/auto_length.py [--model DIR] [--seeds 5]
 """
@@ -18,9 +21,7 @@ from pathlib import Path
 import numpy as np
 
 import mlct
-from mlct.eval.readouts import evaluate_label
-
-from motion_quality import HELDOUT, PROMPTS, Tally, prompt_label
+from motion_quality import HELDOUT, PROMPTS, Tally, judge_prompt
 
 
 def main() -> None:
@@ -35,29 +36,40 @@ def main() -> None:
                               4.0),
             "two actions": (prompts["two_actions"], 7.0)}
     print(f"model {args.model or 'bundled'}; {args.seeds} seeds; read-out pass rates")
-    print(f"{'prompts':<16}{'n':>5}{'fixed':>10}{'auto':>10}   auto seconds (median, range)")
+    print(f"{'prompts':<16}{'n':>5}{'bench':>10}{'5 s':>10}{'auto':>10}   auto seconds "
+          "(median, range)")
     families: dict[str, list[int]] = {}
     for title, (items, fixed) in sets.items():
         texts = [p["text"] for p in items]
         auto = gen.auto_seconds(texts)
-        tallies = {"fixed": Tally(), "auto": Tally()}
+        modes = {"fixed": fixed, "5 s": 5.0, "auto": auto}
+        tallies = {m: Tally() for m in modes}
+        halves = {m: Tally() for m in modes}
         for seed in range(args.seeds):
-            for mode, seconds in (("fixed", fixed), ("auto", auto)):
+            for mode, seconds in modes.items():
                 out = gen.generate(texts, seconds=seconds, seed=seed * 100_000)
                 for item, motion in zip(items, out):
-                    label = prompt_label(item["actions"], motion.joints.shape[0] / gen.skeleton.fps)
-                    ok = tallies[mode].add(label, evaluate_label(motion.joints, label))
+                    clip_seconds = motion.joints.shape[0] / gen.skeleton.fps
+                    ok = tallies[mode].add(*judge_prompt(motion.joints, item["actions"],
+                                                         clip_seconds))
+                    if len(item["actions"]) > 1:
+                        halves[mode].add(*judge_prompt(motion.joints, item["actions"],
+                                                       clip_seconds, halves=True))
                     if len(item["actions"]) == 1:
                         key = item["actions"][0]["family"]
-                        counts = families.setdefault(key, [0, 0, 0])
-                        counts[0 if mode == "fixed" else 1] += ok
-                        counts[2] += mode == "fixed"
-        fixed_rate, auto_rate = (tallies[m].summary()["overall"] for m in ("fixed", "auto"))
-        print(f"{title:<16}{len(items):>5}{fixed_rate:>10.3f}{auto_rate:>10.3f}   "
-              f"{np.median(auto):.1f} s ({min(auto):.1f}-{max(auto):.1f}; fixed {fixed:g} s)")
-    print("\none-action paraphrases by family (seen and held-out): fixed 4 s -> auto")
-    for family, (fixed_ok, auto_ok, n) in sorted(families.items()):
-        print(f"  {family:<14} {fixed_ok:>3}/{n:<3} -> {auto_ok:>3}/{n}")
+                        counts = families.setdefault(key, dict.fromkeys((*modes, "n"), 0))
+                        counts[mode] += ok
+                        counts["n"] += mode == "fixed"
+        rates = "".join(f"{tallies[m].summary()['overall']:>10.3f}" for m in modes)
+        print(f"{title:<16}{len(items):>5}{rates}   "
+              f"{np.median(auto):.1f} s ({min(auto):.1f}-{max(auto):.1f}; bench {fixed:g} s)")
+        if halves["fixed"].motions[1]:
+            rates = "".join(f"{halves[m].summary()['overall']:>10.3f}" for m in modes)
+            print(f"{'  ... halves':<16}{len(items):>5}{rates}")
+    print("\none-action paraphrases by family (seen and held-out): 4 s / 5 s / auto")
+    for family, counts in sorted(families.items()):
+        n = counts["n"]
+        print(f"  {family:<14} " + " / ".join(f"{counts[m]:>3}/{n:<3}" for m in modes))
 
 
 if __name__ == "__main__":

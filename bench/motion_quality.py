@@ -17,8 +17,12 @@ overall, of
   (d) generations from hand-written paraphrases (bench/data/quality_prompts.json), and from
       held-out ones (quality_prompts_heldout.json: written after the everyday caption
       vocabulary that `mlct data rephrase` trains on, using none of its new verbs);
-  (e) generations from two-action prompts (first action in the first half, second in the second),
-      as the pipeline makes them (one part per action, chained) and as one whole prompt;
+  (e) generations from two-action prompts, as the pipeline makes them (one part per action,
+      chained) and as one whole prompt. A hand-written prompt has no labelled timing, so its
+      actions are judged in order at the cut that suits the motion best (each part >= 1 s:
+      readouts.evaluate_in_order); "two, halves" is the stricter judge of first action in the
+      first half, second in the second. The in-order judge is checked on the data's own
+      sequences (timing dropped): it must pass them, and fail them with their actions reversed;
 and, for the actions that name a side or turn direction, how often all their checks pass (the
 named side moves, the other does not).
 (b) next to (c) says where quality is lost: stage 1 or stage 2. --classifier adds the action
@@ -41,7 +45,8 @@ import mlct
 from mlct.data.layout import DatasetLayout
 from mlct.eval.judge.action_classifier import read_labels
 from mlct.eval.pipeline_recon import pipeline_reconstruction
-from mlct.eval.readouts import evaluate_label, foot_travel, heading_change, pelvis_rise
+from mlct.eval.readouts import (evaluate_in_order, evaluate_label, foot_travel, heading_change,
+                                pelvis_rise)
 from mlct.motion.features import features_to_joints
 from mlct.motion.skeleton import HUMANML3D
 
@@ -130,6 +135,36 @@ def prompt_label(actions: list[dict[str, Any]], seconds: float) -> dict[str, Any
                         for i, a in enumerate(actions)], "concurrent": None}
 
 
+def judge_prompt(joints: np.ndarray, actions: list[dict[str, Any]], seconds: float,
+                 halves: bool = False) -> tuple[dict[str, Any], list[tuple[str, bool]]]:
+    """(label, check results) of a hand-written prompt's motion: one action over the whole clip;
+    several in order, at the motion's own cut (or in equal windows with `halves`)."""
+    label = prompt_label(actions, seconds)
+    if len(actions) == 1 or halves:
+        return label, evaluate_label(joints, label)
+    return label, evaluate_in_order(joints, actions)
+
+
+def in_order_judge_check(real_joints: list[np.ndarray], labels: list[dict[str, Any]]
+                         ) -> dict[str, Any]:
+    """The in-order judge on the data's sequences, their timing dropped: the pass rate in their
+    own order (the judge must pass them) and with the actions reversed (it should fail them;
+    only sequences whose reversal asks something else)."""
+    own, reversed_ = [0, 0], [0, 0]
+    for joints, label in zip(real_joints, labels):
+        actions = [{"family": a["family"], "params": a.get("params") or {}}
+                   for a in label["actions"]]
+        if len(actions) < 2 or label.get("concurrent"):
+            continue
+        own[0] += all(p for _, p in evaluate_in_order(joints, actions))
+        own[1] += 1
+        if actions[::-1] != actions:
+            reversed_[0] += all(p for _, p in evaluate_in_order(joints, actions[::-1]))
+            reversed_[1] += 1
+    return {"in_order_pass": Tally.rate(own), "sequences": own[1],
+            "reversed_pass": Tally.rate(reversed_), "reversed_sequences": reversed_[1]}
+
+
 def print_table(title: str, columns: dict[str, dict[str, Any]]) -> None:
     print(f"\n## {title}")
     families = sorted({f for c in columns.values() for f in c["families"]})
@@ -177,6 +212,7 @@ def main() -> None:
     for name, joints in zip(names, real_joints):
         truth.add(labels[name], evaluate_label(joints, labels[name]))
     columns = {"ground truth": truth.summary()}
+    report["in_order_judge"] = in_order_judge_check(real_joints, [labels[n] for n in names])
 
     if args.ae is not None:
         ae = autoencoder(args.ae)
@@ -232,21 +268,24 @@ def main() -> None:
         prompts["heldout"] = json.loads(HELDOUT.read_text(encoding="utf-8"))["paraphrases"]
         # "two actions" as a user gets them (each action made alone and chained,
         # generate/compose.py), and "... whole": the model given the whole prompt at once.
-        for key, title, seconds, split in (("paraphrases", "paraphrases", 4.0,
-                                            not args.whole_prompt),
-                                           ("heldout", "held-out para", 4.0, not args.whole_prompt),
-                                           ("two_actions", "two actions", 7.0, True),
-                                           ("two_actions", "two, whole", 7.0, False)):
-            tally = Tally()
+        for key, titles, seconds, split in (
+                ("paraphrases", ("paraphrases",), 4.0, not args.whole_prompt),
+                ("heldout", ("held-out para",), 4.0, not args.whole_prompt),
+                ("two_actions", ("two actions", "two, halves"), 7.0, True),
+                ("two_actions", ("two, whole",), 7.0, False)):
+            tallies = [Tally() for _ in titles]
             items = prompts[key]
             for seed in range(args.seeds):
                 out = pipe.generate([p["text"] for p in items], seconds=seconds, nfe=args.nfe,
                                     seed=seed * 100_000, split_actions=split,
                                     candidates=args.candidates)
                 for item, motion in zip(items, out):
-                    label = prompt_label(item["actions"], motion.joints.shape[0] / pipe.skeleton.fps)
-                    tally.add(label, evaluate_label(motion.joints, label))
-            columns[title] = tally.summary()
+                    for tally, title in zip(tallies, titles):
+                        tally.add(*judge_prompt(motion.joints, item["actions"],
+                                                motion.joints.shape[0] / pipe.skeleton.fps,
+                                                halves=title.endswith("halves")))
+            for tally, title in zip(tallies, titles):
+                columns[title] = tally.summary()
         report["generation_seconds"] = time.perf_counter() - start
         if args.classifier is not None:
             from mlct.eval.judge.action_classifier import (action_targets, load_action_classifier,
@@ -260,6 +299,10 @@ def main() -> None:
           f"{args.seeds} seeds; model {args.model or 'bundled'}; candidates "
           f"{args.candidates or 'default'}")
     print_table("read-out pass rates", columns)
+    judge = report["in_order_judge"]
+    print(f"\nin-order judge on the data's {judge['sequences']} sequences (timing dropped): passes "
+          f"{judge['in_order_pass']:.3f}; the same actions reversed ({judge['reversed_sequences']}"
+          f"): passes {judge['reversed_pass']:.3f}")
     for key in ("reconstruction", "classifier"):
         if key in report:
             print(f"\n{key}: " + ", ".join(f"{k} {v:.3f}" for k, v in report[key].items()))

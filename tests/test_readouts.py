@@ -287,3 +287,36 @@ def test_windows_split_at_the_cross_fades_and_scale_with_length():
     assert ro.action_windows(label, 100) == [(0, 46), (46, 100)]
     assert ro.action_windows(label, 200) == [(0, 92), (92, 200)]  # a clip twice as long
     assert ro.action_windows(label, 100, margin=0.1) == [(0, 48), (44, 100)]
+
+
+def test_in_order_judge_finds_the_cut_and_keeps_the_order():
+    script = _script(("walk", {"speed": "normal", "direction": "forward"}),
+                     ("squat", {"count": 1}))
+    joints, segments = _compose(script)
+    actions = [a.to_json() for a in script.actions]
+    results = ro.evaluate_in_order(joints, actions)
+    assert results and all(ok for _, ok in results), [n for n, ok in results if not ok]
+    assert {name.split(":")[0] for name, _ in results} == {"0", "1"}
+    # the same actions asked in the other order: no cut makes the squat come first
+    assert not all(ok for _, ok in ro.evaluate_in_order(joints, actions[::-1]))
+    # a motion that only walks does not pass "walks, then squats" anywhere
+    walk_only = _motion("walk", speed="normal", direction="forward")
+    assert not all(ok for _, ok in ro.evaluate_in_order(walk_only, actions))
+
+
+def test_in_order_judge_passes_where_equal_halves_cut_the_action():
+    script = _script(("jump", {"mode": "in_place", "count": 1}), ("walk", {"speed": "normal", "direction": "forward"}))
+    joints, segments = _compose(script)
+    actions = [a.to_json() for a in script.actions]
+    # a long idle lead-in moves the jump past the middle: equal halves judge it as walking
+    lead = np.repeat(joints[:1], len(joints), axis=0)
+    late = np.concatenate([lead, joints])
+    halves = {"actions": [dict(a, start=i * len(late) / 2 / FPS, end=(i + 1) * len(late) / 2 / FPS)
+                          for i, a in enumerate(actions)], "concurrent": None}
+    assert not ro.passes(late, halves)
+    assert all(ok for _, ok in ro.evaluate_in_order(late, actions))
+
+
+def test_in_order_judge_rejects_a_clip_too_short_for_its_actions(pose):
+    with pytest.raises(ValueError, match="too short"):
+        ro.evaluate_in_order(_still(pose, 30), [{"family": "stand"}] * 2)

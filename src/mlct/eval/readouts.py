@@ -26,8 +26,9 @@ facing +Z, the left is +X.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import asdict, dataclass, fields
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -825,6 +826,45 @@ def evaluate_label(joints: np.ndarray, label: Mapping[str, Any], margin: float =
         readings = read_all(joints)
         results += [(f"+:{c.name}", c(readings)) for c in checks_for(label["concurrent"])]
     return results
+
+
+def evaluate_in_order(joints: np.ndarray, actions: Sequence[Mapping[str, Any]],
+                      min_seconds: float = 1.0, step_seconds: float = 0.25,
+                      fps: float = FPS) -> list[tuple[str, bool]]:
+    """(check name, passed) for actions done one after another, at times the motion chooses.
+
+    A hand-written prompt ("jumps, then squats") has no labelled timing, and cutting its clip
+    into equal windows judges the timing as much as the actions: a squat begun 0.3 s before the
+    middle fails. Here every cut of the clip into len(actions) consecutive windows of at least
+    `min_seconds`, cuts on a grid of `step_seconds`, is tried, and the cut whose windows pass
+    the most checks is reported (all of them, if any cut passes all). The order still counts:
+    the i-th action must hold in the i-th window. Names as `evaluate_label`'s ("0:jump.up").
+    """
+    joints = as_joints(joints)
+    n = len(joints)
+    step = max(1, round(step_seconds * fps))
+    shortest = max(2, round(min_seconds * fps))
+    grid = range(shortest, n - shortest + 1, step)
+    checks = [checks_for(a) for a in actions]
+    readings: dict[tuple[int, int], dict[str, float]] = {}
+    best: list[tuple[str, bool]] | None = None
+    for cuts in itertools.combinations(grid, len(actions) - 1):
+        bounds = (0, *cuts, n)
+        if any(hi - lo < shortest for lo, hi in zip(bounds[:-1], bounds[1:])):
+            continue
+        results = []
+        for i, (lo, hi) in enumerate(zip(bounds[:-1], bounds[1:])):
+            if (lo, hi) not in readings:
+                readings[lo, hi] = read_all(joints[lo:hi])
+            results += [(f"{i}:{c.name}", c(readings[lo, hi])) for c in checks[i]]
+        if best is None or sum(p for _, p in results) > sum(p for _, p in best):
+            best = results
+            if all(p for _, p in best):
+                break
+    if best is None:
+        raise ValueError(f"a clip of {n} frames is too short for {len(actions)} actions of at "
+                         f"least {min_seconds} s each")
+    return best
 
 
 def passes(joints: np.ndarray, label: Mapping[str, Any], margin: float = 0.0) -> bool:
