@@ -24,8 +24,8 @@ def run_rephrase(args: argparse.Namespace) -> int:
 
     summary = rephrase_dataset(args.src, args.out, per_motion=args.per_motion,
                                splits=tuple(args.splits.split(",")), seed=args.seed,
-                               overwrite=args.overwrite)
-    print(f"wrote {args.out}: {summary['captions']} everyday captions added to "
+                               overwrite=args.overwrite, vocabulary=args.vocabulary)
+    print(f"wrote {args.out}: {summary['captions']} {args.vocabulary} captions added to "
           f"{summary['motions']} motions ({args.splits})")
     return 0
 
@@ -89,11 +89,15 @@ def add_parser(commands: Commands) -> None:
     synth.set_defaults(func=run_synth)
 
     rephrase = data_commands.add_parser(
-        "rephrase", help="copy a procedural benchmark, adding everyday captions to a split")
+        "rephrase", help="copy a procedural benchmark, adding everyday (or short) captions to a "
+                         "split")
     rephrase.add_argument("src", type=Path, help="a dataset written by `mlct data synth`")
     rephrase.add_argument("--out", required=True, type=Path, help="dataset directory to create")
     rephrase.add_argument("--per-motion", type=int, default=3, help="captions added (default 3)")
     rephrase.add_argument("--splits", default="train", help="comma-separated (default train)")
+    rephrase.add_argument("--vocabulary", default="everyday", choices=("everyday", "short"),
+                          help="everyday phrasings (default) or short ones: each action by its "
+                               "bare verb ('a woman waves')")
     rephrase.add_argument("--seed", type=int, default=0)
     rephrase.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
     rephrase.set_defaults(func=run_rephrase)

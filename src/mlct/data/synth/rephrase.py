@@ -1,9 +1,11 @@
 """`mlct data rephrase`: a copy of a procedural benchmark whose training captions say each motion
-in more ways (the everyday vocabulary, data/synth/everyday.py).
+in more ways (the everyday vocabulary, data/synth/everyday.py, or the short one of bare verbs,
+data/synth/short.py).
 
-    DST/ = SRC/ with texts/NAME.txt of every motion in `splits` holding its benchmark captions
-           plus `per_motion` everyday ones; every other file the same (motions hard-linked
-           where the file system allows, else copied). synth.json records what was added.
+    DST/ = SRC/ with texts/NAME.txt of every motion in `splits` holding its captions plus
+           `per_motion` new ones; every other file the same (motions hard-linked where the file
+           system allows, else copied). synth.json records what was added ("rephrased", a list
+           when SRC was itself rephrased).
 
 The motions, labels, splits and normalization are SRC's, so an autoencoder or a stage-2 model
 trained on SRC reads DST unchanged and a continuation (`mlct train cm --init MODEL --data DST`)
@@ -24,25 +26,33 @@ from mlct.data.captions import format_text_line, tag_caption
 from mlct.data.labels import read_labels
 from mlct.data.layout import read_split
 from mlct.data.synth.everyday import EVERYDAY
-from mlct.data.synth.text import describe
+from mlct.data.synth.short import SHORT
+from mlct.data.synth.text import Vocabulary, describe
 from mlct.errors import MlctError
 from mlct.io import atomic_dir, copy_dataset, write_text
 
 
-def everyday_captions(record: dict[str, Any], rng: np.random.Generator, count: int) -> list[str]:
-    """`count` distinct everyday captions of one labels.jsonl record."""
+VOCABULARIES: dict[str, Vocabulary] = {"everyday": EVERYDAY, "short": SHORT}
+
+
+def everyday_captions(record: dict[str, Any], rng: np.random.Generator, count: int,
+                      vocabulary: str = "everyday") -> list[str]:
+    """`count` distinct captions of one labels.jsonl record in a VOCABULARIES one."""
     actions = [SimpleNamespace(family=a["family"], params=a["params"]) for a in record["actions"]]
     concurrent = record.get("concurrent")
     with_ = None if concurrent is None else SimpleNamespace(family=concurrent["family"],
                                                             params=concurrent["params"])
-    return describe(actions, rng, count, with_, vocabulary=EVERYDAY)
+    return describe(actions, rng, count, with_, vocabulary=VOCABULARIES[vocabulary])
 
 
 def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion: int = 3,
                      splits: tuple[str, ...] = ("train",), seed: int = 0,
-                     overwrite: bool = False) -> dict[str, Any]:
+                     overwrite: bool = False, vocabulary: str = "everyday") -> dict[str, Any]:
     """Write DST (module docstring); returns {"motions": rephrased, "captions": added}."""
     src, out = Path(src), Path(out)
+    if vocabulary not in VOCABULARIES:
+        raise MlctError(f"--vocabulary must be one of {', '.join(VOCABULARIES)}, "
+                        f"got {vocabulary!r}")
     if per_motion < 1:
         raise MlctError(f"--per-motion must be >= 1, got {per_motion}")
     if out.resolve() == src.resolve():
@@ -69,13 +79,16 @@ def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion:
             name = path.stem
             if name in chosen:
                 lines = [format_text_line(c, tag_caption(c))
-                         for c in everyday_captions(labels[name], rng, per_motion)]
+                         for c in everyday_captions(labels[name], rng, per_motion, vocabulary)]
                 text = text.rstrip("\n") + "\n" + "\n".join(lines) + "\n"
                 added += len(lines)
             (work / "texts" / path.name).write_text(text, encoding="utf-8")
         meta = json.loads((src / "synth.json").read_text(encoding="utf-8")) \
             if (src / "synth.json").is_file() else {}
-        meta["rephrased"] = {"from": str(src), "vocabulary": "everyday", "per_motion": per_motion,
-                             "splits": list(splits), "seed": seed, "captions_added": added}
+        step = {"from": str(src), "vocabulary": vocabulary, "per_motion": per_motion,
+                "splits": list(splits), "seed": seed, "captions_added": added}
+        before = meta.get("rephrased")
+        meta["rephrased"] = step if before is None else [
+            *(before if isinstance(before, list) else [before]), step]
         write_text(work / "synth.json", json.dumps(meta, indent=2) + "\n")
     return {"motions": len(chosen), "captions": added}

@@ -1,0 +1,97 @@
+"""The short caption vocabulary (data/synth/short.py): each action by its bare verb, truthful
+(a side, count or angle left out, never a wrong one), in the benchmark's verbs only, and
+`mlct data rephrase --vocabulary short` on top of an already rephrased copy."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mlct.data.captions import VERB_FORMS
+from mlct.data.layout import DatasetLayout
+from mlct.data.synth.rephrase import rephrase_dataset
+from mlct.data.synth.short import SHORT
+from mlct.data.synth.text import FAMILIES, describe
+from mlct.errors import MlctError
+from test_everyday import make_benchmark
+from test_synth_text import act, param_grid, random_motion
+
+BENCHMARK_WORDS = {w for forms in VERB_FORMS.values() for w in forms} | set(VERB_FORMS)
+
+
+def short(actions: list, seeds: int = 8, **kw: object) -> list[str]:
+    return [c for s in range(seeds)
+            for c in describe(actions, np.random.default_rng(s), vocabulary=SHORT, **kw)]
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_short_captions_are_short_and_name_no_wrong_side_or_count(family: str) -> None:
+    for params in param_grid(family):
+        caps = short([act(family, **params)])
+        said = " | ".join(caps)
+        assert all(not re.search(r"[<>]|\bHIS\b|\s,|\s\s", c) for c in caps), said
+        # "an old man is walking around in a circle." is the longest
+        assert all(len(c.split()) <= 9 for c in caps), said
+        assert not re.search(r"\b(left|right|twice|three|four|five|degrees|once)\b", said), said
+        if params.get("hand") == "both":
+            assert not re.search(r"\b(a|one) (hand|arm)\b", said), said
+        elif "hand" in params:
+            assert not re.search(r"\bboth\b|\bhands up\b|\barms\b", said), said
+
+
+@pytest.mark.parametrize("family", ["wave", "stretch", "walk", "kick", "clap", "bow"])
+def test_the_bare_verb_is_said(family: str) -> None:
+    verb = {"wave": "waves", "stretch": "stretches", "walk": "walks", "kick": "kicks",
+            "clap": "claps", "bow": "bows"}[family]
+    caps = short([act(family, **param_grid(family)[0])], seeds=20)
+    assert any(re.fullmatch(rf"[a-z ]+ {verb}\.", c) for c in caps), caps
+
+
+def test_short_captions_use_only_the_benchmarks_verbs_and_chain_in_order() -> None:
+    rng = np.random.default_rng(0)
+    for _ in range(300):
+        actions, concurrent = random_motion(rng)
+        for caption in describe(actions, rng, concurrent=concurrent, vocabulary=SHORT):
+            words = re.findall(r"[a-z]+", caption)
+            verbs = [w for w in words if w in BENCHMARK_WORDS]
+            assert verbs, caption
+    caps = short([act("walk", speed="normal", direction="forward"), act("wave", hand="left",
+                                                                        count=2)])
+    assert any(re.search(r"walks.*(then|and).*wav", c) for c in caps), caps
+
+
+def test_rephrase_short_on_a_rephrased_copy_records_both_steps(tmp_path: Path) -> None:
+    src = make_benchmark(tmp_path)
+    rephrase_dataset(src, tmp_path / "rich", per_motion=1)
+    summary = rephrase_dataset(tmp_path / "rich", tmp_path / "short", per_motion=2,
+                               vocabulary="short")
+    rich, out = DatasetLayout.existing(tmp_path / "rich"), DatasetLayout.existing(tmp_path / "short")
+    train = rich.read_split("train")
+    assert summary == {"motions": len(train), "captions": 2 * len(train)}
+    for name in train:
+        old = [t.caption for t in rich.read_texts(name)]
+        new = [t.caption for t in out.read_texts(name)]
+        assert new[: len(old)] == old and len(new) == len(old) + 2
+        assert not any(re.search(r"\b(left|right|degrees)\b", c) for c in new[len(old):]), new
+    steps = json.loads((tmp_path / "short" / "synth.json").read_text())["rephrased"]
+    assert [s["vocabulary"] for s in steps] == ["everyday", "short"]
+    with pytest.raises(MlctError, match="vocabulary must be one of"):
+        rephrase_dataset(src, tmp_path / "other", vocabulary="poetic")
+    assert not (tmp_path / "other").exists()
+
+
+def test_cli_rephrase_short(tmp_path: Path) -> None:
+    src = make_benchmark(tmp_path)
+    run = [sys.executable, "-m", "mlct.cli", "data", "rephrase", str(src), "--out"]
+    ok = subprocess.run(run + [str(tmp_path / "s"), "--vocabulary", "short"], capture_output=True,
+                        text=True)
+    assert ok.returncode == 0 and "short captions added" in ok.stdout, ok.stderr
+    bad = subprocess.run(run + [str(tmp_path / "t"), "--vocabulary", "poetic"],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and "vocabulary" in bad.stderr and "Traceback" not in bad.stderr
