@@ -30,26 +30,43 @@ def short(actions: list, seeds: int = 8, **kw: object) -> list[str]:
             for c in describe(actions, np.random.default_rng(s), vocabulary=SHORT, **kw)]
 
 
+SIDE_KEYS = ("side", "hand", "leg")
+DIRECTIONS = ("turn", "spin", "circle", "side_step")
+
+
 @pytest.mark.parametrize("family", FAMILIES)
-def test_short_captions_are_short_and_name_no_wrong_side_or_count(family: str) -> None:
+def test_short_captions_name_no_wrong_side_or_count(family: str) -> None:
     for params in param_grid(family):
         caps = short([act(family, **params)])
         said = " | ".join(caps)
         assert all(not re.search(r"[<>]|\bHIS\b|\s,|\s\s", c) for c in caps), said
-        # "an old man is walking around in a circle." is the longest
-        assert all(len(c.split()) <= 9 for c in caps), said
-        assert not re.search(r"\b(left|right|twice|three|four|five|degrees|once)\b", said), said
-        if params.get("hand") == "both":
+        side = next((params[k] for k in SIDE_KEYS if k in params), None)
+        if side == "left" and family not in DIRECTIONS:
+            # the left side in the benchmark's words, which name it (counts may be said)
+            assert all(re.search(r"\bleft\b", c) for c in caps), said
+            assert not re.search(r"\bright\b", said), said
+            continue
+        assert not re.search(r"\b(twice|three|four|five|degrees|once|\d)\b", said), said
+        if family in DIRECTIONS:  # a direction is said, the right one
+            other = "right" if side == "left" else "left"
+            assert all(re.search(rf"\b{side}\b", c) for c in caps), said
+            assert not re.search(rf"\b{other}\b", said), said
+        else:  # "a person kicks" means the right leg: no side said
+            assert not re.search(r"\b(left|right)\b", said), said
+            assert all(len(c.split()) <= 9 for c in caps), said
+        if side == "both":
+            assert all(re.search(r"\bboth\b|\bhis\b|\bher\b|\btheir\b|\bthe\b", c)
+                       for c in caps), said
             assert not re.search(r"\b(a|one) (hand|arm)\b", said), said
-        elif "hand" in params:
-            assert not re.search(r"\bboth\b|\bhands up\b|\barms\b", said), said
 
 
 @pytest.mark.parametrize("family", ["wave", "stretch", "walk", "kick", "clap", "bow"])
 def test_the_bare_verb_is_said(family: str) -> None:
     verb = {"wave": "waves", "stretch": "stretches", "walk": "walks", "kick": "kicks",
             "clap": "claps", "bow": "bows"}[family]
-    caps = short([act(family, **param_grid(family)[0])], seeds=20)
+    params = next(p for p in param_grid(family) if "left" not in p.values()
+                  and "both" not in p.values())
+    caps = short([act(family, **params)], seeds=20)
     assert any(re.fullmatch(rf"[a-z ]+ {verb}\.", c) for c in caps), caps
 
 
@@ -78,7 +95,7 @@ def test_rephrase_short_on_a_rephrased_copy_records_both_steps(tmp_path: Path) -
         old = [t.caption for t in rich.read_texts(name)]
         new = [t.caption for t in out.read_texts(name)]
         assert new[: len(old)] == old and len(new) == len(old) + 2
-        assert not any(re.search(r"\b(left|right|degrees)\b", c) for c in new[len(old):]), new
+        assert not any(re.search(r"\bdegrees\b", c) for c in new[len(old):]), new
     steps = json.loads((tmp_path / "short" / "synth.json").read_text())["rephrased"]
     assert [s["vocabulary"] for s in steps] == ["everyday", "short"]
     with pytest.raises(MlctError, match="vocabulary must be one of"):

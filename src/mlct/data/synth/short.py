@@ -6,8 +6,9 @@ overhead and leans to the side", and so do the everyday phrases (everyday.py). N
 caption was a bare verb, and the bundled model made these prompts badly: "a person waves" gave
 a kick, "a woman walks" stood still, "a woman stretches" held the arms at the chest (docs/
 training.md, "Short prompts"). This vocabulary says each action as briefly as people do,
-leaving parameters out but never stating a wrong one (a left-handed wave is "waves", "waves a
-hand"; a wave with both hands is never "waves a hand"). Its verbs are the benchmark's own
+leaving parameters out but never stating a wrong one. A bare verb of a one-sided action means
+its right-sided form ("a person kicks": the right leg; the left one keeps the benchmark's
+words, which name it); a direction is said ("turns left"). Its verbs are the benchmark's own
 (VERB_FORMS), so the held-out paraphrases of bench/data stay unseen wording.
 
 `mlct data rephrase SRC --vocabulary short` adds captions made with it to a training split.
@@ -19,11 +20,7 @@ from collections.abc import Callable
 
 from mlct.data.captions import VERB_FORMS
 from mlct.data.synth.everyday import SUBJECTS as EVERYDAY_SUBJECTS
-from mlct.data.synth.text import _SUBJECTS, FAMILIES, Rng, Vocabulary, _pick
-
-
-def _one_or_both(hand: str, one: tuple[str, ...], both: tuple[str, ...], rng: Rng) -> str:
-    return _pick(rng, both if hand == "both" else one)
+from mlct.data.synth.text import _SUBJECTS, BENCHMARK, FAMILIES, Rng, Vocabulary, _pick
 
 
 _FIXED: dict[str, tuple[str, ...]] = {
@@ -31,25 +28,46 @@ _FIXED: dict[str, tuple[str, ...]] = {
     "jog": ("<jog>", "<jog>", "<go> for a jog"),
     "run": ("<run>", "<run>", "<go> for a run"),
     "walk_backward": ("<walk> backward", "<walk> backwards", "<step> back"),
-    "side_step": ("<step> sideways", "<step> to the side", "<sidestep>"),
-    "turn": ("<turn>", "<turn>", "<turn> to the side"),
-    "circle": ("<walk> in a circle", "<walk> around in a circle", "<circle> around"),
-    "hop": ("<hop>", "<hop>", "<hop> on one foot", "<hop> on one leg"),
     "squat": ("<squat>", "<squat>", "<squat> down"),
     "sit_stand": ("<sit> down and <stand> up", "<sit> down, then <get> up", "<sit> and <stand>"),
-    "kneel": ("<kneel>", "<kneel>", "<kneel> down"),
     "clap": ("<clap>", "<clap>", "<clap> HIS hands"),
-    "punch": ("<punch>", "<punch>", "<throw> punches"),
-    "kick": ("<kick>", "<kick>", "<kick> out"),
     "bow": ("<bow>", "<bow>", "<bow> down"),
     "stretch": ("<stretch>", "<stretch>", "<stretch> out"),
-    "spin": ("<spin>", "<spin>", "<spin> around"),
     "stand": ("<stand> still", "<stand> there", "<stand> in place", "<stay> still"),
 }
+# A bare verb of a one-sided action means the right hand or foot, as for most people: the
+# phrase is said of right-sided motions only. Said of both sides, it was a blend of the two to
+# the model: 6,000 steps on it made "a person kicks" a half-kick of either leg (plain samples
+# 16/16 -> 11/16 pass), docs/training.md, "Short prompts".
+_RIGHT_SIDED: dict[str, tuple[str, ...]] = {
+    "hop": ("<hop>", "<hop>", "<hop> on one foot", "<hop> on one leg"),
+    "kneel": ("<kneel>", "<kneel>", "<kneel> down"),
+    "punch": ("<punch>", "<punch>", "<throw> punches"),
+    "kick": ("<kick>", "<kick>", "<kick> out"),
+    "wave": ("<wave>", "<wave>", "<wave> a hand"),
+    "raise_arms": ("<raise> an arm", "<raise> a hand", "<put> a hand up"),
+}
+_SIDE_KEY = {"hop": "leg", "kneel": "leg", "kick": "leg", "punch": "hand", "wave": "hand",
+             "raise_arms": "hand"}
+_BOTH_HANDS = {"wave": ("<wave> both hands", "<wave> both arms"),
+               "raise_arms": ("<raise> HIS arms", "<raise> both arms", "<put> HIS hands up")}
 
 
 def _fixed(family: str) -> Callable[[dict, Rng], str]:
     return lambda p, rng: _pick(rng, _FIXED[family])
+
+
+def _sided(family: str) -> Callable[[dict, Rng], str]:
+    """The bare phrase for the right side, both hands said as both, the left side in the
+    benchmark's own words (which name it)."""
+    def phrase(p: dict, rng: Rng) -> str:
+        side = p[_SIDE_KEY[family]]
+        if side == "right":
+            return _pick(rng, _RIGHT_SIDED[family])
+        if side == "both":
+            return _pick(rng, _BOTH_HANDS[family])
+        return BENCHMARK.phrases[family](p, rng)
+    return phrase
 
 
 def _jump(p: dict, rng: Rng) -> str:
@@ -58,19 +76,28 @@ def _jump(p: dict, rng: Rng) -> str:
     return _pick(rng, ("<jump>", "<jump>", "<jump> up"))
 
 
-def _wave(p: dict, rng: Rng) -> str:
-    return _one_or_both(p["hand"], ("<wave>", "<wave>", "<wave> a hand"),
-                        ("<wave>", "<wave> both hands"), rng)
+# A direction is not a handedness: a turn, spin, circle or side step is said short, with its
+# side.
+def _turn(p: dict, rng: Rng) -> str:
+    return _pick(rng, (f"<turn> {p['side']}", f"<turn> to the {p['side']}"))
 
 
-def _raise_arms(p: dict, rng: Rng) -> str:
-    return _one_or_both(p["hand"], ("<raise> an arm", "<raise> a hand", "<put> a hand up"),
-                        ("<raise> HIS arms", "<raise> both arms", "<put> HIS hands up"), rng)
+def _spin(p: dict, rng: Rng) -> str:
+    return _pick(rng, (f"<spin> {p['side']}", f"<spin> around to the {p['side']}"))
+
+
+def _circle(p: dict, rng: Rng) -> str:
+    return _pick(rng, (f"<walk> in a circle to the {p['side']}", f"<circle> {p['side']}"))
+
+
+def _side_step(p: dict, rng: Rng) -> str:
+    return _pick(rng, (f"<step> to the {p['side']}", f"<step> sideways to the {p['side']}"))
 
 
 PHRASES: dict[str, Callable[[dict, Rng], str]] = {
     **{family: _fixed(family) for family in _FIXED},
-    "jump": _jump, "wave": _wave, "raise_arms": _raise_arms,
+    **{family: _sided(family) for family in _RIGHT_SIDED},
+    "jump": _jump, "turn": _turn, "spin": _spin, "circle": _circle, "side_step": _side_step,
 }
 assert set(PHRASES) == set(FAMILIES)
 
