@@ -30,7 +30,10 @@ SINGLE = {
     "kneel": "kneels", "sit_stand": "sits down and stands up", "bow": "bows",
     "stretch": "stretches", "clap": "claps", "wave": "waves", "punch": "punches",
     "kick": "kicks", "spin": "spins around", "raise_arms": "raises both arms",
+    "turn": "turns left", "circle": "walks in a circle to the right",
 }
+# what a short prompt does name
+NAMED = {"turn": {"side": "left"}, "circle": {"side": "right"}}
 PAIRS = (("walk", "walks", "wave", "waves"), ("jump", "jumps", "bow", "bows"),
          ("squat", "squats", "clap", "claps"), ("walk", "walks", "kick", "kicks"),
          ("stretch", "stretches", "jump", "jumps"), ("run", "runs", "wave", "waves"))
@@ -41,7 +44,7 @@ OPEN = {"wave": {"hand": ("left", "right", "both")}, "raise_arms": {"hand": ("bo
 def readings_of(family: str) -> list[dict[str, Any]]:
     """Every way the bare verb may be meant, as labels.jsonl actions."""
     options = OPEN.get(family, {})
-    return [{"family": family, "params": dict(zip(options, values))}
+    return [{"family": family, "params": {**NAMED.get(family, {}), **dict(zip(options, values))}}
             for values in itertools.product(*options.values())]
 
 
