@@ -122,3 +122,49 @@ def test_join_model_parts_gives_the_weights_back(tmp_path):
     (parts / "model_part2.safetensors").unlink()
     with pytest.raises(SystemExit, match="model_part2"):
         join(parts, tmp_path / "again")
+
+
+def test_join_onto_puts_a_continued_denoiser_into_the_base_model(tmp_path):
+    """bench/gpu_stage2_continue.sh sends back the denoiser alone; the rest is the base's."""
+    import json
+
+    import numpy as np
+    import torch
+    from safetensors.torch import load_file, save_file
+
+    sys.path.insert(0, str(TOOLS))
+    try:
+        from join_model_parts import join_onto
+    finally:
+        sys.path.pop(0)
+    base = tmp_path / "base"
+    base.mkdir()
+    old = {"denoiser.a": torch.randn(3, 2).half(), "decoder.b": torch.randn(4).half()}
+    save_file(old, str(base / "model.safetensors"), metadata={"sampler": "cm"})
+    (base / "config.json").write_text(json.dumps(
+        {"decoder_from": "armdec", "step": 6000, "config": {"ae": {"n_tokens": 6}, "x": 1}}))
+    for name in ("Mean.npy", "Std.npy"):
+        np.save(base / name, np.zeros(5))
+    (base / "durations.json").write_text("{}")
+    run = tmp_path / "run"
+    run.mkdir()
+    new = {"denoiser.a": torch.randn(3, 2).half()}
+    save_file(new, str(run / "denoiser.safetensors"), metadata={"sampler": "cm"})
+    (run / "config.json").write_text(json.dumps(
+        {"decoder_from": "/tmp/x/bundleAE", "step": 40000,
+         "config": {"ae": {"n_tokens": 6, "grown_from": 0}, "x": 2}}))
+    out = join_onto(run, base, tmp_path / "model")
+    joined = load_file(str(out / "model.safetensors"))
+    assert torch.equal(joined["denoiser.a"], new["denoiser.a"])
+    assert torch.equal(joined["decoder.b"], old["decoder.b"])
+    config = json.loads((out / "config.json").read_text())
+    assert config["step"] == 40000 and config["config"]["x"] == 2  # the run's own
+    assert config["decoder_from"] == "armdec" and config["config"]["ae"] == {"n_tokens": 6}
+    assert (out / "durations.json").is_file() and (out / "Std.npy").is_file()
+    with pytest.raises(SystemExit, match="denoiser.safetensors"):
+        join_onto(base, base, tmp_path / "again")
+
+
+def test_gpu_stage2_continue_parses():
+    subprocess.run(["bash", "-n", str(TOOLS.parent / "bench" / "gpu_stage2_continue.sh")],
+                   check=True)

@@ -1,9 +1,14 @@
-"""Join the two weight files tools/make_bundled_model_gpu.sh sends back into a model folder.
+"""Join the weight files a GPU recipe sends back into a model folder.
 
     python tools/join_model_parts.py FROM_DIR --out MODEL_DIR
+    python tools/join_model_parts.py FROM_DIR --base MODEL --out MODEL_DIR
 
 FROM_DIR holds model_part1.safetensors (the denoiser), model_part2.safetensors (the rest),
-config.json, Mean.npy and Std.npy; MODEL_DIR gets a model folder `mlct.load` reads.
+config.json, Mean.npy and Std.npy (tools/make_bundled_model_gpu.sh); MODEL_DIR gets a model
+folder `mlct.load` reads. With --base, FROM_DIR holds only denoiser.safetensors and config.json
+(bench/gpu_stage2_continue.sh: stage 2 continued on a frozen model) and everything else (the
+autoencoder and decoders, Mean/Std, durations, critic) is the base model's, as is the config's
+provenance of the decoder.
 """
 
 from __future__ import annotations
@@ -34,12 +39,41 @@ def join(source: Path, out: Path) -> Path:
     return out
 
 
+def join_onto(source: Path, base: Path, out: Path) -> Path:
+    """The continued denoiser of `source` in a copy of the model folder `base`."""
+    import json
+
+    if not (source / "denoiser.safetensors").is_file():
+        raise SystemExit(f"join_model_parts: {source} lacks denoiser.safetensors")
+    with safe_open(str(base / "model.safetensors"), "pt") as handle:
+        meta = handle.metadata()
+    tensors = {k: v for k, v in load_file(str(base / "model.safetensors")).items()
+               if not k.startswith("denoiser.")}
+    tensors.update(load_file(str(source / "denoiser.safetensors")))
+    out.mkdir(parents=True, exist_ok=True)
+    for name in ("Mean.npy", "Std.npy", "durations.json", "critic.safetensors"):
+        if (base / name).is_file():
+            shutil.copy(base / name, out / name)
+    save_file(tensors, str(out / "model.safetensors"), metadata=meta)
+    config = json.loads((source / "config.json").read_text())
+    kept = json.loads((base / "config.json").read_text())
+    config["decoder_from"] = kept.get("decoder_from")  # the run there named its 1-step copy
+    config["config"]["ae"] = kept["config"]["ae"]
+    (out / "config.json").write_text(json.dumps(config, indent=2) + "\n")
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("source", type=Path)
     parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--base", type=Path, default=None,
+                        help="a model folder whose all but the denoiser the result keeps")
     args = parser.parse_args(argv)
-    print(join(args.source, args.out))
+    if args.base is not None:
+        print(join_onto(args.source, args.base, args.out))
+    else:
+        print(join(args.source, args.out))
     return 0
 
 
