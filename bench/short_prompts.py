@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import mlct
+import mlct.generate.durations as durations
 from mlct.eval.readouts import evaluate_in_order, evaluate_label
 
 SUBJECTS = ("a person", "a woman", "a man", "someone")
@@ -75,9 +76,15 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=5.0)
     parser.add_argument("--candidates", type=int, default=None,
                         help="best-of-N by the model's critic (default: the model's; 1 = plain)")
+    parser.add_argument("--pairs", action="store_true", help="the two-action prompts only")
+    parser.add_argument("--squeeze-alike", action="store_true",
+                        help="squeeze a sequence's parts alike however short the clip (the rule "
+                             "before generate/durations.py's FASTEST_TEMPO_SHARE), to compare")
     args = parser.parse_args()
+    if args.squeeze_alike:
+        durations.FASTEST_TEMPO_SHARE = 0.0  # never past the data's tempi: alike, as before
     models = args.model or [None]
-    items = prompts()
+    items = [item for item in prompts() if len(item[1]) > 1 or not args.pairs]
     rows: dict[str, list[list[int]]] = {}
     for column, model in enumerate(models):
         gen = mlct.load(model, backend="torch")
@@ -91,7 +98,9 @@ def main() -> None:
                 row[column][1] += 1
     names = [str(m) if m else "bundled" for m in models]
     print(f"{len(items)} short prompts ({len(SUBJECTS)} subjects each), {args.seeds} seeds, "
-          f"{args.seconds:g} s, candidates {args.candidates or 'default'}; read-out pass rates")
+          f"{args.seconds:g} s, candidates {args.candidates or 'default'}, a sequence's parts "
+          f"squeezed {'alike' if args.squeeze_alike else 'as generate/durations.py does'}; "
+          "read-out pass rates")
     print(f"{'family':<22}" + "".join(f"{n[-22:]:>24}" for n in names))
     totals = [[0, 0] for _ in models]
     for key, row in rows.items():

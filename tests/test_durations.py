@@ -10,7 +10,8 @@ import pytest
 
 import mlct
 from mlct.errors import MlctError
-from mlct.generate.durations import FILE, DurationModel, place_names, read_durations, split_frames
+from mlct.generate.durations import (FILE, DurationModel, place_names, read_durations, split_frames,
+                                    squeeze_longest_first)
 from mlct.generate.pipeline import bundled_model_dir
 from mlct.train.durations import (SequenceExample, cut_errors, fit_durations, fit_offsets,
                                   sequence_examples, single_action_captions)
@@ -73,6 +74,25 @@ def test_part_weights_give_each_part_its_duration_plus_its_place_offset():
     # a clip twice as long stretches every part alike
     share = split_frames(model.part_weights(parts, 14.6, 1.0), 292, 20)
     np.testing.assert_allclose(np.array(share) / 20, 2 * wanted, atol=0.05)
+
+
+def test_a_clip_squeezed_past_the_datas_tempi_is_cut_from_the_longest_part_first():
+    model = DurationModel(np.array([1.0]), 0.0, "enc", {}, offsets={"first": 0.0, "last": 0.0})
+    parts = np.log([[4.6], [2.7]])  # a walk's 4.6 s, then a wave's 2.7 s: 7.3 s in all
+    # 6.5 s is within the data's tempi (at least 7.3 / 1.15 = 6.35 s): squeezed alike
+    share = split_frames(model.part_weights(parts, 6.5, 1.0), 130, 20)
+    np.testing.assert_allclose(np.array(share) / 20, [4.6 * 6.5 / 7.3, 2.7 * 6.5 / 7.3], atol=0.05)
+    # 5 s is not: both go to 1/1.15 of their time (4.0 s, 2.35 s), then the walk alone gives
+    # up the rest; squeezed alike the wave would have had 1.85 s
+    share = split_frames(model.part_weights(parts, 5.0, 1.0), 100, 20)
+    np.testing.assert_allclose(np.array(share) / 20, [5 - 2.7 / 1.15, 2.7 / 1.15], atol=0.05)
+    # the rule itself: the longer parts cut to a common length, the shortest kept
+    np.testing.assert_allclose(squeeze_longest_first(np.array([3.0, 1.0, 4.0]), 5.0),
+                               [2.0, 1.0, 2.0])
+    # shorter than equal shares of the shortest: equal shares
+    np.testing.assert_allclose(squeeze_longest_first(np.array([3.0, 2.0]), 1.0), [0.5, 0.5])
+    # not shorter: every part alike, as a longer clip
+    np.testing.assert_allclose(squeeze_longest_first(np.array([3.0, 1.0]), 4.0), [3.0, 1.0])
 
 
 def test_the_offsets_and_cut_errors_come_from_the_sequences():

@@ -38,6 +38,11 @@ MIN_WEIGHT = 0.05  # seconds beyond the shortest share that any part keeps (see 
 # Seconds a one-action clip lasts beyond its action (the lead-in and the tail), for a file that
 # does not say: the median of the procedural benchmark's single-action motions.
 SINGLE_EXTRA = 0.4
+# How far a clip squeezes its parts alike: the benchmark's fastest tempo is 1.15 (a motion's
+# actions all done up to 1.15x faster, data/synth/build.py), so no action the model learnt
+# took less than 1/1.15 of its usual time. A shorter clip takes the rest from the longest
+# parts first (squeeze_longest_first).
+FASTEST_TEMPO_SHARE = 1 / 1.15
 
 
 @dataclass(frozen=True)
@@ -73,11 +78,17 @@ class DurationModel:
         longer or shorter than their sum stretches them all alike (the tempo of each action
         changes by the same factor). split_frames gives every part min_seconds first and the
         rest in proportion to the weights, so a weight is the stretched share less that
-        minimum. Version 1 models: the durations themselves, as they were used."""
+        minimum. A clip shorter than FASTEST_TEMPO_SHARE of their sum is cut further from the
+        longest parts first (`squeeze_longest_first`). Version 1 models: the durations themselves, as they were
+        used."""
         if not self.offsets:
             return self.seconds(embeddings)
         wanted = self.part_seconds(embeddings)
-        return np.maximum(wanted * total_seconds / wanted.sum() - min_seconds, MIN_WEIGHT)
+        if total_seconds < FASTEST_TEMPO_SHARE * wanted.sum():
+            shares = squeeze_longest_first(FASTEST_TEMPO_SHARE * wanted, total_seconds)
+        else:
+            shares = wanted * total_seconds / wanted.sum()
+        return np.maximum(shares - min_seconds, MIN_WEIGHT)
 
     def clip_seconds(self, embeddings: np.ndarray) -> float:
         """How long a clip doing the (B, c) parts in order lasts when nobody says (generate's
@@ -172,6 +183,32 @@ def read_durations(model_dir: str | os.PathLike, text_encoder: str, text_dim: in
                         f"({model.input_dim}-d), the model uses {text_encoder!r} "
                         f"({text_dim}-d); refit it with `mlct train durations`")
     return model
+
+
+def squeeze_longest_first(wanted: np.ndarray, total_seconds: float) -> np.ndarray:
+    """Shares of a clip of total_seconds, shorter than the parts' `wanted` seconds (sum), with
+    the time taken from the longest parts first: every part longer than a common cap is cut to
+    it, the shorter ones keep their own length, and the cap is where the shares sum to the clip.
+
+    Why not squeeze all alike: an action of a count (waves, claps, jumps) or of an angle (a
+    turn) needs its own time for it (the benchmark's waves take 2.2-3.6 s, its walks 3.8-5.7 s),
+    where a walk or a jog is as good shorter, only going less far. Squeezed alike, "a person
+    walks, then waves" in 5 s gave the wave 1.8 s, less than any wave of the data, and it
+    swayed too few times (docs/training.md, "A short clip's time, taken from the longest part
+    first"). Down to equal shares when the clip is shorter than that. part_weights uses it
+    only past the data's own tempo range: within it the data's cuts agree better with parts
+    squeezed alike (bench/duration_squeeze.py)."""
+    wanted = np.asarray(wanted, dtype=np.float64)
+    levels = np.sort(wanted)
+    count = len(levels)
+    # Parts at or under levels[k] keep their length; the count - k longer ones share the rest.
+    below = 0.0
+    for k in range(count):
+        cap = (total_seconds - below) / (count - k)
+        if cap <= levels[k]:
+            return np.minimum(wanted, cap)
+        below += levels[k]
+    return wanted * total_seconds / wanted.sum()  # not shorter after all: alike
 
 
 def split_frames(weights: Sequence[float] | np.ndarray, frames: int, min_frames: int
