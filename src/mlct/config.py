@@ -187,7 +187,9 @@ class TrainConfig(_Section):
     # torch seeds with seed * 1000 + rank, which must fit its 64 bits; negative seeds are
     # refused as everywhere else in mlct.
     seed: int = Field(0, ge=0, le=2**53 - 1)
-    precision: Literal["auto", "fp32", "bf16"] = "auto"  # auto: bf16 autocast on CUDA only
+    # auto: bf16 autocast for the autoencoder on CUDA, fp32 elsewhere (train/loop.py:
+    # autocast_precision; stage 2 in bf16 on a GPU diverged)
+    precision: Literal["auto", "fp32", "bf16"] = "auto"
     # Ours: on a GPU, the whole step (the frozen encoder, forward, backward, clipping, AdamW,
     # the EMA) replayed from one CUDA graph, the motions held on the device
     # (train/captured_step.py); elsewhere the same fixed-shape step runs without a graph.

@@ -57,12 +57,24 @@ class JsonlLog:
             handle.write(json.dumps(record) + "\n")
 
 
+def autocast_precision(precision: str, stage: str, device: torch.device) -> str:
+    """'bf16' or 'fp32': what train.<stage>.precision asks for on this device. 'auto' is bf16
+    autocast for the autoencoder on CUDA and fp32 everywhere else: stage 2 with bf16 autocast
+    on a GPU (an H200, CUDA graphs, batches of 128, lr 1e-4) diverged in all three runs tried,
+    its gradient norm going from ~20 to thousands after 2,750-3,250 steps, where the same seed
+    in fp32 stayed at 16-21, for 15% fewer samples a second (docs/training.md, "Stage 2
+    continued on a GPU"). bf16 stage 2 on the CPU, asked for by name, trained the bundle."""
+    if precision != "auto":
+        return precision
+    return "bf16" if device.type == "cuda" and stage == "ae" else "fp32"
+
+
 def _autocast(device: torch.device, precision: str,
               cache: bool = True) -> contextlib.AbstractContextManager:
-    """bf16 autocast where asked. cache=False for a CUDA graph: autocast's cache of cast
-    weights would outlive the capture (torch.cuda.make_graphed_callables says the same)."""
-    use_bf16 = precision == "bf16" or (precision == "auto" and device.type == "cuda")
-    if not use_bf16:
+    """bf16 autocast when `precision` (autocast_precision's) says so. cache=False for a CUDA
+    graph: autocast's cache of cast weights would outlive the capture
+    (torch.cuda.make_graphed_callables says the same)."""
+    if precision != "bf16":
         return contextlib.nullcontext()
     return torch.autocast(device_type=device.type, dtype=torch.bfloat16, cache_enabled=cache)
 
@@ -382,6 +394,7 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
         initial.load_into(stage)
     config = stage.config
     model = stage.trainable
+    precision = autocast_precision(tc.precision, stage_name, info.device)
     graphed = tc.cuda_graph and info.device.type == "cuda"
     if tc.cuda_graph:
         _check_capturable(config, stage_name, info)
@@ -413,9 +426,9 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
     captured = None
     if tc.cuda_graph:  # the motions on the device, the step replayed (train/captured_step.py)
         captured = CapturedStep(stage, model, optimizer, ResidentMotions(data, info.device),
-                                tc.grad_clip, lambda: _autocast(info.device, tc.precision, False))
+                                tc.grad_clip, lambda: _autocast(info.device, precision, False))
     if val_batches and checkpoint is None:  # the starting point, for comparison
-        record = {"step": 0, **_validate(stage, val_batches, tc.seed, info.device, tc.precision)}
+        record = {"step": 0, **_validate(stage, val_batches, tc.seed, info.device, precision)}
         if log is not None:
             log.write(record)
             _tb_write(writer, record, 0)
@@ -426,7 +439,7 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
     model.train()
     for batch in loader:
         if captured is None:
-            with _autocast(info.device, tc.precision):
+            with _autocast(info.device, precision):
                 terms = stage.loss(wrapped, batch)
             _finite_loss(terms["loss"], step + 1, stage_dir, info)
             grad_norm = optimizer_update(model, optimizer, terms["loss"], tc.grad_clip)
@@ -452,7 +465,7 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
                 _tb_write(writer, record, step)
         if val_batches and (step % tc.val_every == 0 or step == tc.max_steps):
             record = {"step": step, **_validate(stage, val_batches, tc.seed, info.device,
-                                                tc.precision)}
+                                                precision)}
             if log is not None:
                 log.write(record)
                 _tb_write(writer, record, step)
