@@ -581,3 +581,24 @@ def test_auto_precision_is_bf16_for_the_autoencoder_on_cuda_only():
     assert autocast_precision("bf16", "cm", cuda) == "bf16"  # asked for by name
     assert autocast_precision("bf16", "cm", cpu) == "bf16"
     assert autocast_precision("fp32", "ae", cuda) == "fp32"
+
+
+def test_a_diverging_norm_is_warned_about_or_stops_the_run(data: Path, cache: str, tiny,
+                                                           tmp_path: Path, monkeypatch,
+                                                           capsys) -> None:
+    """The watch (train/divergence.py) in the loop, made to trip at once: a factor of 1e-9
+    times the first logged norm. The warning goes to stderr and log.jsonl and the run goes on;
+    with stop_on_divergence it stops there, naming its last checkpoint."""
+    import mlct.train.divergence as divergence
+
+    monkeypatch.setattr(divergence, "FACTOR", 1e-9)
+    monkeypatch.setattr(divergence, "EARLY_LOGS", 1)
+    common = [cache, "train.ae.max_steps=6", "train.ae.log_every=2", "train.ae.ckpt_every=2"]
+    train("ae", data, tmp_path / "warn", tiny, progress=False, overrides=common)
+    warnings = [r for r in _log(tmp_path / "warn", "ae") if "warning" in r]
+    assert [r["step"] for r in warnings] == [4]  # step 2 sets the range; said once
+    assert "probably diverging" in capsys.readouterr().err
+    assert latest_checkpoint(tmp_path / "warn" / "ae" / "checkpoints").name.endswith("6")
+    with pytest.raises(MlctError, match=r"step 4.*stop_on_divergence.*step-00000002"):
+        train("ae", data, tmp_path / "stop", tiny, progress=False,
+              overrides=[*common, "train.ae.stop_on_divergence=true"])

@@ -194,6 +194,9 @@ class TrainConfig(_Section):
     # the EMA) replayed from one CUDA graph, the motions held on the device
     # (train/captured_step.py); elsewhere the same fixed-shape step runs without a graph.
     cuda_graph: bool = False
+    # Ours: a logged gradient norm 30x the run's early median is warned about (stderr and
+    # log.jsonl); with this, the run also stops there (train/divergence.py)
+    stop_on_divergence: bool = False
 
 
 class StageTrainConfigs(_Section):

@@ -33,6 +33,7 @@ from mlct.train.captured_step import CapturedStep, optimizer_update, restore_opt
 from mlct.train.checkpoint import (STATE, WEIGHTS, intact_checkpoints, latest_checkpoint,
                                    load_checkpoint, remove_partial_writes, resume_checkpoint,
                                    save_checkpoint)
+from mlct.train.divergence import DivergenceWatch
 from mlct.train.resident import ResidentMotions
 from mlct.train.stages import (AutoencoderStage, ConsistencyStage, DiffusionStage, Stage,
                                TextTable, find_autoencoder)
@@ -96,6 +97,27 @@ def _finite_loss(loss: Tensor, step: int, stage_dir: Path, info: distributed.Dis
         latest = latest_checkpoint(stage_dir / "checkpoints")
         raise MlctError(f"loss is {float(reduced)} at step {step}; training stopped. "
                         f"The last good checkpoint is {latest or 'none (none was saved)'}")
+
+
+def _watch_divergence(watch: DivergenceWatch, record: dict[str, Any], stage: str,
+                      precision: str, stop: bool, stage_dir: Path, log: JsonlLog | None,
+                      info: distributed.DistInfo) -> None:
+    """Warn once (stderr and log.jsonl) when the logged gradient norm leaves its early range;
+    with train.<stage>.stop_on_divergence, stop there, naming the last checkpoint."""
+    note = watch.check(record["step"], record["grad_norm"])
+    if note is None:
+        return
+    if precision == "bf16":
+        note += ("; this run trains in bf16, and stage 2 diverged in bf16 where fp32 did not "
+                 f"(train.{stage}.precision=fp32)")
+    if log is not None:
+        log.write({"step": record["step"], "warning": note})
+    if stop:
+        latest = latest_checkpoint(stage_dir / "checkpoints")
+        raise MlctError(f"{note}; training stopped (train.{stage}.stop_on_divergence). The "
+                        f"last checkpoint is {latest or 'none (none was saved)'}")
+    if info.is_main:
+        print(f"mlct train: warning: {note}", file=sys.stderr)
 
 
 def _autoencoder_stats(path: Path) -> tuple[Tensor, Tensor]:
@@ -433,6 +455,7 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
             log.write(record)
             _tb_write(writer, record, 0)
 
+    watch = DivergenceWatch()
     bar = _progress(tc.max_steps, step, progress and info.is_main, f"train {stage_name}")
     last: dict[str, float] = {}
     samples, started = 0, time.perf_counter()
@@ -463,6 +486,8 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
             if log is not None:
                 log.write(record)
                 _tb_write(writer, record, step)
+            _watch_divergence(watch, record, stage_name, precision, tc.stop_on_divergence,
+                              stage_dir, log, info)
         if val_batches and (step % tc.val_every == 0 or step == tc.max_steps):
             record = {"step": step, **_validate(stage, val_batches, tc.seed, info.device,
                                                 precision)}
