@@ -6,7 +6,9 @@
 # of that shape reached 0.890 of the reconstructions at 25,000 x 128, against 0.793 (docs/
 # training.md, "Stage 1's training budget"). Stage 2 sees 45,000 x 128, against 30,000 x 64.
 # The data are made there as the bundle's were (synth seed 0, rephrased, claps/waves/turns
-# oversampled).
+# oversampled). Precision: train.*.precision=auto, bfloat16 autocast for the autoencoders and
+# fp32 for stage 2 since 2026-11-27: stage 2 in bfloat16 on an H200 diverged after ~3,000
+# steps where fp32 did not (docs/training.md, "Stage 2 continued on a GPU").
 #
 #   bash tools/make_bundled_model_gpu.sh [CARRY_DIR]     (AE_STEPS, CM_STEPS to change the budget)
 #
