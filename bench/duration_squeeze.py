@@ -22,12 +22,7 @@ from mlct.data.layout import DatasetLayout
 from mlct.eval.judge.action_classifier import read_labels
 from mlct.generate.compose import split_actions
 from mlct.generate.pipeline import MIN_PART_SECONDS
-from mlct.train.durations import cut_errors, sequence_examples
-
-
-def alike(wanted: np.ndarray, total_seconds: float) -> np.ndarray:
-    """The rule before: every part squeezed by the same factor."""
-    return wanted * total_seconds / wanted.sum()
+from mlct.train.durations import cut_errors, memoized_embedder, sequence_examples
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -43,18 +38,12 @@ def main(argv: list[str] | None = None) -> int:
     layout = DatasetLayout.existing(args.data)
     labels = read_labels(args.data)
     fps = generator.skeleton.fps
-    memo: dict[str, np.ndarray] = {}
-
-    def embed(batch: list[str]) -> np.ndarray:
-        new = sorted({t for t in batch if t not in memo})
-        for i in range(0, len(new), 256):
-            memo.update(zip(new[i:i + 256], generator.encode_text(new[i:i + 256]).float().numpy()))
-        return np.stack([memo[t] for t in batch])
+    embed = memoized_embedder(generator)
 
     print(f"model {args.model or 'bundled'}; cut error = |pipeline's cut - data's cut| (s), "
           f"min part {MIN_PART_SECONDS} s")
     print(f"{'split':6} {'sequences':>22} {'n':>5} {'alike mean/p90':>16} "
-          f"{'longest first mean/p90':>24}")
+          f"{'now mean/p90':>24}")
     for split in args.splits.split(","):
         names = set(layout.read_split(split))
         examples = sequence_examples({k: v for k, v in labels.items() if k in names},
@@ -69,8 +58,9 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{split:6} {title:>22} {0:5d}")
                 continue
             row = []
-            for rule in (alike, durations.squeeze_longest_first):
-                with mock.patch.object(durations, "squeeze_longest_first", rule):
+            # the rule before: never past the data's tempi, so every part squeezed alike
+            for share in (0.0, durations.FASTEST_TEMPO_SHARE):
+                with mock.patch.object(durations, "FASTEST_TEMPO_SHARE", share):
                     errors = np.abs(cut_errors(model, chosen, embed, fps, MIN_PART_SECONDS))
                 row.append(f"{errors.mean():.3f} / {np.percentile(errors, 90):.3f}")
             print(f"{split:6} {title:>22} {len(chosen):5d} {row[0]:>16} {row[1]:>24}")

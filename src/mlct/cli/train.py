@@ -78,8 +78,8 @@ def run_durations(args: argparse.Namespace) -> int:
     from mlct.generate.durations import describe
     from mlct.generate.pipeline import MIN_PART_SECONDS, bundled_model_dir
     from mlct.train.durations import (CUT_SHIFT, cut_errors, fit_durations, fit_offsets,
-                                      sequence_examples, single_action_captions,
-                                      single_action_extra)
+                                      memoized_embedder, sequence_examples,
+                                      single_action_captions, single_action_extra)
 
     model_dir = bundled_model_dir() if args.model == "bundled" else Path(args.model)
     generator = mlct.load(model_dir, backend="torch")
@@ -91,14 +91,7 @@ def run_durations(args: argparse.Namespace) -> int:
     parts = [p for e in sequences for p in e.parts]
     part_seconds = [s for e in sequences for s in e.seconds]
     part_groups = [e.motion for e in sequences for _ in e.parts]
-    memo: dict[str, np.ndarray] = {}
-
-    def embed(batch: list[str]) -> np.ndarray:
-        new = sorted({t for t in batch if t not in memo})
-        for i in range(0, len(new), 256):
-            memo.update(zip(new[i:i + 256],
-                            generator.encode_text(new[i:i + 256]).float().numpy()))
-        return np.stack([memo[t] for t in batch])
+    embed = memoized_embedder(generator)
 
     model = fit_durations(embed(texts + parts), np.concatenate([seconds, part_seconds]),
                           generator.meta["text_encoder"], np.concatenate([groups, part_groups]))

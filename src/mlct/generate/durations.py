@@ -79,8 +79,8 @@ class DurationModel:
         changes by the same factor). split_frames gives every part min_seconds first and the
         rest in proportion to the weights, so a weight is the stretched share less that
         minimum. A clip shorter than FASTEST_TEMPO_SHARE of their sum is cut further from the
-        longest parts first (`squeeze_longest_first`). Version 1 models: the durations themselves, as they were
-        used."""
+        longest parts first (`squeeze_longest_first`). Version 1 models: the durations
+        themselves, as they were used."""
         if not self.offsets:
             return self.seconds(embeddings)
         wanted = self.part_seconds(embeddings)

@@ -179,6 +179,21 @@ def single_action_extra(labels: Mapping[str, Mapping[str, Any]]) -> float:
     return round(float(np.median(extra)), 4)
 
 
+def memoized_embedder(generator: Any) -> Callable[[list[str]], np.ndarray]:
+    """texts -> (B, c) float32 embeddings through `generator.encode_text`, each distinct text
+    encoded once (the generator's own memo is bounded; a fit reads thousands of captions, and
+    cut_errors asks for each sequence's parts again), new ones 256 at a time."""
+    memo: dict[str, np.ndarray] = {}
+
+    def embed(batch: list[str]) -> np.ndarray:
+        new = sorted({t for t in batch if t not in memo})
+        for i in range(0, len(new), 256):
+            memo.update(zip(new[i:i + 256],
+                            generator.encode_text(new[i:i + 256]).float().cpu().numpy()))
+        return np.stack([memo[t] for t in batch])
+    return embed
+
+
 def cut_errors(model: DurationModel, examples: Sequence[SequenceExample],
                embed: Callable[[list[str]], np.ndarray], fps: float, min_seconds: float,
                shift: float = CUT_SHIFT) -> np.ndarray:
