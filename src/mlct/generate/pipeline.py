@@ -80,6 +80,8 @@ class MotionGenerator:
             read_critic(meta["model_dir"], meta["text_encoder"], int(meta["text_dim"]),
                         ae.n_tokens * ae.latent_dim) if meta.get("model_dir") else None)
         self.candidates = self.critic.candidates if self.critic is not None else 1
+        # locomotion asked for longer than its natural length keeps going (generate/keep_going.py)
+        self.keep_going = True
 
     def _networks(self, tensors: dict[str, Tensor]) -> tuple[Any, Any]:
         """The AE decoder and the denoiser that sample_latents and decode run: the bundle's
@@ -281,6 +283,8 @@ class MotionGenerator:
                 joints = recover_from_ric(torch.from_numpy(feats)).numpy()
                 out[i] = GeneratedMotion(texts[i], feats, joints, self.skeleton.fps,
                                          self.skeleton.name, seeds[i])
+            self._keep_going(out, [i for i in whole if len(plans[i]) == 1], frames, nfe, seeds,
+                             guidance, candidates)
         for i in sorted(i for i in set(range(len(texts))) - set(whole) if out[i] is None):
             out[i] = self._chained(texts[i], plans[i], frames[i], nfe, seeds[i], guidance,
                                    candidates)
@@ -344,6 +348,47 @@ class MotionGenerator:
         made = generate_long(self, parts, [n / fps for n in share], nfe=nfe, seed=seed,
                              guidance=guidance, candidates=candidates)
         return dataclasses.replace(made, text=text)
+
+    def _keep_going(self, out: list[GeneratedMotion | None], indices: Sequence[int],
+                    frames: Sequence[int], nfe: int | None, seeds: Sequence[int],
+                    guidance: float | None, candidates: int) -> None:
+        """Locomotion asked for clearly longer than its natural length that stopped early is
+        made again as takes of its natural length chained into one continuing motion
+        (generate/keep_going.py); out[i] is replaced in place. Needs the duration model."""
+        from mlct.generate.keep_going import (keep_going, names_an_end, segment_count,
+                                              stops_early)
+        from mlct.generate.long_motion import BLEND_SECONDS
+
+        if self.durations is None or not self.keep_going:
+            return
+        fps = self.skeleton.fps
+        todo = [i for i in indices if out[i] is not None and not names_an_end(out[i].text)
+                and frames[i] / fps >= MIN_PART_SECONDS]
+        if not todo:
+            return
+        vectors = self.encode_text([out[i].text for i in todo]).float().cpu().numpy()
+        blend = max(2, int(round(BLEND_SECONDS * fps)))
+        for i, vector in zip(todo, vectors):
+            motion = out[i]
+            natural = self.durations.clip_seconds(vector[None])
+            if not stops_early(motion.joints, fps, natural):
+                continue
+            take = min(self.frames_for(natural), self.max_frames)
+            count = segment_count(frames[i], take, blend)
+            joints = None
+            for count in (count, 2 * count):  # twice as many when the stretches fell short
+                takes = self.generate([motion.text] * count, lengths=take, nfe=nfe,
+                                      seed=[seeds[i] + k for k in range(count)],
+                                      guidance=guidance, split_actions=False,
+                                      candidates=candidates)
+                joints = keep_going([t.joints for t in takes], frames[i], blend, self.skeleton)
+                if joints is not None:
+                    break
+            if joints is None:
+                continue  # the takes did not reach the length: keep the motion as made
+            features = joints_to_features(joints, self.skeleton).features
+            out[i] = GeneratedMotion(motion.text, features, joints.astype(np.float32), fps,
+                                     self.skeleton.name, seeds[i])
 
     def _concurrent(self, text: str, body: str, arms: str, frames: int, nfe: int | None,
                     seed: int, guidance: float | None, candidates: int) -> GeneratedMotion:

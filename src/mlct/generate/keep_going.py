@@ -1,0 +1,231 @@
+"""Locomotion asked for longer than the data's clips: keep going instead of stopping.
+
+The benchmark's walks last 3.6-6.2 s, its jogs 3.2-4.0 s and its runs 2.9-3.6 s, each starting
+and ending at rest, so a model asked for "a person jogs forward" for 7 s jogs about 4 s and
+stands for the rest (docs/model_card.md, "Longer than the action"). A user asking for 7 s of
+jogging wants 7 s of jogging. So when a one-action prompt is asked for clearly longer than its
+natural length (the duration model's) and the motion made from it moved and then stopped, the
+prompt is made again as several segments of its natural length, chained into one motion:
+
+- the first segment keeps its start from rest, the last its stop at the end, and the segments
+  in between lose the start-up and slow-down around their moving stretch, so the speed does
+  not dip at each seam;
+- each seam is placed where the two segments' poses (in the body's own frame) agree best over
+  the blend window, so a stride is not cross-faded with its opposite phase.
+
+Nothing changes for a motion that does not stop early, a prompt that names a count or a
+distance ("takes three steps", "walks five meters": stopping is what it asks), or a clip within
+a second of its natural length.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from mlct.generate.long_motion import _decompose, chain_segments
+from mlct.motion.skeleton import Skeleton
+
+# A count or a distance in the prompt: the action ends when it is done.
+_COUNTED = re.compile(
+    r"\b(?:once|twice|thrice)\b|\b(?:\d+(?:\.\d+)?|an?|one|two|three|four|five|six|seven|eight|"
+    r"nine|ten|eleven|twelve|a\s+few|several|a\s+couple\s+of)\s+(?:more\s+)?(?:times?|steps?|"
+    r"strides?|paces?|laps?|rounds?|meters?|metres?|m|feet|foot|yards?|kilometers?|km)\b",
+    re.IGNORECASE)
+MARGIN_SECONDS = 1.0  # asked beyond the natural length by more than this to count as "longer"
+MOVING_SPEED = 0.25  # m/s of the pelvis over the ground: locomotion, not a shuffle
+STOPPED_SHARE = 0.3  # the last second moves at under this share of the moving speed: stopped
+SMOOTH_SECONDS = 0.5  # the speed is averaged over about a stride
+MOVING_SHARE = 0.5  # a segment's moving stretch: frames at at least this share of its speed
+# The last seam may retime the motion by up to this share of its length, so that it can be placed
+# where the two takes' gaits are in phase; each 1 % of retiming costs as much as 1 mm of mean
+# pose difference (MAX_WARP 5 %: within the benchmark's own tempo range, 1/1.15-1.15).
+MAX_WARP = 0.05
+WARP_COST = 0.1
+
+
+def names_an_end(text: str) -> bool:
+    """Does the prompt say when the action ends (a count or a distance)?"""
+    return _COUNTED.search(text) is not None
+
+
+def ground_speed(joints: np.ndarray, fps: float) -> np.ndarray:
+    """(T, J, 3) -> (T,) the pelvis's horizontal speed in m/s, averaged over ~half a second."""
+    root = np.asarray(joints, dtype=np.float64)[:, 0, [0, 2]]
+    step = np.linalg.norm(np.diff(root, axis=0), axis=1) * fps
+    speed = np.concatenate([step[:1], step]) if len(step) else np.zeros(len(root))
+    width = max(1, int(round(SMOOTH_SECONDS * fps)))
+    kernel = np.ones(width) / width
+    return np.convolve(np.pad(speed, (width // 2, width - 1 - width // 2), mode="edge"),
+                       kernel, mode="valid")
+
+
+def stops_early(joints: np.ndarray, fps: float, natural_seconds: float) -> bool:
+    """The motion moves over the ground during its natural length and stands still in its last
+    second, and it was asked for more than MARGIN_SECONDS longer than that length."""
+    frames = len(joints)
+    if frames / fps < natural_seconds + MARGIN_SECONDS:
+        return False
+    speed = ground_speed(joints, fps)
+    lead = int(round(0.5 * fps))
+    moving = speed[lead:max(lead + 1, int(round((natural_seconds - 0.5) * fps)))]
+    pace = float(np.median(moving))
+    tail = float(speed[-int(round(fps)):].mean())
+    return pace >= MOVING_SPEED and tail < STOPPED_SHARE * pace
+
+
+def segment_count(frames: int, natural_frames: int, blend: int) -> int:
+    """Takes of natural_frames enough for frames, on the safe side: each take after the first
+    adds its moving stretch (the take less its start-up and slow-down, counted as half of it)
+    less the blend; one more, since a stretch is known only once the take is made."""
+    gain = max(natural_frames - natural_frames // 2 - blend, 1)
+    return max(2, math.ceil((frames - natural_frames) / gain) + 2)
+
+
+def floor_height(joints: np.ndarray, skeleton: Skeleton) -> float:
+    """The take's floor: the median height of its lowest foot joint (ankles and toes)."""
+    feet = list(skeleton.foot_left) + list(skeleton.foot_right)
+    return float(np.median(np.asarray(joints)[:, feet, 1].min(axis=1)))
+
+
+def moving_stretch(joints: np.ndarray, fps: float) -> tuple[int, int]:
+    """[first, last) frames of a segment that move at MOVING_SHARE of its median moving speed."""
+    speed = ground_speed(joints, fps)
+    moving = speed[speed >= MOVING_SPEED]
+    if len(moving) == 0:
+        return 0, len(joints)
+    fast = np.flatnonzero(speed >= MOVING_SHARE * float(np.median(moving)))
+    return int(fast[0]), int(fast[-1]) + 1
+
+
+def _knees_and_hips(skeleton: Skeleton) -> list[int]:
+    """The joints between the pelvis and the ankles on both legs' chains."""
+    feet = {skeleton.foot_left[0], skeleton.foot_right[0]}
+    out = []
+    for ankle in feet:
+        joint = skeleton.parents[ankle]
+        while joint > 0:
+            out.append(joint)
+            joint = skeleton.parents[joint]
+    return sorted(set(out))
+
+
+def _pose_distance(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.linalg.norm(a - b, axis=-1).mean())
+
+
+@dataclass(frozen=True)
+class _Piece:
+    segment: int  # which segment
+    start: int  # [start, end) frames of it
+    end: int
+
+
+def _positions(pieces: list[_Piece], blend: int) -> list[int]:
+    """Each piece's first frame in the chain (consecutive pieces overlap by `blend`)."""
+    out, at = [], 0
+    for piece in pieces:
+        out.append(at)
+        at += piece.end - piece.start - blend
+    return out
+
+
+def _cut(pieces: list[_Piece], cut: int, blend: int) -> list[_Piece] | None:
+    """The pieces of a chain truncated to its first `cut` frames; None when the piece cut would
+    be too short to blend into the one after it."""
+    for piece, at in zip(pieces, _positions(pieces, blend)):
+        if at + piece.end - piece.start >= cut:
+            kept = cut - at
+            if kept < 2 * blend and piece is not pieces[0]:
+                return None
+            index = pieces.index(piece)
+            return pieces[:index] + [_Piece(piece.segment, piece.start, piece.start + kept)]
+    return None
+
+
+def keep_going(segments: Sequence[np.ndarray], frames: int, blend: int, skeleton: Skeleton
+               ) -> np.ndarray | None:
+    """(frames, J, 3) joints: the segments (takes of the same prompt at its natural length)
+    chained as one continuing motion: the first from its start, the last to its end, the moving
+    stretches in between; each seam at the offset (within a stride) whose body-frame poses
+    agree best over the blend window. None when the segments do not reach `frames`."""
+    fps = skeleton.fps
+    search = int(round(1.2 * fps))  # about one stride of a walk
+    if len(segments) < 2:
+        return None
+    # One floor for all: each take lifted or lowered to the first's, else a take standing 2 cm
+    # higher than the one before walks on air (a flight phase in a walk).
+    floor = floor_height(segments[0], skeleton)
+    segments = [np.asarray(seg, dtype=np.float64) + np.array([0.0, floor - floor_height(seg, skeleton),
+                                                               0.0]) for seg in segments]
+    # The seams are matched on the legs and the pelvis: the gait's phase.
+    legs = [0, *skeleton.foot_left, *skeleton.foot_right, *_knees_and_hips(skeleton)]
+    local = [_decompose(seg, skeleton)[2][:, legs] for seg in segments]
+    stretches = [moving_stretch(seg, fps) for seg in segments]
+
+    def match(tail: np.ndarray, k: int, starts: range) -> tuple[float, int]:
+        scored = [(_pose_distance(tail, local[k][s:s + blend]), s) for s in starts
+                  if s + blend <= len(local[k])]
+        return min(scored) if scored else (math.inf, starts[0])
+
+    # The first piece from the start; then middle pieces, each starting where its pose matches
+    # the chain's last blend frames, until the last segment can finish the clip.
+    last = len(segments) - 1
+    pieces = [_Piece(0, 0, stretches[0][1])]
+    lead_last = len(segments[last]) - stretches[last][0]  # the last segment from its stretch
+    for k in range(1, last):
+        at = _positions(pieces, blend)[-1] + pieces[-1].end - pieces[-1].start
+        if at - blend + lead_last >= frames + search:
+            break
+        first, end = stretches[k]
+        if end - first < 2 * blend + 2:
+            continue  # a take that hardly moved: skip it
+        tail = local[pieces[-1].segment][pieces[-1].end - blend:pieces[-1].end]
+        _, s = match(tail, k, range(first, max(first + 1, min(first + search,
+                                                                   end - 2 * blend))))
+        pieces.append(_Piece(k, s, end))
+    # The last seam: cut the chain at c and start the last take at s. Its length would be
+    # c - blend + len(last) - s; c and s each range over about a stride, so the pair whose poses
+    # agree best is chosen among those within MAX_WARP of `frames`, and the chain is then
+    # retimed to `frames` exactly (a tempo change of a few per cent). Tying c to s instead, to
+    # hit the length exactly, would fix the two takes' relative phase (both advance together).
+    positions = _positions(pieces, blend)
+    length = positions[-1] + pieces[-1].end - pieces[-1].start
+    chain = np.concatenate([local[p.segment][p.start:p.end - (blend if i < len(pieces) - 1 else 0)]
+                            for i, p in enumerate(pieces)])
+    best: tuple[float, list[_Piece], int, int] | None = None
+    first_last = stretches[last][0]
+    slack = max(1, int(MAX_WARP * frames))
+    for s in range(first_last, min(first_last + search, len(segments[last]) - blend - 1)):
+        exact = frames + blend - (len(segments[last]) - s)  # the c that needs no retiming
+        for c in range(max(blend + 1, exact - slack), min(length, exact + slack) + 1):
+            kept = _cut(pieces, c, blend)
+            if kept is None:
+                continue
+            score = (_pose_distance(chain[c - blend:c], local[last][s:s + blend])
+                     + WARP_COST * abs(c - exact) / frames)
+            if best is None or score < best[0]:
+                best = (score, kept, s, c)
+    if best is None:
+        return None
+    _, kept, s, _ = best
+    parts = [np.asarray(segments[p.segment])[p.start:p.end] for p in kept]
+    parts.append(np.asarray(segments[last])[s:])
+    joints, _ = chain_segments(parts, blend, skeleton)
+    return retime(joints, frames)
+
+
+def retime(joints: np.ndarray, frames: int) -> np.ndarray:
+    """(T, J, 3) -> (frames, J, 3), the same motion at a uniformly changed tempo (linear
+    interpolation between frames)."""
+    if len(joints) == frames:
+        return joints
+    at = np.linspace(0.0, len(joints) - 1, frames)
+    low = np.floor(at).astype(int)
+    high = np.minimum(low + 1, len(joints) - 1)
+    w = (at - low)[:, None, None]
+    return (1 - w) * joints[low] + w * joints[high]

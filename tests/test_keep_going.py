@@ -1,0 +1,159 @@
+"""Keep-going (generate/keep_going.py): locomotion asked for longer than its natural length is
+chained from takes instead of stopping; on hand-built walkers, and through the bundled model."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mlct.generate.keep_going import (ground_speed, keep_going, moving_stretch, names_an_end,
+                                      retime, segment_count, stops_early)
+from mlct.motion.skeleton import HUMANML3D
+
+FPS = HUMANML3D.fps
+BLEND = 15
+
+
+def rest_pose() -> np.ndarray:
+    """(J, 3) the natural rest pose by forward kinematics, feet on y = 0."""
+    offsets = HUMANML3D.rest_offsets
+    pose = np.zeros((HUMANML3D.n_joints, 3))
+    for joint, parent in enumerate(HUMANML3D.parents):
+        if parent >= 0:
+            pose[joint] = pose[parent] + offsets[joint]
+    return pose - [0.0, pose[:, 1].min(), 0.0]
+
+
+def walker(seconds: float, pace: float = 1.0, phase: float = 0.0, stop_at: float | None = None,
+           lift: float = 0.0) -> np.ndarray:
+    """(T, J, 3) a take that starts from rest, walks +Z at `pace` m/s with alternating feet
+    (2 strides a second), and slows to a stop 0.6 s before its end (or at `stop_at`); the
+    whole take raised by `lift` metres (a generated take's floor is not always at 0)."""
+    frames = int(round(seconds * FPS))
+    t = np.arange(frames) / FPS
+    end = seconds - 0.6 if stop_at is None else stop_at
+    speed = pace * np.clip(np.minimum((t - 0.3) / 0.5, (end - t) / 0.5), 0.0, 1.0)
+    z = np.concatenate([[0.0], np.cumsum(speed[1:]) / FPS])
+    pose = rest_pose()
+    joints = np.repeat(pose[None], frames, axis=0)
+    joints[:, :, 2] += z[:, None]
+    swing = np.sin(2 * np.pi * 1.0 * t + phase) * speed / max(pace, 1e-9)
+    for side, sign in ((HUMANML3D.foot_left, 1.0), (HUMANML3D.foot_right, -1.0)):
+        for joint in side:
+            joints[:, joint, 2] += 0.25 * sign * swing
+            joints[:, joint, 1] += 0.08 * np.clip(sign * swing, 0.0, None)  # the swing foot up
+    joints[:, :, 1] += lift
+    return joints
+
+
+def test_names_an_end():
+    for text in ("a person walks forward four steps", "someone jogs 3 laps", "takes a step back",
+                 "walks ten meters forward", "hops twice", "walks a few steps forward",
+                 "a man runs 5 m"):
+        assert names_an_end(text), text
+    for text in ("a person walks forward", "someone walks in a circle to the left",
+                 "a man strolls down the street", "the woman jogs ahead at a steady pace"):
+        assert not names_an_end(text), text
+
+
+def test_ground_speed_reads_the_pelvis_pace():
+    joints = walker(6.0, pace=1.2)
+    speed = ground_speed(joints, FPS)
+    assert speed.shape == (len(joints),)
+    assert speed[:5].max() < 0.05  # standing at the start
+    assert abs(np.median(speed[30:80]) - 1.2) < 0.05
+
+
+def test_stops_early_needs_a_stop_past_the_natural_length():
+    stopped = walker(8.0, stop_at=4.0)  # walks 4 s of an 8-s clip, then stands
+    assert stops_early(stopped, FPS, natural_seconds=4.5)
+    # asked within a second of its natural length: stopping is the action's own end
+    assert not stops_early(stopped[:100], FPS, natural_seconds=4.5)
+    # walks to the end: nothing to fix
+    assert not stops_early(walker(8.0, stop_at=8.5), FPS, natural_seconds=4.5)
+    # never moved over the ground (an arm action): not locomotion
+    still = np.repeat(rest_pose()[None], 160, axis=0)
+    assert not stops_early(still, FPS, natural_seconds=3.0)
+
+
+def test_moving_stretch_drops_the_start_up_and_the_slow_down():
+    first, last = moving_stretch(walker(4.5), FPS)
+    assert 6 <= first <= 16 and 66 <= last <= 80
+
+
+def test_segment_count_covers_the_length():
+    for frames, take in ((140, 90), (190, 73), (190, 45)):
+        count = segment_count(frames, take, BLEND)
+        # even if each later take added only half of itself less the blend
+        assert take + (count - 1) * (take - take // 2 - BLEND) >= frames
+
+
+def test_keep_going_walks_the_whole_length_without_a_dip():
+    frames = 190
+    takes = [walker(4.5, phase=k * 1.3, lift=0.03 * (k % 2)) for k in range(6)]
+    joints = keep_going(takes, frames, BLEND, HUMANML3D)
+    assert joints is not None and joints.shape == (frames, HUMANML3D.n_joints, 3)
+    speed = ground_speed(joints, FPS)
+    assert speed[:3].max() < 0.1  # from rest, as the first take
+    assert speed[-3:].max() < 0.2  # to rest, as the last take ends
+    assert speed[25:-25].min() > 0.6  # no stop or deep dip at the seams
+    travel = joints[-1, 0, 2] - joints[0, 0, 2]
+    assert travel > 0.8 * 1.0 * (frames / FPS - 1.5)  # ~1 m/s for all but the ramps
+    # one floor: the takes raised by 3 cm were brought down to the first take's floor
+    feet = list(HUMANML3D.foot_left) + list(HUMANML3D.foot_right)
+    lowest = joints[:, feet, 1].min(axis=1)
+    assert np.abs(lowest - np.median(lowest)).max() < 0.01
+    # a shorter clip from the same takes: the first take cut short, still no dip
+    assert ground_speed(keep_going(takes, 120, BLEND, HUMANML3D), FPS)[25:-25].min() > 0.6
+
+
+def test_keep_going_gives_up_when_the_takes_fall_short():
+    assert keep_going([walker(4.5), walker(4.5)], 400, BLEND, HUMANML3D) is None
+    assert keep_going([walker(4.5)], 120, BLEND, HUMANML3D) is None
+
+
+def test_retime_keeps_the_ends_and_changes_the_tempo():
+    joints = walker(4.0)
+    out = retime(joints, 84)
+    assert out.shape == (84, HUMANML3D.n_joints, 3)
+    np.testing.assert_allclose(out[0], joints[0])
+    np.testing.assert_allclose(out[-1], joints[-1])
+    assert retime(joints, len(joints)) is joints
+
+
+@pytest.fixture(scope="module")
+def generator():
+    import mlct
+
+    return mlct.load(backend="torch")
+
+
+def test_the_bundled_model_keeps_jogging(generator):
+    """The bundle's jogs last 3.2-4 s in the data: asked for 8 s, the model alone stands still
+    for the last 4 s; with keep-going it jogs on (the ground covered in the last 2 s at least
+    half that of the first 2 s) and ends within a stride's retiming of the length."""
+    fps = generator.skeleton.fps
+    generator.keep_going = False
+    try:
+        before = generator.generate("a person jogs forward", seconds=8.0, seed=0)[0].joints
+    finally:
+        generator.keep_going = True
+    after = generator.generate("a person jogs forward", seconds=8.0, seed=0)[0].joints
+    assert len(after) == len(before) == int(round(8.0 * fps))
+
+    def travel(joints: np.ndarray) -> float:
+        return float(np.linalg.norm(np.diff(joints[:, 0, [0, 2]], axis=0), axis=1).sum())
+    two = int(2 * fps)
+    assert travel(before[-two:]) < 0.1 * travel(before[:two])
+    assert travel(after[-two:]) > 0.5 * travel(after[:two])
+
+
+def test_the_bundled_model_leaves_ending_actions_alone(generator):
+    for text in ("a person jumps", "a person walks forward four steps"):
+        generator.keep_going = False
+        try:
+            before = generator.generate(text, seconds=8.0, seed=0)[0].joints
+        finally:
+            generator.keep_going = True
+        after = generator.generate(text, seconds=8.0, seed=0)[0].joints
+        np.testing.assert_array_equal(before, after)
