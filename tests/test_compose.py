@@ -34,7 +34,16 @@ from mlct.generate.long_motion import LongMotion
     ("a man squats down and stands back up and bends forward and straightens up, then hops",
      ["a man squats down and stands back up", "a man bends forward and straightens up",
       "a man hops"]),
-    ("a person kneels, then stands and claps", ["a person kneels", "a person stands and claps"]),
+    # standing back up after going down completes that action; what follows it is a part
+    ("a person kneels, then stands and claps", ["a person kneels, then stands", "a person claps"]),
+    ("a person pretends to sit on a chair, then stands",
+     ["a person pretends to sit on a chair, then stands"]),
+    ("a man crouches, then gets back up, then jogs forward",
+     ["a man crouches, then gets back up", "a man jogs forward"]),
+    ("someone bends down, then straightens up and waves",
+     ["someone bends down, then straightens up", "someone waves"]),
+    ("a person walks forward, then stands still", ["a person walks forward", "a person stands still"]),
+    ("a person squats, then jumps", ["a person squats", "a person jumps"]),
     ("she balances on the left leg and hops twice and does three jumps",
      ["she balances on the left leg and hops twice", "she does three jumps"]),
     # an adverb before the gerund of an after/before clause

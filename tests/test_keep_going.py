@@ -157,3 +157,17 @@ def test_the_bundled_model_leaves_ending_actions_alone(generator):
             generator.keep_going = True
         after = generator.generate(text, seconds=8.0, seed=0)[0].joints
         np.testing.assert_array_equal(before, after)
+
+
+def test_the_cli_keeps_going_unless_told_not_to(tmp_path):
+    from mlct.cli import main
+
+    for name, flags in (("on.npy", []), ("off.npy", ["--no-keep-going"])):
+        assert main(["generate", "a person jogs forward", "--seconds", "8", "--seed", "0",
+                     "--backend", "torch", "--out", str(tmp_path / name), *flags]) == 0
+    on, off = np.load(tmp_path / "on.npy"), np.load(tmp_path / "off.npy")
+    assert on.shape == off.shape == (160, 22, 3)
+    last = slice(-40, None)
+    moved = [float(np.linalg.norm(np.diff(j[last, 0, [0, 2]], axis=0), axis=1).sum())
+             for j in (on, off)]
+    assert moved[0] > 2.0 and moved[1] < 0.2  # jogging on against standing still

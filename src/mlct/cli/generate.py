@@ -42,7 +42,8 @@ def run(args: argparse.Namespace) -> int:
         check_candidates(args.candidates)
     request = generate_files.Request(prompts, args.seconds, args.length, args.num, args.nfe,
                                      args.seed, long, split_actions=not args.whole_prompt,
-                                     control=_control(args), candidates=args.candidates)
+                                     control=_control(args), candidates=args.candidates,
+                                     keep_going=not args.no_keep_going)
     names = ["_".join(prompts)] if long else [p for p in prompts for _ in range(args.num)]
     paths = generate_files.output_paths(names, args.out, args.out_dir, args.format)
     def load() -> Any:
@@ -133,6 +134,10 @@ def add_parser(commands: Commands) -> None:
                           "onnx (ONNX Runtime on the CPU), onnx-int8 (the denoiser's products "
                           "in int8: ~1.4x faster, motions a few mm off float32's) or "
                           "cuda-graphs (a GPU)")
+    generate.add_argument("--no-keep-going", action="store_true",
+                          help="locomotion asked for longer than the model's clips of it stops "
+                               "where the model stops it, instead of walking on (made as takes "
+                               "of its natural length, chained)")
     generate.add_argument("--whole-prompt", action="store_true",
                           help="give the model a prompt that names actions in sequence ('walks, "
                                "then waves') as one text, instead of one part per action, chained")

@@ -46,13 +46,39 @@ MIN_WORDS = 1  # a part must name something to be a prompt of its own
 def split_actions(text: str) -> list[str]:
     """The parts of a prompt that names actions in sequence; [text] when it names one."""
     parts = [p.strip(" ,;.") for p in _SEQUENCE.split(in_order(text))]
-    parts = [q for p in parts if len(p.split()) >= MIN_WORDS for q in _split_listed(p)]
+    parts = _returns_joined([p for p in parts if len(p.split()) >= MIN_WORDS])
+    parts = [q for p in parts for q in _split_listed(p)]
     if len(parts) < 2:
         return [text]
     found = _SUBJECT.match(parts[0])
     subject = found.group(0) if found else DEFAULT_SUBJECT
     return [parts[0]] + [p if _SUBJECT.match(p) else f"{subject} {_finite_lead(p)}"
                          for p in parts[1:]]
+
+
+# Going down: a part that names one of these and a "then" part that stands back up are one action
+# (the benchmark's sit_stand, squat, kneel and bow all come back up), "pretends to sit on a
+# chair, then stands" as "sits down and stands up" is.
+_LOWERING = re.compile(r"\b(?:sit|sits|sitting|squat|squats|squatting|kneel|kneels|kneeling|"
+                       r"crouch|crouches|crouching|bend|bends|bending|bow|bows|bowing|duck|ducks|"
+                       r"ducking)\b", re.IGNORECASE)
+
+
+def _returns_joined(parts: list[str]) -> list[str]:
+    """Sequence parts with a part that stands back up (led by a _RETURN_VERBS verb) joined to a
+    part before it that goes down: "squats, then stands back up" is one squat. What follows the
+    return after "and" or a comma stays a part of its own ("sits, then stands up and walks
+    away": the sit and the walk)."""
+    out: list[str] = []
+    for part in parts:
+        rest = _without_subject(part)[1]
+        if out and _LOWERING.search(out[-1]) and _leading_verb(rest) in _RETURN_VERBS:
+            head, *tail = _LISTED.split(rest, maxsplit=1)
+            out[-1] = f"{out[-1]}, then {head}"
+            out += [t for t in tail if t.strip()]
+            continue
+        out.append(part)
+    return out
 
 
 # A verb that completes the action before it rather than starting one ("squats down and stands

@@ -44,6 +44,7 @@ class Request:
     split_actions: bool = True  # a prompt naming actions in sequence: one part each, chained
     control: Any = None  # a generate.control.Control: path, keyframes, edit, prefix
     candidates: int | None = None  # best-of-N by the model's critic; None: the model's default
+    keep_going: bool = True  # locomotion longer than its natural length: chained takes
 
 
 def slug(text: str, limit: int = 40) -> str:
@@ -104,6 +105,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
             raise MlctError(f"{len(request.prompts)} prompts but {len(request.seconds)} "
                             f"durations; give one each")
         generator = load()
+        generator.keep_going = request.keep_going
         seconds = generator.long_part_seconds(request.prompts, request.seconds)
         motion = generate_long(generator, request.prompts, seconds, request.nfe,
                                request.seed, candidates=request.candidates)
@@ -114,6 +116,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     lengths = _per_text(request.lengths, request.prompts, request.num, "--length")
     seconds = _per_text(request.seconds, request.prompts, request.num, "--seconds")
     generator = load()
+    generator.keep_going = request.keep_going
     written = []
     # The text encoder loads on first use (a CLIP one takes seconds): load it and embed the first
     # batch's prompts before the bar starts, so that the bar's first step and its ETA time
