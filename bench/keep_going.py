@@ -2,9 +2,10 @@
 
     python bench/keep_going.py [--model MODEL_DIR] [--seeds 5] [--seconds 7 9.5]
 
-For locomotion prompts (and, as controls, prompts whose motion should end: one jump, a wave, a
-counted walk) at lengths past their natural one, each generated twice with the same seed, the
-generator's keep-going off (as before generate/keep_going.py) and on, it prints per prompt:
+For locomotion prompts (and, as controls, prompts whose motion should end: jumps, a wave, a
+counted walk, a sit, spins and turns on the spot) at lengths past their natural one, each
+generated twice with the same seed, the generator's keep-going off (as before
+generate/keep_going.py) and on, it prints per prompt:
 - `still s`: seconds after the first half second that the pelvis moves slower than 0.1 m/s;
 - `last/first`: ground travel of the last 2 s over that of the first 2 s (0: stopped);
 - `skate`: the foot-skating ratio (GMD's definition, motion/physics.py) over the frames that
@@ -43,6 +44,9 @@ CONTROLS = [
     ("a person waves with the right hand", None),
     ("a person walks forward four steps", None),
     ("a person sits down and stands up", None),
+    ("a person performs a long jump forward", None),
+    ("someone spins around on the spot to the left", None),
+    ("someone turns all the way around to the left", None),
 ]
 
 

@@ -66,14 +66,40 @@ def test_ground_speed_reads_the_pelvis_pace():
 
 def test_stops_early_needs_a_stop_past_the_natural_length():
     stopped = walker(8.0, stop_at=4.0)  # walks 4 s of an 8-s clip, then stands
-    assert stops_early(stopped, FPS, natural_seconds=4.5)
+    assert stops_early(stopped, FPS, natural_seconds=4.5,
+                       skeleton=HUMANML3D)
     # asked within a second of its natural length: stopping is the action's own end
-    assert not stops_early(stopped[:100], FPS, natural_seconds=4.5)
+    assert not stops_early(stopped[:100], FPS, natural_seconds=4.5,
+                       skeleton=HUMANML3D)
     # walks to the end: nothing to fix
-    assert not stops_early(walker(8.0, stop_at=8.5), FPS, natural_seconds=4.5)
+    assert not stops_early(walker(8.0, stop_at=8.5), FPS, natural_seconds=4.5,
+                       skeleton=HUMANML3D)
     # never moved over the ground (an arm action): not locomotion
     still = np.repeat(rest_pose()[None], 160, axis=0)
-    assert not stops_early(still, FPS, natural_seconds=3.0)
+    assert not stops_early(still, FPS, natural_seconds=3.0, skeleton=HUMANML3D)
+
+
+def spinner(seconds: float, spin_for: float, rate_deg: float = 200.0, radius: float = 0.1
+            ) -> np.ndarray:
+    """(T, J, 3) a body spinning on the spot at rate_deg a second for spin_for seconds (its
+    pelvis circling `radius` m around the feet, ~0.35 m/s), then standing."""
+    from mlct.generate.long_motion import _turn_y
+
+    frames = int(round(seconds * FPS))
+    t = np.minimum(np.arange(frames) / FPS, spin_for)
+    angle = np.radians(rate_deg) * t
+    joints = _turn_y(np.repeat(rest_pose()[None], frames, axis=0), angle[:, None])
+    joints[:, :, 0] += radius * np.cos(angle)[:, None]
+    joints[:, :, 2] += radius * np.sin(angle)[:, None]
+    return joints
+
+
+def test_a_spin_on_the_spot_is_not_locomotion():
+    """A spin moves the pelvis fast enough to pass for a gait; it goes nowhere and turns far
+    faster than a circle walk, so it is left to stop."""
+    spin = spinner(6.0, spin_for=2.2)
+    assert np.median(ground_speed(spin, FPS)[10:40]) > 0.25
+    assert not stops_early(spin, FPS, natural_seconds=2.6, skeleton=HUMANML3D)
 
 
 def test_moving_stretch_drops_the_start_up_and_the_slow_down():
@@ -171,3 +197,27 @@ def test_the_cli_keeps_going_unless_told_not_to(tmp_path):
     moved = [float(np.linalg.norm(np.diff(j[last, 0, [0, 2]], axis=0), axis=1).sum())
              for j in (on, off)]
     assert moved[0] > 2.0 and moved[1] < 0.2  # jogging on against standing still
+
+
+def test_a_gait_goes_past_the_window_and_nothing_else_does(generator):
+    """Past the model's 9.8-s window only a one-action gait is made (as chained takes); other
+    prompts get the window's one-line error, and so does a gait with keep-going off."""
+    from mlct.errors import MlctError
+
+    fps = generator.skeleton.fps
+    walk = generator.generate("a person walks forward", seconds=15.0, seed=0)[0].joints
+    assert walk.shape == (int(15 * fps), 22, 3)
+    speed = ground_speed(walk, fps)
+    assert np.percentile(speed[int(fps):-int(fps)], 10) > 0.5  # walking throughout
+    for text in ("a person jumps", "a person walks forward four steps",
+                 "a person walks forward, then waves"):
+        with pytest.raises(MlctError, match="only a gait"):
+            generator.generate(text, seconds=15.0, seed=0)
+    with pytest.raises(MlctError, match="up to 120 s"):
+        generator.generate("a person walks forward", seconds=121.0, seed=0)
+    generator.keep_going = False
+    try:
+        with pytest.raises(MlctError, match=r"outside 1\.\.196"):
+            generator.generate("a person walks forward", seconds=15.0, seed=0)
+    finally:
+        generator.keep_going = True

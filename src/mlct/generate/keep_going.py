@@ -27,7 +27,7 @@ from typing import Sequence
 
 import numpy as np
 
-from mlct.generate.long_motion import _decompose, chain_segments
+from mlct.generate.long_motion import _decompose, chain_segments, heading
 from mlct.motion.skeleton import Skeleton
 
 # A count or a distance in the prompt: the action ends when it is done.
@@ -40,6 +40,10 @@ MARGIN_SECONDS = 1.0  # asked beyond the natural length by more than this to cou
 MOVING_SPEED = 0.25  # m/s of the pelvis over the ground: locomotion, not a shuffle
 STOPPED_SHARE = 0.3  # the last second moves at under this share of the moving speed: stopped
 SMOOTH_SECONDS = 0.5  # the speed is averaged over about a stride
+# The benchmark's circles turn 360 degrees in 6-8 s (45-60 a second); its spins and turns far
+# faster.
+MAX_TURN_RATE = 90.0
+MIN_STRAIGHTNESS = 0.7  # net over path ground travel per second: going somewhere (straightness)
 MOVING_SHARE = 0.5  # a segment's moving stretch: frames at at least this share of its speed
 # The last seam may retime the motion by up to this share of its length, so that it can be placed
 # where the two takes' gaits are in phase; each 1 % of retiming costs as much as 1 mm of mean
@@ -64,18 +68,56 @@ def ground_speed(joints: np.ndarray, fps: float) -> np.ndarray:
                        kernel, mode="valid")
 
 
-def stops_early(joints: np.ndarray, fps: float, natural_seconds: float) -> bool:
-    """The motion moves over the ground during its natural length and stands still in its last
-    second, and it was asked for more than MARGIN_SECONDS longer than that length."""
-    frames = len(joints)
-    if frames / fps < natural_seconds + MARGIN_SECONDS:
-        return False
+def straightness(joints: np.ndarray, fps: float) -> float:
+    """The median, over the motion's 1-s windows, of the pelvis's net ground displacement over
+    its path length: ~1 for a gait that goes somewhere (a walk's sway, a circle's 50 degrees a
+    second cost little), far below for a body turning or spinning on the spot (the pelvis
+    circles a few centimetres around the feet at up to 0.7 m/s)."""
+    root = np.asarray(joints, dtype=np.float64)[:, 0, [0, 2]]
+    width = int(round(fps))
+    ratios = []
+    for start in range(0, len(root) - width, max(1, width // 2)):
+        window = root[start:start + width + 1]
+        path = np.linalg.norm(np.diff(window, axis=0), axis=1).sum()
+        if path > 1e-6:
+            ratios.append(np.linalg.norm(window[-1] - window[0]) / path)
+    return float(np.median(ratios)) if ratios else 0.0
+
+
+def is_gait(joints: np.ndarray, fps: float, natural_seconds: float, skeleton: Skeleton) -> bool:
+    """The motion goes somewhere through its natural length: three quarters of that stretch
+    (less half a second at each end) at MOVING_SPEED or more, straight enough over each second
+    and turning no faster than a circle walk: a gait, not the burst of one jump or a turn or
+    spin on the spot."""
     speed = ground_speed(joints, fps)
     lead = int(round(0.5 * fps))
-    moving = speed[lead:max(lead + 1, int(round((natural_seconds - 0.5) * fps)))]
-    pace = float(np.median(moving))
-    tail = float(speed[-int(round(fps)):].mean())
-    return pace >= MOVING_SPEED and tail < STOPPED_SHARE * pace
+    end = min(int(round((natural_seconds - 0.5) * fps)), len(joints))
+    stretch = speed[lead:end]
+    if len(stretch) < fps:  # under a second of it: no gait to judge
+        return False
+    return (float(np.percentile(stretch, 25)) >= MOVING_SPEED
+            and straightness(joints[lead:end], fps) >= MIN_STRAIGHTNESS
+            and turn_rate(joints[lead:end], fps, skeleton) <= MAX_TURN_RATE)
+
+
+def stops_early(joints: np.ndarray, fps: float, natural_seconds: float,
+                skeleton: Skeleton) -> bool:
+    """A gait (is_gait) that stands still in its last second, asked for more than
+    MARGIN_SECONDS longer than its natural length."""
+    if len(joints) / fps < natural_seconds + MARGIN_SECONDS:
+        return False
+    if not is_gait(joints, fps, natural_seconds, skeleton):
+        return False
+    speed = ground_speed(joints, fps)
+    pace = float(np.median(speed[int(round(0.5 * fps)):int(round((natural_seconds - 0.5) * fps))]))
+    return float(speed[-int(round(fps)):].mean()) < STOPPED_SHARE * pace
+
+
+def turn_rate(joints: np.ndarray, fps: float, skeleton: Skeleton) -> float:
+    """The mean rate of turn about the vertical, degrees a second (the facing's net change over
+    the stretch's duration): a spin's 200 and more against a circle's 50-60."""
+    angle = np.unwrap(heading(np.asarray(joints, dtype=np.float64), skeleton))
+    return float(np.degrees(abs(angle[-1] - angle[0])) * fps / max(len(angle) - 1, 1))
 
 
 def segment_count(frames: int, natural_frames: int, blend: int) -> int:

@@ -131,7 +131,11 @@ class MotionGenerator:
         return int(round(seconds * self.skeleton.fps))
 
     def _lengths(self, count: int, lengths: int | Sequence[int] | None,
-                 seconds: float | Sequence[float] | None) -> list[int]:
+                 seconds: float | Sequence[float] | None, longest: int | None = None
+                 ) -> list[int]:
+        """Frames per text; at most the model's window, or `longest` where generate() can
+        keep a gait going past it."""
+        longest = self.max_frames if longest is None else longest
         if lengths is not None and seconds is not None:
             raise MlctError("give lengths (frames) or seconds, not both")
         if seconds is not None:
@@ -149,14 +153,26 @@ class MotionGenerator:
         if len(out) != count:
             raise MlctError(f"{len(out)} lengths for {count} texts")
         for n in out:
-            if not 1 <= n <= self.max_frames:
-                longer = ("; for a longer motion give several prompts, one per part: they "
-                          "are chained into one (mlct generate 'A' 'B' --seconds 5 5)"
-                          if n > self.max_frames else "")
-                raise MlctError(f"length {n} frames is outside 1..{self.max_frames} "
-                                f"({self.max_frames / self.skeleton.fps:.2f} s at "
-                                f"{self.skeleton.fps:g} fps){longer}")
+            if not 1 <= n <= longest:
+                raise self._too_long(n, longest)
         return out
+
+    def _too_long(self, frames: int, longest: int | None = None) -> MlctError:
+        """The window's one-line error; `longest` > the window when a gait may go past it."""
+        window = self.max_frames
+        longer = ""
+        if frames > window:
+            longer = ("; for a longer motion give several prompts, one per part: they are "
+                      "chained into one (mlct generate 'A' 'B' --seconds 5 5)")
+            if longest is not None and longest > window:
+                longer = (f"; a walk, a jog or another gait keeps going up to "
+                          f"{longest / self.skeleton.fps:g} s{longer}")
+            elif self.keep_going and self.durations is not None:
+                longer = (f" for this prompt: only a gait (a walk, a jog, a run...) keeps going "
+                          f"past it{longer}")
+        return MlctError(f"length {frames} frames is outside 1..{window} "
+                         f"({window / self.skeleton.fps:.2f} s at {self.skeleton.fps:g} fps)"
+                         f"{longer}")
 
     def check_nfe(self, nfe: int | None) -> int:
         """The step count to sample with (the default for None); MlctError when out of range."""
@@ -255,7 +271,9 @@ class MotionGenerator:
             from mlct.generate.controlled import generate_with_control
 
             return generate_with_control(self, texts, lengths, seconds, nfe, seed, control)
-        frames = self._lengths(len(texts), lengths, seconds)
+        gaits_go_on = self.keep_going and self.durations is not None
+        frames = self._lengths(len(texts), lengths, seconds,
+                               self.frames_for(MAX_GAIT_SECONDS) if gaits_go_on else None)
         self.check_nfe(nfe)  # before the (slow) text encoder loads
         if candidates is None:
             candidates = self.candidates
@@ -272,13 +290,17 @@ class MotionGenerator:
                     out[i] = self._concurrent(t, *pair, frames[i], nfe, seeds[i], guidance,
                                               candidates)
         plans = [split_actions_of(t) if split_actions else [t] for t in texts]
+        for parts, n in zip(plans, frames):
+            if n > self.max_frames and len(parts) > 1:  # only a one-action gait goes past it
+                raise self._too_long(n)
         min_part = self.frames_for(MIN_PART_SECONDS)
         whole = [i for i, (parts, n) in enumerate(zip(plans, frames)) if out[i] is None
                  and (len(parts) == 1 or n // len(parts) < min_part)]
         if whole:
             made = self.best_features(self.encode_text([texts[i] for i in whole]), nfe,
                                       [seeds[i] for i in whole], guidance,
-                                      [frames[i] for i in whole], candidates)
+                                      [min(frames[i], self.max_frames) for i in whole],
+                                      candidates)
             for i, feats in zip(whole, made):
                 joints = recover_from_ric(torch.from_numpy(feats)).numpy()
                 out[i] = GeneratedMotion(texts[i], feats, joints, self.skeleton.fps,
@@ -355,13 +377,17 @@ class MotionGenerator:
         """Locomotion asked for clearly longer than its natural length that stopped early is
         made again as takes of its natural length chained into one continuing motion
         (generate/keep_going.py); out[i] is replaced in place. Needs the duration model."""
-        from mlct.generate.keep_going import (keep_going, names_an_end, segment_count,
-                                              stops_early)
+        from mlct.generate.keep_going import (is_gait, keep_going, names_an_end,
+                                              segment_count, stops_early)
         from mlct.generate.long_motion import BLEND_SECONDS
 
         if self.durations is None or not self.keep_going:
             return
         fps = self.skeleton.fps
+        past = [i for i in indices if frames[i] > self.max_frames]
+        for i in past:  # made at the window's length: it must be a gait to go on
+            if names_an_end(out[i].text):
+                raise self._too_long(frames[i])
         todo = [i for i in indices if out[i] is not None and not names_an_end(out[i].text)
                 and frames[i] / fps >= MIN_PART_SECONDS]
         if not todo:
@@ -371,7 +397,10 @@ class MotionGenerator:
         for i, vector in zip(todo, vectors):
             motion = out[i]
             natural = self.durations.clip_seconds(vector[None])
-            if not stops_early(motion.joints, fps, natural):
+            if frames[i] > self.max_frames:
+                if not is_gait(motion.joints, fps, natural, self.skeleton):
+                    raise self._too_long(frames[i])
+            elif not stops_early(motion.joints, fps, natural, self.skeleton):
                 continue
             take = min(self.frames_for(natural), self.max_frames)
             count = segment_count(frames[i], take, blend)
@@ -385,6 +414,8 @@ class MotionGenerator:
                 if joints is not None:
                     break
             if joints is None:
+                if frames[i] > self.max_frames:
+                    raise self._too_long(frames[i])
                 continue  # the takes did not reach the length: keep the motion as made
             features = joints_to_features(joints, self.skeleton).features
             out[i] = GeneratedMotion(motion.text, features, joints.astype(np.float32), fps,
@@ -460,6 +491,9 @@ def bundle_networks(config: Config, meta: dict, tensors: dict[str, Tensor]
 
 # The shortest share of a sequence's part: below it the blend (0.75 s) would be most of the part.
 MIN_PART_SECONDS = 1.0
+# A one-action gait keeps going past the model's window (generate/keep_going.py) up to this: a
+# two-minute walk is 2,400 frames, ~70 takes, well under a second of sampling.
+MAX_GAIT_SECONDS = 120.0
 TEXT_MEMO_SIZE = 2048  # texts whose embeddings a generator keeps (LRU): <= 64 MB with tokens
 _SEED_STRIDE = 0x9E3779B97F4A7C15  # candidate k of seed s samples with s + k * this (mod 2^63)
 MAX_SEED = 2**63 - 1  # torch.Generator.manual_seed takes 64 bits; kept signed for portability
