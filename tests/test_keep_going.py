@@ -49,7 +49,8 @@ def walker(seconds: float, pace: float = 1.0, phase: float = 0.0, stop_at: float
 def test_names_an_end():
     for text in ("a person walks forward four steps", "someone jogs 3 laps", "takes a step back",
                  "walks ten meters forward", "hops twice", "walks a few steps forward",
-                 "a man runs 5 m"):
+                 "a man runs 5 m", "the figure rotates to face the left",
+                 "someone turns around while walking", "a dancer spins"):
         assert names_an_end(text), text
     for text in ("a person walks forward", "someone walks in a circle to the left",
                  "a man strolls down the street", "the woman jogs ahead at a steady pace"):
