@@ -103,6 +103,18 @@ def test_a_spin_on_the_spot_is_not_locomotion():
     assert not stops_early(spin, FPS, natural_seconds=2.6, skeleton=HUMANML3D)
 
 
+def test_one_long_jump_is_not_a_gait():
+    """The pelvis of a long jump forward rises to ~1.5 m/s and falls within a second: moving
+    enough and straight, but not a steady pace."""
+    frames = 190
+    t = np.arange(frames) / FPS
+    speed = 1.5 * np.exp(-((t - 1.05) / 0.3) ** 2) + 0.3 * ((t > 0.4) & (t < 1.55))
+    joints = np.repeat(rest_pose()[None], frames, axis=0)
+    joints[:, :, 2] += (np.cumsum(speed) / FPS)[:, None]
+    assert np.percentile(ground_speed(joints, FPS)[10:34], 25) > 0.25
+    assert not stops_early(joints, FPS, natural_seconds=2.2, skeleton=HUMANML3D)
+
+
 def test_moving_stretch_drops_the_start_up_and_the_slow_down():
     first, last = moving_stretch(walker(4.5), FPS)
     assert 6 <= first <= 16 and 66 <= last <= 80

@@ -41,6 +41,9 @@ MARGIN_SECONDS = 1.0  # asked beyond the natural length by more than this to cou
 MOVING_SPEED = 0.25  # m/s of the pelvis over the ground: locomotion, not a shuffle
 STOPPED_SHARE = 0.3  # the last second moves at under this share of the moving speed: stopped
 SMOOTH_SECONDS = 0.5  # the speed is averaged over about a stride
+# A gait's pace holds: in the later half of the stretch its lower quartile is at least this
+# share of its upper one (a walk's sway ~0.8); a long jump's speed peaks and falls (~0.2).
+STEADY_SHARE = 0.6
 # The benchmark's circles turn 360 degrees in 6-8 s (45-60 a second); its spins and turns far
 # faster.
 MAX_TURN_RATE = 90.0
@@ -93,16 +96,19 @@ def straightness(joints: np.ndarray, fps: float) -> float:
 
 def is_gait(joints: np.ndarray, fps: float, natural_seconds: float, skeleton: Skeleton) -> bool:
     """The motion goes somewhere through its natural length: three quarters of that stretch
-    (less half a second at each end) at MOVING_SPEED or more, straight enough over each second
-    and turning no faster than a circle walk: a gait, not the burst of one jump or a turn or
-    spin on the spot."""
+    (less half a second at each end) at MOVING_SPEED or more, at a steady pace in its later half,
+    straight enough over each second and turning no faster than a circle walk: a gait, not the
+    burst of one long jump (its pace rises and falls within a second) or a turn or a spin on
+    the spot."""
     speed = ground_speed(joints, fps)
     lead = int(round(0.5 * fps))
     end = min(int(round((natural_seconds - 0.5) * fps)), len(joints))
     stretch = speed[lead:end]
     if len(stretch) < fps:  # under a second of it: no gait to judge
         return False
+    later = stretch[len(stretch) // 2:]  # past a run's 1.5 s of speeding up
     return (float(np.percentile(stretch, 25)) >= MOVING_SPEED
+            and float(np.percentile(later, 25)) >= STEADY_SHARE * float(np.percentile(later, 75))
             and straightness(joints[lead:end], fps) >= MIN_STRAIGHTNESS
             and turn_rate(joints[lead:end], fps, skeleton) <= MAX_TURN_RATE)
 
