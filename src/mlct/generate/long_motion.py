@@ -34,7 +34,10 @@ class SegmentMaker(Protocol):
     @property
     def max_frames(self) -> int: ...
 
-    def _lengths(self, count: int, lengths: Any, seconds: Any) -> list[int]: ...
+    def _lengths(self, count: int, lengths: Any, seconds: Any, longest: int | None = None
+                 ) -> list[int]: ...
+
+    def longest_gait(self) -> int: ...
 
     def generate(self, texts: Any, lengths: Any = None, seconds: Any = None, nfe: Any = None,
                  seed: Any = None, guidance: Any = None, split_actions: bool = True,
@@ -138,10 +141,12 @@ def generate_long(generator: SegmentMaker, texts: Sequence[str], seconds: Sequen
         raise MlctError(f"{len(texts)} prompts but {len(seconds)} durations; give one each")
     fps = generator.skeleton.fps
     blend = max(2, int(round(blend_seconds * fps)))
-    frames = generator._lengths(len(texts), None, seconds)
+    frames = generator._lengths(len(texts), None, seconds, generator.longest_gait())
     # every segment but the last also covers the next one's blend
     lengths = [n + blend for n in frames[:-1]] + [frames[-1]]
-    if max(lengths) > generator.max_frames:
+    # A gait may go past the window when the generator keeps gaits going (generate/
+    # keep_going.py); generate() itself refuses any other segment that long.
+    if max(lengths) > max(generator.max_frames, generator.longest_gait()):
         raise MlctError(f"a segment may last at most {(generator.max_frames - blend) / fps:.1f} s "
                         f"(the model's window, less the {blend / fps:.1f} s blend); split it")
     parts = generator.generate(list(texts), lengths=lengths, nfe=nfe, seed=seed,

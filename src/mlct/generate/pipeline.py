@@ -157,8 +157,17 @@ class MotionGenerator:
                 raise self._too_long(n, longest)
         return out
 
-    def _too_long(self, frames: int, longest: int | None = None) -> MlctError:
-        """The window's one-line error; `longest` > the window when a gait may go past it."""
+    def longest_gait(self) -> int:
+        """Frames a one-action gait may last: past the window when gaits keep going
+        (generate/keep_going.py, which needs the duration model), else the window."""
+        if self.keep_going and self.durations is not None:
+            return self.frames_for(MAX_GAIT_SECONDS)
+        return self.max_frames
+
+    def _too_long(self, frames: int, longest: int | None = None, text: str | None = None
+                  ) -> MlctError:
+        """The window's one-line error; `longest` > the window when a gait may go past it;
+        `text`: the prompt (or a sequence's part) it is about."""
         window = self.max_frames
         longer = ""
         if frames > window:
@@ -170,7 +179,8 @@ class MotionGenerator:
             elif self.keep_going and self.durations is not None:
                 longer = (f" for this prompt: only a gait (a walk, a jog, a run...) keeps going "
                           f"past it{longer}")
-        return MlctError(f"length {frames} frames is outside 1..{window} "
+        about = f"{text!r}: " if text else ""
+        return MlctError(f"{about}length {frames} frames is outside 1..{window} "
                          f"({window / self.skeleton.fps:.2f} s at {self.skeleton.fps:g} fps)"
                          f"{longer}")
 
@@ -271,9 +281,7 @@ class MotionGenerator:
             from mlct.generate.controlled import generate_with_control
 
             return generate_with_control(self, texts, lengths, seconds, nfe, seed, control)
-        gaits_go_on = self.keep_going and self.durations is not None
-        frames = self._lengths(len(texts), lengths, seconds,
-                               self.frames_for(MAX_GAIT_SECONDS) if gaits_go_on else None)
+        frames = self._lengths(len(texts), lengths, seconds, self.longest_gait())
         self.check_nfe(nfe)  # before the (slow) text encoder loads
         if candidates is None:
             candidates = self.candidates
@@ -290,9 +298,6 @@ class MotionGenerator:
                     out[i] = self._concurrent(t, *pair, frames[i], nfe, seeds[i], guidance,
                                               candidates)
         plans = [split_actions_of(t) if split_actions else [t] for t in texts]
-        for parts, n in zip(plans, frames):
-            if n > self.max_frames and len(parts) > 1:  # only a one-action gait goes past it
-                raise self._too_long(n)
         min_part = self.frames_for(MIN_PART_SECONDS)
         whole = [i for i, (parts, n) in enumerate(zip(plans, frames)) if out[i] is None
                  and (len(parts) == 1 or n // len(parts) < min_part)]
@@ -387,7 +392,7 @@ class MotionGenerator:
         past = [i for i in indices if frames[i] > self.max_frames]
         for i in past:  # made at the window's length: it must be a gait to go on
             if names_an_end(out[i].text):
-                raise self._too_long(frames[i])
+                raise self._too_long(frames[i], text=out[i].text)
         todo = [i for i in indices if out[i] is not None and not names_an_end(out[i].text)
                 and frames[i] / fps >= MIN_PART_SECONDS]
         if not todo:
@@ -399,7 +404,7 @@ class MotionGenerator:
             natural = self.durations.clip_seconds(vector[None])
             if frames[i] > self.max_frames:
                 if not is_gait(motion.joints, fps, natural, self.skeleton):
-                    raise self._too_long(frames[i])
+                    raise self._too_long(frames[i], text=motion.text)
             elif not stops_early(motion.joints, fps, natural, self.skeleton):
                 continue
             take = min(self.frames_for(natural), self.max_frames)
@@ -415,7 +420,7 @@ class MotionGenerator:
                     break
             if joints is None:
                 if frames[i] > self.max_frames:
-                    raise self._too_long(frames[i])
+                    raise self._too_long(frames[i], text=motion.text)
                 continue  # the takes did not reach the length: keep the motion as made
             features = joints_to_features(joints, self.skeleton).features
             out[i] = GeneratedMotion(motion.text, features, joints.astype(np.float32), fps,
