@@ -121,8 +121,15 @@ def test_long_motion_with_the_bundled_model(bundled) -> None:
     assert speeds["seam_max"] <= speeds["segments_max"]
     with pytest.raises(MlctError, match="one each"):
         generate_long(bundled, ["a", "b"], [3], nfe=1)
-    with pytest.raises(MlctError, match="at most"):
-        generate_long(bundled, ["a", "b"], [9.8, 3], nfe=1)
+    # past the window only a gait keeps going (generate/keep_going.py)
+    with pytest.raises(MlctError, match="'a person jumps': .* only a gait"):
+        generate_long(bundled, ["a person jumps", "b"], [9.8, 3], nfe=1)
+    bundled.keep_going = False
+    try:
+        with pytest.raises(MlctError, match="at most"):
+            generate_long(bundled, ["a", "b"], [9.8, 3], nfe=1)
+    finally:
+        bundled.keep_going = True
 
 
 def test_generation_saves_every_format(bundled, tmp_path: Path) -> None:
