@@ -122,8 +122,8 @@ def main() -> None:
                     return f"{a:{fmt}}->{b:{fmt}}"
                 print(f"{text[:41]:<42}{seconds:>5.1f}{pair('still', '4.1f'):>14}"
                       f"{pair('ratio', '4.2f'):>13}{pair('skate', '.3f'):>13}"
-                      f"{pair('pass', '.1f') if family else '-':>11}{pair('peak', '.2f'):>14}{fired:>6}"
-                      f"{spent / args.seeds * 1000:>9.0f}")
+                      f"{pair('pass', '.1f') if family else '-':>11}{pair('peak', '.2f'):>14}"
+                      f"{fired:>6}{spent / args.seeds * 1000:>9.0f}")
                 if is_control:
                     totals["fired_controls"] += fired
                 else:

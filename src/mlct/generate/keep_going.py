@@ -122,7 +122,8 @@ def stops_early(joints: np.ndarray, fps: float, natural_seconds: float,
     if not is_gait(joints, fps, natural_seconds, skeleton):
         return False
     speed = ground_speed(joints, fps)
-    pace = float(np.median(speed[int(round(0.5 * fps)):int(round((natural_seconds - 0.5) * fps))]))
+    lead, end = int(round(0.5 * fps)), int(round((natural_seconds - 0.5) * fps))
+    pace = float(np.median(speed[lead:end]))
     return float(speed[-int(round(fps)):].mean()) < STOPPED_SHARE * pace
 
 
@@ -192,12 +193,11 @@ def _positions(pieces: list[_Piece], blend: int) -> list[int]:
 def _cut(pieces: list[_Piece], cut: int, blend: int) -> list[_Piece] | None:
     """The pieces of a chain truncated to its first `cut` frames; None when the piece cut would
     be too short to blend into the one after it."""
-    for piece, at in zip(pieces, _positions(pieces, blend)):
+    for index, (piece, at) in enumerate(zip(pieces, _positions(pieces, blend))):
         if at + piece.end - piece.start >= cut:
             kept = cut - at
-            if kept < 2 * blend and piece is not pieces[0]:
+            if kept < 2 * blend and index > 0:
                 return None
-            index = pieces.index(piece)
             return pieces[:index] + [_Piece(piece.segment, piece.start, piece.start + kept)]
     return None
 
@@ -215,8 +215,8 @@ def keep_going(segments: Sequence[np.ndarray], frames: int, blend: int, skeleton
     # One floor for all: each take lifted or lowered to the first's, else a take standing 2 cm
     # higher than the one before walks on air (a flight phase in a walk).
     floor = floor_height(segments[0], skeleton)
-    segments = [np.asarray(seg, dtype=np.float64) + np.array([0.0, floor - floor_height(seg, skeleton),
-                                                               0.0]) for seg in segments]
+    segments = [np.asarray(seg, dtype=np.float64)
+                + np.array([0.0, floor - floor_height(seg, skeleton), 0.0]) for seg in segments]
     # The seams are matched on the legs and the pelvis: the gait's phase.
     legs = [0, *skeleton.foot_left, *skeleton.foot_right, *_knees_and_hips(skeleton)]
     local = [_decompose(seg, skeleton)[2][:, legs] for seg in segments]
@@ -250,11 +250,12 @@ def keep_going(segments: Sequence[np.ndarray], frames: int, blend: int, skeleton
     # hit the length exactly, would fix the two takes' relative phase (both advance together).
     positions = _positions(pieces, blend)
     length = positions[-1] + pieces[-1].end - pieces[-1].start
-    chain = np.concatenate([local[p.segment][p.start:p.end - (blend if i < len(pieces) - 1 else 0)]
+    chain = np.concatenate([local[p.segment][p.start:p.end - (blend if i < len(pieces) - 1
+                                                                  else 0)]
                             for i, p in enumerate(pieces)])
     best: tuple[float, list[_Piece], int, int] | None = None
     first_last = stretches[last][0]
-    slack = max(1, int(MAX_WARP * frames))
+    slack = max(1, min(int(MAX_WARP * frames), search))  # a stride's freedom is enough
     for s in range(first_last, min(first_last + search, len(segments[last]) - blend - 1)):
         exact = frames + blend - (len(segments[last]) - s)  # the c that needs no retiming
         for c in range(max(blend + 1, exact - slack), min(length, exact + slack) + 1):
