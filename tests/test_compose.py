@@ -44,6 +44,13 @@ from mlct.generate.long_motion import LongMotion
      ["someone bends down, then straightens up", "someone waves"]),
     ("a person walks forward, then stands still", ["a person walks forward", "a person stands still"]),
     ("a person squats, then jumps", ["a person squats", "a person jumps"]),
+    # standing still after going down is the stand action, not the return
+    ("a man squats two times, then stands quietly, then lifts his right arm",
+     ["a man squats two times", "a man stands quietly", "a man lifts his right arm"]),
+    ("the figure bows forward, then stands in place",
+     ["the figure bows forward", "the figure stands in place"]),
+    ("someone kneels, then gets back up again, then walks",
+     ["someone kneels, then gets back up again", "someone walks"]),
     ("she balances on the left leg and hops twice and does three jumps",
      ["she balances on the left leg and hops twice", "she does three jumps"]),
     # an adverb before the gerund of an after/before clause

@@ -64,16 +64,30 @@ _LOWERING = re.compile(r"\b(?:sit|sits|sitting|squat|squats|squatting|kneel|knee
                        r"ducking)\b", re.IGNORECASE)
 
 
+# The words of a part that only comes back up ("stands back up", "gets up again", "rises to a
+# standing position"); any other word makes it an action of its own: "stands still", "stands
+# quietly", "stands in place" are the benchmark's stand family.
+_RETURN_WORDS = frozenset({"back", "up", "upright", "again", "straight", "fully", "slowly",
+                           "quickly", "to", "a", "standing", "position", "then"})
+
+
+def _only_returns(phrase: str) -> bool:
+    words = re.findall(r"[a-z]+", phrase.lower())
+    return (bool(words) and _lemma(words[0]) in _RETURN_VERBS
+            and all(w in _RETURN_WORDS for w in words[1:]))
+
+
 def _returns_joined(parts: list[str]) -> list[str]:
-    """Sequence parts with a part that stands back up (led by a _RETURN_VERBS verb) joined to a
-    part before it that goes down: "squats, then stands back up" is one squat. What follows the
-    return after "and" or a comma stays a part of its own ("sits, then stands up and walks
-    away": the sit and the walk)."""
+    """Sequence parts with a part that only stands back up (a _RETURN_VERBS verb and
+    _RETURN_WORDS) joined to a part before it that goes down: "squats, then stands back up" is
+    one squat, "squats, then stands still" two actions. What follows the return after "and" or
+    a comma stays a part of its own ("sits, then stands up and walks away": the sit and the
+    walk)."""
     out: list[str] = []
     for part in parts:
         rest = _without_subject(part)[1]
-        if out and _LOWERING.search(out[-1]) and _leading_verb(rest) in _RETURN_VERBS:
-            head, *tail = _LISTED.split(rest, maxsplit=1)
+        head, *tail = _LISTED.split(rest, maxsplit=1)
+        if out and _LOWERING.search(out[-1]) and _only_returns(head):
             out[-1] = f"{out[-1]}, then {head}"
             out += [t for t in tail if t.strip()]
             continue
