@@ -14,7 +14,7 @@ from mlct.errors import MlctError
 from mlct.generate.files import output_paths, slug
 from mlct.generate.long_motion import chain_segments, heading, seam_speeds, generate_long
 from mlct.motion.skeleton import get_skeleton
-from mlct.generate.prompts import MAX_PROMPT_CHARS, clean_prompt, read_prompts
+from mlct.generate.prompts import MAX_PROMPT_CHARS, clean_prompt, read_prompts, stated_seconds
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 SKELETON = get_skeleton("humanml3d")
@@ -208,3 +208,33 @@ def test_damaged_model_directories_give_one_line_errors(tmp_path: Path, capsys) 
         err = capsys.readouterr().err.strip()
         assert message in err and err.count("\n") == 0, err
     assert not (tmp_path / "x.npy").exists()
+
+
+@pytest.mark.parametrize("text, clean, seconds", [
+    ("a person walks forward for 20 seconds", "a person walks forward", 20.0),
+    ("a person jogs for half a minute", "a person jogs", 30.0),
+    ("a man waves for 3 s, smiling", "a man waves, smiling", 3.0),
+    ("someone runs for about 12.5 secs", "someone runs", 12.5),
+    ("a person stands still for a second", "a person stands still", 1.0),
+    ("a person walks forward for 2 minutes", "a person walks forward", 120.0),
+    ("a person waits for his friend", "a person waits for his friend", None),  # not a duration
+    ("a person walks for 5 seconds, then waves for 3 seconds",  # two: the parts' own
+     "a person walks for 5 seconds, then waves for 3 seconds", None),
+    ("for 10 seconds", "for 10 seconds", None),  # nothing left to do
+])
+def test_a_prompt_may_say_how_long(text, clean, seconds) -> None:
+    assert stated_seconds(text) == (clean, seconds)
+
+
+def test_the_stated_length_sets_the_clip_unless_the_caller_gives_one(bundled) -> None:
+    fps = bundled.skeleton.fps
+    said = bundled.generate("a person walks forward for 12 seconds", seed=0)[0]
+    assert said.joints.shape[0] == int(12 * fps)
+    assert said.text == "a person walks forward for 12 seconds"  # kept as written
+    plain = bundled.generate("a person walks forward", seconds=12, seed=0)[0]
+    np.testing.assert_allclose(said.joints, plain.joints, atol=1e-5)  # the model read the same
+    assert bundled.generate("a person jumps for 2 seconds", seconds=3,
+                            seed=0)[0].joints.shape[0] == int(3 * fps)
+    # in a sequence the phrase stays: whose duration it is is not clear
+    assert bundled.generate("a person walks for 3 seconds, then waves",
+                            seed=0)[0].joints.shape[0] == int(5 * fps)

@@ -36,7 +36,7 @@ from mlct.nn.inference import for_inference, weight_dtype
 from mlct.generate.compose import split_actions as split_actions_of
 from mlct.generate.durations import DurationModel, split_frames
 from mlct.generate.compose import split_concurrent
-from mlct.generate.prompts import clean_prompt
+from mlct.generate.prompts import clean_prompt, stated_seconds
 
 if TYPE_CHECKING:
     from mlct.text import TextEncoder
@@ -145,7 +145,7 @@ class MotionGenerator:
                     raise MlctError(f"seconds must be a positive number, got {s}")
             lengths = [max(1, self.frames_for(min(s, 1e6))) for s in secs]
         if lengths is None:
-            lengths = [min(self.max_frames, self.frames_for(5.0))] * count
+            lengths = [min(self.max_frames, self.frames_for(DEFAULT_SECONDS))] * count
         numbers = _numbers(lengths, count, "lengths")
         if any(not np.isfinite(n) or n != int(n) for n in numbers):
             raise MlctError(f"lengths must be whole numbers of frames, got {lengths}")
@@ -275,6 +275,10 @@ class MotionGenerator:
                  for i, t in enumerate(texts)]
         if not texts:
             return Generation([])
+        clean, stated = self._stated_lengths(texts, split_actions)
+        if any(n is not None for n in stated):
+            return self._stated(texts, clean, stated, lengths, seconds, nfe, seed, guidance,
+                                split_actions, control, candidates)
         if _wants_auto(seconds):
             seconds = self.auto_seconds(texts, seconds, split_actions)
         if control is not None:
@@ -316,6 +320,36 @@ class MotionGenerator:
             out[i] = self._chained(texts[i], plans[i], frames[i], nfe, seeds[i], guidance,
                                    candidates)
         return Generation(out)  # type: ignore[arg-type]
+
+    @staticmethod
+    def _stated_lengths(texts: list[str], split_actions: bool
+                        ) -> tuple[list[str], list[float | None]]:
+        """Each prompt without a phrase that says how long ("walks forward for 20 seconds",
+        prompts.stated_seconds), and the seconds it says (None: none). In a prompt of several
+        actions the phrase is left where it is: whose duration it gives is not clear."""
+        clean, stated = [], []
+        for text in texts:
+            without, seconds = stated_seconds(text)
+            if seconds is not None and split_actions and len(split_actions_of(without)) > 1:
+                seconds = None
+            clean.append(without if seconds is not None else text)
+            stated.append(seconds)
+        return clean, stated
+
+    def _stated(self, texts: list[str], clean: list[str], stated: list[float | None],
+                lengths: Any, seconds: Any, nfe: int | None, seed: Any, guidance: float | None,
+                split_actions: bool, control: Any, candidates: int | None) -> Generation:
+        """generate() for prompts that say how long: the model reads them without the phrase
+        (it never saw one in a caption), whose seconds give the clip's length unless the caller
+        gave lengths or seconds ("auto" for all counts as not given). The motions keep the
+        prompts as written."""
+        if lengths is None and (seconds is None or isinstance(seconds, str)):
+            fallback = DEFAULT_SECONDS if seconds is None else seconds
+            seconds = [fallback if n is None else n for n in stated]
+        made = self.generate(clean, lengths=lengths, seconds=seconds, nfe=nfe, seed=seed,
+                             guidance=guidance, split_actions=split_actions, control=control,
+                             candidates=candidates)
+        return Generation([dataclasses.replace(m, text=t) for m, t in zip(made, texts)])
 
     def auto_seconds(self, texts: Sequence[str], seconds: Any = "auto",
                      split_actions: bool = True) -> list[float]:
@@ -496,6 +530,7 @@ def bundle_networks(config: Config, meta: dict, tensors: dict[str, Tensor]
 
 # The shortest share of a sequence's part: below it the blend (0.75 s) would be most of the part.
 MIN_PART_SECONDS = 1.0
+DEFAULT_SECONDS = 5.0  # a clip's length when neither the caller nor the prompt gives one
 # A one-action gait keeps going past the model's window (generate/keep_going.py) up to this: a
 # two-minute walk is 2,400 frames, ~70 takes, well under a second of sampling.
 MAX_GAIT_SECONDS = 120.0

@@ -8,6 +8,7 @@ the problem, so nothing reaches the text encoder that it would silently truncate
 from __future__ import annotations
 
 import os
+import re
 import unicodedata
 from pathlib import Path
 
@@ -52,3 +53,36 @@ def read_prompts(path: str | os.PathLike) -> list[str]:
     if not prompts:
         raise MlctError(f"{path}: no prompts (one a line)")
     return prompts
+
+
+# "... for 20 seconds", "..., for about half a minute": how long the person does it. The model
+# never saw a duration in a caption, so the phrase is taken out of the text it reads and, unless
+# the caller gave the length, sets the clip's.
+_NUMBERS = {"a": 1, "an": 1, "one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "six": 6,
+            "seven": 7, "eight": 8, "nine": 9, "ten": 10, "eleven": 11, "twelve": 12,
+            "fifteen": 15, "twenty": 20, "thirty": 30, "forty": 40, "forty-five": 45,
+            "fifty": 50, "sixty": 60, "ninety": 90, "half a": 0.5}
+_UNITS = {"second": 1.0, "sec": 1.0, "s": 1.0, "minute": 60.0, "min": 60.0}
+_STATED = re.compile(
+    r"\s*[,;]?\s*\bfor\s+(?:about\s+|around\s+|roughly\s+)?"
+    r"(?P<n>\d+(?:\.\d+)?|" + "|".join(sorted((re.escape(k) for k in _NUMBERS), key=len,
+                                             reverse=True)) + r")"
+    r"\s*(?P<unit>seconds?|secs?|s|minutes?|mins?)\b", re.IGNORECASE)
+
+
+def stated_seconds(text: str) -> tuple[str, float | None]:
+    """(the text without its duration phrase, the seconds it states): ("a person walks forward",
+    20.0) for "a person walks forward for 20 seconds"; (text, None) when it states none, or more
+    than one ("walks for 5 seconds, then waves for 3 seconds": whose is whose is the parts')."""
+    found = list(_STATED.finditer(text))
+    if len(found) != 1:
+        return text, None
+    match = found[0]
+    number = match.group("n").lower()
+    amount = float(number) if number[0].isdigit() else float(_NUMBERS[number])
+    unit = match.group("unit").lower().rstrip("s") or "s"
+    seconds = amount * _UNITS[unit]
+    rest = (text[:match.start()] + text[match.end():]).strip(" ,;")
+    if seconds <= 0 or not rest:
+        return text, None
+    return " ".join(rest.split()), seconds
