@@ -134,6 +134,27 @@ def test_seconds_auto_takes_the_length_from_the_text(model_client):
     assert "seconds 'auto' does not go with a control" in with_control.text
 
 
+def test_a_prompt_that_says_how_long_sets_the_default_length(model_client):
+    """As in the CLI and the Python API: "... for 3 seconds" gives 60 frames when the request
+    gives no length, the phrase leaves the model's text, the reply keeps the prompt; past the
+    server's window a one-line 422 names the prompt; given seconds win."""
+    client, generator = model_client
+    text = "a person jumps for 3 seconds"
+    reply = client.post("/generate", json={"text": text, "seed": 2, "nfe": 3, "candidates": 1})
+    assert reply.status_code == 200, reply.text
+    motion = reply.json()["motions"][0]
+    assert motion["frames"] == 60 and motion["text"] == text
+    expected = generator.generate("a person jumps", lengths=60, nfe=3, seed=2,
+                                  candidates=1)[0].joints
+    np.testing.assert_allclose(np.array(motion["joints"]), expected, atol=2e-4)
+    given = client.post("/generate", json={"text": text, "seconds": 2, "nfe": 1})
+    assert given.status_code == 200 and given.json()["motions"][0]["frames"] == 40
+    long = client.post("/generate", json={"text": "a person walks for 30 seconds"})
+    assert long.status_code == 422
+    assert "'a person walks for 30 seconds' says 30 s; this server makes motions of at most" \
+        in long.json()["detail"]
+
+
 def test_candidates_pick_as_the_library_does(model_client):
     client, generator = model_client
     assert generator.candidates == 8  # the bundled model's critic

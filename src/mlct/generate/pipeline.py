@@ -275,7 +275,7 @@ class MotionGenerator:
                  for i, t in enumerate(texts)]
         if not texts:
             return Generation([])
-        clean, stated = self._stated_lengths(texts, split_actions)
+        clean, stated = stated_lengths(texts, split_actions)
         if any(n is not None for n in stated):
             return self._stated(texts, clean, stated, lengths, seconds, nfe, seed, guidance,
                                 split_actions, control, candidates)
@@ -320,21 +320,6 @@ class MotionGenerator:
             out[i] = self._chained(texts[i], plans[i], frames[i], nfe, seeds[i], guidance,
                                    candidates)
         return Generation(out)  # type: ignore[arg-type]
-
-    @staticmethod
-    def _stated_lengths(texts: list[str], split_actions: bool
-                        ) -> tuple[list[str], list[float | None]]:
-        """Each prompt without a phrase that says how long ("walks forward for 20 seconds",
-        prompts.stated_seconds), and the seconds it says (None: none). In a prompt of several
-        actions the phrase is left where it is: whose duration it gives is not clear."""
-        clean, stated = [], []
-        for text in texts:
-            without, seconds = stated_seconds(text)
-            if seconds is not None and split_actions and len(split_actions_of(without)) > 1:
-                seconds = None
-            clean.append(without if seconds is not None else text)
-            stated.append(seconds)
-        return clean, stated
 
     def _stated(self, texts: list[str], clean: list[str], stated: list[float | None],
                 lengths: Any, seconds: Any, nfe: int | None, seed: Any, guidance: float | None,
@@ -561,6 +546,22 @@ def _numbers(value: object, count: int, name: str) -> list[float]:
     if isinstance(value, (list, tuple, np.ndarray)):
         return [number(item) for item in value]
     return [number(value)] * count
+
+
+def stated_lengths(texts: Sequence[str], split_actions: bool = True
+                   ) -> tuple[list[str], list[float | None]]:
+    """Each prompt without a phrase that says how long ("walks forward for 20 seconds",
+    prompts.stated_seconds), and the seconds it says (None: none). In a prompt of several actions
+    the phrase is left where it is: whose duration it gives is not clear. generate() and the
+    server's default length both read prompts this way."""
+    clean, stated = [], []
+    for text in texts:
+        without, seconds = stated_seconds(text)
+        if seconds is not None and split_actions and len(split_actions_of(without)) > 1:
+            seconds = None
+        clean.append(without if seconds is not None else text)
+        stated.append(seconds)
+    return clean, stated
 
 
 def bundled_model_dir() -> Path:

@@ -111,6 +111,8 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
             frames, control = body.frames(default_frames), None
             if body.control is not None:  # one motion, generated alone (generate/controlled.py)
                 frames, control = _control_of(generator, body, default_frames)
+            elif body.lengths is None and body.seconds is None:
+                frames = _stated_frames(texts, frames, limits)
             future = batcher.submit(texts, frames, body.nfe, seeds, control, body.candidates)
         except QueueFull as error:
             return _error(503, str(error), {"Retry-After": "1"})
@@ -221,6 +223,26 @@ def _control_of(generator: Any, body: Any, default_frames: int) -> tuple[list[in
 
 def _error(status: int, detail: str, headers: dict[str, str] | None = None) -> JSONResponse:
     return JSONResponse({"detail": detail}, status_code=status, headers=headers)
+
+
+def _stated_frames(texts: list[str], frames: list[int | None], limits: Limits
+                   ) -> list[int | None]:
+    """The default length, except where a prompt says how long ("... for 8 seconds"), as the
+    CLI and the Python API read it (pipeline.stated_lengths); MlctError (422) past the limit."""
+    from mlct.generate.pipeline import stated_lengths
+
+    _, stated = stated_lengths(texts)
+    out = []
+    for text, default, seconds in zip(texts, frames, stated):
+        if seconds is None:
+            out.append(default)
+            continue
+        wanted = round(seconds * limits.fps)
+        if not 1 <= wanted <= limits.max_frames:
+            raise MlctError(f"{text!r} says {seconds:g} s; this server makes motions of at most "
+                            f"{limits.max_seconds:.1f} s (give 'seconds')")
+        out.append(wanted)
+    return out
 
 
 def _add_error_handlers(app: FastAPI) -> None:
