@@ -13,7 +13,9 @@ generate/keep_going.py) and on, it prints per prompt:
 - `pass`: the family's read-outs over the whole clip (eval/readouts.py);
 - `peak m/s`: the motion's largest joint speed (a jolt at a seam would lift it above the single
   take's);
-- `fired`: how many seeds were remade as takes (the controls must stay at 0).
+- `fired`: how many seeds were remade as takes (the controls must stay at 0);
+- `seam/takes`: of the remade motions, the largest joint speed within a seam's blend window
+  over the largest of the takes as generated (long_motion.seam_speeds; <= 1: no jolt).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import numpy as np
 import mlct
 from mlct.eval.readouts import evaluate_label
 from mlct.generate.keep_going import ground_speed
+from mlct.generate.long_motion import LongMotion, seam_speeds
 from mlct.motion.physics import foot_skating_mask
 
 LOCOMOTION = [
@@ -87,13 +90,14 @@ def main() -> None:
     fps = pipe.skeleton.fps
     print(f"{args.seeds} seeds; each cell before -> after (keep-going off -> on)")
     print(f"{'prompt':<42}{'s':>5}{'still s':>14}{'last/first':>13}{'skate':>13}"
-          f"{'pass':>11}{'peak m/s':>14}{'fired':>6}{'ms after':>9}")
-    totals = {"loco_pass": [0, 0, 0], "still": [[], []], "fired_controls": 0}
+          f"{'pass':>11}{'peak m/s':>14}{'fired':>6}{'ms after':>9}{'seam/takes':>11}")
+    totals = {"loco_pass": [0, 0, 0], "still": [[], []], "fired_controls": 0, "seam": []}
     for prompts, is_control in ((LOCOMOTION, False), (CONTROLS, True)):
         for text, family in prompts:
             for seconds in args.seconds:
                 rows = {"still": ([], []), "ratio": ([], []), "skate": ([], []),
                         "pass": ([], []), "peak": ([], [])}
+                seam_ratios = []
                 fired, spent = 0, 0.0
                 for seed in range(args.seeds):
                     made = []
@@ -103,6 +107,9 @@ def main() -> None:
                         motion = pipe.generate(text, seconds=seconds, seed=seed)[0]
                         if on:
                             spent += time.perf_counter() - start
+                            if isinstance(motion, LongMotion) and motion.seams:
+                                speeds = seam_speeds(motion)
+                                seam_ratios.append(speeds["seam_max"] / speeds["segments_max"])
                         made.append(motion.joints)
                     changed = np.abs(made[0] - made[1]).max(axis=(1, 2)) > 1e-6
                     fired += bool(changed.any())
@@ -123,7 +130,9 @@ def main() -> None:
                 print(f"{text[:41]:<42}{seconds:>5.1f}{pair('still', '4.1f'):>14}"
                       f"{pair('ratio', '4.2f'):>13}{pair('skate', '.3f'):>13}"
                       f"{pair('pass', '.1f') if family else '-':>11}{pair('peak', '.2f'):>14}"
-                      f"{fired:>6}{spent / args.seeds * 1000:>9.0f}")
+                      f"{fired:>6}{spent / args.seeds * 1000:>9.0f}"
+                      f"{max(seam_ratios) if seam_ratios else float('nan'):>11.2f}")
+                totals["seam"] += seam_ratios
                 if is_control:
                     totals["fired_controls"] += fired
                 else:
@@ -135,7 +144,8 @@ def main() -> None:
     n = totals["loco_pass"][2]
     print(f"\nlocomotion: still seconds per clip {np.mean(totals['still'][0]):.2f} -> "
           f"{np.mean(totals['still'][1]):.2f}; read-outs pass {totals['loco_pass'][0]}/{n} -> "
-          f"{totals['loco_pass'][1]}/{n}; controls remade: {totals['fired_controls']}")
+          f"{totals['loco_pass'][1]}/{n}; controls remade: {totals['fired_controls']}; largest "
+          f"seam speed over its takes' largest: {max(totals['seam'], default=float('nan')):.2f}")
 
 
 if __name__ == "__main__":

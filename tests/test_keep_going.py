@@ -130,8 +130,9 @@ def test_segment_count_covers_the_length():
 def test_keep_going_walks_the_whole_length_without_a_dip():
     frames = 190
     takes = [walker(4.5, phase=k * 1.3, lift=0.03 * (k % 2)) for k in range(6)]
-    joints = keep_going(takes, frames, BLEND, HUMANML3D)
-    assert joints is not None and joints.shape == (frames, HUMANML3D.n_joints, 3)
+    joints, seams = keep_going(takes, frames, BLEND, HUMANML3D)
+    assert joints.shape == (frames, HUMANML3D.n_joints, 3)
+    assert len(seams) >= 2 and all(0 < a < b < frames for a, b in zip(seams, seams[1:]))
     speed = ground_speed(joints, FPS)
     assert speed[:3].max() < 0.1  # from rest, as the first take
     assert speed[-3:].max() < 0.2  # to rest, as the last take ends
@@ -143,7 +144,7 @@ def test_keep_going_walks_the_whole_length_without_a_dip():
     lowest = joints[:, feet, 1].min(axis=1)
     assert np.abs(lowest - np.median(lowest)).max() < 0.01
     # a shorter clip from the same takes: the first take cut short, still no dip
-    assert ground_speed(keep_going(takes, 120, BLEND, HUMANML3D), FPS)[25:-25].min() > 0.6
+    assert ground_speed(keep_going(takes, 120, BLEND, HUMANML3D)[0], FPS)[25:-25].min() > 0.6
 
 
 def test_keep_going_gives_up_when_the_takes_fall_short():
@@ -185,6 +186,13 @@ def test_the_bundled_model_keeps_jogging(generator):
     two = int(2 * fps)
     assert travel(before[-two:]) < 0.1 * travel(before[:two])
     assert travel(after[-two:]) > 0.5 * travel(after[:two])
+    # a chained motion, as a chain of prompts is: its seams stay within the takes' speeds
+    from mlct.generate.long_motion import LongMotion, seam_speeds
+
+    made = generator.generate("a person jogs forward", seconds=8.0, seed=0)[0]
+    assert isinstance(made, LongMotion) and len(made.seams) >= 1
+    speeds = seam_speeds(made)
+    assert speeds["seam_max"] <= 1.05 * speeds["segments_max"]
 
 
 def test_the_bundled_model_leaves_ending_actions_alone(generator):

@@ -203,11 +203,12 @@ def _cut(pieces: list[_Piece], cut: int, blend: int) -> list[_Piece] | None:
 
 
 def keep_going(segments: Sequence[np.ndarray], frames: int, blend: int, skeleton: Skeleton
-               ) -> np.ndarray | None:
-    """(frames, J, 3) joints: the segments (takes of the same prompt at its natural length)
-    chained as one continuing motion: the first from its start, the last to its end, the moving
-    stretches in between; each seam at the offset (within a stride) whose body-frame poses
-    agree best over the blend window. None when the segments do not reach `frames`."""
+               ) -> tuple[np.ndarray, list[int]] | None:
+    """((frames, J, 3) joints, the frames where each seam's blend starts): the segments (takes
+    of the same prompt at its natural length) chained as one continuing motion: the first from
+    its start, the last to its end, the moving stretches in between; each seam at the offset
+    (within a stride) whose body-frame poses agree best over the blend window. None when the
+    segments do not reach `frames`."""
     fps = skeleton.fps
     search = int(round(1.2 * fps))  # about one stride of a walk
     if len(segments) < 2:
@@ -271,8 +272,9 @@ def keep_going(segments: Sequence[np.ndarray], frames: int, blend: int, skeleton
     _, kept, s, _ = best
     parts = [np.asarray(segments[p.segment])[p.start:p.end] for p in kept]
     parts.append(np.asarray(segments[last])[s:])
-    joints, _ = chain_segments(parts, blend, skeleton)
-    return retime(joints, frames)
+    joints, seams = chain_segments(parts, blend, skeleton)
+    scale = (frames - 1) / max(len(joints) - 1, 1)
+    return retime(joints, frames), [int(round(seam * scale)) for seam in seams]
 
 
 def retime(joints: np.ndarray, frames: int) -> np.ndarray:

@@ -403,7 +403,7 @@ class MotionGenerator:
         (generate/keep_going.py); out[i] is replaced in place. Needs the duration model."""
         from mlct.generate.keep_going import (is_gait, keep_going, names_an_end,
                                               segment_count, stops_early)
-        from mlct.generate.long_motion import BLEND_SECONDS
+        from mlct.generate.long_motion import BLEND_SECONDS, LongMotion
 
         if self.durations is None or not self.keep_going:
             return
@@ -428,22 +428,26 @@ class MotionGenerator:
                 continue
             take = min(self.frames_for(natural), self.max_frames)
             count = segment_count(frames[i], take, blend)
-            joints = None
+            chained = None
             for count in (count, 2 * count):  # twice as many when the stretches fell short
                 takes = self.generate([motion.text] * count, lengths=take, nfe=nfe,
                                       seed=[seeds[i] + k for k in range(count)],
                                       guidance=guidance, split_actions=False,
                                       candidates=candidates)
-                joints = keep_going([t.joints for t in takes], frames[i], blend, self.skeleton)
-                if joints is not None:
+                chained = keep_going([t.joints for t in takes], frames[i], blend, self.skeleton)
+                if chained is not None:
                     break
-            if joints is None:
+            if chained is None:
                 if frames[i] > self.max_frames:
                     raise self._too_long(frames[i], text=motion.text)
                 continue  # the takes did not reach the length: keep the motion as made
+            joints, seams = chained
             features = joints_to_features(joints, self.skeleton).features
-            out[i] = GeneratedMotion(motion.text, features, joints.astype(np.float32), fps,
-                                     self.skeleton.name, seeds[i])
+            # a LongMotion, as a chain of prompts is: its seams and the takes as made
+            out[i] = LongMotion(motion.text, features, joints.astype(np.float32), fps,
+                                self.skeleton.name, seeds[i], seams=tuple(seams),
+                                texts=tuple(t.text for t in takes), blend=blend,
+                                segments=tuple(t.joints for t in takes))
 
     def _concurrent(self, text: str, body: str, arms: str, frames: int, nfe: int | None,
                     seed: int, guidance: float | None, candidates: int) -> GeneratedMotion:
