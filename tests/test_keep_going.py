@@ -233,6 +233,9 @@ def test_a_gait_goes_past_the_window_and_nothing_else_does(generator):
     for text in ("a person jumps", "a person walks forward four steps"):
         with pytest.raises(MlctError, match="only a gait"):
             generator.generate(text, seconds=15.0, seed=0)
+    with pytest.raises(MlctError, match="only a gait"):  # a sequence given whole: not a gait
+        generator.generate("a person walks forward, then squats", seconds=15.0, seed=0,
+                           split_actions=False)
     with pytest.raises(MlctError, match="up to 120 s"):
         generator.generate("a person walks forward", seconds=121.0, seed=0)
     generator.keep_going = False

@@ -305,6 +305,10 @@ class MotionGenerator:
         min_part = self.frames_for(MIN_PART_SECONDS)
         whole = [i for i, (parts, n) in enumerate(zip(plans, frames)) if out[i] is None
                  and (len(parts) == 1 or n // len(parts) < min_part)]
+        for i in whole:  # past the window only a one-action gait goes on (_keep_going)
+            if frames[i] > self.max_frames and (len(split_actions_of(texts[i])) > 1
+                                                or split_concurrent(texts[i]) is not None):
+                raise self._too_long(frames[i], text=texts[i])
         if whole:
             made = self.best_features(self.encode_text([texts[i] for i in whole]), nfe,
                                       [seeds[i] for i in whole], guidance,
@@ -314,8 +318,11 @@ class MotionGenerator:
                 joints = recover_from_ric(torch.from_numpy(feats)).numpy()
                 out[i] = GeneratedMotion(texts[i], feats, joints, self.skeleton.fps,
                                          self.skeleton.name, seeds[i])
-            self._keep_going(out, [i for i in whole if len(plans[i]) == 1], frames, nfe, seeds,
-                             guidance, candidates)
+            # one action only, whether or not the caller splits: "walks, then squats" given
+            # whole (split_actions=False) is not a gait to chain
+            single = [i for i in whole if len(split_actions_of(texts[i])) == 1
+                      and split_concurrent(texts[i]) is None]
+            self._keep_going(out, single, frames, nfe, seeds, guidance, candidates)
         for i in sorted(i for i in set(range(len(texts))) - set(whole) if out[i] is None):
             out[i] = self._chained(texts[i], plans[i], frames[i], nfe, seeds[i], guidance,
                                    candidates)
