@@ -262,3 +262,10 @@ def test_a_sequence_or_a_chain_may_hold_a_gait_past_the_window(generator):
     assert chain.joints.shape[0] == int(18 * fps)
     with pytest.raises(MlctError, match="'a person claps': length .* only a gait"):
         generator.generate("a person jumps, then claps", seconds=25.0, seed=0)
+
+
+def test_the_takes_seeds_wrap_at_the_largest_seed(generator):
+    from mlct.generate.pipeline import MAX_SEED
+
+    made = generator.generate("a person jogs forward", seconds=8.0, seed=MAX_SEED)[0]
+    assert made.seed == MAX_SEED and made.joints.shape[0] == 160 and len(made.seams) >= 1

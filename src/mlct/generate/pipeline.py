@@ -405,9 +405,11 @@ class MotionGenerator:
     def _keep_going(self, out: list[GeneratedMotion | None], indices: Sequence[int],
                     frames: Sequence[int], nfe: int | None, seeds: Sequence[int],
                     guidance: float | None, candidates: int) -> None:
-        """Locomotion asked for clearly longer than its natural length that stopped early is
-        made again as takes of its natural length chained into one continuing motion
-        (generate/keep_going.py); out[i] is replaced in place. Needs the duration model."""
+        """A one-action gait asked for clearly longer than its natural length that stopped
+        early, or asked past the window (made at the window's length so far), is made again as
+        takes of its natural length chained into one continuing motion (generate/keep_going.py);
+        out[i] is replaced in place. A prompt past the window that is no gait raises the
+        window's error. Needs the duration model."""
         from mlct.generate.keep_going import (is_gait, keep_going, names_an_end,
                                               segment_count, stops_early)
         from mlct.generate.long_motion import BLEND_SECONDS, LongMotion
@@ -438,7 +440,8 @@ class MotionGenerator:
             chained = None
             for count in (count, 2 * count):  # twice as many when the stretches fell short
                 takes = self.generate([motion.text] * count, lengths=take, nfe=nfe,
-                                      seed=[seeds[i] + k for k in range(count)],
+                                      seed=[(seeds[i] + k) % (MAX_SEED + 1)
+                                            for k in range(count)],
                                       guidance=guidance, split_actions=False,
                                       candidates=candidates)
                 chained = keep_going([t.joints for t in takes], frames[i], blend, self.skeleton)
