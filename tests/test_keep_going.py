@@ -206,6 +206,17 @@ def test_the_bundled_model_leaves_ending_actions_alone(generator):
         np.testing.assert_array_equal(before, after)
 
 
+def test_verbose_says_when_a_gait_kept_going(tmp_path, capsys):
+    from mlct.cli import main
+
+    assert main(["generate", "a person jogs forward", "--seconds", "8", "--seed", "0",
+                 "--backend", "torch", "--verbose", "--out", str(tmp_path / "v.npy")]) == 0
+    assert "'a person jogs forward' kept going:" in capsys.readouterr().err
+    assert main(["generate", "a person jumps", "--seconds", "8", "--seed", "0", "--backend",
+                 "torch", "--verbose", "--out", str(tmp_path / "j.npy")]) == 0
+    assert "kept going" not in capsys.readouterr().err
+
+
 def test_the_cli_keeps_going_unless_told_not_to(tmp_path):
     from mlct.cli import main
 

@@ -60,6 +60,7 @@ def run(args: argparse.Namespace) -> int:
             print(" " * 50, end="\r", file=sys.stderr, flush=True)
         if args.verbose:
             print(f"mlct: backend {generator.backend_note}", file=sys.stderr, flush=True)
+            _show_decisions()
         return generator
 
     written = generate_files.run(load, request, paths, features=args.features,
@@ -67,6 +68,21 @@ def run(args: argparse.Namespace) -> int:
     for path in written:
         print(path)
     return 0
+
+
+def _show_decisions() -> None:
+    """--verbose: the pipeline's decisions (logger "mlct", e.g. a gait kept going) on stderr."""
+    import logging
+
+    class ToStderr(logging.Handler):
+        # writes to sys.stderr as it is when a record comes, not as it was when made
+        def emit(self, record: logging.LogRecord) -> None:
+            print(f"mlct: {record.getMessage()}", file=sys.stderr, flush=True)
+
+    log = logging.getLogger("mlct")
+    if not any(type(h).__name__ == "ToStderr" for h in log.handlers):
+        log.addHandler(ToStderr())
+    log.setLevel(logging.INFO)
 
 
 def _control(args: argparse.Namespace) -> Any:

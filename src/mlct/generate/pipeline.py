@@ -10,6 +10,7 @@ Built from an inference bundle (bundle.py); needs no training code.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import os
 from collections import OrderedDict
 from pathlib import Path
@@ -452,6 +453,8 @@ class MotionGenerator:
                     raise self._too_long(frames[i], text=motion.text)
                 continue  # the takes did not reach the length: keep the motion as made
             joints, seams = chained
+            _LOG.info("%r kept going: %d takes of %.1f s chained into %.1f s (--no-keep-going: "
+                      "as the model made it)", motion.text, count, take / fps, frames[i] / fps)
             features = joints_to_features(joints, self.skeleton).features
             # a LongMotion, as a chain of prompts is: its seams and the takes as made
             out[i] = LongMotion(motion.text, features, joints.astype(np.float32), fps,
@@ -528,6 +531,9 @@ def bundle_networks(config: Config, meta: dict, tensors: dict[str, Tensor]
 
 
 # The shortest share of a sequence's part: below it the blend (0.75 s) would be most of the part.
+# what the pipeline decided beyond the model's own sampling (keep-going); `mlct generate
+# --verbose` prints it
+_LOG = logging.getLogger("mlct.generate")
 MIN_PART_SECONDS = 1.0
 DEFAULT_SECONDS = 5.0  # a clip's length when neither the caller nor the prompt gives one
 # A one-action gait keeps going past the model's window (generate/keep_going.py) up to this: a
