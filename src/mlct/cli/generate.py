@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 from pathlib import Path
 from typing import Any
@@ -70,18 +71,19 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+class _ToStderr(logging.Handler):
+    """A log record as "mlct: message" on sys.stderr as it is when the record comes (not as it
+    was when the handler was made: a test's captured stream is gone by then)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        print(f"mlct: {record.getMessage()}", file=sys.stderr, flush=True)
+
+
 def _show_decisions() -> None:
     """--verbose: the pipeline's decisions (logger "mlct", e.g. a gait kept going) on stderr."""
-    import logging
-
-    class ToStderr(logging.Handler):
-        # writes to sys.stderr as it is when a record comes, not as it was when made
-        def emit(self, record: logging.LogRecord) -> None:
-            print(f"mlct: {record.getMessage()}", file=sys.stderr, flush=True)
-
     log = logging.getLogger("mlct")
-    if not any(type(h).__name__ == "ToStderr" for h in log.handlers):
-        log.addHandler(ToStderr())
+    if not any(isinstance(h, _ToStderr) for h in log.handlers):
+        log.addHandler(_ToStderr())
     log.setLevel(logging.INFO)
 
 

@@ -100,17 +100,7 @@ def is_gait(joints: np.ndarray, fps: float, natural_seconds: float, skeleton: Sk
     straight enough over each second and turning no faster than a circle walk: a gait, not the
     burst of one long jump (its pace rises and falls within a second) or a turn or a spin on
     the spot."""
-    speed = ground_speed(joints, fps)
-    lead = int(round(0.5 * fps))
-    end = min(int(round((natural_seconds - 0.5) * fps)), len(joints))
-    stretch = speed[lead:end]
-    if len(stretch) < fps:  # under a second of it: no gait to judge
-        return False
-    later = stretch[len(stretch) // 2:]  # past a run's 1.5 s of speeding up
-    return (float(np.percentile(stretch, 25)) >= MOVING_SPEED
-            and float(np.percentile(later, 25)) >= STEADY_SHARE * float(np.percentile(later, 75))
-            and straightness(joints[lead:end], fps) >= MIN_STRAIGHTNESS
-            and turn_rate(joints[lead:end], fps, skeleton) <= MAX_TURN_RATE)
+    return _gait_pace(joints, ground_speed(joints, fps), fps, natural_seconds, skeleton) is not None
 
 
 def stops_early(joints: np.ndarray, fps: float, natural_seconds: float,
@@ -119,12 +109,26 @@ def stops_early(joints: np.ndarray, fps: float, natural_seconds: float,
     MARGIN_SECONDS longer than its natural length."""
     if len(joints) / fps < natural_seconds + MARGIN_SECONDS:
         return False
-    if not is_gait(joints, fps, natural_seconds, skeleton):
-        return False
     speed = ground_speed(joints, fps)
-    lead, end = int(round(0.5 * fps)), int(round((natural_seconds - 0.5) * fps))
-    pace = float(np.median(speed[lead:end]))
-    return float(speed[-int(round(fps)):].mean()) < STOPPED_SHARE * pace
+    pace = _gait_pace(joints, speed, fps, natural_seconds, skeleton)
+    return pace is not None and float(speed[-int(round(fps)):].mean()) < STOPPED_SHARE * pace
+
+
+def _gait_pace(joints: np.ndarray, speed: np.ndarray, fps: float, natural_seconds: float,
+               skeleton: Skeleton) -> float | None:
+    """The median ground speed over the natural stretch when the motion is a gait (is_gait),
+    else None; `speed` is ground_speed(joints, fps)."""
+    lead = int(round(0.5 * fps))
+    end = min(int(round((natural_seconds - 0.5) * fps)), len(joints))
+    stretch = speed[lead:end]
+    if len(stretch) < fps:  # under a second of it: no gait to judge
+        return None
+    later = stretch[len(stretch) // 2:]  # past a run's 1.5 s of speeding up
+    gait = (float(np.percentile(stretch, 25)) >= MOVING_SPEED
+            and float(np.percentile(later, 25)) >= STEADY_SHARE * float(np.percentile(later, 75))
+            and straightness(joints[lead:end], fps) >= MIN_STRAIGHTNESS
+            and turn_rate(joints[lead:end], fps, skeleton) <= MAX_TURN_RATE)
+    return float(np.median(stretch)) if gait else None
 
 
 def turn_rate(joints: np.ndarray, fps: float, skeleton: Skeleton) -> float:

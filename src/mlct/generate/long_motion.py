@@ -146,7 +146,7 @@ def generate_long(generator: SegmentMaker, texts: Sequence[str], seconds: Sequen
     lengths = [n + blend for n in frames[:-1]] + [frames[-1]]
     # A gait may go past the window when the generator keeps gaits going (generate/
     # keep_going.py); generate() itself refuses any other segment that long.
-    if max(lengths) > max(generator.max_frames, generator.longest_gait()):
+    if max(lengths) > generator.longest_gait():
         raise MlctError(f"a segment may last at most {(generator.max_frames - blend) / fps:.1f} s "
                         f"(the model's window, less the {blend / fps:.1f} s blend); split it")
     parts = generator.generate(list(texts), lengths=lengths, nfe=nfe, seed=seed,

@@ -302,13 +302,17 @@ class MotionGenerator:
                 if (pair := split_concurrent(t)) is not None:
                     out[i] = self._concurrent(t, *pair, frames[i], nfe, seeds[i], guidance,
                                               candidates)
-        plans = [split_actions_of(t) if split_actions else [t] for t in texts]
+        parts_of = [split_actions_of(t) for t in texts]
+        plans = parts_of if split_actions else [[t] for t in texts]
+        # one action, however the caller splits ("walks, then squats" given whole is none):
+        # only such a prompt may be a gait that keeps going (_keep_going)
+        single = {i for i, t in enumerate(texts)
+                  if len(parts_of[i]) == 1 and split_concurrent(t) is None}
         min_part = self.frames_for(MIN_PART_SECONDS)
         whole = [i for i, (parts, n) in enumerate(zip(plans, frames)) if out[i] is None
                  and (len(parts) == 1 or n // len(parts) < min_part)]
         for i in whole:  # past the window only a one-action gait goes on (_keep_going)
-            if frames[i] > self.max_frames and (len(split_actions_of(texts[i])) > 1
-                                                or split_concurrent(texts[i]) is not None):
+            if frames[i] > self.max_frames and i not in single:
                 raise self._too_long(frames[i], text=texts[i])
         if whole:
             made = self.best_features(self.encode_text([texts[i] for i in whole]), nfe,
@@ -319,11 +323,8 @@ class MotionGenerator:
                 joints = recover_from_ric(torch.from_numpy(feats)).numpy()
                 out[i] = GeneratedMotion(texts[i], feats, joints, self.skeleton.fps,
                                          self.skeleton.name, seeds[i])
-            # one action only, whether or not the caller splits: "walks, then squats" given
-            # whole (split_actions=False) is not a gait to chain
-            single = [i for i in whole if len(split_actions_of(texts[i])) == 1
-                      and split_concurrent(texts[i]) is None]
-            self._keep_going(out, single, frames, nfe, seeds, guidance, candidates)
+            self._keep_going(out, [i for i in whole if i in single], frames, nfe, seeds,
+                             guidance, candidates)
         for i in sorted(i for i in set(range(len(texts))) - set(whole) if out[i] is None):
             out[i] = self._chained(texts[i], plans[i], frames[i], nfe, seeds[i], guidance,
                                    candidates)
@@ -418,11 +419,10 @@ class MotionGenerator:
         if self.durations is None or not self.keep_going:
             return
         fps = self.skeleton.fps
-        past = [i for i in indices if frames[i] > self.max_frames]
-        for i in past:  # made at the window's length: it must be a gait to go on
-            if names_an_end(out[i].text):
+        for i in indices:  # past the window (made at its length so far) only a gait goes on
+            if frames[i] > self.max_frames and names_an_end(out[i].text):
                 raise self._too_long(frames[i], text=out[i].text)
-        todo = [i for i in indices if out[i] is not None and not names_an_end(out[i].text)
+        todo = [i for i in indices if not names_an_end(out[i].text)
                 and frames[i] / fps >= MIN_PART_SECONDS]
         if not todo:
             return
@@ -530,10 +530,10 @@ def bundle_networks(config: Config, meta: dict, tensors: dict[str, Tensor]
     return ae.eval().requires_grad_(False), denoiser.eval().requires_grad_(False)
 
 
-# The shortest share of a sequence's part: below it the blend (0.75 s) would be most of the part.
-# what the pipeline decided beyond the model's own sampling (keep-going); `mlct generate
-# --verbose` prints it
+# What the pipeline decided beyond the model's own sampling (keep-going); `mlct generate
+# --verbose` prints it.
 _LOG = logging.getLogger("mlct.generate")
+# The shortest share of a sequence's part: below it the blend (0.75 s) would be most of the part.
 MIN_PART_SECONDS = 1.0
 DEFAULT_SECONDS = 5.0  # a clip's length when neither the caller nor the prompt gives one
 # A one-action gait keeps going past the model's window (generate/keep_going.py) up to this: a
