@@ -89,6 +89,7 @@ def test_training_writes_a_critic_the_model_loads(trained: Path) -> None:
 
 def test_best_of_n_keeps_the_critics_choice_and_replays(trained: Path) -> None:
     gen = mlct.load(trained, backend="torch")
+    gen.foot_lock = None  # the features as decoded, to compare with decode() below
     text, frames = "a person jumps twice", 60
     picked = gen.generate(text, lengths=frames, seed=5, candidates=4)[0]
     again = gen.generate(text, lengths=frames, seed=5, candidates=4)[0]

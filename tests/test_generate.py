@@ -115,7 +115,7 @@ def test_long_motion_with_the_bundled_model(bundled) -> None:
                                      "a person waves with the right hand"], [3, 2, 2], nfe=3,
                            seed=0)
     assert motion.joints.shape == (140, 22, 3) and np.isfinite(motion.joints).all()
-    assert motion.features.shape == (139, 263)
+    assert motion.features.shape == (140, 263)  # one row per frame, as the joints
     assert len(motion.seams) == 2 and len(motion.segments) == 3
     speeds = seam_speeds(motion)
     assert speeds["seam_max"] <= speeds["segments_max"]

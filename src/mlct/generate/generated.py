@@ -20,10 +20,15 @@ import numpy as np
 
 @dataclass
 class GeneratedMotion:
-    """One generated motion in real units: features (T, D), joints (T, J, 3), y up."""
+    """One generated motion in real units: features (T, D), joints (T, J, 3), y up.
+
+    features may be given as None: they are then derived from the joints (HumanML3D's
+    processing, motion/features.py) when first read. The pipeline does that when it has moved
+    the joints after decoding (planted feet, motion/foot_lock.py): the derivation costs ~8 ms
+    per 10-s motion, and most callers only ever read the joints."""
 
     text: str
-    features: np.ndarray
+    features: np.ndarray | None
     joints: np.ndarray
     fps: float
     skeleton: str
@@ -40,6 +45,28 @@ class GeneratedMotion:
         from mlct.generate.exports import save_motion
 
         return save_motion(self, path, features, rig)
+
+
+def _features(motion: GeneratedMotion) -> np.ndarray:
+    if motion._features is None:
+        from mlct.motion.features import joints_to_features
+        from mlct.motion.skeleton import get_skeleton
+
+        # joints_to_features gives one frame fewer (velocities are frame differences): the
+        # last pose held one more frame keeps features and joints the same length
+        joints = np.asarray(motion.joints, np.float64)
+        joints = np.concatenate([joints, joints[-1:]])
+        motion._features = joints_to_features(joints, get_skeleton(motion.skeleton)).features
+    return motion._features
+
+
+def _set_features(motion: GeneratedMotion, value: np.ndarray | None) -> None:
+    motion._features = value
+
+
+# Set after the dataclass is made, so that its generated __init__ (features=...) and
+# dataclasses.replace go through the property: None there means "derive when read".
+GeneratedMotion.features = property(_features, _set_features)  # type: ignore[method-assign,assignment]
 
 
 def _padded(arrays: Sequence[np.ndarray]) -> np.ndarray:

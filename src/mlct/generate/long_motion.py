@@ -15,7 +15,7 @@ of the segments themselves, as the model generated them.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Protocol, Sequence
+from typing import Any, ContextManager, Protocol, Sequence
 
 import numpy as np
 
@@ -42,6 +42,11 @@ class SegmentMaker(Protocol):
     def generate(self, texts: Any, lengths: Any = None, seconds: Any = None, nfe: Any = None,
                  seed: Any = None, guidance: Any = None, split_actions: bool = True,
                  candidates: Any = None) -> Any: ...
+
+    def parts_of_a_whole(self) -> ContextManager[None]: ...
+
+    def plant_feet(self, motion: Any) -> Any: ...
+
 
 BLEND_SECONDS = 0.75  # the shortest that kept seam speeds within the segments' (bench/long_motion.py)
 
@@ -149,16 +154,16 @@ def generate_long(generator: SegmentMaker, texts: Sequence[str], seconds: Sequen
     if max(lengths) > generator.longest_gait():
         raise MlctError(f"a segment may last at most {(generator.max_frames - blend) / fps:.1f} s "
                         f"(the model's window, less the {blend / fps:.1f} s blend); split it")
-    parts = generator.generate(list(texts), lengths=lengths, nfe=nfe, seed=seed,
-                               guidance=guidance, split_actions=False, candidates=candidates)
+    with generator.parts_of_a_whole():  # the chain is planted, not each part
+        parts = generator.generate(list(texts), lengths=lengths, nfe=nfe, seed=seed,
+                                   guidance=guidance, split_actions=False, candidates=candidates)
     joints, seams = chain_segments([p.joints for p in parts], blend, generator.skeleton)
-    from mlct.motion.features import joints_to_features
-
-    features = joints_to_features(joints, generator.skeleton).features
-    return LongMotion(text=" / ".join(texts), features=features, joints=joints.astype(np.float32),
-                      fps=fps, skeleton=generator.skeleton.name, seed=parts[0].seed,
-                      seams=tuple(seams), texts=tuple(texts), blend=blend,
-                      segments=tuple(p.joints for p in parts))
+    # features=None: derived from the joints when read (generated.py)
+    motion = LongMotion(text=" / ".join(texts), features=None, joints=joints.astype(np.float32),
+                        fps=fps, skeleton=generator.skeleton.name, seed=parts[0].seed,
+                        seams=tuple(seams), texts=tuple(texts), blend=blend,
+                        segments=tuple(p.joints for p in parts))
+    return generator.plant_feet(motion)
 
 
 def _speeds(joints: np.ndarray, fps: float) -> np.ndarray:

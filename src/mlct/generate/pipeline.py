@@ -9,12 +9,14 @@ Built from an inference bundle (bundle.py); needs no training code.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import os
+import threading
 from collections import OrderedDict
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Iterator, Sequence
 
 import numpy as np
 import torch
@@ -31,7 +33,8 @@ from mlct.generate.samplers import Sampler, sampler_class
 from mlct.nn.autoencoder import LatentAutoencoder
 from mlct.nn.build import build_autoencoder, build_denoiser
 from mlct.nn.denoiser import Denoiser
-from mlct.motion.features import joints_to_features, recover_from_ric
+from mlct.motion.features import recover_from_ric
+from mlct.motion.foot_lock import FootLock, lock_feet
 from mlct.motion.skeleton import get_skeleton
 from mlct.nn.inference import for_inference, weight_dtype
 from mlct.generate.compose import split_actions as split_actions_of
@@ -83,6 +86,10 @@ class MotionGenerator:
         self.candidates = self.critic.candidates if self.critic is not None else 1
         # locomotion asked for longer than its natural length keeps going (generate/keep_going.py)
         self.keep_going = True
+        # a foot standing on the floor stays where it stands (motion/foot_lock.py); None: the
+        # joints as decoded, their feet sliding as the data's do
+        self.foot_lock: FootLock | None = FootLock()
+        self._nesting = threading.local()  # parts_of_a_whole, per thread (the server's batcher)
 
     def _networks(self, tensors: dict[str, Tensor]) -> tuple[Any, Any]:
         """The AE decoder and the denoiser that sample_latents and decode run: the bundle's
@@ -267,6 +274,17 @@ class MotionGenerator:
         item's motion depends only on its text, length, nfe and seed, not on the rest of the
         batch (generate(["a", "b"], seed=0)[1] is generate("b", seed=1)[0], up to float
         rounding of a different batch size). None is random; the seed used is recorded."""
+        with self.parts_of_a_whole():
+            made = self._made(texts, lengths, seconds, nfe, seed, guidance, split_actions,
+                              control, candidates)
+        if control is not None:  # a keyframed foot stays where its keyframe put it
+            return made
+        return Generation([self.plant_feet(m) for m in made])
+
+    def _made(self, texts: str | Sequence[str], lengths: Any, seconds: Any, nfe: int | None,
+              seed: Any, guidance: float | None, split_actions: bool, control: Any,
+              candidates: int | None) -> Generation:
+        """generate()'s motions before their feet are planted."""
         if isinstance(texts, str):
             texts = [texts]
         if not isinstance(texts, (list, tuple)):
@@ -329,6 +347,26 @@ class MotionGenerator:
             out[i] = self._chained(texts[i], plans[i], frames[i], nfe, seeds[i], guidance,
                                    candidates)
         return Generation(out)  # type: ignore[arg-type]
+
+    @contextlib.contextmanager
+    def parts_of_a_whole(self) -> Iterator[None]:
+        """generate() calls inside make parts (takes, a chain's segments, a body and its arms):
+        their feet stay as decoded, and the whole they make is planted once, at the end.
+        Planting a planted motion again would move a foot by up to ~2 cm (a turn's pivot)."""
+        self._nesting.depth = getattr(self._nesting, "depth", 0) + 1
+        try:
+            yield
+        finally:
+            self._nesting.depth -= 1
+
+    def plant_feet(self, motion: GeneratedMotion) -> GeneratedMotion:
+        """The motion with its feet held where they stand (self.foot_lock; motion/foot_lock.py),
+        its features then derived from the new joints when read; as it is when foot_lock is
+        None, or inside parts_of_a_whole."""
+        if self.foot_lock is None or getattr(self._nesting, "depth", 0):
+            return motion
+        joints = lock_feet(motion.joints, self.skeleton, self.foot_lock, motion.fps)
+        return dataclasses.replace(motion, joints=joints.astype(np.float32), features=None)
 
     def _stated(self, texts: list[str], clean: list[str], stated: list[float | None],
                 lengths: Any, seconds: Any, nfe: int | None, seed: Any, guidance: float | None,
@@ -455,9 +493,9 @@ class MotionGenerator:
             joints, seams = chained
             _LOG.info("%r kept going: %d takes of %.1f s chained into %.1f s (--no-keep-going: "
                       "as the model made it)", motion.text, count, take / fps, frames[i] / fps)
-            features = joints_to_features(joints, self.skeleton).features
-            # a LongMotion, as a chain of prompts is: its seams and the takes as made
-            out[i] = LongMotion(motion.text, features, joints.astype(np.float32), fps,
+            # a LongMotion, as a chain of prompts is: its seams and the takes as made; its
+            # features derived from the joints when read (generated.py)
+            out[i] = LongMotion(motion.text, None, joints.astype(np.float32), fps,
                                 self.skeleton.name, seeds[i], seams=tuple(seams),
                                 texts=tuple(t.text for t in takes), blend=blend,
                                 segments=tuple(t.joints for t in takes))
@@ -481,9 +519,8 @@ class MotionGenerator:
                                  candidates=candidates)[0]
         joints = reattach(standing.joints.astype(np.float64), made.joints.astype(np.float64),
                           part_joints("arms", self.skeleton), self.skeleton)
-        features = joints_to_features(joints, self.skeleton).features
-        return GeneratedMotion(text, features, joints.astype(np.float32), self.skeleton.fps,
-                               self.skeleton.name, seed)
+        return GeneratedMotion(text, None, joints.astype(np.float32), self.skeleton.fps,
+                               self.skeleton.name, seed)  # features derived when read
 
     @staticmethod
     def _seeds(count: int, seed: int | Sequence[int] | None) -> list[int]:

@@ -12,18 +12,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from mlct.motion.skeleton import Skeleton
-
-_UNITS_PER_METRE = {"m": 1.0, "mm": 1000.0}
-
-
-def units_per_metre(skeleton: Skeleton) -> float:
-    """How many of the skeleton's length units make a metre (1 for m, 1000 for mm)."""
-    try:
-        return _UNITS_PER_METRE[skeleton.unit]
-    except KeyError:
-        raise ValueError(f"skeleton {skeleton.name!r} has unknown unit {skeleton.unit!r}; "
-                         f"known: {sorted(_UNITS_PER_METRE)}") from None
+# units_per_metre lives with the skeleton (whose module needs no scipy); importable from here
+from mlct.motion.skeleton import Skeleton, units_per_metre  # noqa: F401
 
 
 def _check_joints(joints: np.ndarray, skeleton: Skeleton) -> np.ndarray:

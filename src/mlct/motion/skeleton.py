@@ -211,6 +211,18 @@ _ALIASES = {"t2m": "humanml3d", "hml3d": "humanml3d", "humanml": "humanml3d", "k
             "kitml": "kit"}
 
 
+_UNITS_PER_METRE = {"m": 1.0, "mm": 1000.0}
+
+
+def units_per_metre(skeleton: Skeleton) -> float:
+    """How many of the skeleton's length units make a metre (1 for m, 1000 for mm)."""
+    try:
+        return _UNITS_PER_METRE[skeleton.unit]
+    except KeyError:
+        raise ValueError(f"skeleton {skeleton.name!r} has unknown unit {skeleton.unit!r}; "
+                         f"known: {sorted(_UNITS_PER_METRE)}") from None
+
+
 def get_skeleton(name: str) -> Skeleton:
     """The skeleton called `name` ('humanml3d' or 'kit'); an unknown name raises ValueError."""
     key = _ALIASES.get(name.lower(), name.lower())

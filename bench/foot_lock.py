@@ -1,0 +1,120 @@
+"""Do planted feet stand still? The pipeline's foot lock (motion/foot_lock.py) off and on.
+
+    python bench/foot_lock.py --data SYNTH [--model DIR] [--seeds 2] [--limit N] [--json OUT]
+
+The test captions of a procedural benchmark at their real lengths, --seeds seeds, made twice
+with the same seeds: the joints as decoded (generator.foot_lock = None) and planted (the
+default). Per family, and for the ground-truth motions as the data has them:
+  slide      mean toe speed over the contact spans (the toe under 5 cm and slower than
+             0.8 m/s, at least 3 frames: foot_lock.contact_spans), m/s: 0 when a standing
+             foot stands;
+  skate      GMD's foot-skating ratio (motion/physics.py: toe under 5 cm moving faster than
+             0.5 m/s), which also counts the fast frames as a toe lands and leaves, which the
+             lock leaves alone;
+  pass       the read-out checks of the label (eval/readouts.py): the lock must not cost any;
+  knee       the largest knee move the lock made, m.
+Also the lock's time per motion.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+import mlct
+from mlct.data.layout import DatasetLayout
+from mlct.eval.judge.action_classifier import read_labels
+from mlct.eval.readouts import evaluate_label
+from mlct.motion.features import features_to_joints
+from mlct.motion.foot_lock import FootLock, contact_spans, lock_feet
+from mlct.motion.physics import foot_skating_ratio
+from mlct.motion.skeleton import HUMANML3D
+
+MAX_FRAMES = 196
+
+
+def in_contact_slide(joints: np.ndarray) -> float:
+    """Mean toe speed (m/s) over both feet's contact spans; 0 when there are none."""
+    moved, frames = 0.0, 0
+    for _, toe in (HUMANML3D.foot_left, HUMANML3D.foot_right):
+        for start, end in contact_spans(joints, HUMANML3D, toe, FootLock()):
+            moved += np.linalg.norm(np.diff(joints[start:end, toe][:, [0, 2]], axis=0),
+                                    axis=-1).sum()
+            frames += end - start - 1
+    return moved / frames * HUMANML3D.fps if frames else 0.0
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--data", type=Path, required=True)
+    parser.add_argument("--model", type=Path, default=None)
+    parser.add_argument("--seeds", type=int, default=2)
+    parser.add_argument("--limit", type=int, default=None)
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args()
+
+    layout = DatasetLayout.existing(args.data)
+    labels = read_labels(args.data)
+    names = [n for n in layout.read_split("test") if n in labels][: args.limit]
+    real = [features_to_joints(layout.load_features(n)[:MAX_FRAMES]) for n in names]
+    captions = [layout.read_texts(n)[0].caption for n in names]
+    lengths = [len(r) for r in real]
+    families = [labels[n]["actions"][0]["family"] if len(labels[n]["actions"]) == 1
+                else "sequence" for n in names]
+    pipe = mlct.load(args.model)
+
+    rows: dict[str, dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
+
+    def add(column: str, family: str, joints: np.ndarray, label: dict) -> None:
+        for key in (family, "ALL"):
+            row = rows[key]
+            row[f"{column} slide"].append(in_contact_slide(joints))
+            row[f"{column} skate"].append(foot_skating_ratio(joints, HUMANML3D))
+            row[f"{column} pass"].append(all(ok for _, ok in evaluate_label(joints, label)))
+
+    for name, family, joints in zip(names, families, real):
+        add("truth", family, joints, labels[name])
+    lock_seconds, knee_moves = [], []
+    knees = [HUMANML3D.parents[HUMANML3D.foot_left[0]], HUMANML3D.parents[HUMANML3D.foot_right[0]]]
+    for seed in range(args.seeds):
+        made = {}
+        for column, lock in (("decoded", None), ("planted", FootLock())):
+            pipe.foot_lock = lock
+            made[column] = pipe.generate(captions, lengths=lengths, seed=seed * 100_000)
+        for name, family, off, on in zip(names, families, made["decoded"], made["planted"]):
+            add("decoded", family, off.joints, labels[name])
+            add("planted", family, on.joints, labels[name])
+            start = time.perf_counter()
+            lock_feet(off.joints, HUMANML3D)
+            lock_seconds.append(time.perf_counter() - start)
+            knee_moves.append(float(np.abs(on.joints[:, knees] - off.joints[:, knees]).max()))
+    pipe.foot_lock = FootLock()
+
+    columns = ("truth", "decoded", "planted")
+    print(f"{len(names)} test motions of {args.data}, {args.seeds} seeds; model "
+          f"{args.model or 'bundled'}")
+    print(f"{'family':14}" + "".join(f"{c + ' ' + m:>16}" for m in ("slide", "skate", "pass")
+                                      for c in columns))
+    summary = {}
+    for family in sorted(rows, key=lambda f: (f == "ALL", f)):
+        row = rows[family]
+        means = {f"{c} {m}": float(np.mean(row[f"{c} {m}"])) for m in ("slide", "skate", "pass")
+                 for c in columns}
+        summary[family] = means
+        print(f"{family:14}" + "".join(f"{means[f'{c} {m}']:16.3f}"
+                                       for m in ("slide", "skate", "pass") for c in columns))
+    print(f"lock time per motion: median {np.median(lock_seconds) * 1000:.2f} ms, max "
+          f"{np.max(lock_seconds) * 1000:.2f} ms; largest knee move {np.max(knee_moves):.3f} m, "
+          f"median {np.median(knee_moves):.3f} m")
+    if args.json is not None:
+        args.json.write_text(json.dumps({"families": summary, "lock_ms_median":
+                                         float(np.median(lock_seconds) * 1000)}, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,153 @@
+"""Planted feet (motion/foot_lock.py) on hand-built legs, and in the pipeline."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mlct.motion.foot_lock import FootLock, contact_spans, correction, lock_feet, two_bone_ik
+from mlct.motion.skeleton import HUMANML3D
+
+SKELETON = HUMANML3D
+
+
+@pytest.fixture(scope="module")
+def bundled():
+    import mlct
+
+    return mlct.load()
+FPS = SKELETON.fps
+L_ANKLE, L_TOE = SKELETON.foot_left
+R_ANKLE, R_TOE = SKELETON.foot_right
+
+
+def standing(frames: int) -> np.ndarray:
+    """(frames, 22, 3) the rest pose on the floor (lowest joint at y = 0), the body 6 cm lower
+    on knees bent forward, so that a foot may move 10 cm and still be reached."""
+    offsets = SKELETON.rest_offsets
+    pose = np.zeros((SKELETON.n_joints, 3))
+    for joint, parent in enumerate(SKELETON.parents):
+        if parent >= 0:
+            pose[joint] = pose[parent] + offsets[joint]
+    knees = [SKELETON.parents[L_ANKLE], SKELETON.parents[R_ANKLE]]
+    upper = [j for j in range(SKELETON.n_joints) if j not in (*knees, L_ANKLE, L_TOE, R_ANKLE,
+                                                              R_TOE)]
+    pose[upper, 1] -= 0.06
+    pose[knees, 1] -= 0.03
+    pose[knees, 2] += 0.08
+    pose[:, 1] -= pose[:, 1].min()
+    return np.repeat(pose[None], frames, axis=0)
+
+
+def sliding_left_foot(frames: int = 40, speed: float = 0.3) -> np.ndarray:
+    """Standing, the left foot (ankle and toe) sliding forward at `speed` m/s on the floor for
+    frames 10-29 and lifted 10 cm off it elsewhere: one contact span."""
+    joints = standing(frames)
+    drift = np.clip(np.arange(frames) - 10, 0, 19) * speed / FPS
+    joints[:, [L_ANKLE, L_TOE], 2] += drift[:, None]
+    lifted = (np.arange(frames) < 10) | (np.arange(frames) >= 30)
+    joints[np.ix_(lifted, [L_ANKLE, L_TOE], [1])] += 0.10
+    return joints
+
+
+def test_a_sliding_foot_on_the_floor_is_one_contact_span() -> None:
+    joints = sliding_left_foot()
+    assert contact_spans(joints, SKELETON, L_TOE, FootLock()) == [(10, 30)]
+    # a foot sliding faster than a standing foot does is swinging, not standing
+    assert contact_spans(sliding_left_foot(speed=1.2), SKELETON, L_TOE, FootLock()) == []
+    # the right foot stands still throughout
+    assert contact_spans(joints, SKELETON, R_TOE, FootLock()) == [(0, 40)]
+
+
+def test_the_planted_foot_holds_its_mean_position_and_the_legs_keep_their_lengths() -> None:
+    joints = sliding_left_foot()
+    locked = lock_feet(joints, SKELETON)
+    toe = locked[10:30, L_TOE]
+    # held: the toe does not move over the span, at the mean of where it slid
+    assert np.abs(toe - toe[0]).max() < 1e-9
+    assert toe[0, 2] == pytest.approx(joints[10:30, L_TOE, 2].mean(), abs=1e-9)
+    assert toe[0, 1] == pytest.approx(joints[10, L_TOE, 1])  # heights are not changed
+    # thigh and shin keep their lengths in every frame; the foot moves as one piece
+    knee, hip = SKELETON.parents[L_ANKLE], SKELETON.parents[SKELETON.parents[L_ANKLE]]
+    for a, b in ((hip, knee), (knee, L_ANKLE), (L_ANKLE, L_TOE)):
+        np.testing.assert_allclose(np.linalg.norm(locked[:, a] - locked[:, b], axis=-1),
+                                   np.linalg.norm(joints[:, a] - joints[:, b], axis=-1),
+                                   atol=1e-9)
+    # the rest of the body does not move; the right foot stood still and stays
+    moved = {L_ANKLE, L_TOE, knee}
+    others = [j for j in range(SKELETON.n_joints) if j not in moved]
+    np.testing.assert_allclose(locked[:, others], joints[:, others], atol=1e-12)
+
+
+def test_the_correction_fades_in_and_out_around_a_span() -> None:
+    toe_xz = np.zeros((40, 2))
+    toe_xz[10:30, 1] = np.arange(20) * 0.015  # slides 0.3 m/s
+    offset = correction(toe_xz, [(10, 30)], blend=3)
+    assert np.all(offset[:6] == 0) and np.all(offset[34:] == 0)  # untouched beyond the blend
+    assert 0 < abs(offset[8, 1]) < abs(offset[9, 1]) < abs(offset[10, 1])  # fades in
+    assert 0 < abs(offset[31, 1]) < abs(offset[30, 1]) < abs(offset[29, 1])  # and out
+    # a short lift between two spans: one offset turns into the next, never through zero
+    two = correction(toe_xz, [(10, 18), (21, 30)], blend=3)
+    assert np.all(np.abs(two[18:21, 1]) > 0)
+
+
+def test_two_bone_ik_reaches_what_it_can_and_stops_short_of_straight() -> None:
+    hip = np.array([[0.0, 1.0, 0.0]])
+    knee = np.array([[0.0, 0.55, 0.05]])
+    ankle = np.array([[0.0, 0.1, 0.0]])
+    target = np.array([[0.0, 0.15, 0.2]])
+    new_knee, new_ankle = two_bone_ik(hip, knee, ankle, target)
+    np.testing.assert_allclose(new_ankle, target, atol=1e-9)
+    assert np.linalg.norm(new_knee - hip) == pytest.approx(np.linalg.norm(knee - hip))
+    assert np.linalg.norm(new_ankle - new_knee) == pytest.approx(np.linalg.norm(ankle - knee))
+    assert new_knee[0, 2] > 0.1  # bent forward, as it was
+    # out of reach: the leg points at the target, 0.1 % short of straight
+    far_knee, far_ankle = two_bone_ik(hip, knee, ankle, np.array([[0.0, 1.0, 2.0]]))
+    legs = np.linalg.norm(knee - hip) + np.linalg.norm(ankle - knee)
+    assert np.linalg.norm(far_ankle - hip) == pytest.approx(0.999 * legs)
+    assert far_ankle[0, 1] == pytest.approx(1.0) and far_ankle[0, 2] > 0
+
+
+def test_a_motion_without_contacts_and_bad_shapes() -> None:
+    jump = standing(20)
+    jump[:, :, 1] += 0.3  # in the air throughout: nothing to hold
+    np.testing.assert_array_equal(lock_feet(jump, SKELETON), jump)
+    with pytest.raises(ValueError, match="expected joints of shape"):
+        lock_feet(np.zeros((10, 21, 3)), SKELETON)
+
+
+def _in_contact_slide(joints: np.ndarray) -> float:
+    """Mean toe speed (m/s) over the contact spans of both feet."""
+    speeds = []
+    for toe in (L_TOE, R_TOE):
+        for start, end in contact_spans(joints, SKELETON, toe, FootLock()):
+            step = np.linalg.norm(np.diff(joints[start:end, toe][:, [0, 2]], axis=0), axis=-1)
+            speeds.append(step.mean() * FPS)
+    return float(np.mean(speeds))
+
+
+def test_the_pipeline_plants_the_feet_of_a_walk(bundled) -> None:
+    planted = bundled.generate("a person walks forward", seconds=4, seed=0)[0]
+    bundled.foot_lock = None
+    try:
+        as_decoded = bundled.generate("a person walks forward", seconds=4, seed=0)[0]
+    finally:
+        bundled.foot_lock = FootLock()
+    # the decoded walk slides its standing feet (the data's do too); planted, they stand
+    assert _in_contact_slide(as_decoded.joints) > 0.03
+    assert _in_contact_slide(planted.joints) < 0.005
+    # the body above the knees is the same motion
+    knees = [SKELETON.parents[L_ANKLE], SKELETON.parents[R_ANKLE]]
+    upper = [j for j in range(SKELETON.n_joints) if j not in (L_ANKLE, L_TOE, R_ANKLE, R_TOE,
+                                                              *knees)]
+    np.testing.assert_allclose(planted.joints[:, upper], as_decoded.joints[:, upper], atol=1e-6)
+    assert np.abs(planted.joints - as_decoded.joints).max() > 0.01
+    # the features follow the planted joints (derived when read), one row per frame
+    assert planted.features.shape == as_decoded.features.shape
+    from mlct.motion.features import recover_from_ric
+    import torch
+
+    # (HumanML3D's processing puts the motion on its standard bone lengths, which moves the
+    # feet a little: 0.11 -> 0.02 m/s here, against 0.000 for the planted joints themselves)
+    again = recover_from_ric(torch.from_numpy(planted.features)).numpy()
+    assert _in_contact_slide(again) < _in_contact_slide(as_decoded.joints) / 3
