@@ -6,8 +6,9 @@ The test captions of a procedural benchmark at their real lengths, --seeds seeds
 with the same seeds: the joints as decoded (generator.foot_lock = None) and planted (the
 default). Per family, and for the ground-truth motions as the data has them:
   slide      mean toe speed over the contact spans (the toe under 5 cm and slower than
-             0.8 m/s, at least 3 frames: foot_lock.contact_spans), m/s: 0 when a standing
-             foot stands;
+             0.8 m/s, at least 3 frames: foot_lock.contact_spans, here also the spans that
+             stray too far to be held, which the lock leaves as they are), m/s: 0 when a
+             standing foot stands;
   skate      GMD's foot-skating ratio (motion/physics.py: toe under 5 cm moving faster than
              0.5 m/s), which also counts the fast frames as a toe lands and leaves, which the
              lock leaves alone;
@@ -42,7 +43,7 @@ def in_contact_slide(joints: np.ndarray) -> float:
     """Mean toe speed (m/s) over both feet's contact spans; 0 when there are none."""
     moved, frames = 0.0, 0
     for _, toe in (HUMANML3D.foot_left, HUMANML3D.foot_right):
-        for start, end in contact_spans(joints, HUMANML3D, toe, FootLock()):
+        for start, end in contact_spans(joints, HUMANML3D, toe, FootLock(max_hold=np.inf)):
             moved += np.linalg.norm(np.diff(joints[start:end, toe][:, [0, 2]], axis=0),
                                     axis=-1).sum()
             frames += end - start - 1

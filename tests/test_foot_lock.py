@@ -39,7 +39,7 @@ def standing(frames: int) -> np.ndarray:
     return np.repeat(pose[None], frames, axis=0)
 
 
-def sliding_left_foot(frames: int = 40, speed: float = 0.3) -> np.ndarray:
+def sliding_left_foot(frames: int = 40, speed: float = 0.15) -> np.ndarray:
     """Standing, the left foot (ankle and toe) sliding forward at `speed` m/s on the floor for
     frames 10-29 and lifted 10 cm off it elsewhere: one contact span."""
     joints = standing(frames)
@@ -57,6 +57,10 @@ def test_a_sliding_foot_on_the_floor_is_one_contact_span() -> None:
     assert contact_spans(sliding_left_foot(speed=1.2), SKELETON, L_TOE, FootLock()) == []
     # the right foot stands still throughout
     assert contact_spans(joints, SKELETON, R_TOE, FootLock()) == [(0, 40)]
+    # slow, but 0.4 m in all (20 cm from where it stands on average): a step, not a slide
+    assert contact_spans(sliding_left_foot(speed=0.6), SKELETON, L_TOE, FootLock()) == []
+    assert contact_spans(sliding_left_foot(speed=0.6), SKELETON, L_TOE,
+                         FootLock(max_hold=0.3)) == [(10, 30)]
 
 
 def test_the_planted_foot_holds_its_mean_position_and_the_legs_keep_their_lengths() -> None:
