@@ -155,3 +155,14 @@ def test_the_pipeline_plants_the_feet_of_a_walk(bundled) -> None:
     # feet a little: 0.11 -> 0.02 m/s here, against 0.000 for the planted joints themselves)
     again = recover_from_ric(torch.from_numpy(planted.features)).numpy()
     assert _in_contact_slide(again) < _in_contact_slide(as_decoded.joints) / 3
+
+
+def test_the_cli_plants_feet_unless_told_not_to(tmp_path) -> None:
+    from mlct.cli import main
+
+    for name, flags in (("on.npy", []), ("off.npy", ["--no-plant-feet"])):
+        assert main(["generate", "a person walks forward", "--seconds", "4", "--seed", "0",
+                     "--backend", "torch", "--out", str(tmp_path / name), *flags]) == 0
+    on, off = np.load(tmp_path / "on.npy"), np.load(tmp_path / "off.npy")
+    assert on.shape == off.shape == (80, 22, 3)
+    assert _in_contact_slide(on) < 0.005 < 0.03 < _in_contact_slide(off)

@@ -167,6 +167,13 @@ def test_page_joints_match_the_python_onnx_path(page, reference, tmp_path):
     scale = float(np.ptp(expected[..., 1]))  # the skeleton's height over the motion, ~1.7 m
     gap = float(np.abs(joints - expected).max())
     assert scale > 1.0 and gap <= 1e-3 * scale, f"{gap:.3g} m apart (scale {scale:.2f} m)"
+    # the page plants the feet as Python does: left as decoded, they are further apart
+    lock, reference.foot_lock = reference.foot_lock, None
+    try:
+        _, decoded = generate_with_portable_noise(reference, PROMPT, 60, 5, 7)
+    finally:
+        reference.foot_lock = lock
+    assert np.abs(joints - decoded).max() > 5 * 1e-3 * scale
     # another seed is another motion: the comparison above can fail
     _, other = generate_with_portable_noise(reference, PROMPT, 60, 5, 8)
     assert np.abs(other - expected).max() > 20 * 1e-3 * scale  # 20x the tolerance at least

@@ -44,7 +44,8 @@ def run(args: argparse.Namespace) -> int:
     request = generate_files.Request(prompts, args.seconds, args.length, args.num, args.nfe,
                                      args.seed, long, split_actions=not args.whole_prompt,
                                      control=_control(args), candidates=args.candidates,
-                                     keep_going=not args.no_keep_going)
+                                     keep_going=not args.no_keep_going,
+                                     plant_feet=not args.no_plant_feet)
     names = ["_".join(prompts)] if long else [p for p in prompts for _ in range(args.num)]
     paths = generate_files.output_paths(names, args.out, args.out_dir, args.format)
     def load() -> Any:
@@ -157,6 +158,10 @@ def add_parser(commands: Commands) -> None:
                           help="locomotion asked for longer than the model's clips of it stops "
                                "where the model stops it, instead of walking on (made as takes "
                                "of its natural length, chained)")
+    generate.add_argument("--no-plant-feet", action="store_true",
+                          help="leave the feet as the model decodes them, sliding a few "
+                               "centimetres per step as the training data's do, instead of "
+                               "holding each standing foot where it stands")
     generate.add_argument("--whole-prompt", action="store_true",
                           help="give the model a prompt that names actions in sequence ('walks, "
                                "then waves') as one text, instead of one part per action, chained")

@@ -45,6 +45,7 @@ class Request:
     control: Any = None  # a generate.control.Control: path, keyframes, edit, prefix
     candidates: int | None = None  # best-of-N by the model's critic; None: the model's default
     keep_going: bool = True  # locomotion longer than its natural length: chained takes
+    plant_feet: bool = True  # a standing foot held where it stands (motion/foot_lock.py)
 
 
 def slug(text: str, limit: int = 40) -> str:
@@ -106,6 +107,8 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
                             f"durations; give one each")
         generator = load()
         generator.keep_going = request.keep_going
+        if not request.plant_feet:
+            generator.foot_lock = None
         seconds = generator.long_part_seconds(request.prompts, request.seconds)
         motion = generate_long(generator, request.prompts, seconds, request.nfe,
                                request.seed, candidates=request.candidates)
@@ -117,6 +120,8 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     seconds = _per_text(request.seconds, request.prompts, request.num, "--seconds")
     generator = load()
     generator.keep_going = request.keep_going
+    if not request.plant_feet:
+        generator.foot_lock = None
     written = []
     # The text encoder loads on first use (a CLIP one takes seconds): load it and embed the first
     # batch's prompts before the bar starts, so that the bar's first step and its ETA time

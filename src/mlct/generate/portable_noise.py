@@ -93,4 +93,8 @@ def generate_with_portable_noise(generator, text: str, frames: int, nfe: int | N
         z = generator.sampler.sample(generator.denoiser, x, cond, steps, generator=noise)
         (features,) = generator.decode(z, [frames])
         joints = recover_from_ric(torch.from_numpy(features)).numpy()
+    if generator.foot_lock is not None:  # planted feet, as the page's lockFeet (motion.js)
+        from mlct.motion.foot_lock import lock_feet
+
+        joints = lock_feet(joints, generator.skeleton, generator.foot_lock).astype(np.float32)
     return features, joints

@@ -21,6 +21,7 @@ of torch's, so `load_site_reference` gives the page's joints in Python (the end-
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import shutil
@@ -39,6 +40,7 @@ from mlct.generate.pipeline import bundled_model_dir
 from mlct.generate.prompts import MAX_PROMPT_CHARS
 from mlct.generate.samplers import ConsistencySampler, sampler_class
 from mlct.io import atomic_dir, check_writable_dir, read_format_json
+from mlct.motion.foot_lock import FootLock
 from mlct.motion.skeleton import get_skeleton
 from mlct.onnx_io import onnxruntime_module
 from mlct.text.encoders import bundled_minilm_path, token_slots_of
@@ -135,7 +137,11 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
                      "joint_names": list(skeleton.joint_names),
                      "parents": list(skeleton.parents),
                      # the rest pose of the page's BVH fit (static/bvh.js, as motion/rigfit.py)
-                     "rest_directions": skeleton.rest_directions.tolist()},
+                     "rest_directions": skeleton.rest_directions.tolist(),
+                     "foot_left": list(skeleton.foot_left),
+                     "foot_right": list(skeleton.foot_right)},
+        # planted feet (motion/foot_lock.py; static/motion.js: lockFeet), as generate() does
+        "foot_lock": dataclasses.asdict(FootLock()),
     }
 
 

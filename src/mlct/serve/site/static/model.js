@@ -7,7 +7,7 @@
 import * as ort from "./vendor/ort.wasm.min.mjs";
 import { WordPieceTokenizer } from "./tokenizer.js";
 import { PortableNoise } from "./noise.js";
-import { recoverFromRic } from "./motion.js";
+import { lockFeet, recoverFromRic } from "./motion.js";
 
 const PY_SPACE = /[\s\x1c-\x1f\x85]/u; // what Python's str.split() splits on (U+FEFF is no space)
 const CONTROL = /[\p{Cc}\p{Cf}\p{Cs}]/u;
@@ -195,7 +195,9 @@ export class MotionModel {
     const latent = await this.sample(cond, steps, noise);
     const sampled = performance.now();
     const features = await this.decode(latent, frames);
-    const joints = recoverFromRic(features, frames, this.config.feature_dim);
+    let joints = recoverFromRic(features, frames, this.config.feature_dim);
+    // planted feet, as the Python pipeline's (a site made before it has no foot_lock)
+    if (this.config.foot_lock) joints = lockFeet(joints, frames, this.config.skeleton, this.config.foot_lock);
     const end = performance.now();
     return { text: clean, seed, nfe: steps, frames, features, joints, skeleton: this.config.skeleton,
       timing: { total_ms: end - start, text_ms: encoded - start, sample_ms: sampled - encoded, decode_ms: end - sampled } };

@@ -73,3 +73,139 @@ export function npyBytes(data, shape) {
   out.set(body, head.length);
   return out;
 }
+
+// Planted feet: mlct.motion.foot_lock.lock_feet, the same thresholds and formulas (float64
+// here). A foot whose toe is low and slow for min_frames or more, straying at most max_hold
+// from its mean, is held at that mean; the hold fades in and out over `blend` frames; the
+// leg follows by two-bone IK from the hip. joints: Float32Array (frames * J * 3).
+export function lockFeet(joints, frames, skeleton, lock) {
+  const J = skeleton.parents.length;
+  const out = Float64Array.from(joints);
+  const scale = skeleton.unit === "mm" ? 1000 : 1;
+  const at = (t, j) => (t * J + j) * 3;
+  for (const [ankle, toe] of [skeleton.foot_left, skeleton.foot_right]) {
+    const knee = skeleton.parents[ankle];
+    const hip = skeleton.parents[knee];
+    const spans = contactSpans(out, frames, at, toe, skeleton.fps, scale, lock);
+    if (!spans.length) continue;
+    const offset = holdOffsets(out, frames, at, toe, spans, lock.blend);
+    const foot = [];
+    for (let j = 0; j < J; j++) {
+      for (let p = skeleton.parents[j]; p >= 0; p = skeleton.parents[p]) {
+        if (p === ankle) { foot.push(j); break; }
+      }
+    }
+    for (let t = 0; t < frames; t++) {
+      const ox = offset[2 * t];
+      const oz = offset[2 * t + 1];
+      if (Math.abs(ox) + Math.abs(oz) === 0) continue;
+      const point = (j) => out.slice(at(t, j), at(t, j) + 3);
+      const A = point(ankle);
+      const [K, N] = twoBoneIk(point(hip), point(knee), A, [A[0] + ox, A[1], A[2] + oz]);
+      for (const j of foot) for (let k = 0; k < 3; k++) out[at(t, j) + k] += N[k] - A[k];
+      for (let k = 0; k < 3; k++) {
+        out[at(t, knee) + k] = K[k];
+        out[at(t, ankle) + k] = N[k];
+      }
+    }
+  }
+  return Float32Array.from(out);
+}
+
+function contactSpans(joints, frames, at, toe, fps, scale, lock) {
+  if (frames < 2) return [];
+  const x = (t) => joints[at(t, toe)];
+  const z = (t) => joints[at(t, toe) + 2];
+  const standing = [];
+  for (let t = 0; t < frames; t++) {
+    const [a, b, h] = t === 0 ? [1, 0, 1] : t === frames - 1 ? [t, t - 1, 1] : [t + 1, t - 1, 2];
+    const speed = (Math.hypot((x(a) - x(b)) / h, (z(a) - z(b)) / h) * fps) / scale; // np.gradient
+    standing.push(joints[at(t, toe) + 1] / scale < lock.height && speed < lock.speed);
+  }
+  standing.push(false);
+  const spans = [];
+  let start = null;
+  standing.forEach((on, t) => {
+    if (on && start === null) start = t;
+    else if (!on && start !== null) {
+      let mx = 0;
+      let mz = 0;
+      for (let s = start; s < t; s++) { mx += x(s); mz += z(s); }
+      mx /= t - start;
+      mz /= t - start;
+      let stray = 0;
+      for (let s = start; s < t; s++) stray = Math.max(stray, Math.hypot(x(s) - mx, z(s) - mz));
+      if (t - start >= lock.min_frames && stray / scale <= lock.max_hold) spans.push([start, t]);
+      start = null;
+    }
+  });
+  return spans;
+}
+
+const smoothstep = (v) => v * v * (3 - 2 * v);
+const clip01 = (v) => Math.min(1, Math.max(0, v));
+
+function holdOffsets(joints, frames, at, toe, spans, blend) {
+  const offset = new Float64Array(frames * 2);
+  for (const [start, end] of spans) {
+    let mx = 0;
+    let mz = 0;
+    for (let t = start; t < end; t++) { mx += joints[at(t, toe)]; mz += joints[at(t, toe) + 2]; }
+    mx /= end - start;
+    mz /= end - start;
+    for (let t = start; t < end; t++) {
+      offset[2 * t] = mx - joints[at(t, toe)];
+      offset[2 * t + 1] = mz - joints[at(t, toe) + 2];
+    }
+  }
+  const edges = [[null, null], ...spans, [null, null]];
+  for (let e = 0; e + 1 < edges.length; e++) {
+    const gapStart = edges[e][1] ?? 0;
+    const gapEnd = edges[e + 1][0] ?? frames;
+    if (gapEnd <= gapStart) continue;
+    const before = gapStart > 0 ? [offset[2 * gapStart - 2], offset[2 * gapStart - 1]] : [0, 0];
+    const after = gapEnd < frames ? [offset[2 * gapEnd], offset[2 * gapEnd + 1]] : [0, 0];
+    const slide = gapEnd - gapStart <= 2 * blend && gapStart > 0 && gapEnd < frames;
+    for (let t = gapStart; t < gapEnd; t++) {
+      let wOut;
+      let wIn;
+      if (slide) { // a short lift between two contacts: one offset slides into the next
+        wIn = smoothstep((t - gapStart + 1) / (gapEnd - gapStart + 1));
+        wOut = 1 - wIn;
+      } else {
+        wOut = smoothstep(clip01(1 - (t - gapStart + 1) / (blend + 1)));
+        wIn = smoothstep(clip01(1 - (gapEnd - t) / (blend + 1)));
+      }
+      offset[2 * t] = wOut * before[0] + wIn * after[0];
+      offset[2 * t + 1] = wOut * before[1] + wIn * after[1];
+    }
+  }
+  return offset;
+}
+
+const sub = (a, b) => a.map((v, i) => v - b[i]);
+const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+const norm = (a) => Math.hypot(a[0], a[1], a[2]);
+const scaled = (a, s) => a.map((v) => v * s);
+
+// (knee, ankle): foot_lock.two_bone_ik for one frame.
+function twoBoneIk(hip, knee, ankle, target) {
+  const thigh = norm(sub(knee, hip));
+  const shin = norm(sub(ankle, knee));
+  const reach = sub(target, hip);
+  let distance = norm(reach);
+  const direction = scaled(reach, 1 / Math.max(distance, 1e-9));
+  distance = Math.min(Math.max(distance, Math.abs(thigh - shin) * 1.001 + 1e-9), (thigh + shin) * 0.999);
+  const oldAxis0 = sub(ankle, hip);
+  const oldAxis = scaled(oldAxis0, 1 / Math.max(norm(oldAxis0), 1e-9));
+  const toKnee = sub(knee, hip);
+  const pole = sub(toKnee, scaled(oldAxis, dot(toKnee, oldAxis)));
+  let bend = sub(pole, scaled(direction, dot(pole, direction)));
+  if (!(norm(bend) > 1e-6)) bend = sub(oldAxis, scaled(direction, dot(oldAxis, direction)));
+  bend = scaled(bend, 1 / Math.max(norm(bend), 1e-9));
+  const cosHip = Math.min(1, Math.max(-1, (thigh * thigh + distance * distance - shin * shin) / (2 * thigh * distance)));
+  const sinHip = Math.sqrt(1 - cosHip * cosHip);
+  const newKnee = hip.map((h, k) => h + thigh * (cosHip * direction[k] + sinHip * bend[k]));
+  const newAnkle = hip.map((h, k) => h + distance * direction[k]);
+  return [newKnee, newAnkle];
+}
