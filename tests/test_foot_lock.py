@@ -166,3 +166,31 @@ def test_the_cli_plants_feet_unless_told_not_to(tmp_path) -> None:
     on, off = np.load(tmp_path / "on.npy"), np.load(tmp_path / "off.npy")
     assert on.shape == off.shape == (80, 22, 3)
     assert _in_contact_slide(on) < 0.005 < 0.03 < _in_contact_slide(off)
+
+
+def test_foot_contacts_label_each_foot_frame_by_frame() -> None:
+    from mlct.motion.foot_lock import foot_contacts
+
+    contacts = foot_contacts(sliding_left_foot(), SKELETON)
+    assert contacts.shape == (40, 2) and contacts.dtype == bool
+    assert contacts[:, 1].all()  # the right foot stands throughout
+    np.testing.assert_array_equal(np.flatnonzero(contacts[:, 0]), np.arange(10, 30))
+    # a slow step that strays too far to be held is still a foot on the floor
+    assert foot_contacts(sliding_left_foot(speed=0.6), SKELETON)[10:30, 0].all()
+    # in the air: no contact
+    jump = standing(20)
+    jump[:, :, 1] += 0.3
+    assert not foot_contacts(jump, SKELETON).any()
+
+
+def test_the_motion_json_carries_the_contacts_of_a_walk(bundled) -> None:
+    from mlct.generate.exports import motion_json
+
+    record = motion_json(bundled.generate("a person walks forward", seconds=4, seed=0)[0])
+    contacts = np.asarray(record["foot_contacts"], dtype=bool)
+    assert contacts.shape == (80, 2)
+    one_foot = contacts[:, 0] != contacts[:, 1]
+    # the feet take turns: long stretches on one foot, each foot down 30-80 % of the time
+    assert one_foot.mean() > 0.5 and np.all((contacts.mean(0) > 0.3) & (contacts.mean(0) < 0.8))
+    swaps = np.flatnonzero(np.diff(contacts[one_foot, 0].astype(int)))
+    assert len(swaps) >= 4

@@ -36,6 +36,8 @@ Image = pytest.importorskip("PIL.Image")
 
 from mlct.errors import MlctError
 from mlct.generate.portable_noise import PortableNoise, generate_with_portable_noise
+from mlct.motion.foot_lock import foot_contacts
+from mlct.motion.skeleton import get_skeleton
 from mlct.serve.site import export_site, load_site_reference
 
 pytestmark = pytest.mark.slow  # an export (graphs, quantization) and a browser
@@ -208,9 +210,13 @@ def test_page_joints_match_the_python_onnx_path(page, reference, tmp_path):
         path = tmp_path / download.value.suggested_filename
         download.value.save_as(path)
         assert path.name.startswith("a_person_jumps_up_and_down_seed7") and path.suffix == f".{fmt}"
-        data = (np.asarray(json.loads(path.read_text())["joints"]) if fmt == "json"
-                else np.load(path))
+        record = json.loads(path.read_text()) if fmt == "json" else None
+        data = np.asarray(record["joints"]) if record else np.load(path)
         assert data.shape == (60, 22, 3) and np.abs(data - joints).max() <= 1e-4
+        if record:  # the feet's contacts, as Python labels the page's joints
+            expected_contacts = foot_contacts(joints, get_skeleton("humanml3d"))
+            assert record["foot_contacts"] == expected_contacts.astype(int).tolist()
+            assert 0 < expected_contacts.mean() < 1  # a jump: on the floor, then not
 
     # the BVH: rotations fitted in the page (bvh.js), read back with Python's reader
     with page.expect_download(timeout=10_000) as download:

@@ -75,13 +75,19 @@ def check_rig(rig: str | os.PathLike | None, suffix: str) -> None:
 
 
 def motion_json(motion: GeneratedMotion) -> dict[str, Any]:
-    """A JSON-ready dict: text, fps, skeleton (joint names, parents), joints (T, J, 3) rounded."""
+    """A JSON-ready dict: text, fps, skeleton (joint names, parents), joints (T, J, 3) rounded,
+    foot_contacts (T, 2): [left, right] 1 where that foot stands on the floor
+    (motion/foot_lock.py: foot_contacts)."""
+    from mlct.motion.foot_lock import foot_contacts
+
     skeleton = get_skeleton(motion.skeleton)
     return {"format": JSON_FORMAT, "version": 1, "text": motion.text, "fps": motion.fps,
             "skeleton": skeleton.name, "unit": skeleton.unit,
             "joint_names": list(skeleton.joint_names), "parents": list(skeleton.parents),
             "frames": len(motion.joints), "seed": motion.seed,
-            "joints": np.round(motion.joints.astype(np.float64), JSON_DECIMALS).tolist()}
+            "joints": np.round(motion.joints.astype(np.float64), JSON_DECIMALS).tolist(),
+            "foot_contacts": foot_contacts(motion.joints, skeleton,
+                                           fps=motion.fps).astype(int).tolist()}
 
 
 def save_motion(motion: GeneratedMotion, path: str | os.PathLike, features: bool = False,

@@ -14,11 +14,16 @@ metres and seconds and scaled, as in physics.py).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from mlct.motion.skeleton import Skeleton, units_per_metre
+
+
+# m: a heel on the floor has its ankle joint under this (the benchmark's standing ankles: 4-8 cm)
+ANKLE_HEIGHT = 0.10
 
 
 @dataclass(frozen=True)
@@ -59,6 +64,24 @@ def contact_spans(joints: np.ndarray, skeleton: Skeleton, toe: int, settings: Fo
                 spans.append((start, t))
             start = None
     return spans
+
+
+def foot_contacts(joints: np.ndarray, skeleton: Skeleton, settings: FootLock | None = None,
+                  fps: float | None = None) -> np.ndarray:
+    """(T, 2) bool: the left and the right foot on the floor, frame by frame: its toe or its
+    heel (the ankle, under ANKLE_HEIGHT) low and slow for min_frames or more, as contact_spans;
+    a slow step counts, however far it strays. The labels a retargeting or a physics
+    controller takes; the heel makes a walk's double support, which the toe alone misses."""
+    settings = FootLock() if settings is None else settings
+    toes = dataclasses.replace(settings, max_hold=np.inf)
+    heels = dataclasses.replace(toes, height=ANKLE_HEIGHT)
+    joints = np.asarray(joints, np.float64)
+    out = np.zeros((len(joints), 2), dtype=bool)
+    for side, (ankle, toe) in enumerate((skeleton.foot_left, skeleton.foot_right)):
+        for joint, rule in ((toe, toes), (ankle, heels)):
+            for start, end in contact_spans(joints, skeleton, joint, rule, fps):
+                out[start:end, side] = True
+    return out
 
 
 def _smoothstep(x: np.ndarray) -> np.ndarray:

@@ -40,7 +40,7 @@ from mlct.generate.pipeline import bundled_model_dir
 from mlct.generate.prompts import MAX_PROMPT_CHARS
 from mlct.generate.samplers import ConsistencySampler, sampler_class
 from mlct.io import atomic_dir, check_writable_dir, read_format_json
-from mlct.motion.foot_lock import FootLock
+from mlct.motion.foot_lock import ANKLE_HEIGHT, FootLock
 from mlct.motion.skeleton import get_skeleton
 from mlct.onnx_io import onnxruntime_module
 from mlct.text.encoders import bundled_minilm_path, token_slots_of
@@ -141,7 +141,7 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
                      "foot_left": list(skeleton.foot_left),
                      "foot_right": list(skeleton.foot_right)},
         # planted feet (motion/foot_lock.py; static/motion.js: lockFeet), as generate() does
-        "foot_lock": dataclasses.asdict(FootLock()),
+        "foot_lock": {**dataclasses.asdict(FootLock()), "ankle_height": ANKLE_HEIGHT},
     }
 
 

@@ -200,6 +200,7 @@ export class MotionModel {
     if (this.config.foot_lock) joints = lockFeet(joints, frames, this.config.skeleton, this.config.foot_lock);
     const end = performance.now();
     return { text: clean, seed, nfe: steps, frames, features, joints, skeleton: this.config.skeleton,
+      footLock: this.config.foot_lock,
       timing: { total_ms: end - start, text_ms: encoded - start, sample_ms: sampled - encoded, decode_ms: end - sampled } };
   }
 }

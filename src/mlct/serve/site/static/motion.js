@@ -53,9 +53,30 @@ export function motionJson(motion) {
     }
     rows.push(pose);
   }
-  return { format: "mlct-motion", version: 1, text: motion.text, fps: skeleton.fps,
+  const record = { format: "mlct-motion", version: 1, text: motion.text, fps: skeleton.fps,
     skeleton: skeleton.name, unit: skeleton.unit, joint_names: skeleton.joint_names,
     parents: skeleton.parents, frames, seed: motion.seed, joints: rows };
+  if (motion.footLock) record.foot_contacts = footContacts(joints, frames, skeleton, motion.footLock);
+  return record;
+}
+
+// [left, right] per frame, 1 where that foot stands on the floor: foot_lock.foot_contacts
+// (the toe, or the heel under ankle_height, low and slow for min_frames or more).
+export function footContacts(joints, frames, skeleton, lock) {
+  const J = skeleton.parents.length;
+  const at = (t, j) => (t * J + j) * 3;
+  const scale = skeleton.unit === "mm" ? 1000 : 1;
+  const out = Array.from({ length: frames }, () => [0, 0]);
+  const toes = { ...lock, max_hold: Infinity };
+  const heels = { ...toes, height: lock.ankle_height };
+  [skeleton.foot_left, skeleton.foot_right].forEach(([ankle, toe], side) => {
+    for (const [joint, rule] of [[toe, toes], [ankle, heels]]) {
+      for (const [start, end] of contactSpans(joints, frames, at, joint, skeleton.fps, scale, rule)) {
+        for (let t = start; t < end; t++) out[t][side] = 1;
+      }
+    }
+  });
+  return out;
 }
 
 // A .npy (version 1.0, little-endian float32, C order) of joints (T, J, 3), as numpy.save.
