@@ -1,0 +1,24 @@
+"""The hand-written prompt sets of bench/motion_quality.py: labels the read-outs can judge."""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from pathlib import Path
+
+from mlct.data.synth.text import FAMILIES
+from mlct.eval.readouts import checks_for
+
+DATA = Path(__file__).parents[1] / "bench" / "data"
+
+
+def test_the_second_held_out_set_covers_every_family_with_judgeable_labels() -> None:
+    prompts = json.loads((DATA / "quality_prompts_heldout2.json").read_text())["paraphrases"]
+    families = Counter(p["actions"][0]["family"] for p in prompts)
+    assert families == {f: 3 if f == "turn" else 2 for f in FAMILIES}
+    earlier = {p["text"] for name in ("quality_prompts.json", "quality_prompts_heldout.json")
+               for p in json.loads((DATA / name).read_text())["paraphrases"]}
+    assert len({p["text"] for p in prompts}) == len(prompts) and not earlier & {
+        p["text"] for p in prompts}
+    for prompt in prompts:
+        assert len(prompt["actions"]) == 1 and checks_for(prompt["actions"][0])
