@@ -236,5 +236,23 @@ def test_the_stated_length_sets_the_clip_unless_the_caller_gives_one(bundled) ->
     assert bundled.generate("a person jumps for 2 seconds", seconds=3,
                             seed=0)[0].joints.shape[0] == int(3 * fps)
     # in a sequence the phrase stays: whose duration it is is not clear
-    assert bundled.generate("a person walks for 3 seconds, then waves",
-                            seed=0)[0].joints.shape[0] == int(5 * fps)
+    text = "a person walks for 3 seconds, then waves"  # the default length, not 3 s
+    default = bundled.frames_for(bundled.default_seconds([text])[0])
+    assert bundled.generate(text, seed=0)[0].joints.shape[0] == default != int(3 * fps)
+
+
+def test_the_default_length_is_five_seconds_or_what_the_actions_take(bundled) -> None:
+    fps = bundled.skeleton.fps
+    circle, kick = "a person walks in a circle", "a person kicks"
+    natural = bundled.auto_seconds([circle, kick])
+    assert natural[0] > 6.0 and natural[1] < 5.0  # a circle takes longer, a kick less
+    assert bundled.default_seconds([circle, kick]) == [natural[0], 5.0]
+    made = bundled.generate([circle, kick], seed=0)
+    assert list(made.lengths) == [bundled.frames_for(natural[0]), int(5 * fps)]
+    # a caller's seconds still win, and a model without a duration model keeps 5 s
+    assert bundled.generate(circle, seconds=4, seed=0)[0].joints.shape[0] == int(4 * fps)
+    durations, bundled.durations = bundled.durations, None
+    try:
+        assert bundled.default_seconds([circle]) == [5.0]
+    finally:
+        bundled.durations = durations

@@ -135,8 +135,9 @@ def add_parser(commands: Commands) -> None:
     length = generate.add_mutually_exclusive_group()
     length.add_argument("--seconds", type=_seconds, nargs="+", default=None,
                         help="duration; one per prompt for a long motion (default: what the "
-                             "prompt says, '... for 20 seconds', else 5); 'auto' takes it from "
-                             "the text (the model's duration model)")
+                             "prompt says, '... for 20 seconds', else 5, or longer when its "
+                             "actions usually take longer: a circle walk, actions in turn); "
+                             "'auto' takes it from the text (the model's duration model)")
     length.add_argument("--length", type=int, nargs="+", default=None, help="frames")
     generate.add_argument("--nfe", type=int, default=None, help="sampling steps (default 5)")
     generate.add_argument("--seed", type=int, default=None,
