@@ -256,3 +256,23 @@ def test_the_default_length_is_five_seconds_or_what_the_actions_take(bundled) ->
         assert bundled.default_seconds([circle]) == [5.0]
     finally:
         bundled.durations = durations
+
+
+def test_in_place_keeps_the_pelvis_over_its_start(bundled, tmp_path) -> None:
+    walk = bundled.generate("a person walks forward", seconds=4, seed=0)[0]
+    still = walk.in_place()
+    pelvis = still.joints[:, 0]
+    np.testing.assert_allclose(pelvis[:, [0, 2]], np.repeat(pelvis[:1, [0, 2]], 80, 0),
+                               atol=1e-6)
+    np.testing.assert_allclose(pelvis[:, 1], walk.joints[:, 0, 1])  # the height as it was
+    # every pose is the same relative to the pelvis; the original is untouched
+    np.testing.assert_allclose(still.joints - still.joints[:, :1],
+                               walk.joints - walk.joints[:, :1], atol=1e-6)
+    assert np.linalg.norm(walk.joints[-1, 0, [0, 2]] - walk.joints[0, 0, [0, 2]]) > 1.0
+    assert still.features.shape == walk.features.shape
+    from mlct.cli import main
+
+    out = tmp_path / "w.npy"
+    assert main(["generate", "a person walks forward", "--seconds", "4", "--seed", "0",
+                 "--backend", "torch", "--in-place", "--out", str(out)]) == 0
+    np.testing.assert_allclose(np.load(out), still.joints, atol=1e-5)

@@ -224,6 +224,13 @@ def test_file_downloads(model_client):
     bvh = client.post("/generate", json={**request, "format": "bvh", "rig": "unreal"})
     assert "ROOT pelvis" in bvh.text and "JOINT thigh_l" in bvh.text
     assert bvh.headers["content-disposition"].endswith('seed1_unreal.bvh"')
+    # in place: the pelvis stays over its start, every pose as made
+    still = np.load(io.BytesIO(client.post("/generate", json={**request, "format": "npy",
+                                                               "in_place": True}).content))
+    np.testing.assert_allclose(still[:, 0, [0, 2]], np.repeat(joints[:1, 0, [0, 2]], 16, 0),
+                               atol=1e-4)
+    np.testing.assert_allclose(still - still[:, :1], joints - joints[:, :1], atol=2e-4)
+    assert np.abs(joints[-1, 0, [0, 2]] - joints[0, 0, [0, 2]]).max() > 0.05  # it did travel
 
 
 # --- bad input: 4xx with one line, and the server keeps answering ------------------------------

@@ -45,7 +45,8 @@ def run(args: argparse.Namespace) -> int:
                                      args.seed, long, split_actions=not args.whole_prompt,
                                      control=_control(args), candidates=args.candidates,
                                      keep_going=not args.no_keep_going,
-                                     plant_feet=not args.no_plant_feet)
+                                     plant_feet=not args.no_plant_feet,
+                                     in_place=args.in_place)
     names = ["_".join(prompts)] if long else [p for p in prompts for _ in range(args.num)]
     paths = generate_files.output_paths(names, args.out, args.out_dir, args.format)
     def load() -> Any:
@@ -163,6 +164,10 @@ def add_parser(commands: Commands) -> None:
                           help="leave the feet as the model decodes them, sliding a few "
                                "centimetres per step as the training data's do, instead of "
                                "holding each standing foot where it stands")
+    generate.add_argument("--in-place", action="store_true",
+                          help="keep the pelvis over where it started (no travel over the "
+                               "ground; turns, height and poses as made): an 'in place' clip "
+                               "whose root motion a game engine applies")
     generate.add_argument("--whole-prompt", action="store_true",
                           help="give the model a prompt that names actions in sequence ('walks, "
                                "then waves') as one text, instead of one part per action, chained")

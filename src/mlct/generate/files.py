@@ -46,6 +46,7 @@ class Request:
     candidates: int | None = None  # best-of-N by the model's critic; None: the model's default
     keep_going: bool = True  # locomotion longer than its natural length: chained takes
     plant_feet: bool = True  # a standing foot held where it stands (motion/foot_lock.py)
+    in_place: bool = False  # the pelvis kept over its start: the engine applies root motion
 
 
 def slug(text: str, limit: int = 40) -> str:
@@ -112,7 +113,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
         seconds = generator.long_part_seconds(request.prompts, request.seconds)
         motion = generate_long(generator, request.prompts, seconds, request.nfe,
                                request.seed, candidates=request.candidates)
-        motion.save(paths[0], features, rig)
+        (motion.in_place() if request.in_place else motion).save(paths[0], features, rig)
         return [paths[0]]
     texts = [p for p in request.prompts for _ in range(request.num)]
     seeds = None if request.seed is None else [request.seed + i for i in range(len(texts))]
@@ -142,6 +143,8 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
                 seed=None if seeds is None else seeds[start:stop],
                 split_actions=request.split_actions, candidates=request.candidates)
             for motion, path in zip(motions, paths[start:stop]):
+                if request.in_place:
+                    motion = motion.in_place()
                 written.append(motion.save(path, features, rig))
                 bar.update(1)
     return written

@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,6 +38,16 @@ class GeneratedMotion:
     @property
     def seconds(self) -> float:
         return len(self.joints) / self.fps
+
+    def in_place(self) -> GeneratedMotion:
+        """The motion without its travel over the ground: the pelvis stays over where it
+        started (its height, the turns and every pose as they were), as a game engine's
+        "in place" clip whose root motion the engine applies itself. A copy; its features are
+        derived from the new joints when read."""
+        joints = np.array(self.joints, copy=True)
+        travel = joints[:, :1, [0, 2]] - joints[:1, :1, [0, 2]]  # (T, 1, 2) the pelvis's xz
+        joints[..., [0, 2]] -= travel
+        return dataclasses.replace(self, joints=joints, features=None)
 
     def save(self, path: str | os.PathLike, features: bool = False,
              rig: str | os.PathLike | None = None) -> Path:

@@ -133,6 +133,8 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
         timing = {"queue_ms": round(result.queue_s * 1e3, 1),
                   "generate_ms": round(result.generate_s * 1e3, 1),
                   "batch_size": result.batch_size}
+        if body.in_place:
+            result.motions = [m.in_place() for m in result.motions]
         if body.format == "json":
             motions = await run_in_threadpool(
                 lambda: [{**motion_json(m), "seed": s, "nfe": nfe, "candidates": candidates}

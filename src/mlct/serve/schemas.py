@@ -85,7 +85,8 @@ def request_model(limits: Limits) -> type[BaseModel]:
         (default: the model's); `seed`: an int s seeds text i with s + i (omitted: random,
         returned in the reply); `format`: json for every text, npy/bvh/gif/glb/vrma/npz for
         one text as a file download; `rig`: a retarget preset for bvh and glb
-        (docs/export.md)."""
+        (docs/export.md); `in_place`: the pelvis kept over its start, no travel over the
+        ground (an engine's root-motion clip)."""
 
         model_config = ConfigDict(extra="forbid")
 
@@ -104,6 +105,8 @@ def request_model(limits: Limits) -> type[BaseModel]:
         # path, keyframes, edit + parts, prefix, start/end pose (mlct.generate.control); one text
         control: dict[str, Any] | None = None
         rig: RigName | None = None
+        # the pelvis kept over its start (GeneratedMotion.in_place): an engine's root motion
+        in_place: bool = Field(False, strict=True)
 
         @model_validator(mode="after")
         def _consistent(self) -> GenerateRequest:
@@ -183,7 +186,7 @@ def one_line(error: ValidationError | list[dict[str, Any]]) -> str:
         message = "the request body is empty; send a JSON object such as {\"text\": \"...\"}"
     elif first.get("type") == "extra_forbidden":
         message = ("unknown field (expected texts or text, lengths or seconds, nfe, candidates, "
-                   "seed, format, rig, control)")
+                   "seed, format, rig, in_place, control)")
     line = f"{where}: {message}" if where else message
     if len(errors) > 1:
         line += f" (and {len(errors) - 1} more)"
