@@ -194,3 +194,14 @@ def test_the_motion_json_carries_the_contacts_of_a_walk(bundled) -> None:
     assert one_foot.mean() > 0.5 and np.all((contacts.mean(0) > 0.3) & (contacts.mean(0) < 0.8))
     swaps = np.flatnonzero(np.diff(contacts[one_foot, 0].astype(int)))
     assert len(swaps) >= 4
+
+
+def test_the_bvh_of_a_planted_walk_keeps_its_feet_planted(bundled, tmp_path) -> None:
+    """The rig fit (fixed bone lengths, fitted rotations) must not bring the slide back."""
+    from mlct.motion.bvh import read_bvh
+
+    walk = bundled.generate("a person walks forward", seconds=5, seed=0)[0]
+    walk.save(tmp_path / "walk.bvh")
+    clip = read_bvh(tmp_path / "walk.bvh")
+    joints = clip.positions[:, [clip.joint_names.index(n) for n in SKELETON.joint_names]] / 100
+    assert _in_contact_slide(joints) < 0.02  # decoded, it slides ~0.1 m/s
