@@ -21,20 +21,21 @@ L_ANKLE, L_TOE = SKELETON.foot_left
 R_ANKLE, R_TOE = SKELETON.foot_right
 
 
-def standing(frames: int) -> np.ndarray:
-    """(frames, 22, 3) the rest pose on the floor (lowest joint at y = 0), the body 6 cm lower
+def standing(frames: int, skeleton=SKELETON) -> np.ndarray:
+    """(frames, J, 3) the rest pose on the floor (lowest joint at y = 0), the body 6 cm lower
     on knees bent forward, so that a foot may move 10 cm and still be reached."""
-    offsets = SKELETON.rest_offsets
-    pose = np.zeros((SKELETON.n_joints, 3))
-    for joint, parent in enumerate(SKELETON.parents):
+    offsets = skeleton.rest_offsets
+    unit = 1000.0 if skeleton.unit == "mm" else 1.0
+    pose = np.zeros((skeleton.n_joints, 3))
+    for joint, parent in enumerate(skeleton.parents):
         if parent >= 0:
             pose[joint] = pose[parent] + offsets[joint]
-    knees = [SKELETON.parents[L_ANKLE], SKELETON.parents[R_ANKLE]]
-    upper = [j for j in range(SKELETON.n_joints) if j not in (*knees, L_ANKLE, L_TOE, R_ANKLE,
-                                                              R_TOE)]
-    pose[upper, 1] -= 0.06
-    pose[knees, 1] -= 0.03
-    pose[knees, 2] += 0.08
+    feet = (*skeleton.foot_left, *skeleton.foot_right)
+    knees = [skeleton.parents[skeleton.foot_left[0]], skeleton.parents[skeleton.foot_right[0]]]
+    upper = [j for j in range(skeleton.n_joints) if j not in (*knees, *feet)]
+    pose[upper, 1] -= 0.06 * unit
+    pose[knees, 1] -= 0.03 * unit
+    pose[knees, 2] += 0.08 * unit
     pose[:, 1] -= pose[:, 1].min()
     return np.repeat(pose[None], frames, axis=0)
 
@@ -205,3 +206,22 @@ def test_the_bvh_of_a_planted_walk_keeps_its_feet_planted(bundled, tmp_path) -> 
     clip = read_bvh(tmp_path / "walk.bvh")
     joints = clip.positions[:, [clip.joint_names.index(n) for n in SKELETON.joint_names]] / 100
     assert _in_contact_slide(joints) < 0.02  # decoded, it slides ~0.1 m/s
+
+
+def test_a_kit_motion_in_millimetres_at_its_own_frame_rate() -> None:
+    from mlct.motion.skeleton import KIT
+
+    metatarsal, toe = KIT.foot_left  # KIT's foot pair; its ankle is the metatarsal's parent
+    ankle = KIT.parents[metatarsal]
+    joints = standing(30, KIT)
+    joints[:, [ankle, metatarsal, toe], 2] += np.arange(30)[:, None] * 0.04 / KIT.fps * 1000
+    assert contact_spans(joints, KIT, toe, FootLock()) == [(0, 30)]  # 0.04 m/s, in mm
+    locked = lock_feet(joints, KIT)
+    ground = locked[:, toe][:, [0, 2]]
+    assert np.abs(ground - ground[0]).max() < 1.0  # held to within a millimetre
+    knee, hip = KIT.parents[ankle], KIT.parents[KIT.parents[ankle]]
+    for a, b in ((hip, knee), (knee, ankle), (ankle, metatarsal)):  # the leg kept its lengths
+        np.testing.assert_allclose(np.linalg.norm(locked[:, a] - locked[:, b], axis=-1),
+                                   np.linalg.norm(joints[:, a] - joints[:, b], axis=-1),
+                                   rtol=1e-9)
+    assert np.abs(locked[:, hip] - joints[:, hip]).max() == 0  # the hip does not move

@@ -149,9 +149,8 @@ def lock_feet(joints: np.ndarray, skeleton: Skeleton, settings: FootLock | None 
     if out.ndim != 3 or out.shape[1:] != (skeleton.n_joints, 3):
         raise ValueError(f"expected joints of shape (T, {skeleton.n_joints}, 3) for "
                          f"{skeleton.name}, got {out.shape}")
-    for ankle, toe in (skeleton.foot_left, skeleton.foot_right):
-        knee = skeleton.parents[ankle]
-        hip = skeleton.parents[knee]
+    for _, toe in (skeleton.foot_left, skeleton.foot_right):
+        hip, knee, ankle = _leg(skeleton, toe)
         spans = contact_spans(out, skeleton, toe, settings, fps)
         if not spans:
             continue
@@ -167,6 +166,16 @@ def lock_feet(joints: np.ndarray, skeleton: Skeleton, settings: FootLock | None 
         out[moved, knee] = new_knee
         out[moved, ankle] = new_ankle
     return out
+
+
+def _leg(skeleton: Skeleton, toe: int) -> tuple[int, int, int]:
+    """(hip, knee, ankle) of the leg ending in `toe`: the kinematic chain's first three joints
+    after the root (HumanML3D: hip, knee, ankle, foot; KIT-ML: hip, knee, ankle, metatarsal,
+    toe, whose foot pair is the metatarsal and the toe)."""
+    for chain in skeleton.kinematic_chain:
+        if toe in chain:
+            return chain[1], chain[2], chain[3]
+    raise ValueError(f"joint {toe} is on no kinematic chain of {skeleton.name}")
 
 
 def _below(skeleton: Skeleton, joint: int, ancestor: int) -> bool:
