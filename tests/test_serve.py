@@ -155,6 +155,21 @@ def test_a_prompt_that_says_how_long_sets_the_default_length(model_client):
         in long.json()["detail"]
 
 
+def test_no_length_gives_the_libraries_default(model_client):
+    """Without lengths or seconds a text gets what the CLI and the Python API give it: 5 s, or
+    what its actions take (MotionGenerator.default_seconds), picked on the model's thread."""
+    client, generator = model_client
+    texts = ["a person walks in a circle.", "a person kicks.", "a person waves for 3 seconds"]
+    reply = client.post("/generate", json={"texts": texts, "seed": 1, "nfe": 1,
+                                           "candidates": 1})
+    assert reply.status_code == 200, reply.text
+    frames = [m["frames"] for m in reply.json()["motions"]]
+    circle = generator.frames_for(generator.default_seconds(texts[:1])[0])
+    assert frames == [circle, 100, 60] and circle > 120
+    alone = generator.generate(texts[:1], nfe=1, seed=1, candidates=1)[0].joints
+    np.testing.assert_allclose(np.array(reply.json()["motions"][0]["joints"]), alone, atol=2e-4)
+
+
 def test_candidates_pick_as_the_library_does(model_client):
     client, generator = model_client
     assert generator.candidates == 8  # the bundled model's critic

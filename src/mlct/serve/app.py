@@ -37,7 +37,7 @@ from mlct import __version__
 from mlct.errors import MlctError, first_line
 from mlct.generate.exports import export_bytes, motion_json
 from mlct.generate.files import slug
-from mlct.serve.batcher import Batcher, QueueFull, ServerClosing
+from mlct.serve.batcher import DEFAULT_LENGTH, Batcher, QueueFull, ServerClosing
 from mlct.serve.schemas import Limits, one_line, request_model
 from mlct.serve.settings import ServeSettings
 from mlct.serve.three_files import three_dir
@@ -74,7 +74,7 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
     default_frames = min(limits.max_frames, round(DEFAULT_SECONDS * fps))
     GenerateRequest = request_model(limits)
     batcher = Batcher(generator, settings.max_batch, settings.batch_wait_ms / 1000,
-                      settings.queue_depth)
+                      settings.queue_depth, default_frames, limits.max_frames)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -108,7 +108,9 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
         texts = body.prompts
         seeds = body.seeds(draw=secrets.randbelow(2**31))
         try:
-            frames, control = body.frames(default_frames), None
+            # no length asked: the model's default for each text, picked on its thread
+            # (batcher.DEFAULT_LENGTH: 5 s, or what the prompt's actions take, as the CLI's)
+            frames, control = body.frames(DEFAULT_LENGTH), None
             if body.control is not None:  # one motion, generated alone (generate/controlled.py)
                 frames, control = _control_of(generator, body, default_frames)
             elif body.lengths is None and body.seconds is None:
@@ -161,7 +163,9 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
                            "max_seconds": limits.max_seconds, "max_nfe": limits.max_nfe,
                            "max_body_bytes": settings.max_body_bytes,
                            "queue_depth": settings.queue_depth,
-                           "default_frames": default_frames},
+                           "default_frames": default_frames,
+                           "default_length": "default_frames, or longer where the prompt's "
+                                             "actions take longer (as mlct generate)"},
                 "queue": batcher.stats()}
 
     @app.get("/examples", summary="Example prompts (the page's gallery)")

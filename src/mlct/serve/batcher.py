@@ -22,6 +22,9 @@ from typing import Any, Protocol
 from mlct.errors import MlctError
 
 log = logging.getLogger(__name__)
+# A length the model picks on its thread: its default for the text (5 s, or what the prompt's
+# actions take: MotionGenerator.default_seconds), within the server's limit.
+DEFAULT_LENGTH = -1
 
 
 class Generator(Protocol):
@@ -70,8 +73,13 @@ class Batcher:
     """A worker thread that batches `generate` calls from many requests."""
 
     def __init__(self, generator: Generator, max_batch: int = 32, wait_s: float = 0.002,
-                 queue_depth: int = 64) -> None:
+                 queue_depth: int = 64, default_frames: int = 100,
+                 max_frames: int | None = None) -> None:
         self.generator = generator
+        # DEFAULT_LENGTH: the generator's default_seconds (a fake without one: default_frames),
+        # at most max_frames (the server's limit)
+        self.default_frames = default_frames
+        self.max_frames = max_frames
         self.max_batch = max_batch
         self.wait_s = wait_s
         self._queue: queue.Queue[Any] = queue.Queue(maxsize=queue_depth)
@@ -181,6 +189,8 @@ class Batcher:
                 lengths = [n for job in live for n in job.lengths]
                 if None in lengths:  # seconds "auto": from the text, on the model's thread
                     lengths = _auto_lengths(self.generator, texts, lengths)
+                if DEFAULT_LENGTH in lengths:  # no length asked: the model's default
+                    lengths = self._default_lengths(texts, lengths)
                 motions = self.generator.generate(
                     texts, lengths=lengths, nfe=live[0].nfe,
                     seed=[s for job in live for s in job.seeds], **extra)
@@ -208,6 +218,18 @@ class Batcher:
             job.future.set_result(Result(motions[start:start + len(job.texts)], len(texts),
                                          started - job.submitted, elapsed))
             start += len(job.texts)
+
+
+    def _default_lengths(self, texts: list[str], lengths: list[int]) -> list[int]:
+        """Each DEFAULT_LENGTH replaced by the model's default for its text, as the CLI's."""
+        need = [i for i, n in enumerate(lengths) if n == DEFAULT_LENGTH]
+        pick = getattr(self.generator, "default_seconds", None)
+        frames = ([self.generator.frames_for(s) for s in pick([texts[i] for i in need])]
+                  if pick is not None else [self.default_frames] * len(need))
+        out = list(lengths)
+        for i, n in zip(need, frames):
+            out[i] = n if self.max_frames is None else min(n, self.max_frames)
+        return out
 
 
 def _auto_lengths(generator: Any, texts: list[str], lengths: list[int | None]) -> list[int]:
