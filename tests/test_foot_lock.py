@@ -225,3 +225,26 @@ def test_a_kit_motion_in_millimetres_at_its_own_frame_rate() -> None:
                                    np.linalg.norm(joints[:, a] - joints[:, b], axis=-1),
                                    rtol=1e-9)
     assert np.abs(locked[:, hip] - joints[:, hip]).max() == 0  # the hip does not move
+
+
+def test_a_motion_on_a_path_is_planted_one_with_keyframes_is_not(bundled) -> None:
+    path = {"path": [[0.0, 0.0, 0], [0.0, 1.5, 40], [1.0, 2.5, 79]]}
+    planted = bundled.generate("a person walks forward", seconds=4, seed=0, control=path)[0]
+    bundled.foot_lock = None
+    try:
+        decoded = bundled.generate("a person walks forward", seconds=4, seed=0,
+                                   control=path)[0]
+    finally:
+        bundled.foot_lock = FootLock()
+    assert _in_contact_slide(decoded.joints) > 0.015 > 0.005 > _in_contact_slide(planted.joints)
+    np.testing.assert_array_equal(planted.joints[:, 0], decoded.joints[:, 0])  # the same path
+    # a keyframe pins joints where it puts them: left as the control made it
+    pose = decoded.joints[40].tolist()
+    keyed = {"keyframes": [{"frame": 40, "pose": pose}]}
+    first = bundled.generate("a person walks forward", seconds=4, seed=0, control=keyed)[0]
+    bundled.foot_lock = None
+    try:
+        second = bundled.generate("a person walks forward", seconds=4, seed=0, control=keyed)[0]
+    finally:
+        bundled.foot_lock = FootLock()
+    np.testing.assert_array_equal(first.joints, second.joints)

@@ -320,4 +320,10 @@ def generate_with_control(pipe: MotionGenerator, texts: list[str], lengths: Any,
     frames = pipe._lengths(1, lengths, seconds)[0]
     pipe.check_nfe(nfe)
     seeds = pipe._seeds(1, seed)
-    return Generation([generate_controlled(pipe, texts[0], frames, control, nfe, seeds[0])])
+    motion = generate_controlled(pipe, texts[0], frames, control, nfe, seeds[0])
+    if (control.path is not None and not control.keyframes and control.edit is None
+            and control.prefix is None):
+        # a path moves only the pelvis: the feet are planted as a plain motion's are; keyframes,
+        # an edit or a prefix pin joints that planting would move, and are left as made
+        motion = pipe.planted(motion)
+    return Generation([motion])

@@ -277,7 +277,7 @@ class MotionGenerator:
         with self.parts_of_a_whole():
             made = self._made(texts, lengths, seconds, nfe, seed, guidance, split_actions,
                               control, candidates)
-        if control is not None:  # a keyframed foot stays where its keyframe put it
+        if control is not None:  # generate/controlled.py plants a motion on a path alone
             return made
         return Generation([self.plant_feet(m) for m in made])
 
@@ -365,7 +365,13 @@ class MotionGenerator:
         """The motion with its feet held where they stand (self.foot_lock; motion/foot_lock.py),
         its features then derived from the new joints when read; as it is when foot_lock is
         None, or inside parts_of_a_whole."""
-        if self.foot_lock is None or getattr(self._nesting, "depth", 0):
+        if getattr(self._nesting, "depth", 0):
+            return motion
+        return self.planted(motion)
+
+    def planted(self, motion: GeneratedMotion) -> GeneratedMotion:
+        """plant_feet's work, wherever it is called from (a controlled motion's own path)."""
+        if self.foot_lock is None:
             return motion
         joints = lock_feet(motion.joints, self.skeleton, self.foot_lock, motion.fps)
         return dataclasses.replace(motion, joints=joints.astype(np.float32), features=None)
