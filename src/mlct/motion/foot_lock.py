@@ -29,8 +29,9 @@ ANKLE_HEIGHT = 0.10
 @dataclass(frozen=True)
 class FootLock:
     """How contacts are found and held. Defaults read the HumanML3D motions at 20 fps: a foot
-    in contact has its toe under 5 cm and moving under 0.8 m/s (the benchmark's walks slide
-    0.1-0.5 m/s in contact; their toes swing through at 2-4 m/s)."""
+    in contact has its toe under 5 cm and moving under 0.8 m/s (decoded walks slide 0.1 m/s
+    on average in contact, a quarter of their contact frames over 0.5; their toes swing
+    through at 2-4 m/s)."""
 
     height: float = 0.05  # m: a toe above this is not on the floor (GMD's skating height)
     speed: float = 0.8  # m/s: a toe faster than this is swinging, not standing
@@ -77,7 +78,8 @@ def foot_contacts(joints: np.ndarray, skeleton: Skeleton, settings: FootLock | N
     heels = dataclasses.replace(toes, height=ANKLE_HEIGHT)
     joints = np.asarray(joints, np.float64)
     out = np.zeros((len(joints), 2), dtype=bool)
-    for side, (ankle, toe) in enumerate((skeleton.foot_left, skeleton.foot_right)):
+    for side, (_, toe) in enumerate((skeleton.foot_left, skeleton.foot_right)):
+        ankle = _leg(skeleton, toe)[2]
         for joint, rule in ((toe, toes), (ankle, heels)):
             for start, end in contact_spans(joints, skeleton, joint, rule, fps):
                 out[start:end, side] = True
