@@ -39,6 +39,10 @@ class GeneratedMotion:
     def seconds(self) -> float:
         return len(self.joints) / self.fps
 
+    def renamed(self, text: str) -> GeneratedMotion:
+        """The same motion under another text (its features not derived by the copy)."""
+        return dataclasses.replace(self, text=text, features=self._features)
+
     def in_place(self) -> GeneratedMotion:
         """The motion without its travel over the ground: the pelvis stays over where it
         started (its height, the turns and every pose as they were), as a game engine's

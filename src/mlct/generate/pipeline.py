@@ -391,7 +391,7 @@ class MotionGenerator:
         made = self.generate(clean, lengths=lengths, seconds=seconds, nfe=nfe, seed=seed,
                              guidance=guidance, split_actions=split_actions, control=control,
                              candidates=candidates)
-        return Generation([dataclasses.replace(m, text=t) for m, t in zip(made, texts)])
+        return Generation([m.renamed(t) for m, t in zip(made, texts)])
 
     def default_seconds(self, texts: Sequence[str], split_actions: bool = True) -> list[float]:
         """Each text's length when neither the caller nor the prompt gives one: DEFAULT_SECONDS,
@@ -461,7 +461,7 @@ class MotionGenerator:
         share = split_frames(weights, frames, self.frames_for(MIN_PART_SECONDS))
         made = generate_long(self, parts, [n / fps for n in share], nfe=nfe, seed=seed,
                              guidance=guidance, candidates=candidates)
-        return dataclasses.replace(made, text=text)
+        return made.renamed(text)
 
     def _keep_going(self, out: list[GeneratedMotion | None], indices: Sequence[int],
                     frames: Sequence[int], nfe: int | None, seeds: Sequence[int],
