@@ -13,7 +13,10 @@ default). Per family, and for the ground-truth motions as the data has them:
              0.5 m/s), which also counts the fast frames as a toe lands and leaves, which the
              lock leaves alone;
   pass       the read-out checks of the label (eval/readouts.py): the lock must not cost any;
-  knee       the largest knee move the lock made, m.
+  knee       the largest knee move the lock made, m;
+  smooth     the legs' (knees, ankles, feet) mean jerk, m/s^3, and the 99th percentile of their
+             acceleration, m/s^2, over all motions: a hold that popped in or out would raise
+             them.
 Also the lock's time per motion.
 """
 
@@ -50,6 +53,16 @@ def in_contact_slide(joints: np.ndarray) -> float:
     return moved / frames * HUMANML3D.fps if frames else 0.0
 
 
+def leg_smoothness(joints: np.ndarray) -> tuple[float, float]:
+    """(mean |jerk| m/s^3, 99th-percentile acceleration m/s^2) of the knees, ankles and feet."""
+    legs = [j for ankle, toe in (HUMANML3D.foot_left, HUMANML3D.foot_right)
+            for j in (HUMANML3D.parents[ankle], ankle, toe)]
+    fps = HUMANML3D.fps
+    jerk = float(np.abs(np.diff(joints[:, legs], 3, axis=0)).mean() * fps**3)
+    accel = np.linalg.norm(np.diff(joints[:, legs], 2, axis=0), axis=-1) * fps**2
+    return jerk, float(np.percentile(accel, 99))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", type=Path, required=True)
@@ -81,6 +94,8 @@ def main() -> None:
     for name, family, joints in zip(names, families, real):
         add("truth", family, joints, labels[name])
     lock_seconds, knee_moves = [], []
+    smooth: dict[str, list[tuple[float, float]]] = {
+        "truth": [leg_smoothness(j) for j in real], "decoded": [], "planted": []}
     knees = [HUMANML3D.parents[HUMANML3D.foot_left[0]], HUMANML3D.parents[HUMANML3D.foot_right[0]]]
     for seed in range(args.seeds):
         made = {}
@@ -90,6 +105,8 @@ def main() -> None:
         for name, family, off, on in zip(names, families, made["decoded"], made["planted"]):
             add("decoded", family, off.joints, labels[name])
             add("planted", family, on.joints, labels[name])
+            smooth["decoded"].append(leg_smoothness(off.joints))
+            smooth["planted"].append(leg_smoothness(on.joints))
             start = time.perf_counter()
             lock_feet(off.joints, HUMANML3D)
             lock_seconds.append(time.perf_counter() - start)
@@ -112,6 +129,9 @@ def main() -> None:
     print(f"lock time per motion: median {np.median(lock_seconds) * 1000:.2f} ms, max "
           f"{np.max(lock_seconds) * 1000:.2f} ms; largest knee move {np.max(knee_moves):.3f} m, "
           f"median {np.median(knee_moves):.3f} m")
+    print("legs' smoothness (mean jerk m/s^3, acceleration p99 m/s^2): " + "; ".join(
+        f"{c} {np.mean([a for a, _ in v]):.1f}, {np.mean([b for _, b in v]):.1f}"
+        for c, v in smooth.items()))
     if args.json is not None:
         args.json.write_text(json.dumps({"families": summary, "lock_ms_median":
                                          float(np.median(lock_seconds) * 1000)}, indent=1))

@@ -6,7 +6,8 @@ each foot's contact spans from the joints alone (the toe low and slow) and pins 
 the toe's ground position is held at its mean over the span, the correction fades in and out over
 a few frames around it, and the leg follows by two-bone inverse kinematics from the hip (thigh
 and shin keep each frame's own lengths, the knee bends in the plane it bent in). The pelvis and
-the rest of the body are not moved; heights are not changed.
+the rest of the body are not moved, and the toe keeps its height; where a near-straight leg
+cannot reach the hold, the heel rises a little (at most max_lift) or the hold is shortened.
 
 Joints are (T, J, 3), y up, the floor at y = 0, in the skeleton's unit (thresholds are given in
 metres and seconds and scaled, as in physics.py).
@@ -41,6 +42,9 @@ class FootLock:
     # back into a kneel, shifted while leaning), not a slide: held, its leg would stretch
     # (10 % of the benchmark's decoded spans stray over 5 cm, 1 % over 12 cm)
     max_hold: float = 0.08
+    # m: how far a held foot's heel may rise when its near-straight leg cannot reach the hold
+    # (the toe stays down); past it the hold is shortened
+    max_lift: float = 0.03
 
 
 def contact_spans(joints: np.ndarray, skeleton: Skeleton, toe: int, settings: FootLock,
@@ -157,17 +161,50 @@ def lock_feet(joints: np.ndarray, skeleton: Skeleton, settings: FootLock | None 
         if not spans:
             continue
         offset = correction(out[:, toe, [0, 2]], spans, settings.blend)
+        # A stance leg is near straight: a hold it cannot reach raises the heel a little (the
+        # toe stays down, as in a push-off), or, past max_lift, is shortened. Pointing a straight
+        # leg at it instead lifted the whole foot: a walk with a flight phase.
+        fraction, lift = _within_reach(out[:, hip], out[:, knee], out[:, ankle], offset,
+                                       settings.max_lift * units_per_metre(skeleton))
+        offset *= fraction[:, None]
         moved = np.abs(offset).sum(-1) > 0
         target = out[moved, ankle].copy()
         target[:, [0, 2]] += offset[moved]
+        target[:, 1] += lift[moved]
         new_knee, new_ankle = two_bone_ik(out[moved, hip], out[moved, knee], out[moved, ankle],
                                           target)
         foot = [j for j in range(skeleton.n_joints) if _below(skeleton, j, ankle)]
         shift = new_ankle - out[moved, ankle]
+        shift[:, 1] -= lift[moved]  # the heel rises; the toe keeps its height
         out[np.ix_(moved, foot)] += shift[:, None]
         out[moved, knee] = new_knee
         out[moved, ankle] = new_ankle
     return out
+
+
+def _within_reach(hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, offset: np.ndarray,
+                  max_lift: float) -> tuple[np.ndarray, np.ndarray]:
+    """(fraction, lift), each (T,): the share of each frame's ground offset d to apply and how
+    far to raise the ankle, so that the moved ankle is within two_bone_ik's reach R (0.1 %
+    short of straight). The whole offset at the ankle's height when it reaches; else the whole
+    offset with the ankle raised by the smaller root of |a + d + h y|^2 = R^2 (a = ankle -
+    hip) when that is at most max_lift; else the ankle at its height and the share f, the
+    larger root of |a + f d|^2 = R^2 (0 where the leg is already straight)."""
+    reach = 0.999 * (np.linalg.norm(knee - hip, axis=-1) + np.linalg.norm(ankle - knee, axis=-1))
+    a = ankle - hip
+    d = np.zeros_like(a)
+    d[:, [0, 2]] = offset
+    b = a + d
+    bb = (b * b).sum(-1)
+    fits = bb <= reach**2
+    disc = b[:, 1] ** 2 - (bb - reach**2)
+    lift = -b[:, 1] - np.sqrt(np.maximum(disc, 0.0))
+    raised = ~fits & (disc >= 0) & (lift >= 0) & (lift <= max_lift)
+    dd, ad, aa = (d * d).sum(-1), (a * d).sum(-1), (a * a).sum(-1)
+    slack = reach**2 - aa
+    share = (-ad + np.sqrt(np.maximum(ad**2 + dd * slack, 0.0))) / np.maximum(dd, 1e-18)
+    share = np.where(slack <= 0, 0.0, np.clip(share, 0.0, 1.0))
+    return np.where(fits | raised, 1.0, share), np.where(raised, lift, 0.0)
 
 
 def _leg(skeleton: Skeleton, toe: int) -> tuple[int, int, int]:
