@@ -255,3 +255,20 @@ def test_a_motion_on_a_path_is_planted_one_with_keyframes_is_not(bundled) -> Non
     finally:
         bundled.foot_lock = FootLock()
     np.testing.assert_array_equal(first.joints, second.joints)
+
+
+def test_planting_adds_no_flight_to_a_walk(bundled) -> None:
+    """A stance leg is near straight: a hold it cannot reach must not lift the whole foot (it
+    did once, and a 9.5-s stroll got frames with both feet 2 cm up: a walk's flight)."""
+    from mlct.eval.readouts import flight_frames
+
+    for seed in (0, 3):
+        planted = bundled.generate("a man strolls down the street", seconds=9.5, seed=seed)[0]
+        bundled.foot_lock = None
+        try:
+            decoded = bundled.generate("a man strolls down the street", seconds=9.5,
+                                       seed=seed)[0]
+        finally:
+            bundled.foot_lock = FootLock()
+        assert flight_frames(planted.joints) <= flight_frames(decoded.joints)
+        assert _in_contact_slide(planted.joints) < _in_contact_slide(decoded.joints) / 2
