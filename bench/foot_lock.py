@@ -35,22 +35,11 @@ from mlct.data.layout import DatasetLayout
 from mlct.eval.judge.action_classifier import read_labels
 from mlct.eval.readouts import evaluate_label
 from mlct.motion.features import features_to_joints
-from mlct.motion.foot_lock import FootLock, contact_spans, lock_feet
+from mlct.motion.foot_lock import FootLock, contact_slide, lock_feet
 from mlct.motion.physics import foot_skating_ratio
 from mlct.motion.skeleton import HUMANML3D
 
 MAX_FRAMES = 196
-
-
-def in_contact_slide(joints: np.ndarray) -> float:
-    """Mean toe speed (m/s) over both feet's contact spans; 0 when there are none."""
-    moved, frames = 0.0, 0
-    for _, toe in (HUMANML3D.foot_left, HUMANML3D.foot_right):
-        for start, end in contact_spans(joints, HUMANML3D, toe, FootLock(max_hold=np.inf)):
-            moved += np.linalg.norm(np.diff(joints[start:end, toe][:, [0, 2]], axis=0),
-                                    axis=-1).sum()
-            frames += end - start - 1
-    return moved / frames * HUMANML3D.fps if frames else 0.0
 
 
 def leg_smoothness(joints: np.ndarray) -> tuple[float, float]:
@@ -87,7 +76,7 @@ def main() -> None:
     def add(column: str, family: str, joints: np.ndarray, label: dict) -> None:
         for key in (family, "ALL"):
             row = rows[key]
-            row[f"{column} slide"].append(in_contact_slide(joints))
+            row[f"{column} slide"].append(contact_slide(joints, HUMANML3D))
             row[f"{column} skate"].append(foot_skating_ratio(joints, HUMANML3D))
             row[f"{column} pass"].append(all(ok for _, ok in evaluate_label(joints, label)))
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mlct.motion.foot_lock import FootLock, contact_spans, correction, lock_feet, two_bone_ik
+from mlct.motion.foot_lock import (FootLock, contact_slide, contact_spans, correction,
+                                   lock_feet, two_bone_ik)
 from mlct.motion.skeleton import HUMANML3D
 
 SKELETON = HUMANML3D
@@ -122,13 +123,7 @@ def test_a_motion_without_contacts_and_bad_shapes() -> None:
 
 
 def _in_contact_slide(joints: np.ndarray) -> float:
-    """Mean toe speed (m/s) over the contact spans of both feet."""
-    speeds = []
-    for toe in (L_TOE, R_TOE):
-        for start, end in contact_spans(joints, SKELETON, toe, FootLock()):
-            step = np.linalg.norm(np.diff(joints[start:end, toe][:, [0, 2]], axis=0), axis=-1)
-            speeds.append(step.mean() * FPS)
-    return float(np.mean(speeds))
+    return contact_slide(joints, SKELETON)
 
 
 def test_the_pipeline_plants_the_feet_of_a_walk(bundled) -> None:
@@ -272,3 +267,12 @@ def test_planting_adds_no_flight_to_a_walk(bundled) -> None:
             bundled.foot_lock = FootLock()
         assert flight_frames(planted.joints) <= flight_frames(decoded.joints)
         assert _in_contact_slide(planted.joints) < _in_contact_slide(decoded.joints) / 2
+
+
+def test_a_joints_descendants() -> None:
+    from mlct.motion.skeleton import KIT
+
+    assert SKELETON.descendants(L_ANKLE) == (L_TOE,)
+    assert SKELETON.descendants(SKELETON.parents[L_ANKLE]) == (L_ANKLE, L_TOE)
+    assert KIT.descendants(KIT.parents[KIT.foot_left[0]]) == KIT.foot_left  # ankle: the foot
+    assert SKELETON.descendants(L_TOE) == ()

@@ -22,6 +22,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
+from mlct.motion.foot_lock import two_bone_ik
 from mlct.motion.skeleton import Skeleton
 
 REACH_SECONDS = 0.75  # how far a keyframe's correction spreads each side (15 frames at 20 fps)
@@ -120,14 +121,6 @@ def fabrik(chain: np.ndarray, target: np.ndarray, lengths: np.ndarray) -> np.nda
     return out
 
 
-def _descendants(joint: int, skeleton: Skeleton) -> list[int]:
-    found = {joint}
-    for j in range(skeleton.n_joints):
-        if skeleton.parents[j] in found:
-            found.add(j)
-    return sorted(found - {joint})
-
-
 def reach_pose(pose: np.ndarray, targets: Mapping[int, Sequence[float]],
                skeleton: Skeleton) -> np.ndarray:
     """(J, 3) pose moved to meet targets {joint: xyz}: a whole pose when every joint is given,
@@ -147,7 +140,7 @@ def reach_pose(pose: np.ndarray, targets: Mapping[int, Sequence[float]],
             continue
         lengths = np.linalg.norm(np.diff(out[chain], axis=0), axis=-1)
         out[chain] = fabrik(out[chain], goal, lengths)
-        out[_descendants(joint, skeleton)] += out[joint] - before
+        out[list(skeleton.descendants(joint))] += out[joint] - before
     return out
 
 
@@ -194,25 +187,6 @@ def with_bone_lengths(joints: np.ndarray, lengths: np.ndarray, skeleton: Skeleto
         norm = np.maximum(np.linalg.norm(bone, axis=-1, keepdims=True), 1e-9)
         out[:, j] = out[:, parent] + lengths[:, j:j + 1] * bone / norm
     return out
-
-
-def two_bone(hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray, goal: np.ndarray
-             ) -> tuple[np.ndarray, np.ndarray]:
-    """(N, 3) each: the knee and ankle of a leg whose hip stays and whose ankle goes to goal
-    (as near as the leg reaches), bone lengths kept, bending in the plane of the old knee."""
-    upper = np.linalg.norm(knee - hip, axis=-1, keepdims=True)
-    lower = np.linalg.norm(ankle - knee, axis=-1, keepdims=True)
-    axis = goal - hip
-    dist = np.linalg.norm(axis, axis=-1, keepdims=True)
-    dist_ok = np.clip(dist, np.abs(upper - lower) + 1e-4, upper + lower - 1e-4)
-    axis = axis / np.maximum(dist, 1e-9)
-    ankle_new = hip + axis * dist_ok
-    along = (upper ** 2 - lower ** 2 + dist_ok ** 2) / (2 * dist_ok)
-    radius = np.sqrt(np.maximum(upper ** 2 - along ** 2, 0.0))
-    pole = knee - hip
-    pole = pole - (pole * axis).sum(-1, keepdims=True) * axis
-    pole = pole / np.maximum(np.linalg.norm(pole, axis=-1, keepdims=True), 1e-9)
-    return hip + axis * along + pole * radius, ankle_new
 
 
 def lock_feet(joints: np.ndarray, before: np.ndarray, skeleton: Skeleton,
@@ -271,7 +245,8 @@ def lock_feet(joints: np.ndarray, before: np.ndarray, skeleton: Skeleton,
         if not moved.any():
             continue
         goal = out[moved, ankle] + shift[moved]
-        new_knee, new_ankle = two_bone(out[moved, hip], out[moved, knee], out[moved, ankle], goal)
+        new_knee, new_ankle = two_bone_ik(out[moved, hip], out[moved, knee], out[moved, ankle],
+                                          goal)
         carried = new_ankle - out[moved, ankle]
         out[moved, knee], out[moved, ankle] = new_knee, new_ankle
         out[moved, toe] += carried

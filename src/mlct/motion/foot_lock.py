@@ -173,7 +173,7 @@ def lock_feet(joints: np.ndarray, skeleton: Skeleton, settings: FootLock | None 
         target[:, 1] += lift[moved]
         new_knee, new_ankle = two_bone_ik(out[moved, hip], out[moved, knee], out[moved, ankle],
                                           target)
-        foot = [j for j in range(skeleton.n_joints) if _below(skeleton, j, ankle)]
+        foot = list(skeleton.descendants(ankle))
         shift = new_ankle - out[moved, ankle]
         shift[:, 1] -= lift[moved]  # the heel rises; the toe keeps its height
         out[np.ix_(moved, foot)] += shift[:, None]
@@ -217,11 +217,16 @@ def _leg(skeleton: Skeleton, toe: int) -> tuple[int, int, int]:
     raise ValueError(f"joint {toe} is on no kinematic chain of {skeleton.name}")
 
 
-def _below(skeleton: Skeleton, joint: int, ancestor: int) -> bool:
-    """Whether `joint` hangs from `ancestor` (its child, grandchild, ...)."""
-    parent = skeleton.parents[joint]
-    while parent >= 0:
-        if parent == ancestor:
-            return True
-        parent = skeleton.parents[parent]
-    return False
+def contact_slide(joints: np.ndarray, skeleton: Skeleton, fps: float | None = None) -> float:
+    """Mean toe speed over both feet's contact spans, m/s (0 when a standing foot stands; 0
+    without contacts): the read-out of a slide. Spans that stray too far to be held count too,
+    so what lock_feet leaves sliding shows."""
+    settings = FootLock(max_hold=np.inf)
+    fps = skeleton.fps if fps is None else fps
+    moved, frames = 0.0, 0
+    for _, toe in (skeleton.foot_left, skeleton.foot_right):
+        for start, end in contact_spans(joints, skeleton, toe, settings, fps):
+            moved += np.linalg.norm(np.diff(joints[start:end, toe][:, [0, 2]], axis=0),
+                                    axis=-1).sum()
+            frames += end - start - 1
+    return moved / frames * fps / units_per_metre(skeleton) if frames else 0.0

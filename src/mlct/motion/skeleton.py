@@ -94,6 +94,14 @@ class Skeleton:
         """(J, 3) offsets of the natural rest pose (facing +Z) with the target bone lengths."""
         return self.rest_directions * self.bone_lengths[:, None]
 
+    def descendants(self, joint: int) -> tuple[int, ...]:
+        """The joints that hang from `joint` (children, grandchildren, ...), in joint order."""
+        found = {joint}
+        for j in range(self.n_joints):  # parents come before their children in the order
+            if self.parents[j] in found:
+                found.add(j)
+        return tuple(sorted(found - {joint}))
+
     def index(self, joint_name: str) -> int:
         try:
             return self.joint_names.index(joint_name)
