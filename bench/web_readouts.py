@@ -4,6 +4,7 @@ page) on the benchmark's hand-written paraphrases, per text-encoder / denoiser c
 `mlct export-web`, next to the torch pipeline's.
 
     python bench/web_readouts.py [--seeds 3]     # about 10 minutes on 2 busy cores
+    python bench/web_readouts.py --two-actions --seeds 5   # the page's sequences (~2 minutes)
 
 Each variant makes every paraphrase of bench/data/quality_prompts.json (4 s, 5 NFE) with
 --seeds seeds, and scores it as bench/motion_quality.py does (mlct.eval.readouts.evaluate_label
@@ -12,6 +13,13 @@ the ones the side contrast (text/sides.py) serves and text-encoder error hurts m
 row is mlct.load()'s pipeline with its own (torch) noise: the same seeds are other motions
 there, so its row differs by sampling noise too. The site's graphs store the same numbers
 gzipped or not (serve/site/pack.py), so --no-gzip needs no row.
+
+--two-actions scores the benchmark's two-action prompts (7 s) made as the page makes them, with
+the default site: the whole prompt given to the model at once (the page before it split
+sequences), and one part per action, chained (static/compose.js, chain.js; in Python
+generate_with_portable_noise); beside them the torch pipeline at one sample and at its default
+(best of the critic's 8 candidates, which the page does not have). Judged as bench/
+motion_quality.py judges them: in order at the motion's own cut, and in halves.
 """
 
 from __future__ import annotations
@@ -25,7 +33,7 @@ from pathlib import Path
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from motion_quality import PROMPTS, Tally, prompt_label  # noqa: E402
+from motion_quality import PROMPTS, Tally, judge_prompt, prompt_label  # noqa: E402
 
 import mlct  # noqa: E402
 from mlct.eval.readouts import evaluate_label  # noqa: E402
@@ -47,7 +55,11 @@ def main() -> None:
     parser.add_argument("--only", nargs="*", default=None,
                         help="the variants to run (their position in VARIANTS, from 0; the torch "
                         "pipeline is -1); default: all")
+    parser.add_argument("--two-actions", action="store_true",
+                        help="the two-action prompts as the page makes them, split or whole")
     args = parser.parse_args()
+    if args.two_actions:
+        return two_actions(args.seeds)
     chosen = set(range(-1, len(VARIANTS)) if args.only is None else map(int, args.only))
     torch.set_num_threads(1)
     items = json.loads(PROMPTS.read_text(encoding="utf-8"))["paraphrases"]
@@ -77,6 +89,37 @@ def main() -> None:
                     label = prompt_label(item["actions"], SECONDS)
                     tally.add(label, evaluate_label(joints, label))
             report(name, tally)
+
+
+def two_actions(seeds: int, seconds: float = 7.0) -> None:
+    torch.set_num_threads(1)
+    items = json.loads(PROMPTS.read_text(encoding="utf-8"))["two_actions"]
+    pipe = mlct.load()
+    frames = round(seconds * pipe.skeleton.fps)
+    print(f"{len(items)} two-action prompts x {seeds} seeds, {seconds} s, {NFE} NFE")
+    rows: dict[str, list[Tally]] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        site = load_site_reference(export_site("bundled", Path(tmp) / "site"), threads=1)
+        makers = {
+            "site, whole prompt (the page before)": lambda text, seed: generate_with_portable_noise(
+                site, text, frames, NFE, seed, split_actions=False)[1],
+            "site, one part per action (the page now)": lambda text, seed:
+                generate_with_portable_noise(site, text, frames, NFE, seed)[1],
+            "torch pipeline, 1 sample": lambda text, seed: pipe.generate(
+                text, seconds=seconds, nfe=NFE, seed=seed, candidates=1)[0].joints,
+            "torch pipeline, best of the critic's 8": lambda text, seed: pipe.generate(
+                text, seconds=seconds, nfe=NFE, seed=seed)[0].joints}
+        for name, make in makers.items():
+            tallies = rows[name] = [Tally(), Tally()]
+            for seed in range(seeds):
+                for k, item in enumerate(items):
+                    joints = make(item["text"], seed * 1000 + k)
+                    for tally, halves in zip(tallies, (False, True)):
+                        tally.add(*judge_prompt(joints, item["actions"],
+                                                len(joints) / pipe.skeleton.fps, halves=halves))
+            print(f"{name}: in order {tallies[0].summary()['overall']:.3f}, halves "
+                  f"{tallies[1].summary()['overall']:.3f} ({tallies[0].summary()['motions']} "
+                  f"motions)", flush=True)
 
 
 def report(name: str, tally: Tally) -> None:

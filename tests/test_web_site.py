@@ -4,6 +4,8 @@ nothing changed, and `mlct export-web`'s refusals (before any work, nothing half
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import torch
@@ -157,3 +159,62 @@ def gzip_file_copy(tmp_path, data: bytes) -> bytes:
     (tmp_path / "again").mkdir()
     (tmp_path / "again" / "a.onnx").write_bytes(data)
     return gzip_file(tmp_path / "again" / "a.onnx").read_bytes()
+
+
+def test_the_reference_makes_a_sequence_as_generate_chains_it() -> None:
+    """The Python reference of the page (generate_with_portable_noise) splits a sequence as
+    generate() does: the parts' shares from the duration model, part k drawn with seed + k
+    at its share plus the next part's blend, chained by long_motion.chain_segments, planted."""
+    import mlct
+    from mlct.generate.compose import split_actions
+    from mlct.generate.long_motion import chain_segments
+    from mlct.generate.portable_noise import generate_with_portable_noise
+    from mlct.motion.foot_lock import lock_feet
+
+    generator = mlct.load(backend="torch")
+    text = "a person walks forward, then waves with the right hand"
+    features, joints = generate_with_portable_noise(generator, text, 100, 3, 5)
+    parts = split_actions(text)
+    share = generator.part_frames(parts, 100)
+    assert len(parts) == 2 and sum(share) == 100 and features is None and len(joints) == 100
+    made = [generate_with_portable_noise(generator, p, n, 3, 5 + k, split_actions=False)
+            for k, (p, n) in enumerate(zip(parts, [share[0] + 15, share[1]]))]
+    lock, generator.foot_lock = generator.foot_lock, None  # the parts as decoded
+    try:
+        decoded = [generate_with_portable_noise(generator, p, len(m[1]), 3, 5 + k)[1]
+                   for k, (p, m) in enumerate(zip(parts, made))]
+    finally:
+        generator.foot_lock = lock
+    chained = chain_segments(decoded, 15, generator.skeleton)[0].astype(np.float32)
+    expected = lock_feet(chained, generator.skeleton, generator.foot_lock)
+    assert np.abs(joints - expected).max() < 1e-5
+    # the walk walks and the wave raises the right wrist, in that order
+    walked = np.linalg.norm(joints[share[0] - 1, 0, [0, 2]] - joints[0, 0, [0, 2]])
+    right_wrist = generator.skeleton.joint_names.index("right_wrist")
+    assert walked > 1.0 and joints[share[0] + 20:, right_wrist, 1].max() > 1.5
+    assert joints[:share[0] - 10, right_wrist, 1].max() < 1.3
+    # made whole, as the page did before, it is one motion of the whole text
+    _, whole = generate_with_portable_noise(generator, text, 100, 3, 5, split_actions=False)
+    assert np.abs(whole - joints).max() > 0.1
+
+
+def test_the_site_description_carries_the_sequence_rules_and_durations() -> None:
+    """model.json holds what static/compose.js and chain.js compute with, from their Python
+    owners: compose's rules (one owner: a rule changed there is the page's too), the duration
+    model without its fit record, the blend and the facing joints."""
+    import mlct
+    from mlct.generate.bundle import read_bundle
+    from mlct.generate.compose import portable_rules
+    from mlct.generate.long_motion import BLEND_SECONDS
+    from mlct.serve.site.export import site_description
+
+    folder = mlct.generate.pipeline.bundled_model_dir()
+    meta, tensors = read_bundle(folder)
+    description = site_description(meta, tensors, folder, {}, (6, 64), "int8", "float16")
+    assert description["sequence"]["rules"] == portable_rules()
+    assert description["sequence"]["blend_seconds"] == BLEND_SECONDS
+    durations = description["durations"]
+    assert "fit" not in durations and len(durations["hidden_weight"]) == meta["text_dim"]
+    assert set(durations["offsets"]) == {"first", "middle", "last"}
+    assert description["skeleton"]["face_joints"] == [2, 1, 17, 16]
+    json.dumps(description)  # plain JSON

@@ -35,7 +35,8 @@ pytest.importorskip("onnxruntime")
 Image = pytest.importorskip("PIL.Image")
 
 from mlct.errors import MlctError
-from mlct.generate.portable_noise import PortableNoise, generate_with_portable_noise
+from mlct.generate.portable_noise import (PortableNoise, generate_with_portable_noise,
+                                          page_text_vector)
 from mlct.motion.foot_lock import foot_contacts
 from mlct.motion.skeleton import get_skeleton
 from mlct.serve.site import export_site, load_site_reference
@@ -355,3 +356,86 @@ def test_a_server_that_unpacks_the_gz_files_itself_works_too(site, page, tmp_pat
         other.close()
     finally:
         server.shutdown()
+
+
+# no side word: a sided part's vector is contrasted with its mirror's (x5), which turns the WASM
+# int8 text encoder's rounding (up to 0.0023 against the native one) into ~2 mm of joints
+SEQUENCE = "a person walks forward, then jumps up and down."
+
+
+def test_actions_are_split_as_in_python(page):
+    """The page's split (static/compose.js) gives compose.split_actions' parts: on the
+    benchmark's hand-written prompts and on the phrasings each rule is for."""
+    from mlct.generate.compose import split_actions
+
+    texts = [SEQUENCE, "after walking forward, a man turns left", "a man walks before turning",
+             "a person squats, then stands back up and walks away", "sits down, then stands still",
+             "A Person WALKS forward, THEN Waves", "walks forward and back",
+             "someone claps twice and jabs with the right arm", "punches twice, jogs ahead",
+             "stretches the arms up and leans to the side", "jogging forward, then jumping",
+             "a person walks forward while waving", "waves and claps at the same time",
+             "turns three hundred and sixty degrees", "a man is slowly walking, then is running",
+             "a person jumps; afterwards, kneels", "léft, then rîght", "then", ", then ,"]
+    for name in ("quality_prompts.json", "quality_prompts_heldout.json",
+                 "quality_prompts_heldout2.json"):
+        data = json.loads((HERE.parent / "bench" / "data" / name).read_text())
+        texts += [item["text"] for items in data.values() if isinstance(items, list)
+                  for item in items if isinstance(item, dict) and "text" in item]
+    expected = [split_actions(t) for t in texts]
+    assert sum(len(e) > 1 for e in expected) >= 30  # sequences among them, not only single actions
+    got = page.evaluate("(texts) => texts.map((t) => window.mlct.model.splitter.split(t))", texts)
+    assert got == expected
+
+
+def test_a_sequence_is_made_in_parts_as_in_python(page, reference):
+    """A prompt of two actions: the page makes each part with its share of the clip (the
+    duration model's) and chains them, as generate() does; the same joints as the Python
+    reference of the page (generate_with_portable_noise), and the parts show in the status."""
+    from mlct.generate.compose import split_actions
+
+    page.fill("#prompt", SEQUENCE)
+    page.fill("#seed", "11")
+    page.locator("#seconds").fill("6")  # 120 frames
+    page.press("#prompt", "Enter")
+    page.wait_for_function(f"window.mlct.lastMotion.text === {json.dumps(SEQUENCE)}",
+                           timeout=60_000)
+    got = page.evaluate("window.mlct.lastMotion")
+    parts = split_actions(SEQUENCE)
+    assert len(parts) == 2 and got["frames"] == 120
+    assert [p["text"] for p in got["parts"]] == parts
+    vectors = np.concatenate([page_text_vector(reference, p).numpy() for p in parts])
+    assert [p["frames"] for p in got["parts"]] == reference.part_frames(parts, 120, vectors)
+    assert [p["seed"] for p in got["parts"]] == [11, 12] and len(got["seams"]) == 1
+    assert "2 parts" in page.inner_text("#status")
+    joints = np.asarray(got["joints"], dtype=np.float32).reshape(120, 22, 3)
+    _, expected = generate_with_portable_noise(reference, SEQUENCE, 120, 5, 11)
+    scale = float(np.ptp(expected[..., 1]))
+    # planted: the same but where a contact's speed or height sits on its threshold and a few
+    # frames of one foot are held otherwise (seen: a toe 2.3 mm apart for 10 frames)
+    gap = np.abs(joints - expected).max(-1)
+    assert scale > 1.0 and (gap <= 1e-3 * scale).mean() > 0.99 and gap.max() < 0.01
+    # as decoded and chained, before the feet are planted: the same joints
+    decoded = np.float32(page.evaluate(
+        "async (text) => { const m = window.mlct.model; const lock = m.config.foot_lock;"
+        " m.config.foot_lock = null; try { return Array.from((await m.generate("
+        "{text, frames: 120, nfe: 5, seed: 11})).joints); } finally"
+        " { m.config.foot_lock = lock; } }", SEQUENCE)).reshape(120, 22, 3)
+    lock, reference.foot_lock = reference.foot_lock, None
+    try:
+        _, chained = generate_with_portable_noise(reference, SEQUENCE, 120, 5, 11)
+    finally:
+        reference.foot_lock = lock
+    gap = float(np.abs(decoded - chained).max())
+    assert gap <= 1e-3 * scale, f"{gap:.3g} m apart (scale {scale:.2f} m)"
+    # made whole (the page before), it is another motion: the comparison above can fail
+    _, whole = generate_with_portable_noise(reference, SEQUENCE, 120, 5, 11, split_actions=False)
+    assert np.abs(whole - expected).max() > 20 * 1e-3 * scale
+    # and the page can still make it whole: one part, near Python's whole motion (the int8 text
+    # encoder's WASM rounding of this longer text moves it 1.4 cm within 1 s, 14 cm by 6 s)
+    unsplit = page.evaluate(f"async () => {{ const m = await window.mlct.model.generate("
+                            f"{{text: {json.dumps(SEQUENCE)}, frames: 120, nfe: 5, seed: 11,"
+                            f" split: false}}); return [m.parts.length, Array.from(m.joints)]; }}")
+    assert unsplit[0] == 1
+    unsplit = np.float32(unsplit[1]).reshape(120, 22, 3)
+    assert (np.linalg.norm(unsplit - whole, axis=-1).mean()
+            < 0.2 * np.linalg.norm(unsplit - expected, axis=-1).mean())

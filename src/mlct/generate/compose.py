@@ -170,6 +170,7 @@ _WHILE = re.compile(r"\s*,?\s*\bwhile\b\s*", re.IGNORECASE)
 _SAME_TIME = re.compile(r"\s*,?\s*\b(?:at\s+the\s+same\s+time|simultaneously)\s*$",
                         re.IGNORECASE)
 _AND = re.compile(r"\s+and\s+", re.IGNORECASE)
+_GERUND_WORD = re.compile(r"\b[a-z]+ing\b", re.IGNORECASE)  # anywhere in a phrase (_finite)
 
 
 def _lemma(word: str) -> str | None:
@@ -198,7 +199,7 @@ def _finite(phrase: str) -> str:
     def verb(match: re.Match[str]) -> str:
         lemma = _GERUND.get(match.group(0).lower())
         return VERB_FORMS[lemma][0] if lemma else match.group(0)
-    return re.sub(r"\b[a-z]+ing\b", verb, phrase, flags=re.IGNORECASE)
+    return _GERUND_WORD.sub(verb, phrase)
 
 
 def _split_phrase(phrase: str) -> tuple[str, str] | None:
@@ -272,3 +273,20 @@ def in_order(text: str) -> str:
     subject = subject or DEFAULT_SUBJECT
     first, then = (clause, rest or main) if word.lower() == "after" else (rest or main, clause)
     return f"{subject} {first}, then {then}"
+
+
+def portable_rules() -> dict:
+    """split_actions' word lists and patterns as JSON, for the static site's port of it
+    (serve/site/static/compose.js): the rules stay here, written once, and the page reads them
+    from model.json. Every pattern is case-insensitive (JavaScript flag "i")."""
+    patterns = {"sequence": _SEQUENCE, "subject": _SUBJECT, "lowering": _LOWERING,
+                "listed": _LISTED, "while": _WHILE, "same_time": _SAME_TIME,
+                "clause_first": _CLAUSE_FIRST, "clause_last": _CLAUSE_LAST,
+                "gerund_word": _GERUND_WORD}
+    assert all(p.flags & re.IGNORECASE for p in patterns.values())
+    return {"patterns": {name: p.pattern for name, p in patterns.items()},
+            "verb_forms": {lemma: list(forms) for lemma, forms in VERB_FORMS.items()},
+            "return_verbs": sorted(_RETURN_VERBS), "return_words": sorted(_RETURN_WORDS),
+            "one_action_pairs": sorted([a, b] for a, b in _ONE_ACTION_PAIRS),
+            "adverbs": sorted(_ADVERBS), "default_subject": DEFAULT_SUBJECT,
+            "min_words": MIN_WORDS}

@@ -452,16 +452,23 @@ class MotionGenerator:
         """One motion of `frames` doing parts[k] in turn, under the whole text."""
         from mlct.generate.long_motion import generate_long
 
-        # each part's share by how long its action takes and its place in the sequence
-        # (durations.py; equal when the model has no duration model)
         fps = self.skeleton.fps
-        weights = (self.durations.part_weights(self.encode_text(parts).float().cpu().numpy(),
-                                               frames / fps, MIN_PART_SECONDS)
-                   if self.durations else np.ones(len(parts)))
-        share = split_frames(weights, frames, self.frames_for(MIN_PART_SECONDS))
-        made = generate_long(self, parts, [n / fps for n in share], nfe=nfe, seed=seed,
-                             guidance=guidance, candidates=candidates)
+        made = generate_long(self, parts, [n / fps for n in self.part_frames(parts, frames)],
+                             nfe=nfe, seed=seed, guidance=guidance, candidates=candidates)
         return made.renamed(text)
+
+    def part_frames(self, parts: Sequence[str], frames: int,
+                    vectors: np.ndarray | None = None) -> list[int]:
+        """Each part's frames of a sequence of `frames`: its share by how long its action takes
+        and its place in the sequence (durations.py; equal when the model has no duration
+        model), at least MIN_PART_SECONDS where the total allows. vectors: the parts' text
+        vectors when the caller has them (default: encode_text of the parts, one batch)."""
+        if self.durations is not None and vectors is None:
+            vectors = self.encode_text(list(parts)).float().cpu().numpy()
+        weights = (self.durations.part_weights(vectors, frames / self.skeleton.fps,
+                                               MIN_PART_SECONDS)
+                   if self.durations else np.ones(len(parts)))
+        return split_frames(weights, frames, self.frames_for(MIN_PART_SECONDS))
 
     def _keep_going(self, out: list[GeneratedMotion | None], indices: Sequence[int],
                     frames: Sequence[int], nfe: int | None, seeds: Sequence[int],

@@ -76,25 +76,73 @@ class PortableNoise:
 
 
 def generate_with_portable_noise(generator, text: str, frames: int, nfe: int | None,
-                                 seed: int) -> tuple[np.ndarray, np.ndarray]:
+                                 seed: int, split_actions: bool = True
+                                 ) -> tuple[np.ndarray | None, np.ndarray]:
     """One motion as the static site makes it: the generator's own text encoder, sampler and
-    decoder (any backend), the noise from PortableNoise(seed), the whole text as one prompt
-    (no splitting into actions). Returns (features (T, D), joints (T, J, 3)), float32."""
+    decoder (any backend), the noise from PortableNoise(seed), one sample (the page has no
+    critic), the feet planted. A prompt that names actions in turn is made as generate() makes
+    it (compose.split_actions; each part's share from the duration model,
+    MotionGenerator.part_frames; part k from PortableNoise(seed + k), as generate_long seeds
+    it; long_motion.chain_segments) unless split_actions is False; neither the page nor this
+    splits an arm action done during another (split_concurrent) or keeps a gait going.
+    Returns (features (T, D), or None for a chained motion, joints (T, J, 3)), float32."""
+    from mlct.generate.compose import split_actions as split_actions_of
+    from mlct.generate.long_motion import BLEND_SECONDS, chain_segments
+    from mlct.generate.pipeline import MIN_PART_SECONDS
     from mlct.generate.prompts import clean_prompt
-    from mlct.motion.features import recover_from_ric
 
     text = clean_prompt(text)
     (frames,) = generator._lengths(1, int(frames), None)
     steps = generator.check_nfe(nfe)
-    noise = PortableNoise(seed)
-    with torch.inference_mode():
-        cond = generator.encode_text([text])
-        x = generator.sampler.noise((1, *generator.ae.latent_shape), noise)  # x_T (1, n, d)
-        z = generator.sampler.sample(generator.denoiser, x, cond, steps, generator=noise)
-        (features,) = generator.decode(z, [frames])
-        joints = recover_from_ric(torch.from_numpy(features)).numpy()
+    parts = split_actions_of(text) if split_actions else [text]
+    # generate()'s rule: a sequence is split when each part gets MIN_PART_SECONDS
+    if len(parts) == 1 or frames // len(parts) < generator.frames_for(MIN_PART_SECONDS):
+        features, joints = _one_with_portable_noise(generator, text, frames, steps, seed)
+    else:
+        blend = max(2, int(round(BLEND_SECONDS * generator.skeleton.fps)))
+        vectors = np.concatenate([page_text_vector(generator, p).cpu().numpy() for p in parts])
+        share = generator.part_frames(parts, frames, vectors)
+        lengths = [n + blend for n in share[:-1]] + [share[-1]]  # each covers the next's blend
+        made = [_one_with_portable_noise(generator, part, n, steps, seed + k)[1]
+                for k, (part, n) in enumerate(zip(parts, lengths))]
+        features, joints = None, chain_segments(made, blend, generator.skeleton)[0]
+        joints = joints.astype(np.float32)
     if generator.foot_lock is not None:  # planted feet, as the page's lockFeet (motion.js)
         from mlct.motion.foot_lock import lock_feet
 
         joints = lock_feet(joints, generator.skeleton, generator.foot_lock).astype(np.float32)
     return features, joints
+
+
+def _one_with_portable_noise(generator, text: str, frames: int, steps: int, seed: int
+                             ) -> tuple[np.ndarray, np.ndarray]:
+    """(features, joints) of one prompt as the model draws it, feet as decoded."""
+    from mlct.motion.features import recover_from_ric
+
+    noise = PortableNoise(seed)
+    with torch.inference_mode():
+        cond = page_text_vector(generator, text).to(generator.device)
+        x = generator.sampler.noise((1, *generator.ae.latent_shape), noise)  # x_T (1, n, d)
+        z = generator.sampler.sample(generator.denoiser, x, cond, steps, generator=noise)
+        (features,) = generator.decode(z, [frames])
+        joints = recover_from_ric(torch.from_numpy(features)).numpy()
+    return features, joints
+
+
+def page_text_vector(generator, text: str) -> torch.Tensor:
+    """(1, c) the text's vector as the page computes it (static/model.js: encode): one network
+    run for the text and, for a 'minilm+sides' model, another for its mirror, contrasted as
+    text/sides.py does. Not encode_text's one batch of both: an int8 text encoder (the site's)
+    quantizes a batch's activations together, so a text's vector depends on its batch (0.09
+    apart seen), and the side contrast multiplies that by 4."""
+    from mlct.text.minilm import MiniLMEncoder
+    from mlct.text.sides import SIDES_SUFFIX, contrast_sides
+
+    encoder = generator.text_encoder
+    if not isinstance(encoder, MiniLMEncoder):
+        return generator.encode_text([text]).float()
+    with torch.no_grad():
+        vector = encoder._embed([text])
+        if encoder.name.endswith(SIDES_SUFFIX):
+            vector = contrast_sides([text], vector, lambda mirrors: encoder._embed(mirrors[:1]))
+    return vector.float()

@@ -32,11 +32,14 @@ import torch
 
 from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
+from mlct.generate.compose import portable_rules
+from mlct.generate.durations import FASTEST_TEMPO_SHARE, MIN_WEIGHT, read_durations
+from mlct.generate.long_motion import BLEND_SECONDS
 from mlct.generate.onnx_backend import OnnxMotionGenerator
 from mlct.generate.onnx_bundle import OnnxGraphs, weights_digest, write_onnx_graphs
 from mlct.generate.onnx_compact import (float16_storage, quantize_int8,
                                         quantize_int8_weights, require_onnx)
-from mlct.generate.pipeline import bundled_model_dir
+from mlct.generate.pipeline import MIN_PART_SECONDS, bundled_model_dir
 from mlct.generate.prompts import MAX_PROMPT_CHARS
 from mlct.generate.samplers import ConsistencySampler, sampler_class
 from mlct.io import atomic_dir, check_writable_dir, read_format_json
@@ -139,10 +142,27 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
                      # the rest pose of the page's BVH fit (static/bvh.js, as motion/rigfit.py)
                      "rest_directions": skeleton.rest_directions.tolist(),
                      "foot_left": list(skeleton.foot_left),
-                     "foot_right": list(skeleton.foot_right)},
+                     "foot_right": list(skeleton.foot_right),
+                     # hips and shoulders, the facing a chain of parts turns by (static/chain.js)
+                     "face_joints": list(skeleton.face_joints)},
         # planted feet (motion/foot_lock.py; static/motion.js: lockFeet), as generate() does
         "foot_lock": {**dataclasses.asdict(FootLock()), "ankle_height": ANKLE_HEIGHT},
+        # a prompt that names actions in turn, made one part each and chained, as generate()
+        # does (static/compose.js: generate/compose.py's rules; static/chain.js: long_motion.py)
+        "sequence": {"rules": portable_rules(), "min_part_seconds": MIN_PART_SECONDS,
+                     "blend_seconds": BLEND_SECONDS},
+        "durations": _portable_durations(model_dir, meta),
     }
+
+
+def _portable_durations(model_dir: Path, meta: dict) -> dict[str, Any] | None:
+    """The model's duration model (generate/durations.py) for the page's parts' shares, without
+    its fit's record; None when the model has none (the parts then share alike)."""
+    model = read_durations(model_dir, meta["text_encoder"], int(meta["text_dim"]))
+    if model is None:
+        return None
+    return {**{k: v for k, v in model.to_json().items() if k != "fit"},
+            "min_weight": MIN_WEIGHT, "fastest_tempo_share": FASTEST_TEMPO_SHARE}
 
 
 def export_site(model: str | os.PathLike | None, out: str | os.PathLike,

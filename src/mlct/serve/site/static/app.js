@@ -13,7 +13,7 @@ import { glbBytes } from "./glb.js";
 const COLOURS = { left: 0x2563eb, right: 0xdc2626, centre: 0x374151 };
 const EXAMPLES = ["a person walks forward at a brisk pace.", "a person jumps up and down.",
   "the woman waves the right hand back and forth two times.", "a person walks backward slowly.",
-  "someone bows.", "a man kicks with his right leg."];
+  "someone bows.", "a man kicks with his right leg.", "a person walks forward, then waves with the right hand."];
 
 const $ = (id) => document.getElementById(id);
 const state = { motion: null, frame: 0, clock: 0, last: null, playing: true, busy: false, speed: 1 };
@@ -161,14 +161,16 @@ async function generate(req = null) {
     const motion = await window.mlct.model.generate(body);
     state.motion = motion;
     window.mlct.lastMotion = { text: motion.text, seed: motion.seed, nfe: motion.nfe, frames: motion.frames,
-      joints: Array.from(motion.joints), timing: motion.timing };
+      joints: Array.from(motion.joints), parts: motion.parts, seams: motion.seams, timing: motion.timing };
     window.mlct.timings.push(motion.timing);
     buildSkeleton(motion);
     state.clock = 0;
     drawFrame(0);
     $("scrub").max = String(motion.frames - 1);
     const t = motion.timing;
-    showStatus(`“${motion.text}” · ${motion.frames} frames, ${motion.nfe} steps, seed ${motion.seed}`);
+    const parts = motion.parts.length < 2 ? "" : ` · made as ${motion.parts.length} parts in turn: ` +
+      motion.parts.map((p) => `“${p.text}” ${(p.frames / motion.skeleton.fps).toFixed(1)} s`).join(", then ");
+    showStatus(`“${motion.text}” · ${motion.frames} frames, ${motion.nfe} steps, seed ${motion.seed}${parts}`);
     $("timing").textContent = `in this page: ${t.total_ms.toFixed(1)} ms (text ${t.text_ms.toFixed(1)},` +
       ` sampling ${t.sample_ms.toFixed(1)}, decoding + joints ${t.decode_ms.toFixed(1)}) · WASM, ${window.mlct.model.threads} thread(s)`;
     for (const id of ["play", "scrub", "dl-json", "dl-npy", "dl-bvh", "dl-glb"]) $(id).disabled = false;

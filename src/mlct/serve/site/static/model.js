@@ -8,6 +8,8 @@ import * as ort from "./vendor/ort.wasm.min.mjs";
 import { WordPieceTokenizer } from "./tokenizer.js";
 import { PortableNoise } from "./noise.js";
 import { lockFeet, recoverFromRic } from "./motion.js";
+import { ActionSplitter, Durations, splitFrames } from "./compose.js";
+import { chainSegments } from "./chain.js";
 
 const PY_SPACE = /[\s\x1c-\x1f\x85]/u; // what Python's str.split() splits on (U+FEFF is no space)
 const CONTROL = /[\p{Cc}\p{Cf}\p{Cs}]/u;
@@ -85,6 +87,9 @@ export class MotionModel {
     this.threads = threads;
     this.grid = Float32Array.from(config.sampler.grid);
     this.memo = new Map(); // text -> embedding: a repeated prompt skips the encoder (as the pipeline)
+    // a sequence of actions made one part each and chained (a site made before has neither)
+    this.splitter = config.sequence ? new ActionSplitter(config.sequence.rules) : null;
+    this.durations = config.durations ? new Durations(config.durations) : null;
   }
 
   get fps() { return this.config.skeleton.fps; }
@@ -178,8 +183,44 @@ export class MotionModel {
     return out;
   }
 
-  // One motion: {text, seed, nfe, frames, features, joints (frames * J * 3), timing (ms)}.
-  async generate({ text, frames, nfe, seed }) {
+  // The parts of a prompt that names actions in turn and the frames each is made with (its share
+  // of the clip, plus the next part's blend), as generate() makes it (pipeline._made, _chained,
+  // long_motion.generate_long); null for one action, or when a part would get less than
+  // min_part_seconds.
+  async plan(text, frames) {
+    if (!this.splitter) return null;
+    const parts = this.splitter.split(text);
+    const { min_part_seconds: minPart, blend_seconds: blendSeconds } = this.config.sequence;
+    const minFrames = this.framesFor(minPart);
+    if (parts.length < 2 || Math.floor(frames / parts.length) < minFrames) return null;
+    const weights = this.durations
+      ? this.durations.partWeights(await Promise.all(parts.map((p) => this.encode(p))), frames / this.fps, minPart)
+      : parts.map(() => 1);
+    const share = splitFrames(weights, frames, minFrames);
+    const blend = Math.max(2, roundHalfEven(blendSeconds * this.fps));
+    return { parts, share, blend, lengths: share.map((n, k) => (k + 1 < share.length ? n + blend : n)) };
+  }
+
+  // One prompt as the model draws it: {features, joints} (feet as decoded).
+  async draw(text, frames, steps, seed, timing) {
+    let mark = performance.now();
+    const noise = new PortableNoise(seed);
+    const cond = await this.encode(text);
+    timing.text_ms += performance.now() - mark;
+    mark = performance.now();
+    const latent = await this.sample(cond, steps, noise);
+    timing.sample_ms += performance.now() - mark;
+    mark = performance.now();
+    const features = await this.decode(latent, frames);
+    const joints = recoverFromRic(features, frames, this.config.feature_dim);
+    timing.decode_ms += performance.now() - mark;
+    return { features, joints, frames };
+  }
+
+  // One motion: {text, seed, nfe, frames, features (null when chained), joints (frames * J * 3),
+  // parts [{text, frames, seed}], seams, timing (ms)}. A prompt that names actions in turn is
+  // made one part each (part k with seed + k) and chained, unless split is false.
+  async generate({ text, frames, nfe, seed, split = true }) {
     const start = performance.now();
     const clean = cleanPrompt(text, this.config.max_prompt_chars);
     const { max_frames: maxFrames } = this.config;
@@ -189,18 +230,32 @@ export class MotionModel {
       throw new Error(`length ${frames} frames is outside 1..${maxFrames} (${(maxFrames / this.fps).toFixed(2)} s at ${this.fps} fps)`);
     }
     if (!Number.isInteger(steps) || steps < 1 || steps > maxNfe) throw new Error(`nfe must be within 1..${maxNfe}, got ${steps}`);
-    const noise = new PortableNoise(seed);
-    const cond = await this.encode(clean);
-    const encoded = performance.now();
-    const latent = await this.sample(cond, steps, noise);
-    const sampled = performance.now();
-    const features = await this.decode(latent, frames);
-    let joints = recoverFromRic(features, frames, this.config.feature_dim);
+    if (!Number.isSafeInteger(seed) || seed < 0) throw new Error(`seed must be a whole number >= 0, got ${seed}`);
+    const timing = { text_ms: 0, sample_ms: 0, decode_ms: 0 };
+    const plan = split ? await this.plan(clean, frames) : null;
+    timing.text_ms += performance.now() - start;
+    let features = null;
+    let joints;
+    let parts;
+    let seams = [];
+    if (plan) {
+      const made = [];
+      for (let k = 0; k < plan.parts.length; k++) made.push(await this.draw(plan.parts[k], plan.lengths[k], steps, seed + k, timing));
+      const mark = performance.now();
+      ({ joints, seams } = chainSegments(made, plan.blend, this.config.skeleton));
+      timing.decode_ms += performance.now() - mark;
+      parts = plan.parts.map((p, k) => ({ text: p, frames: plan.share[k], seed: seed + k }));
+    } else {
+      ({ features, joints } = await this.draw(clean, frames, steps, seed, timing));
+      parts = [{ text: clean, frames, seed }];
+    }
+    const mark = performance.now();
     // planted feet, as the Python pipeline's (a site made before it has no foot_lock)
     if (this.config.foot_lock) joints = lockFeet(joints, frames, this.config.skeleton, this.config.foot_lock);
     const end = performance.now();
-    return { text: clean, seed, nfe: steps, frames, features, joints, skeleton: this.config.skeleton,
-      footLock: this.config.foot_lock,
-      timing: { total_ms: end - start, text_ms: encoded - start, sample_ms: sampled - encoded, decode_ms: end - sampled } };
+    timing.decode_ms += end - mark;
+    timing.total_ms = end - start;
+    return { text: clean, seed, nfe: steps, frames, features, joints, parts, seams, skeleton: this.config.skeleton,
+      footLock: this.config.foot_lock, timing };
   }
 }
