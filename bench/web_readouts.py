@@ -5,6 +5,7 @@ page) on the benchmark's hand-written paraphrases, per text-encoder / denoiser c
 
     python bench/web_readouts.py [--seeds 3]     # about 10 minutes on 2 busy cores
     python bench/web_readouts.py --two-actions --seeds 5   # the page's sequences (~2 minutes)
+    python bench/web_readouts.py --captions DATA --seeds 2  # the test captions (~15 minutes)
 
 Each variant makes every paraphrase of bench/data/quality_prompts.json (4 s, 5 NFE) with
 --seeds seeds, and scores it as bench/motion_quality.py does (mlct.eval.readouts.evaluate_label
@@ -20,6 +21,11 @@ sequences), and one part per action, chained (static/compose.js, chain.js; in Py
 generate_with_portable_noise); beside them the torch pipeline at one sample and at its default
 (best of the critic's 8 candidates, which the page does not have). Judged as bench/
 motion_quality.py judges them: in order at the motion's own cut, and in halves.
+
+--captions DATA does the same on a procedural benchmark's test captions at their own lengths,
+judged by their labels (bench/motion_quality.py's (c)), per kind: one action, a sequence, and
+locomotion with an arm action at the same time ("+ concurrent"), which the page now makes
+apart and joins (control_fit.reattach's port).
 """
 
 from __future__ import annotations
@@ -33,7 +39,8 @@ from pathlib import Path
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from motion_quality import PROMPTS, Tally, judge_prompt, prompt_label  # noqa: E402
+from motion_quality import (MAX_FRAMES, PROMPTS, Tally, judge_prompt, print_table,  # noqa: E402
+                            prompt_label)
 
 import mlct  # noqa: E402
 from mlct.eval.readouts import evaluate_label  # noqa: E402
@@ -57,9 +64,15 @@ def main() -> None:
                         "pipeline is -1); default: all")
     parser.add_argument("--two-actions", action="store_true",
                         help="the two-action prompts as the page makes them, split or whole")
+    parser.add_argument("--captions", type=Path, default=None,
+                        help="a procedural benchmark: its test captions, as the page makes them")
+    parser.add_argument("--text-encoder", default="int8",
+                        help="with --captions: the site's text encoder (export-web's choices)")
     args = parser.parse_args()
     if args.two_actions:
         return two_actions(args.seeds)
+    if args.captions is not None:
+        return captions(args.captions, args.seeds, args.text_encoder)
     chosen = set(range(-1, len(VARIANTS)) if args.only is None else map(int, args.only))
     torch.set_num_threads(1)
     items = json.loads(PROMPTS.read_text(encoding="utf-8"))["paraphrases"]
@@ -120,6 +133,40 @@ def two_actions(seeds: int, seconds: float = 7.0) -> None:
             print(f"{name}: in order {tallies[0].summary()['overall']:.3f}, halves "
                   f"{tallies[1].summary()['overall']:.3f} ({tallies[0].summary()['motions']} "
                   f"motions)", flush=True)
+
+
+def captions(data: Path, seeds: int, text_encoder: str = "int8") -> None:
+    from mlct.data.labels import read_labels
+    from mlct.data.layout import DatasetLayout
+
+    torch.set_num_threads(1)
+    layout = DatasetLayout.existing(data)
+    labels = read_labels(data)
+    names = [n for n in layout.read_split("test") if n in labels]
+    texts = [layout.read_texts(n)[0].caption for n in names]
+    lengths = [min(len(layout.load_features(n)), MAX_FRAMES) for n in names]
+    pipe = mlct.load()
+    print(f"{len(names)} test captions of {data} x {seeds} seeds, their own lengths, {NFE} NFE; "
+          f"the site's text encoder {text_encoder}")
+    columns = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        site = load_site_reference(export_site("bundled", Path(tmp) / "site",
+                                               text_encoder=text_encoder), threads=1)
+        makers = {
+            "page before": lambda k, seed: generate_with_portable_noise(
+                site, texts[k], lengths[k], NFE, seed, split_actions=False)[1],
+            "page now": lambda k, seed: generate_with_portable_noise(
+                site, texts[k], lengths[k], NFE, seed)[1],
+            "torch, 1 sample": lambda k, seed: pipe.generate(
+                texts[k], lengths=lengths[k], nfe=NFE, seed=seed, candidates=1)[0].joints}
+        for title, make in makers.items():
+            tally = Tally()
+            for seed in range(seeds):
+                for k, name in enumerate(names):
+                    tally.add(labels[name], evaluate_label(make(k, seed * 1000 + k), labels[name]))
+            columns[title] = tally.summary()
+            print(f"{title}: {columns[title]['overall']:.3f}", flush=True)
+    print_table("read-out pass rates of the test captions", columns)
 
 
 def report(name: str, tally: Tally) -> None:

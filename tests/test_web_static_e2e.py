@@ -364,9 +364,10 @@ SEQUENCE = "a person walks forward, then jumps up and down."
 
 
 def test_actions_are_split_as_in_python(page):
-    """The page's split (static/compose.js) gives compose.split_actions' parts: on the
-    benchmark's hand-written prompts and on the phrasings each rule is for."""
-    from mlct.generate.compose import split_actions
+    """The page's splits (static/compose.js) give compose.split_actions' parts and
+    split_concurrent's body and arms: on the benchmark's hand-written prompts and on the
+    phrasings each rule is for."""
+    from mlct.generate.compose import split_actions, split_concurrent
 
     texts = [SEQUENCE, "after walking forward, a man turns left", "a man walks before turning",
              "a person squats, then stands back up and walks away", "sits down, then stands still",
@@ -381,10 +382,18 @@ def test_actions_are_split_as_in_python(page):
         data = json.loads((HERE.parent / "bench" / "data" / name).read_text())
         texts += [item["text"] for items in data.values() if isinstance(items, list)
                   for item in items if isinstance(item, dict) and "text" in item]
+    texts += ["a person jogs in place while clapping", "walks and claps at the same time",
+              "a person waves while walking, then sits down", "someone claps while smiling",
+              "a man walks forward, then jogs while clapping", "jogs and waves simultaneously"]
     expected = [split_actions(t) for t in texts]
     assert sum(len(e) > 1 for e in expected) >= 30  # sequences among them, not only single actions
     got = page.evaluate("(texts) => texts.map((t) => window.mlct.model.splitter.split(t))", texts)
     assert got == expected
+    expected = [split_concurrent(t) for t in texts]
+    assert sum(e is not None for e in expected) >= 5
+    got = page.evaluate("(texts) => texts.map((t) => window.mlct.model.splitter.splitConcurrent(t))",
+                        texts)
+    assert [None if g is None else tuple(g) for g in got] == expected
 
 
 def test_a_sequence_is_made_in_parts_as_in_python(page, reference):
@@ -415,18 +424,7 @@ def test_a_sequence_is_made_in_parts_as_in_python(page, reference):
     gap = np.abs(joints - expected).max(-1)
     assert scale > 1.0 and (gap <= 1e-3 * scale).mean() > 0.99 and gap.max() < 0.01
     # as decoded and chained, before the feet are planted: the same joints
-    decoded = np.float32(page.evaluate(
-        "async (text) => { const m = window.mlct.model; const lock = m.config.foot_lock;"
-        " m.config.foot_lock = null; try { return Array.from((await m.generate("
-        "{text, frames: 120, nfe: 5, seed: 11})).joints); } finally"
-        " { m.config.foot_lock = lock; } }", SEQUENCE)).reshape(120, 22, 3)
-    lock, reference.foot_lock = reference.foot_lock, None
-    try:
-        _, chained = generate_with_portable_noise(reference, SEQUENCE, 120, 5, 11)
-    finally:
-        reference.foot_lock = lock
-    gap = float(np.abs(decoded - chained).max())
-    assert gap <= 1e-3 * scale, f"{gap:.3g} m apart (scale {scale:.2f} m)"
+    check_joined_before_planting(page, reference, SEQUENCE, 120, 11)
     # made whole (the page before), it is another motion: the comparison above can fail
     _, whole = generate_with_portable_noise(reference, SEQUENCE, 120, 5, 11, split_actions=False)
     assert np.abs(whole - expected).max() > 20 * 1e-3 * scale
@@ -439,3 +437,71 @@ def test_a_sequence_is_made_in_parts_as_in_python(page, reference):
     unsplit = np.float32(unsplit[1]).reshape(120, 22, 3)
     assert (np.linalg.norm(unsplit - whole, axis=-1).mean()
             < 0.2 * np.linalg.norm(unsplit - expected, axis=-1).mean())
+
+
+def check_joined_before_planting(page, reference, text, frames, seed):
+    """The page's motion of text with its feet as decoded and joined (model.config.foot_lock
+    off for the call) is the Python reference's within 1e-3 of the skeleton's height."""
+    decoded = np.float32(page.evaluate(
+        "async ([text, frames, seed]) => { const m = window.mlct.model;"
+        " const lock = m.config.foot_lock; m.config.foot_lock = null; try { return Array.from("
+        "(await m.generate({text, frames, nfe: 5, seed})).joints); } finally"
+        " { m.config.foot_lock = lock; } }", [text, frames, seed])).reshape(frames, 22, 3)
+    lock, reference.foot_lock = reference.foot_lock, None
+    try:
+        _, joined = generate_with_portable_noise(reference, text, frames, 5, seed)
+    finally:
+        reference.foot_lock = lock
+    scale = float(np.ptp(joined[..., 1]))
+    gap = float(np.abs(decoded - joined).max())
+    assert scale > 1.0 and gap <= 1e-3 * scale, f"{gap:.3g} m apart (scale {scale:.2f} m)"
+
+
+CONCURRENT = "a person jogs in place while clapping"  # no side word (see SEQUENCE)
+
+
+def test_an_arm_action_during_another_is_made_apart_as_in_python(page, reference):
+    """"jogs in place while clapping": the page makes the jog and the clap (standing) apart and
+    puts the clap's arms on the jog (control_fit.reattach's port), as generate() does: Python's
+    joints, and the hands meet while the feet go on jogging."""
+    page.fill("#prompt", CONCURRENT)
+    page.fill("#seed", "4")
+    page.locator("#seconds").fill("4")  # 80 frames
+    page.press("#prompt", "Enter")
+    page.wait_for_function(f"window.mlct.lastMotion.text === {json.dumps(CONCURRENT)}",
+                           timeout=60_000)
+    got = page.evaluate("window.mlct.lastMotion")
+    assert [(p["text"], p.get("arms", False)) for p in got["parts"]] == [
+        ("a person jogs in place", False), ("a person claps", True)]
+    joints = np.asarray(got["joints"], dtype=np.float32).reshape(80, 22, 3)
+    _, expected = generate_with_portable_noise(reference, CONCURRENT, 80, 5, 4)
+    gap = np.abs(joints - expected).max(-1)  # planted: see the sequence's test
+    assert (gap <= 2e-3).mean() > 0.99 and gap.max() < 0.01
+    check_joined_before_planting(page, reference, CONCURRENT, 80, 4)
+    names = get_skeleton("humanml3d").joint_names
+    hands = np.linalg.norm(joints[:, names.index("left_wrist")] - joints[:, names.index("right_wrist")],
+                           axis=-1)
+    assert hands.min() < 0.15  # the hands meet
+    _, whole = generate_with_portable_noise(reference, CONCURRENT, 80, 5, 4, split_actions=False)
+    assert np.abs(whole - expected).max() > 0.05  # made whole it is another motion
+
+
+def test_the_length_comes_from_the_text_unless_set(page, reference):
+    """With "length from the text" on (the default), the page gives a prompt the length Python's
+    default_seconds gives it (a circle walk ~7 s, not 5); moving the slider sets it by hand."""
+    from mlct.generate.portable_noise import page_default_seconds
+
+    text = "a person walks in a circle"
+    page.check("#auto-length")
+    page.fill("#prompt", text)
+    page.fill("#seed", "2")
+    page.press("#prompt", "Enter")
+    page.wait_for_function(f"window.mlct.lastMotion.text === {json.dumps(text)}", timeout=60_000)
+    got = page.evaluate("window.mlct.lastMotion")
+    seconds = page_default_seconds(reference, text)
+    assert seconds > 6.0 and got["frames"] == reference.frames_for(seconds)
+    assert page.inner_text("#seconds-value").startswith("auto")
+    _, expected = generate_with_portable_noise(reference, text, None, 5, 2)
+    assert len(expected) == got["frames"]
+    page.locator("#seconds").fill("3")
+    assert not page.is_checked("#auto-length") and page.inner_text("#seconds-value") == "3.0 s"

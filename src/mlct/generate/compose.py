@@ -276,17 +276,19 @@ def in_order(text: str) -> str:
 
 
 def portable_rules() -> dict:
-    """split_actions' word lists and patterns as JSON, for the static site's port of it
+    """split_actions' and split_concurrent's word lists and patterns as JSON, for the static
+    site's port of them
     (serve/site/static/compose.js): the rules stay here, written once, and the page reads them
     from model.json. Every pattern is case-insensitive (JavaScript flag "i")."""
     patterns = {"sequence": _SEQUENCE, "subject": _SUBJECT, "lowering": _LOWERING,
                 "listed": _LISTED, "while": _WHILE, "same_time": _SAME_TIME,
                 "clause_first": _CLAUSE_FIRST, "clause_last": _CLAUSE_LAST,
-                "gerund_word": _GERUND_WORD}
+                "gerund_word": _GERUND_WORD, "and": _AND}
     assert all(p.flags & re.IGNORECASE for p in patterns.values())
     return {"patterns": {name: p.pattern for name, p in patterns.items()},
             "verb_forms": {lemma: list(forms) for lemma, forms in VERB_FORMS.items()},
             "return_verbs": sorted(_RETURN_VERBS), "return_words": sorted(_RETURN_WORDS),
             "one_action_pairs": sorted([a, b] for a, b in _ONE_ACTION_PAIRS),
-            "adverbs": sorted(_ADVERBS), "default_subject": DEFAULT_SUBJECT,
+            "adverbs": sorted(_ADVERBS), "arm_verbs": sorted(ARM_VERBS),
+            "default_subject": DEFAULT_SUBJECT,
             "min_words": MIN_WORDS}

@@ -75,43 +75,63 @@ class PortableNoise:
         return torch.from_numpy(self.normals(int(np.prod(shape))).reshape(shape))
 
 
-def generate_with_portable_noise(generator, text: str, frames: int, nfe: int | None,
+def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: int | None,
                                  seed: int, split_actions: bool = True
                                  ) -> tuple[np.ndarray | None, np.ndarray]:
     """One motion as the static site makes it: the generator's own text encoder, sampler and
     decoder (any backend), the noise from PortableNoise(seed), one sample (the page has no
-    critic), the feet planted. A prompt that names actions in turn is made as generate() makes
-    it (compose.split_actions; each part's share from the duration model,
-    MotionGenerator.part_frames; part k from PortableNoise(seed + k), as generate_long seeds
-    it; long_motion.chain_segments) unless split_actions is False; neither the page nor this
-    splits an arm action done during another (split_concurrent) or keeps a gait going.
-    Returns (features (T, D), or None for a chained motion, joints (T, J, 3)), float32."""
-    from mlct.generate.compose import split_actions as split_actions_of
-    from mlct.generate.long_motion import BLEND_SECONDS, chain_segments
-    from mlct.generate.pipeline import MIN_PART_SECONDS
+    critic), texts encoded one at a time (page_text_vector), the feet planted. Unless
+    split_actions is False, a prompt is made as generate() makes it (pipeline._made): an arm
+    action done during another (compose.split_concurrent) alone, standing, its arms put on the
+    body made from the rest (control_fit.reattach), both with the seed; a sequence
+    (compose.split_actions) one part each, its share from the duration model
+    (MotionGenerator.part_frames), part k with seed + k as generate_long seeds it, chained
+    (long_motion.chain_segments). Neither the page nor this keeps a gait going. frames None:
+    the default length, page_default_seconds.
+    Returns (features (T, D), or None for a motion joined from parts, joints (T, J, 3)),
+    float32."""
     from mlct.generate.prompts import clean_prompt
 
     text = clean_prompt(text)
+    if frames is None:  # the page's length when it is given none (static/model.js)
+        frames = generator.frames_for(page_default_seconds(generator, text, split_actions))
     (frames,) = generator._lengths(1, int(frames), None)
     steps = generator.check_nfe(nfe)
-    parts = split_actions_of(text) if split_actions else [text]
-    # generate()'s rule: a sequence is split when each part gets MIN_PART_SECONDS
-    if len(parts) == 1 or frames // len(parts) < generator.frames_for(MIN_PART_SECONDS):
-        features, joints = _one_with_portable_noise(generator, text, frames, steps, seed)
-    else:
-        blend = max(2, int(round(BLEND_SECONDS * generator.skeleton.fps)))
-        vectors = np.concatenate([page_text_vector(generator, p).cpu().numpy() for p in parts])
-        share = generator.part_frames(parts, frames, vectors)
-        lengths = [n + blend for n in share[:-1]] + [share[-1]]  # each covers the next's blend
-        made = [_one_with_portable_noise(generator, part, n, steps, seed + k)[1]
-                for k, (part, n) in enumerate(zip(parts, lengths))]
-        features, joints = None, chain_segments(made, blend, generator.skeleton)[0]
-        joints = joints.astype(np.float32)
+    features, joints = _made_as_the_page(generator, text, frames, steps, seed, split_actions)
     if generator.foot_lock is not None:  # planted feet, as the page's lockFeet (motion.js)
         from mlct.motion.foot_lock import lock_feet
 
         joints = lock_feet(joints, generator.skeleton, generator.foot_lock).astype(np.float32)
     return features, joints
+
+
+def _made_as_the_page(generator, text: str, frames: int, steps: int, seed: int, split: bool
+                      ) -> tuple[np.ndarray | None, np.ndarray]:
+    """generate_with_portable_noise's motion before its feet are planted (static/model.js: make)."""
+    from mlct.generate.compose import split_actions, split_concurrent
+    from mlct.generate.long_motion import BLEND_SECONDS, chain_segments
+    from mlct.generate.pipeline import MIN_PART_SECONDS
+
+    if split and (pair := split_concurrent(text)) is not None:
+        from mlct.generate.control import part_joints
+        from mlct.generate.control_fit import reattach
+
+        _, body = _made_as_the_page(generator, pair[0], frames, steps, seed, split)
+        _, arms = _one_with_portable_noise(generator, pair[1], frames, steps, seed)
+        joints = reattach(arms.astype(np.float64), body.astype(np.float64),
+                          part_joints("arms", generator.skeleton), generator.skeleton)
+        return None, joints.astype(np.float32)
+    parts = split_actions(text) if split else [text]
+    # generate()'s rule: a sequence is split when each part gets MIN_PART_SECONDS
+    if len(parts) == 1 or frames // len(parts) < generator.frames_for(MIN_PART_SECONDS):
+        return _one_with_portable_noise(generator, text, frames, steps, seed)
+    blend = max(2, int(round(BLEND_SECONDS * generator.skeleton.fps)))
+    vectors = np.concatenate([page_text_vector(generator, p).cpu().numpy() for p in parts])
+    share = generator.part_frames(parts, frames, vectors)
+    lengths = [n + blend for n in share[:-1]] + [share[-1]]  # each covers the next's blend
+    made = [_one_with_portable_noise(generator, part, n, steps, seed + k)[1]
+            for k, (part, n) in enumerate(zip(parts, lengths))]
+    return None, chain_segments(made, blend, generator.skeleton)[0].astype(np.float32)
 
 
 def _one_with_portable_noise(generator, text: str, frames: int, steps: int, seed: int
@@ -146,3 +166,22 @@ def page_text_vector(generator, text: str) -> torch.Tensor:
         if encoder.name.endswith(SIDES_SUFFIX):
             vector = contrast_sides([text], vector, lambda mirrors: encoder._embed(mirrors[:1]))
     return vector.float()
+
+
+def page_default_seconds(generator, text: str, split_actions: bool = True) -> float:
+    """pipeline.default_seconds of one text as the page computes it: its parts' vectors one at
+    a time (page_text_vector), not encode_text's batch."""
+    from mlct.generate.compose import split_actions as split_actions_of
+    from mlct.generate.compose import split_concurrent
+    from mlct.generate.pipeline import DEFAULT_SECONDS, MIN_PART_SECONDS
+
+    longest = generator.max_frames / generator.skeleton.fps
+    flat = min(DEFAULT_SECONDS, longest)
+    if generator.durations is None:
+        return flat
+    pair = split_concurrent(text) if split_actions else None
+    body = text if pair is None else pair[0]
+    parts = split_actions_of(body) if split_actions else [body]
+    vectors = np.concatenate([page_text_vector(generator, p).cpu().numpy() for p in parts])
+    clip = generator.durations.clip_seconds(vectors)
+    return max(flat, float(np.clip(clip, MIN_PART_SECONDS, longest)))

@@ -33,13 +33,14 @@ import torch
 from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
 from mlct.generate.compose import portable_rules
+from mlct.generate.control import part_joints
 from mlct.generate.durations import FASTEST_TEMPO_SHARE, MIN_WEIGHT, read_durations
 from mlct.generate.long_motion import BLEND_SECONDS
 from mlct.generate.onnx_backend import OnnxMotionGenerator
 from mlct.generate.onnx_bundle import OnnxGraphs, weights_digest, write_onnx_graphs
 from mlct.generate.onnx_compact import (float16_storage, quantize_int8,
                                         quantize_int8_weights, require_onnx)
-from mlct.generate.pipeline import MIN_PART_SECONDS, bundled_model_dir
+from mlct.generate.pipeline import DEFAULT_SECONDS, MIN_PART_SECONDS, bundled_model_dir
 from mlct.generate.prompts import MAX_PROMPT_CHARS
 from mlct.generate.samplers import ConsistencySampler, sampler_class
 from mlct.io import atomic_dir, check_writable_dir, read_format_json
@@ -144,13 +145,18 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
                      "foot_left": list(skeleton.foot_left),
                      "foot_right": list(skeleton.foot_right),
                      # hips and shoulders, the facing a chain of parts turns by (static/chain.js)
-                     "face_joints": list(skeleton.face_joints)},
+                     "face_joints": list(skeleton.face_joints),
+                     # the joints an arm action done during another is put on the body with
+                     # (pipeline._concurrent: control_fit.reattach; static/chain.js)
+                     "arm_joints": list(part_joints("arms", skeleton))},
         # planted feet (motion/foot_lock.py; static/motion.js: lockFeet), as generate() does
         "foot_lock": {**dataclasses.asdict(FootLock()), "ankle_height": ANKLE_HEIGHT},
         # a prompt that names actions in turn, made one part each and chained, as generate()
         # does (static/compose.js: generate/compose.py's rules; static/chain.js: long_motion.py)
         "sequence": {"rules": portable_rules(), "min_part_seconds": MIN_PART_SECONDS,
                      "blend_seconds": BLEND_SECONDS},
+        # a clip's length when the page is not given one (pipeline.default_seconds)
+        "default_seconds": DEFAULT_SECONDS,
         "durations": _portable_durations(model_dir, meta),
     }
 

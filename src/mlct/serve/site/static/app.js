@@ -148,7 +148,9 @@ function showStatus(text, error = false) {
 function request() {
   const model = window.mlct.model;
   const seed = $("seed").value.trim();
-  return { text: $("prompt").value, frames: model.framesFor(Number($("seconds").value)),
+  // frames null: the model picks the length from the text (MotionModel.defaultSeconds)
+  const frames = $("auto-length").checked ? null : model.framesFor(Number($("seconds").value));
+  return { text: $("prompt").value, frames,
     nfe: Number($("nfe").value), seed: seed === "" ? Math.floor(Math.random() * 1e6) : Number(seed) };
 }
 
@@ -163,6 +165,10 @@ async function generate(req = null) {
     window.mlct.lastMotion = { text: motion.text, seed: motion.seed, nfe: motion.nfe, frames: motion.frames,
       joints: Array.from(motion.joints), parts: motion.parts, seams: motion.seams, timing: motion.timing };
     window.mlct.timings.push(motion.timing);
+    if (!req && $("auto-length").checked) { // show the length the text got
+      $("seconds").value = String(motion.frames / motion.skeleton.fps);
+      $("seconds-value").textContent = `auto · ${(motion.frames / motion.skeleton.fps).toFixed(1)} s`;
+    }
     buildSkeleton(motion);
     state.clock = 0;
     drawFrame(0);
@@ -224,10 +230,12 @@ function bind() {
     drawFrame(index);
   });
   const echo = () => {
-    $("seconds-value").textContent = `${Number($("seconds").value).toFixed(1)} s`;
+    const seconds = `${Number($("seconds").value).toFixed(1)} s`;
+    $("seconds-value").textContent = $("auto-length").checked ? "auto" : seconds;
     $("nfe-value").textContent = $("nfe").value;
   };
-  $("seconds").addEventListener("input", echo);
+  $("seconds").addEventListener("input", () => { $("auto-length").checked = false; echo(); });
+  $("auto-length").addEventListener("change", echo);
   $("nfe").addEventListener("input", echo);
   echo();
   $("dice").addEventListener("click", () => { $("seed").value = String(Math.floor(Math.random() * 1e6)); generate().catch(() => {}); });

@@ -122,3 +122,34 @@ export function chainSegments(segments, blend, skeleton) {
   }
   return { joints, frames, seams };
 }
+
+// control_fit.reattach: the kept motion with the joints `parts` taken from `made` (an arm action
+// made standing, put on a walking body): each such bone keeps the kept motion's length and
+// points as made's does, turned from made's facing (hips) into kept's. Parents come before
+// children in the skeleton's joint order.
+export function reattach(made, kept, frames, parts, skeleton) {
+  const J = skeleton.parents.length;
+  const [rHip, lHip] = skeleton.face_joints;
+  const out = Float64Array.from(kept);
+  const hipHeading = (joints, t) => {
+    const o = t * J * 3;
+    return Math.atan2(joints[o + rHip * 3 + 2] - joints[o + lHip * 3 + 2], -(joints[o + rHip * 3] - joints[o + lHip * 3]));
+  };
+  const sorted = [...parts].sort((a, b) => a - b);
+  for (let t = 0; t < frames; t++) {
+    const delta = hipHeading(kept, t) - hipHeading(made, t);
+    for (const j of sorted) {
+      const p = skeleton.parents[j];
+      const a = (t * J + j) * 3;
+      const b = (t * J + p) * 3;
+      const [bx, bz] = turn(made[a] - made[b], made[a + 2] - made[b + 2], delta);
+      const by = made[a + 1] - made[b + 1];
+      const length = Math.hypot(kept[a] - kept[b], kept[a + 1] - kept[b + 1], kept[a + 2] - kept[b + 2]);
+      const norm = Math.max(Math.hypot(bx, by, bz), 1e-9);
+      out[a] = out[b] + (length * bx) / norm;
+      out[a + 1] = out[b + 1] + (length * by) / norm;
+      out[a + 2] = out[b + 2] + (length * bz) / norm;
+    }
+  }
+  return Float32Array.from(out);
+}

@@ -26,7 +26,7 @@ function splitOnce(pattern, text) {
 
 export class ActionSplitter {
   constructor(rules) {
-    const flags = (name) => (name === "listed" || name === "gerund_word" ? "gi" : "i");
+    const flags = (name) => (["listed", "gerund_word", "and"].includes(name) ? "gi" : "i");
     this.re = {};
     for (const [name, source] of Object.entries(rules.patterns)) this.re[name] = new RegExp(source, flags(name));
     this.forms = new Map(Object.entries(rules.verb_forms)); // lemma -> [third person, gerund]
@@ -37,6 +37,7 @@ export class ActionSplitter {
     this.returnWords = new Set(rules.return_words);
     this.pairs = new Set(rules.one_action_pairs.map(([a, b]) => `${a} ${b}`));
     this.adverbs = new Set(rules.adverbs);
+    this.armVerbs = new Set(rules.arm_verbs);
     this.defaultSubject = rules.default_subject;
     this.minWords = rules.min_words;
   }
@@ -51,6 +52,56 @@ export class ActionSplitter {
     const subject = found ? found[0] : this.defaultSubject;
     return [parts[0], ...parts.slice(1).map((p) => (this.re.subject.test(p) ? p : `${subject} ${this.finiteLead(p)}`))];
   }
+
+  // split_concurrent: [the body's prompt, the arms' prompt] of a prompt that names an arm action
+  // done during another ("walks forward while waving"), or null. The body's prompt may still be
+  // a sequence; the arms' prompt gets the text's subject.
+  splitConcurrent(text) {
+    const pieces = text.split(new RegExp(`(${this.re.sequence.source})`, "i"));
+    for (let k = 0; k < pieces.length; k += 2) { // the phrases; odd indices are the separators
+      const split = this.splitPhrase(pieces[k]);
+      if (split === null) continue;
+      let [body, arms] = split;
+      const found = this.re.subject.exec(text.trim());
+      const subject = found ? found[0] : this.defaultSubject;
+      if (!this.re.subject.test(arms)) arms = `${subject} ${arms}`;
+      if (k > 0 && body.startsWith(subject)) body = body.slice(subject.length).trim();
+      return [[...pieces.slice(0, k), body, ...pieces.slice(k + 1)].join("").trim(), arms];
+    }
+    return null;
+  }
+
+  splitPhrase(phrase) { // [body, arms] of one phrase naming two actions at once, or null
+    const pairs = [];
+    phrase = strip(phrase, PUNCT);
+    if (this.re.while.test(phrase)) {
+      const [first, second] = splitOnce(this.re.while, phrase);
+      pairs.push([first, this.finite(second)]);
+    } else if (this.re.same_time.test(phrase)) {
+      const both = phrase.replace(this.re.same_time, "");
+      for (const m of both.matchAll(this.re.and)) {
+        pairs.push([both.slice(0, m.index), this.finiteLead(both.slice(m.index + m[0].length))]);
+      }
+    }
+    for (let [first, second] of pairs) {
+      first = strip(first, PUNCT);
+      second = strip(second, PUNCT);
+      if (!first || !second) continue;
+      // both sides must start with a verb we know: "waves while smiling" is one action
+      if (this.firstVerb(first) === null || this.firstVerb(second) === null) continue;
+      const [armsFirst, armsSecond] = [this.isArmAction(first), this.isArmAction(second)];
+      if (armsSecond && !armsFirst) return [first, second];
+      if (armsFirst && !armsSecond) {
+        const subject = this.withoutSubject(first)[0];
+        return [subject ? `${subject} ${second}` : second, first];
+      }
+    }
+    return null;
+  }
+
+  firstVerb(phrase) { return this.leadingVerb(this.withoutSubject(phrase)[1]); }
+
+  isArmAction(phrase) { return this.armVerbs.has(this.firstVerb(phrase)); }
 
   lemma(word) {
     const w = word.toLowerCase();

@@ -9,7 +9,7 @@ import { WordPieceTokenizer } from "./tokenizer.js";
 import { PortableNoise } from "./noise.js";
 import { lockFeet, recoverFromRic } from "./motion.js";
 import { ActionSplitter, Durations, splitFrames } from "./compose.js";
-import { chainSegments } from "./chain.js";
+import { chainSegments, reattach } from "./chain.js";
 
 const PY_SPACE = /[\s\x1c-\x1f\x85]/u; // what Python's str.split() splits on (U+FEFF is no space)
 const CONTROL = /[\p{Cc}\p{Cf}\p{Cs}]/u;
@@ -217,12 +217,60 @@ export class MotionModel {
     return { features, joints, frames };
   }
 
-  // One motion: {text, seed, nfe, frames, features (null when chained), joints (frames * J * 3),
-  // parts [{text, frames, seed}], seams, timing (ms)}. A prompt that names actions in turn is
-  // made one part each (part k with seed + k) and chained, unless split is false.
-  async generate({ text, frames, nfe, seed, split = true }) {
+  // The seconds of a prompt given no length (pipeline.default_seconds): default_seconds, or
+  // longer when the duration model says its actions take longer (a circle walk, two actions),
+  // up to the window; the parts timed as they would be made (pipeline.auto_seconds).
+  async defaultSeconds(text, split = true) {
+    const longest = this.config.max_frames / this.fps;
+    const flat = Math.min(this.config.default_seconds ?? 5, longest);
+    if (!this.durations || !this.splitter) return flat;
+    const pair = split ? this.splitter.splitConcurrent(text) : null;
+    const body = pair ? pair[0] : text;
+    const parts = split ? this.splitter.split(body) : [body];
+    const vectors = [];
+    for (const part of parts) vectors.push(await this.encode(part));
+    const clip = this.durations.partSeconds(vectors).reduce((a, b) => a + b, 0);
+    return Math.max(flat, Math.min(Math.max(clip, this.config.sequence.min_part_seconds), longest));
+  }
+
+  // A prompt's joints as decoded and joined, before the feet are planted: {features (null when
+  // joined), joints, parts, seams}. As generate() makes it (pipeline._made): an arm action done
+  // during another is made alone, standing, and its arms put on the body made from the rest
+  // (pipeline._concurrent, both with the seed); a sequence one part each (part k with seed + k),
+  // chained; anything else whole.
+  async make(text, frames, steps, seed, timing, split) {
+    const pair = split && this.splitter && this.config.skeleton.arm_joints ? this.splitter.splitConcurrent(text) : null;
+    if (pair) {
+      const body = await this.make(pair[0], frames, steps, seed, timing, split);
+      const arms = await this.draw(pair[1], frames, steps, seed, timing);
+      const mark = performance.now();
+      const joints = reattach(arms.joints, body.joints, frames, this.config.skeleton.arm_joints, this.config.skeleton);
+      timing.decode_ms += performance.now() - mark;
+      return { features: null, joints, seams: body.seams,
+        parts: [...body.parts, { text: pair[1], frames, seed, arms: true }] };
+    }
+    let mark = performance.now();
+    const plan = split ? await this.plan(text, frames) : null;
+    timing.text_ms += performance.now() - mark;
+    if (!plan) {
+      const { features, joints } = await this.draw(text, frames, steps, seed, timing);
+      return { features, joints, seams: [], parts: [{ text, frames, seed }] };
+    }
+    const made = [];
+    for (let k = 0; k < plan.parts.length; k++) made.push(await this.draw(plan.parts[k], plan.lengths[k], steps, seed + k, timing));
+    mark = performance.now();
+    const { joints, seams } = chainSegments(made, plan.blend, this.config.skeleton);
+    timing.decode_ms += performance.now() - mark;
+    return { features: null, joints, seams, parts: plan.parts.map((p, k) => ({ text: p, frames: plan.share[k], seed: seed + k })) };
+  }
+
+  // One motion: {text, seed, nfe, frames, features (null when joined from parts), joints
+  // (frames * J * 3), parts [{text, frames, seed, arms}], seams, timing (ms)}; split false gives
+  // the model the whole prompt at once; frames null (or left out): defaultSeconds.
+  async generate({ text, frames = null, nfe, seed, split = true }) {
     const start = performance.now();
     const clean = cleanPrompt(text, this.config.max_prompt_chars);
+    if (frames === null) frames = this.framesFor(await this.defaultSeconds(clean, split));
     const { max_frames: maxFrames } = this.config;
     const { max_nfe: maxNfe, default_nfe: defaultNfe } = this.config.sampler;
     const steps = nfe ?? defaultNfe;
@@ -232,23 +280,7 @@ export class MotionModel {
     if (!Number.isInteger(steps) || steps < 1 || steps > maxNfe) throw new Error(`nfe must be within 1..${maxNfe}, got ${steps}`);
     if (!Number.isSafeInteger(seed) || seed < 0) throw new Error(`seed must be a whole number >= 0, got ${seed}`);
     const timing = { text_ms: 0, sample_ms: 0, decode_ms: 0 };
-    const plan = split ? await this.plan(clean, frames) : null;
-    timing.text_ms += performance.now() - start;
-    let features = null;
-    let joints;
-    let parts;
-    let seams = [];
-    if (plan) {
-      const made = [];
-      for (let k = 0; k < plan.parts.length; k++) made.push(await this.draw(plan.parts[k], plan.lengths[k], steps, seed + k, timing));
-      const mark = performance.now();
-      ({ joints, seams } = chainSegments(made, plan.blend, this.config.skeleton));
-      timing.decode_ms += performance.now() - mark;
-      parts = plan.parts.map((p, k) => ({ text: p, frames: plan.share[k], seed: seed + k }));
-    } else {
-      ({ features, joints } = await this.draw(clean, frames, steps, seed, timing));
-      parts = [{ text: clean, frames, seed }];
-    }
+    let { features, joints, parts, seams } = await this.make(clean, frames, steps, seed, timing, split);
     const mark = performance.now();
     // planted feet, as the Python pipeline's (a site made before it has no foot_lock)
     if (this.config.foot_lock) joints = lockFeet(joints, frames, this.config.skeleton, this.config.foot_lock);
