@@ -1,6 +1,7 @@
 """The static site's own time per sentence, in headless Chromium (ONNX Runtime Web, WASM).
 
     python bench/web_speed.py [--site SITE] [--threads 1 2] [--sentences 20] [--nfe 5]
+        [--candidates 1 8] [--sequences] [--text-encoder int8]
 
 Exports the bundled model to a temporary site unless --site is given, serves it from a static
 server that sends the COOP/COEP headers (cross-origin isolation: without it the browser has no
@@ -10,7 +11,9 @@ times window.mlct.generate on new sentences (each runs the text encoder; nothing
 (performance.now() around tokenize -> text encoder -> sampler -> decoder -> joints) and of its
 parts, after WARMUP sentences. For comparison, on the same machine at the same time: the same
 graphs and steps in Python (ONNX Runtime's native CPU build, --python-threads threads,
-mlct.generate.portable_noise.generate_with_portable_noise).
+mlct.generate.portable_noise.generate_with_portable_noise). --candidates: best of N by the
+critic (the page's default is the model's, 8 for the bundled model); --sequences also times
+two-action prompts ("A, then B": two parts, each encoded and sampled, chained), 6 s.
 """
 
 from __future__ import annotations
@@ -48,7 +51,10 @@ class Isolated(http.server.SimpleHTTPRequestHandler):
         pass
 
 
-def sentences(count: int) -> list[str]:
+def sentences(count: int, sequence: bool = False) -> list[str]:
+    if sequence:  # "take i" on both parts: each a new text, nothing memoised
+        return [f"{SUBJECTS[i % len(SUBJECTS)]} {ACTIONS[(i * 7) % len(ACTIONS)]} (take {i}), "
+                f"then {ACTIONS[(i * 5 + 3) % len(ACTIONS)]} (take {i})" for i in range(count)]
     return [f"{SUBJECTS[i % len(SUBJECTS)]} {ACTIONS[(i * 7) % len(ACTIONS)]}, take {i}"
             for i in range(count)]
 
@@ -58,7 +64,8 @@ def quartiles(values: list[float]) -> str:
     return f"{q2:7.1f} ms  (quartiles {q1:.1f} - {q3:.1f})"
 
 
-def measure(url: str, threads: int, count: int, nfe: int) -> None:
+def measure(url: str, threads: int, count: int, nfe: int, candidates: list[int],
+            sequences: bool) -> None:
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as p:
@@ -71,21 +78,25 @@ def measure(url: str, threads: int, count: int, nfe: int) -> None:
         # opening the page: fetch, unpack (gzipped graphs and runtime), sessions, a first motion
         loaded = (time.perf_counter() - start) * 1000
         isolated = page.evaluate("window.crossOriginIsolated")
-        timings = []
-        for i, text in enumerate(sentences(WARMUP + count)):
-            timing = page.evaluate(
-                "async (r) => (await window.mlct.generate(r)).timing",
-                {"text": text, "frames": 80, "nfe": nfe, "seed": i})
-            if i >= WARMUP:
-                timings.append(timing)
+        print(f"threads {threads} (cross-origin isolated: {isolated}); the page ready (first "
+              f"motion drawn) after {loaded:.0f} ms")
+        for sequence in (False, True) if sequences else (False,):
+            frames = 120 if sequence else 80
+            for n in candidates:
+                timings = []
+                for i, text in enumerate(sentences(WARMUP + count, sequence)):
+                    timing = page.evaluate(
+                        "async (r) => (await window.mlct.model.generate(r)).timing",
+                        {"text": text, "frames": frames, "nfe": nfe, "seed": i, "candidates": n})
+                    if i >= WARMUP:
+                        timings.append(timing)
+                kind = "two-action prompts" if sequence else "new sentences"
+                print(f" {count} {kind}, {nfe} NFE, best of {n}, {frames} frames:")
+                for key, name in (("total_ms", "per sentence"), ("text_ms", "  text encoder"),
+                                  ("sample_ms", f"  sampler ({nfe} denoiser runs a part)"),
+                                  ("decode_ms", "  decoder + joints")):
+                    print(f"  {name:<36} {quartiles([t[key] for t in timings])}")
         browser.close()
-    print(f"threads {threads} (cross-origin isolated: {isolated}), {count} new sentences, "
-          f"{nfe} NFE, batch 1, 80 frames; the page ready (first motion drawn) after "
-          f"{loaded:.0f} ms")
-    for key, name in (("total_ms", "per sentence"), ("text_ms", "  text encoder"),
-                      ("sample_ms", f"  sampler ({nfe} denoiser runs)"),
-                      ("decode_ms", "  decoder + joints")):
-        print(f"  {name:<28} {quartiles([t[key] for t in timings])}")
 
 
 def measure_python(site: Path, threads: int, count: int, nfe: int) -> None:
@@ -96,10 +107,10 @@ def measure_python(site: Path, threads: int, count: int, nfe: int) -> None:
     times = []
     for i, text in enumerate(sentences(WARMUP + count)):
         start = time.perf_counter()
-        generate_with_portable_noise(generator, f"{text}.", 80, nfe, i)  # new: not memoised
+        generate_with_portable_noise(generator, f"{text}.", 80, nfe, i, candidates=1)  # not memoised
         if i >= WARMUP:
             times.append((time.perf_counter() - start) * 1000)
-    print(f"python onnxruntime (native), {threads} thread(s), the same graphs: "
+    print(f"python onnxruntime (native), {threads} thread(s), the same graphs, best of 1: "
           f"{quartiles(times)}")
 
 
@@ -111,13 +122,16 @@ def main() -> None:
     parser.add_argument("--sentences", type=int, default=20)
     parser.add_argument("--nfe", type=int, default=5)
     parser.add_argument("--python-threads", type=int, default=1)
+    parser.add_argument("--candidates", type=int, nargs="+", default=[1, 8])
+    parser.add_argument("--sequences", action="store_true")
+    parser.add_argument("--text-encoder", default="int8", help="export-web's --text-encoder")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         site = args.site
         if site is None:
             from mlct.serve.site import export_site
 
-            site = export_site("bundled", Path(tmp) / "site")
+            site = export_site("bundled", Path(tmp) / "site", text_encoder=args.text_encoder)
         from mlct.serve.site import site_size
 
         packed = sum(len(gzip.compress(f.read_bytes(), 6)) for f in Path(site).rglob("*")
@@ -129,7 +143,7 @@ def main() -> None:
         url = f"http://127.0.0.1:{server.server_address[1]}/"
         try:
             for threads in args.threads:
-                measure(url, threads, args.sentences, args.nfe)
+                measure(url, threads, args.sentences, args.nfe, args.candidates, args.sequences)
             measure_python(Path(site), args.python_threads, args.sentences, args.nfe)
         finally:
             server.shutdown()

@@ -97,8 +97,8 @@ def test_best_of_n_keeps_the_critics_choice_and_replays(trained: Path) -> None:
     plain = gen.generate(text, lengths=frames, seed=5, candidates=1)[0]
     # candidate 0 is the plain sample of the seed; the pick is the critic's argmax of the 4
     cond = gen.encode_text([text]).repeat(4, 1)
-    from mlct.generate.pipeline import _SEED_STRIDE, MAX_SEED
-    seeds = [(5 + k * _SEED_STRIDE) % (MAX_SEED + 1) for k in range(4)]
+    from mlct.generate.pipeline import SEED_STRIDE, MAX_SEED
+    seeds = [(5 + k * SEED_STRIDE) % (MAX_SEED + 1) for k in range(4)]
     z = gen.sample_latents(cond, None, seeds)
     scores = gen.critic.network.score(z / gen.config.schedule.latent_scale,
                                       torch.full((4,), frames), cond)

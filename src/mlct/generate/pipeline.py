@@ -240,7 +240,7 @@ class MotionGenerator:
         if candidates == 1 or self.critic is None:
             return self.sample_features(cond, nfe, list(seeds), guidance, lengths)
         rows = cond.repeat_interleave(candidates, dim=0)
-        seeds_of = [(s + k * _SEED_STRIDE) % (MAX_SEED + 1)
+        seeds_of = [(s + k * SEED_STRIDE) % (MAX_SEED + 1)
                     for s in seeds for k in range(candidates)]
         z = self.sample_latents(rows, nfe, seeds_of, guidance)  # (B * N, n, d)
         best = self.critic.best(z.float().cpu() / self.config.schedule.latent_scale,
@@ -605,7 +605,7 @@ DEFAULT_SECONDS = 5.0  # a clip's length when neither the caller nor the prompt 
 # two-minute walk is 2,400 frames, ~70 takes, well under a second of sampling.
 MAX_GAIT_SECONDS = 120.0
 TEXT_MEMO_SIZE = 2048  # texts whose embeddings a generator keeps (LRU): <= 64 MB with tokens
-_SEED_STRIDE = 0x9E3779B97F4A7C15  # candidate k of seed s samples with s + k * this (mod 2^63)
+SEED_STRIDE = 0x9E3779B97F4A7C15  # candidate k of seed s samples with s + k * this (mod 2^63)
 MAX_SEED = 2**63 - 1  # torch.Generator.manual_seed takes 64 bits; kept signed for portability
 
 

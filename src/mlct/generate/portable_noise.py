@@ -76,11 +76,14 @@ class PortableNoise:
 
 
 def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: int | None,
-                                 seed: int, split_actions: bool = True
+                                 seed: int, split_actions: bool = True,
+                                 candidates: int | None = None
                                  ) -> tuple[np.ndarray | None, np.ndarray]:
     """One motion as the static site makes it: the generator's own text encoder, sampler and
-    decoder (any backend), the noise from PortableNoise(seed), one sample (the page has no
-    critic), texts encoded one at a time (page_text_vector), the feet planted. Unless
+    decoder (any backend), the noise from PortableNoise(seed), texts encoded one at a time
+    (page_text_vector), each prompt the best of `candidates` by the critic (None: the model's
+    default, as the page's; candidate k's noise from PortableNoise(seed + k * SEED_STRIDE mod
+    2^63), as best_features seeds it), the feet planted. Unless
     split_actions is False, a prompt is made as generate() makes it (pipeline._made): an arm
     action done during another (compose.split_concurrent) alone, standing, its arms put on the
     body made from the rest (control_fit.reattach), both with the seed; a sequence
@@ -97,7 +100,10 @@ def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: 
         frames = generator.frames_for(page_default_seconds(generator, text, split_actions))
     (frames,) = generator._lengths(1, int(frames), None)
     steps = generator.check_nfe(nfe)
-    features, joints = _made_as_the_page(generator, text, frames, steps, seed, split_actions)
+    if candidates is None:
+        candidates = generator.candidates
+    features, joints = _made_as_the_page(generator, text, frames, steps, seed, split_actions,
+                                         candidates)
     if generator.foot_lock is not None:  # planted feet, as the page's lockFeet (motion.js)
         from mlct.motion.foot_lock import lock_feet
 
@@ -105,8 +111,8 @@ def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: 
     return features, joints
 
 
-def _made_as_the_page(generator, text: str, frames: int, steps: int, seed: int, split: bool
-                      ) -> tuple[np.ndarray | None, np.ndarray]:
+def _made_as_the_page(generator, text: str, frames: int, steps: int, seed: int, split: bool,
+                      candidates: int) -> tuple[np.ndarray | None, np.ndarray]:
     """generate_with_portable_noise's motion before its feet are planted (static/model.js: make)."""
     from mlct.generate.compose import split_actions, split_concurrent
     from mlct.generate.long_motion import BLEND_SECONDS, chain_segments
@@ -116,34 +122,46 @@ def _made_as_the_page(generator, text: str, frames: int, steps: int, seed: int, 
         from mlct.generate.control import part_joints
         from mlct.generate.control_fit import reattach
 
-        _, body = _made_as_the_page(generator, pair[0], frames, steps, seed, split)
-        _, arms = _one_with_portable_noise(generator, pair[1], frames, steps, seed)
+        _, body = _made_as_the_page(generator, pair[0], frames, steps, seed, split, candidates)
+        _, arms = _one_with_portable_noise(generator, pair[1], frames, steps, seed, candidates)
         joints = reattach(arms.astype(np.float64), body.astype(np.float64),
                           part_joints("arms", generator.skeleton), generator.skeleton)
         return None, joints.astype(np.float32)
     parts = split_actions(text) if split else [text]
     # generate()'s rule: a sequence is split when each part gets MIN_PART_SECONDS
     if len(parts) == 1 or frames // len(parts) < generator.frames_for(MIN_PART_SECONDS):
-        return _one_with_portable_noise(generator, text, frames, steps, seed)
+        return _one_with_portable_noise(generator, text, frames, steps, seed, candidates)
     blend = max(2, int(round(BLEND_SECONDS * generator.skeleton.fps)))
     vectors = np.concatenate([page_text_vector(generator, p).cpu().numpy() for p in parts])
     share = generator.part_frames(parts, frames, vectors)
     lengths = [n + blend for n in share[:-1]] + [share[-1]]  # each covers the next's blend
-    made = [_one_with_portable_noise(generator, part, n, steps, seed + k)[1]
+    made = [_one_with_portable_noise(generator, part, n, steps, seed + k, candidates)[1]
             for k, (part, n) in enumerate(zip(parts, lengths))]
     return None, chain_segments(made, blend, generator.skeleton)[0].astype(np.float32)
 
 
-def _one_with_portable_noise(generator, text: str, frames: int, steps: int, seed: int
-                             ) -> tuple[np.ndarray, np.ndarray]:
-    """(features, joints) of one prompt as the model draws it, feet as decoded."""
+def _one_with_portable_noise(generator, text: str, frames: int, steps: int, seed: int,
+                             candidates: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """(features, joints) of one prompt as the model draws it, feet as decoded; the best of
+    `candidates` latents by the model's critic (one sample without a critic)."""
+    from mlct.generate.pipeline import MAX_SEED, SEED_STRIDE
     from mlct.motion.features import recover_from_ric
 
-    noise = PortableNoise(seed)
+    seeds = [seed] if candidates <= 1 or generator.critic is None else [
+        (seed + k * SEED_STRIDE) % (MAX_SEED + 1) for k in range(candidates)]
     with torch.inference_mode():
         cond = page_text_vector(generator, text).to(generator.device)
-        x = generator.sampler.noise((1, *generator.ae.latent_shape), noise)  # x_T (1, n, d)
-        z = generator.sampler.sample(generator.denoiser, x, cond, steps, generator=noise)
+        latents = []
+        for s in seeds:
+            noise = PortableNoise(s)
+            x = generator.sampler.noise((1, *generator.ae.latent_shape), noise)  # x_T (1, n, d)
+            latents.append(generator.sampler.sample(generator.denoiser, x, cond, steps,
+                                                    generator=noise))
+        z = torch.cat(latents)
+        if len(seeds) > 1:
+            best = generator.critic.best(z.float().cpu() / generator.config.schedule.latent_scale,
+                                         torch.tensor([frames]), cond.float().cpu(), len(seeds))
+            z = z[int(best[0])][None]
         (features,) = generator.decode(z, [frames])
         joints = recover_from_ric(torch.from_numpy(features)).numpy()
     return features, joints

@@ -33,6 +33,7 @@ import torch
 from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
 from mlct.generate.compose import portable_rules
+from mlct.generate.critic import MAX_CANDIDATES, Critic
 from mlct.generate.control import part_joints
 from mlct.generate.durations import FASTEST_TEMPO_SHARE, MIN_WEIGHT, read_durations
 from mlct.generate.long_motion import BLEND_SECONDS
@@ -40,13 +41,14 @@ from mlct.generate.onnx_backend import OnnxMotionGenerator
 from mlct.generate.onnx_bundle import OnnxGraphs, weights_digest, write_onnx_graphs
 from mlct.generate.onnx_compact import (float16_storage, quantize_int8,
                                         quantize_int8_weights, require_onnx)
-from mlct.generate.pipeline import DEFAULT_SECONDS, MIN_PART_SECONDS, bundled_model_dir
+from mlct.generate.pipeline import (DEFAULT_SECONDS, MAX_SEED, MIN_PART_SECONDS, SEED_STRIDE,
+                                    bundled_model_dir)
 from mlct.generate.prompts import MAX_PROMPT_CHARS
 from mlct.generate.samplers import ConsistencySampler, sampler_class
 from mlct.io import atomic_dir, check_writable_dir, read_format_json
 from mlct.motion.foot_lock import ANKLE_HEIGHT, FootLock
 from mlct.motion.skeleton import get_skeleton
-from mlct.onnx_io import onnxruntime_module
+from mlct.onnx_io import export_graph, onnxruntime_module
 from mlct.text.encoders import bundled_minilm_path, token_slots_of
 from mlct.text.minilm import check_pipeline
 from mlct.text.minilm_onnx import check_onnx_spec
@@ -60,6 +62,7 @@ SITE_JSON = "model.json"
 SITE_FORMAT, SITE_VERSION = "mlct-web", 1
 GRAPHS = {"text_encoder": "text_encoder.onnx", "denoiser": "denoiser.onnx",
           "decoder": "decoder.onnx"}
+CRITIC_GRAPH = "critic.onnx"  # best-of-N in the page, for a model with a critic
 VOCAB = "vocab.txt"
 WASM = "ort-wasm-simd-threaded.wasm"  # in vendor/: what the page gives ONNX Runtime Web itself
 # MiniLM's graph in the site (generate/onnx_compact.py): int8 arithmetic (the fastest in the
@@ -105,7 +108,8 @@ def _tokenizer_settings(path: Path) -> dict[str, Any]:
 def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Path,
                      tokenizer: dict[str, Any], latent_shape: tuple[int, int],
                      precision: str, denoiser: str,
-                     stored: dict[str, str] | None = None) -> dict[str, Any]:
+                     stored: dict[str, str] | None = None,
+                     critic: Critic | None = None) -> dict[str, Any]:
     """model.json: everything the page computes with, besides the graphs."""
     from mlct import __version__
     from mlct.config import config_from_dict
@@ -158,7 +162,34 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
         # a clip's length when the page is not given one (pipeline.default_seconds)
         "default_seconds": DEFAULT_SECONDS,
         "durations": _portable_durations(model_dir, meta),
+        # best of N by the critic (generate/critic.py, pipeline.best_features): its graph, the
+        # model's N, and how candidate k's seed comes from the motion's (64-bit: strings)
+        "critic": None if critic is None else {
+            "graph": (stored or {}).get("critic", CRITIC_GRAPH), "candidates": critic.candidates,
+            "max_candidates": MAX_CANDIDATES, "seed_stride": str(SEED_STRIDE),
+            "seed_modulus": str(MAX_SEED + 1)},
     }
+
+
+def _write_critic_graph(critic: Critic, path: Path) -> Path:
+    """The model's critic (generate/critic.py) as an ONNX graph (z, frames, text) -> score, for
+    the page's best-of-N: z the (B, n, d) latents over latent_scale, frames (B,) float."""
+    class Score(torch.nn.Module):
+        def __init__(self) -> None:
+            super().__init__()
+            self.network = critic.network
+
+        def forward(self, z: torch.Tensor, frames: torch.Tensor, text: torch.Tensor
+                    ) -> torch.Tensor:
+            return self.network.score(z, frames, text)
+
+    probe = torch.Generator().manual_seed(0)
+    z = torch.randn(2, 1, critic.network.latent_size, generator=probe)
+    text = torch.randn(2, critic.network.text_dim, generator=probe)
+    batch = {0: "batch"}
+    return export_graph(Score(), (z, torch.tensor([40.0, 80.0]), text), path,
+                        ("z", "frames", "text"), ("score",),
+                        {"z": batch, "frames": batch, "text": batch, "score": batch})
 
 
 def _portable_durations(model_dir: Path, meta: dict) -> dict[str, Any] | None:
@@ -217,15 +248,21 @@ def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
                                   folder / GRAPHS["text_encoder"])
         else:
             shutil.copyfile(graphs / GRAPHS["text_encoder"], folder / GRAPHS["text_encoder"])
-        shutil.rmtree(graphs)
         shutil.copyfile(bundled_minilm_path() / VOCAB, folder / VOCAB)
-        latent = OnnxMotionGenerator(meta, tensors, _graphs(folder)).ae.latent_shape
+        generator = OnnxMotionGenerator(meta, tensors, _graphs(folder))
+        latent = generator.ae.latent_shape
+        if generator.critic is not None:  # float16 storage: the critic's own float16 numbers
+            float16_storage(_write_critic_graph(generator.critic, graphs / CRITIC_GRAPH),
+                            folder / CRITIC_GRAPH)
+        shutil.rmtree(graphs)
         stored = {key: name for key, name in GRAPHS.items()} | {"wasm": WASM}
         if gzip:  # the files that gzip makes much smaller (pack.py)
             stored = {key: gzip_file((tmp / "vendor" if key == "wasm" else folder) / name).name
                       for key, name in stored.items()}
+        if (folder / CRITIC_GRAPH).is_file():
+            stored["critic"] = (gzip_file(folder / CRITIC_GRAPH).name if gzip else CRITIC_GRAPH)
         description = site_description(meta, tensors, model_dir, tokenizer, latent,
-                                       text_encoder, denoiser, stored)
+                                       text_encoder, denoiser, stored, generator.critic)
         (folder / SITE_JSON).write_text(json.dumps(description) + "\n", encoding="utf-8")
         for item in STATIC.iterdir():
             if item.is_file():

@@ -150,7 +150,7 @@ function request() {
   const seed = $("seed").value.trim();
   // frames null: the model picks the length from the text (MotionModel.defaultSeconds)
   const frames = $("auto-length").checked ? null : model.framesFor(Number($("seconds").value));
-  return { text: $("prompt").value, frames,
+  return { text: $("prompt").value, frames, candidates: Number($("candidates").value),
     nfe: Number($("nfe").value), seed: seed === "" ? Math.floor(Math.random() * 1e6) : Number(seed) };
 }
 
@@ -163,7 +163,8 @@ async function generate(req = null) {
     const motion = await window.mlct.model.generate(body);
     state.motion = motion;
     window.mlct.lastMotion = { text: motion.text, seed: motion.seed, nfe: motion.nfe, frames: motion.frames,
-      joints: Array.from(motion.joints), parts: motion.parts, seams: motion.seams, timing: motion.timing };
+      candidates: motion.candidates, joints: Array.from(motion.joints), parts: motion.parts, seams: motion.seams,
+      timing: motion.timing };
     window.mlct.timings.push(motion.timing);
     if (!req && $("auto-length").checked) { // show the length the text got
       $("seconds").value = String(motion.frames / motion.skeleton.fps);
@@ -176,7 +177,8 @@ async function generate(req = null) {
     const t = motion.timing;
     const parts = motion.parts.length < 2 ? "" : ` · made as ${motion.parts.length} parts in turn: ` +
       motion.parts.map((p) => `“${p.text}” ${(p.frames / motion.skeleton.fps).toFixed(1)} s`).join(", then ");
-    showStatus(`“${motion.text}” · ${motion.frames} frames, ${motion.nfe} steps, seed ${motion.seed}${parts}`);
+    const best = motion.candidates > 1 ? `, best of ${motion.candidates}` : "";
+    showStatus(`“${motion.text}” · ${motion.frames} frames, ${motion.nfe} steps${best}, seed ${motion.seed}${parts}`);
     $("timing").textContent = `in this page: ${t.total_ms.toFixed(1)} ms (text ${t.text_ms.toFixed(1)},` +
       ` sampling ${t.sample_ms.toFixed(1)}, decoding + joints ${t.decode_ms.toFixed(1)}) · WASM, ${window.mlct.model.threads} thread(s)`;
     for (const id of ["play", "scrub", "dl-json", "dl-npy", "dl-bvh", "dl-glb"]) $(id).disabled = false;
@@ -233,10 +235,12 @@ function bind() {
     const seconds = `${Number($("seconds").value).toFixed(1)} s`;
     $("seconds-value").textContent = $("auto-length").checked ? "auto" : seconds;
     $("nfe-value").textContent = $("nfe").value;
+    $("candidates-value").textContent = $("candidates").value;
   };
   $("seconds").addEventListener("input", () => { $("auto-length").checked = false; echo(); });
   $("auto-length").addEventListener("change", echo);
   $("nfe").addEventListener("input", echo);
+  $("candidates").addEventListener("input", echo);
   echo();
   $("dice").addEventListener("click", () => { $("seed").value = String(Math.floor(Math.random() * 1e6)); generate().catch(() => {}); });
   for (const button of document.querySelectorAll("#downloads button")) {
@@ -279,6 +283,11 @@ window.addEventListener("DOMContentLoaded", async () => {
     $("seconds").max = String(c.max_frames / c.skeleton.fps);
     $("nfe").max = String(Math.min(10, c.sampler.max_nfe));
     $("nfe").value = String(c.sampler.default_nfe);
+    // best of N: the model's default (8 for the bundled model, as mlct generate); 1 without a critic
+    $("candidates").max = String(c.critic ? Math.min(16, c.critic.max_candidates) : 1);
+    $("candidates").value = String(model.defaultCandidates);
+    $("candidates").disabled = !c.critic;
+    $("candidates-value").textContent = $("candidates").value;
     $("prompt").maxLength = c.max_prompt_chars;
     $("generate").disabled = false;
     await generate(); // something moves from the start

@@ -77,7 +77,11 @@ export class MotionModel {
     const session = async (name) => ort.InferenceSession.create(
       await fetchBytes(new URL(`model/${config.graphs[name]}`, base)), options);
     const [text, denoiser, decoder] = await Promise.all(["text_encoder", "denoiser", "decoder"].map(session));
-    return new MotionModel(config, new WordPieceTokenizer(vocab, config.text_encoder), { text, denoiser, decoder }, threads);
+    const sessions = { text, denoiser, decoder };
+    if (config.critic) { // best of N (a model without a critic samples once)
+      sessions.critic = await ort.InferenceSession.create(await fetchBytes(new URL(`model/${config.critic.graph}`, base)), options);
+    }
+    return new MotionModel(config, new WordPieceTokenizer(vocab, config.text_encoder), sessions, threads);
   }
 
   constructor(config, tokenizer, sessions, threads) {
@@ -93,6 +97,8 @@ export class MotionModel {
   }
 
   get fps() { return this.config.skeleton.fps; }
+
+  get defaultCandidates() { return this.config.critic ? this.config.critic.candidates : 1; }
 
   framesFor(seconds) { return Math.max(1, roundHalfEven(seconds * this.fps)); }
 
@@ -138,23 +144,28 @@ export class MotionModel {
     return -(t * t) * (b1 - b0) / 4 - t * b0 / 2; // Eq. 10
   }
 
-  // The clean latent (n * d), Algorithm 2 on S = c_skip x_t + c_out F (Eq. 11).
-  async sample(cond, steps, noise) {
+  // The clean latents (rows * n * d) of one text, a row per noise stream (one batch), Algorithm 2
+  // on S = c_skip x_t + c_out F (Eq. 11).
+  async sample(cond, steps, noises) {
     const [n, d] = this.config.latent_shape;
     const { eta, time_scale: scale, clamp } = this.config.sampler;
+    const rows = noises.length;
     const size = n * d;
     const times = this.times(steps);
-    const text = new ort.Tensor("float32", cond, [1, cond.length]);
-    let x = noise.normals(size); // x_T
-    const x0 = new Float32Array(size);
+    const texts = new Float32Array(rows * cond.length);
+    for (let r = 0; r < rows; r++) texts.set(cond, r * cond.length);
+    const text = new ort.Tensor("float32", texts, [rows, cond.length]);
+    let x = new Float32Array(rows * size); // x_T, each row from its own stream
+    noises.forEach((noise, r) => x.set(noise.normals(size), r * size));
+    const x0 = new Float32Array(rows * size);
     for (let k = 0; k < times.length; k++) {
       const t = times[k];
       const { f } = await this.sessions.denoiser.run({
-        x_t: new ort.Tensor("float32", x, [1, n, d]), t: new ort.Tensor("float32", Float32Array.of(t), [1]), text });
+        x_t: new ort.Tensor("float32", x, [rows, n, d]), t: new ort.Tensor("float32", new Float32Array(rows).fill(t), [rows]), text });
       const st = scale * t;
       const skip = eta * eta / (st * st + eta * eta);
       const out = st / Math.sqrt(st * st + eta * eta);
-      for (let i = 0; i < size; i++) {
+      for (let i = 0; i < rows * size; i++) {
         const v = skip * x[i] + out * f.data[i];
         x0[i] = clamp === null ? v : Math.min(clamp, Math.max(-clamp, v));
       }
@@ -162,12 +173,39 @@ export class MotionModel {
         const la = this.logAlpha(times[k + 1]);
         const alpha = Math.exp(la);
         const sigma = Math.sqrt(-Math.expm1(2 * la));
-        const z = noise.normals(size);
-        x = new Float32Array(size);
-        for (let i = 0; i < size; i++) x[i] = alpha * x0[i] + sigma * z[i];
+        x = new Float32Array(rows * size);
+        noises.forEach((noise, r) => {
+          const z = noise.normals(size);
+          for (let i = 0; i < size; i++) x[r * size + i] = alpha * x0[r * size + i] + sigma * z[i];
+        });
       }
     }
     return x0;
+  }
+
+  // The seeds of a motion's candidates (pipeline.best_features): the first is the motion's own,
+  // candidate k's seed + k * seed_stride (mod 2^63), as BigInts.
+  candidateSeeds(seed, count) {
+    const { seed_stride: stride, seed_modulus: modulus } = this.config.critic;
+    return Array.from({ length: count }, (_, k) => (BigInt(seed) + BigInt(k) * BigInt(stride)) % BigInt(modulus));
+  }
+
+  // The clean latent (n * d) of one text: a single sample, or the best of `candidates` by the
+  // critic (generate/critic.py: the cosine of the latent's motion with the text).
+  async bestLatent(cond, steps, seed, frames, candidates) {
+    if (candidates <= 1 || !this.sessions.critic) return this.sample(cond, steps, [new PortableNoise(seed)]);
+    const noises = this.candidateSeeds(seed, candidates).map((s) => new PortableNoise(s));
+    const latents = await this.sample(cond, steps, noises);
+    const [n, d] = this.config.latent_shape;
+    const texts = new Float32Array(candidates * cond.length);
+    for (let r = 0; r < candidates; r++) texts.set(cond, r * cond.length);
+    const { score } = await this.sessions.critic.run({
+      z: new ort.Tensor("float32", latents.map((v) => v / this.config.latent_scale), [candidates, 1, n * d]),
+      frames: new ort.Tensor("float32", new Float32Array(candidates).fill(frames), [candidates]),
+      text: new ort.Tensor("float32", texts, [candidates, cond.length]) });
+    let best = 0;
+    for (let r = 1; r < candidates; r++) if (score.data[r] > score.data[best]) best = r;
+    return latents.slice(best * n * d, (best + 1) * n * d);
   }
 
   // Denormalized features (frames * D) of a clean latent.
@@ -202,13 +240,12 @@ export class MotionModel {
   }
 
   // One prompt as the model draws it: {features, joints} (feet as decoded).
-  async draw(text, frames, steps, seed, timing) {
+  async draw(text, frames, steps, seed, timing, candidates = 1) {
     let mark = performance.now();
-    const noise = new PortableNoise(seed);
     const cond = await this.encode(text);
     timing.text_ms += performance.now() - mark;
     mark = performance.now();
-    const latent = await this.sample(cond, steps, noise);
+    const latent = await this.bestLatent(cond, steps, seed, frames, candidates);
     timing.sample_ms += performance.now() - mark;
     mark = performance.now();
     const features = await this.decode(latent, frames);
@@ -238,11 +275,11 @@ export class MotionModel {
   // during another is made alone, standing, and its arms put on the body made from the rest
   // (pipeline._concurrent, both with the seed); a sequence one part each (part k with seed + k),
   // chained; anything else whole.
-  async make(text, frames, steps, seed, timing, split) {
+  async make(text, frames, steps, seed, timing, split, candidates) {
     const pair = split && this.splitter && this.config.skeleton.arm_joints ? this.splitter.splitConcurrent(text) : null;
     if (pair) {
-      const body = await this.make(pair[0], frames, steps, seed, timing, split);
-      const arms = await this.draw(pair[1], frames, steps, seed, timing);
+      const body = await this.make(pair[0], frames, steps, seed, timing, split, candidates);
+      const arms = await this.draw(pair[1], frames, steps, seed, timing, candidates);
       const mark = performance.now();
       const joints = reattach(arms.joints, body.joints, frames, this.config.skeleton.arm_joints, this.config.skeleton);
       timing.decode_ms += performance.now() - mark;
@@ -253,11 +290,11 @@ export class MotionModel {
     const plan = split ? await this.plan(text, frames) : null;
     timing.text_ms += performance.now() - mark;
     if (!plan) {
-      const { features, joints } = await this.draw(text, frames, steps, seed, timing);
+      const { features, joints } = await this.draw(text, frames, steps, seed, timing, candidates);
       return { features, joints, seams: [], parts: [{ text, frames, seed }] };
     }
     const made = [];
-    for (let k = 0; k < plan.parts.length; k++) made.push(await this.draw(plan.parts[k], plan.lengths[k], steps, seed + k, timing));
+    for (let k = 0; k < plan.parts.length; k++) made.push(await this.draw(plan.parts[k], plan.lengths[k], steps, seed + k, timing, candidates));
     mark = performance.now();
     const { joints, seams } = chainSegments(made, plan.blend, this.config.skeleton);
     timing.decode_ms += performance.now() - mark;
@@ -266,8 +303,10 @@ export class MotionModel {
 
   // One motion: {text, seed, nfe, frames, features (null when joined from parts), joints
   // (frames * J * 3), parts [{text, frames, seed, arms}], seams, timing (ms)}; split false gives
-  // the model the whole prompt at once; frames null (or left out): defaultSeconds.
-  async generate({ text, frames = null, nfe, seed, split = true }) {
+  // the model the whole prompt at once; frames null (or left out): defaultSeconds; candidates:
+  // each prompt (or part) the best of this many samples by the critic, null the model's default
+  // (8 for the bundled model, as mlct generate), 1 plain sampling.
+  async generate({ text, frames = null, nfe, seed, split = true, candidates = null }) {
     const start = performance.now();
     const clean = cleanPrompt(text, this.config.max_prompt_chars);
     if (frames === null) frames = this.framesFor(await this.defaultSeconds(clean, split));
@@ -279,15 +318,21 @@ export class MotionModel {
     }
     if (!Number.isInteger(steps) || steps < 1 || steps > maxNfe) throw new Error(`nfe must be within 1..${maxNfe}, got ${steps}`);
     if (!Number.isSafeInteger(seed) || seed < 0) throw new Error(`seed must be a whole number >= 0, got ${seed}`);
+    const count = candidates ?? this.defaultCandidates;
+    const most = this.config.critic ? this.config.critic.max_candidates : 1;
+    if (!Number.isInteger(count) || count < 1 || count > most) {
+      throw new Error(this.config.critic ? `candidates must be within 1..${most}, got ${count}`
+        : "this model has no critic to choose among candidates, so candidates must be 1");
+    }
     const timing = { text_ms: 0, sample_ms: 0, decode_ms: 0 };
-    let { features, joints, parts, seams } = await this.make(clean, frames, steps, seed, timing, split);
+    let { features, joints, parts, seams } = await this.make(clean, frames, steps, seed, timing, split, count);
     const mark = performance.now();
     // planted feet, as the Python pipeline's (a site made before it has no foot_lock)
     if (this.config.foot_lock) joints = lockFeet(joints, frames, this.config.skeleton, this.config.foot_lock);
     const end = performance.now();
     timing.decode_ms += end - mark;
     timing.total_ms = end - start;
-    return { text: clean, seed, nfe: steps, frames, features, joints, parts, seams, skeleton: this.config.skeleton,
+    return { text: clean, seed, nfe: steps, frames, candidates: count, features, joints, parts, seams, skeleton: this.config.skeleton,
       footLock: this.config.foot_lock, timing };
   }
 }

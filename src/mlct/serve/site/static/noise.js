@@ -16,11 +16,20 @@ function mix(x) {
 }
 
 export class PortableNoise {
-  // seed: a whole number in 0 .. 2^53 - 1 (a JS number; Python takes up to 2^63 - 1).
+  // seed: a whole number in 0 .. 2^53 - 1 (a JS number), or a BigInt in 0 .. 2^63 - 1 as Python
+  // takes (a best-of-N candidate's seed, model.js).
   constructor(seed) {
-    if (!Number.isSafeInteger(seed) || seed < 0) throw new Error(`seed must be a whole number >= 0, got ${seed}`);
-    const lo = seed % 4294967296;
-    const hi = Math.floor(seed / 4294967296);
+    let lo;
+    let hi;
+    if (typeof seed === "bigint") {
+      if (seed < 0n || seed >= 1n << 63n) throw new Error(`seed must lie in 0..2^63 - 1, got ${seed}`);
+      lo = Number(seed & 0xffffffffn);
+      hi = Number(seed >> 32n);
+    } else {
+      if (!Number.isSafeInteger(seed) || seed < 0) throw new Error(`seed must be a whole number >= 0, got ${seed}`);
+      lo = seed % 4294967296;
+      hi = Math.floor(seed / 4294967296);
+    }
     this.key = mix((mix((hi ^ SALT) >>> 0) ^ lo) >>> 0);
     this.counter = 0;
   }
