@@ -15,17 +15,16 @@ row is mlct.load()'s pipeline with its own (torch) noise: the same seeds are oth
 there, so its row differs by sampling noise too. The site's graphs store the same numbers
 gzipped or not (serve/site/pack.py), so --no-gzip needs no row.
 
---two-actions scores the benchmark's two-action prompts (7 s) made as the page makes them, with
-the default site: the whole prompt given to the model at once (the page before it split
-sequences), and one part per action, chained (static/compose.js, chain.js; in Python
-generate_with_portable_noise); beside them the torch pipeline at one sample and at its default
-(best of the critic's 8 candidates, which the page does not have). Judged as bench/
-motion_quality.py judges them: in order at the motion's own cut, and in halves.
-
---captions DATA does the same on a procedural benchmark's test captions at their own lengths,
-judged by their labels (bench/motion_quality.py's (c)), per kind: one action, a sequence, and
-locomotion with an arm action at the same time ("+ concurrent"), which the page now makes
-apart and joins (control_fit.reattach's port).
+--two-actions scores the benchmark's two-action prompts (7 s) and --captions DATA a procedural
+benchmark's test captions (their own lengths, judged by their labels as bench/motion_quality.py's
+(c), per kind: one action, a sequence, and locomotion with an arm action at the same time,
+"+ concurrent"), each made five ways in one run (`makers`): the page before it followed
+generate() (the int8 text encoder, the whole prompt given to the model at once, one sample);
+the page now (the int8-weights text encoder; a sequence one part per action, chained; an arm
+action during another made apart and re-attached; static/compose.js, chain.js) at one sample
+and at the model's best of 8 by its critic; and the torch pipeline at both. Two-action prompts
+are judged as bench/motion_quality.py judges them: in order at the motion's own cut, and in
+halves.
 """
 
 from __future__ import annotations
@@ -35,7 +34,9 @@ import json
 import sys
 import tempfile
 from pathlib import Path
+from typing import Callable
 
+import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -66,13 +67,11 @@ def main() -> None:
                         help="the two-action prompts as the page makes them, split or whole")
     parser.add_argument("--captions", type=Path, default=None,
                         help="a procedural benchmark: its test captions, as the page makes them")
-    parser.add_argument("--text-encoder", default="int8",
-                        help="with --captions: the site's text encoder (export-web's choices)")
     args = parser.parse_args()
     if args.two_actions:
         return two_actions(args.seeds)
     if args.captions is not None:
-        return captions(args.captions, args.seeds, args.text_encoder)
+        return captions(args.captions, args.seeds)
     chosen = set(range(-1, len(VARIANTS)) if args.only is None else map(int, args.only))
     torch.set_num_threads(1)
     items = json.loads(PROMPTS.read_text(encoding="utf-8"))["paraphrases"]
@@ -104,29 +103,39 @@ def main() -> None:
             report(name, tally)
 
 
+def makers(tmp: Path, pipe) -> dict[str, Callable[[str, int, int], np.ndarray]]:
+    """(text, frames, seed) -> planted joints, per way of making a motion: the page before this
+    change (its old default int8 text encoder, the whole prompt, one sample), the page now (the
+    int8-weights text encoder, prompts split as generate() splits them) at one sample and at the
+    model's best of 8, and the torch pipeline at both."""
+    before = load_site_reference(export_site("bundled", tmp / "int8", text_encoder="int8"),
+                                 threads=1)
+    site = load_site_reference(export_site("bundled", tmp / "default"), threads=1)
+    return {
+        "page before": lambda text, frames, seed: generate_with_portable_noise(
+            before, text, frames, NFE, seed, split_actions=False, candidates=1)[1],
+        "page, 1 sample": lambda text, frames, seed: generate_with_portable_noise(
+            site, text, frames, NFE, seed, candidates=1)[1],
+        "page, best of 8": lambda text, frames, seed: generate_with_portable_noise(
+            site, text, frames, NFE, seed)[1],
+        "torch, 1 sample": lambda text, frames, seed: pipe.generate(
+            text, lengths=frames, nfe=NFE, seed=seed, candidates=1)[0].joints,
+        "torch, best of 8": lambda text, frames, seed: pipe.generate(
+            text, lengths=frames, nfe=NFE, seed=seed)[0].joints}
+
+
 def two_actions(seeds: int, seconds: float = 7.0) -> None:
     torch.set_num_threads(1)
     items = json.loads(PROMPTS.read_text(encoding="utf-8"))["two_actions"]
     pipe = mlct.load()
     frames = round(seconds * pipe.skeleton.fps)
     print(f"{len(items)} two-action prompts x {seeds} seeds, {seconds} s, {NFE} NFE")
-    rows: dict[str, list[Tally]] = {}
     with tempfile.TemporaryDirectory() as tmp:
-        site = load_site_reference(export_site("bundled", Path(tmp) / "site"), threads=1)
-        makers = {
-            "site, whole prompt (the page before)": lambda text, seed: generate_with_portable_noise(
-                site, text, frames, NFE, seed, split_actions=False)[1],
-            "site, one part per action (the page now)": lambda text, seed:
-                generate_with_portable_noise(site, text, frames, NFE, seed)[1],
-            "torch pipeline, 1 sample": lambda text, seed: pipe.generate(
-                text, seconds=seconds, nfe=NFE, seed=seed, candidates=1)[0].joints,
-            "torch pipeline, best of the critic's 8": lambda text, seed: pipe.generate(
-                text, seconds=seconds, nfe=NFE, seed=seed)[0].joints}
-        for name, make in makers.items():
-            tallies = rows[name] = [Tally(), Tally()]
+        for name, make in makers(Path(tmp), pipe).items():
+            tallies = [Tally(), Tally()]
             for seed in range(seeds):
                 for k, item in enumerate(items):
-                    joints = make(item["text"], seed * 1000 + k)
+                    joints = make(item["text"], frames, seed * 1000 + k)
                     for tally, halves in zip(tallies, (False, True)):
                         tally.add(*judge_prompt(joints, item["actions"],
                                                 len(joints) / pipe.skeleton.fps, halves=halves))
@@ -135,7 +144,7 @@ def two_actions(seeds: int, seconds: float = 7.0) -> None:
                   f"motions)", flush=True)
 
 
-def captions(data: Path, seeds: int, text_encoder: str = "int8") -> None:
+def captions(data: Path, seeds: int) -> None:
     from mlct.data.labels import read_labels
     from mlct.data.layout import DatasetLayout
 
@@ -146,24 +155,15 @@ def captions(data: Path, seeds: int, text_encoder: str = "int8") -> None:
     texts = [layout.read_texts(n)[0].caption for n in names]
     lengths = [min(len(layout.load_features(n)), MAX_FRAMES) for n in names]
     pipe = mlct.load()
-    print(f"{len(names)} test captions of {data} x {seeds} seeds, their own lengths, {NFE} NFE; "
-          f"the site's text encoder {text_encoder}")
+    print(f"{len(names)} test captions of {data} x {seeds} seeds, their own lengths, {NFE} NFE")
     columns = {}
     with tempfile.TemporaryDirectory() as tmp:
-        site = load_site_reference(export_site("bundled", Path(tmp) / "site",
-                                               text_encoder=text_encoder), threads=1)
-        makers = {
-            "page before": lambda k, seed: generate_with_portable_noise(
-                site, texts[k], lengths[k], NFE, seed, split_actions=False)[1],
-            "page now": lambda k, seed: generate_with_portable_noise(
-                site, texts[k], lengths[k], NFE, seed)[1],
-            "torch, 1 sample": lambda k, seed: pipe.generate(
-                texts[k], lengths=lengths[k], nfe=NFE, seed=seed, candidates=1)[0].joints}
-        for title, make in makers.items():
+        for title, make in makers(Path(tmp), pipe).items():
             tally = Tally()
             for seed in range(seeds):
                 for k, name in enumerate(names):
-                    tally.add(labels[name], evaluate_label(make(k, seed * 1000 + k), labels[name]))
+                    joints = make(texts[k], lengths[k], seed * 1000 + k)
+                    tally.add(labels[name], evaluate_label(joints, labels[name]))
             columns[title] = tally.summary()
             print(f"{title}: {columns[title]['overall']:.3f}", flush=True)
     print_table("read-out pass rates of the test captions", columns)

@@ -203,7 +203,7 @@ def _portable_durations(model_dir: Path, meta: dict) -> dict[str, Any] | None:
 
 
 def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
-                vendor: str | os.PathLike | None = None, text_encoder: str = "int8",
+                vendor: str | os.PathLike | None = None, text_encoder: str = "int8-weights",
                 denoiser: str = "float16", gzip: bool = True) -> Path:
     """Write the static site of model (a directory, or None / 'bundled') to out; returns out.
     vendor: a folder holding the npm tarballs (vendor.py), instead of the cache.
