@@ -549,3 +549,12 @@ def test_best_of_n_picks_what_the_python_critic_picks(page, reference):
                           " jumps', frames: 40, nfe: 5, seed: 0, candidates: 65}); return ''; }"
                           " catch (e) { return e.message; } }")
     assert error == "candidates must be within 1..64, got 65"
+
+
+def test_the_site_stays_within_its_size_goal(site):
+    """issue 20's goal, <= 40 MB on disk, with the critic's graph and the arm pair's decoder:
+    the float16 graphs are stored gzipped too (pack.MIN_GAIN)."""
+    from mlct.serve.site import site_size
+
+    assert site_size(site)["total"] <= 40e6
+    assert (site / "model" / "critic.onnx.gz").is_file()

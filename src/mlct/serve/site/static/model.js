@@ -73,7 +73,11 @@ export class MotionModel {
     const vocab = await (await fetch(new URL(`model/${config.text_encoder.vocab}`, base))).text();
     // the runtime's binary, fetched here so that a gzipped one can be unpacked (older sites: ORT fetches it)
     if (config.wasm) ort.env.wasm.wasmBinary = await fetchBytes(new URL(`vendor/${config.wasm}`, base));
-    const options = { executionProviders: ["wasm"], graphOptimizationLevel: "all" };
+    // disable_quant_qdq: int8 weights dequantized in a graph (the int8-weights text encoder) are
+    // folded into float32 once, when the session is made, instead of dequantized on every run;
+    // the same arithmetic, as mlct's native sessions (onnx_io.session) set it too
+    const options = { executionProviders: ["wasm"], graphOptimizationLevel: "all",
+      extra: { session: { disable_quant_qdq: "1" } } };
     const session = async (name) => ort.InferenceSession.create(
       await fetchBytes(new URL(`model/${config.graphs[name]}`, base)), options);
     const [text, denoiser, decoder] = await Promise.all(["text_encoder", "denoiser", "decoder"].map(session));
