@@ -558,3 +558,29 @@ def test_the_site_stays_within_its_size_goal(site):
 
     assert site_size(site)["total"] <= 40e6
     assert (site / "model" / "critic.onnx.gz").is_file()
+
+
+def test_a_stated_duration_sets_the_length_as_in_python(page, reference):
+    """"... for 6 seconds": the page reads the phrase as prompts.stated_seconds does (the same
+    pattern, from model.json), makes the prompt without it at that length, and says so when
+    the length is past the window; the motion keeps the prompt as typed."""
+    from mlct.generate.prompts import stated_seconds
+
+    texts = ["a person jogs in place for 6 seconds", "walks forward, for about half a minute",
+             "a person waves For Five Seconds", "claps for 2.5 s", "walks for 5 seconds, then "
+             "waves for 3 seconds", "for 4 seconds", "a man bows for 0 seconds",
+             "a person runs for forty-five seconds", "someone stands for a minute"]
+    got = page.evaluate("(texts) => texts.map((t) => window.mlct.model.stated.read(t))", texts)
+    assert [tuple(g) for g in got] == [stated_seconds(t) for t in texts]
+    text = "a person jogs in place for 6 seconds."
+    motion = page.evaluate("async (text) => { const m = await window.mlct.model.generate({text,"
+                           " nfe: 5, seed: 3}); return [m.text, m.frames, m.parts[0].text,"
+                           " Array.from(m.joints)]; }", text)
+    assert motion[:3] == [text, 120, "a person jogs in place."]
+    _, expected = generate_with_portable_noise(reference, text, None, 5, 3)
+    gap = np.abs(np.float32(motion[3]).reshape(120, 22, 3) - expected).max(-1)
+    assert len(expected) == 120 and (gap <= 2e-3).mean() > 0.99 and gap.max() < 0.01
+    error = page.evaluate("async () => { try { await window.mlct.model.generate({text: 'a person"
+                          " walks for 20 seconds', nfe: 5, seed: 0}); return ''; } catch (e)"
+                          " { return e.message; } }")
+    assert error.startswith("the prompt asks for 20 s; a motion made here lasts at most 9.8 s")

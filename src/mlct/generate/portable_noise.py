@@ -89,13 +89,19 @@ def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: 
     body made from the rest (control_fit.reattach), both with the seed; a sequence
     (compose.split_actions) one part each, its share from the duration model
     (MotionGenerator.part_frames), part k with seed + k as generate_long seeds it, chained
-    (long_motion.chain_segments). Neither the page nor this keeps a gait going. frames None:
-    the default length, page_default_seconds.
+    (long_motion.chain_segments). Neither the page nor this keeps a gait going. A phrase that
+    says how long ("for 8 seconds", pipeline.stated_lengths) is taken out of the text; frames
+    None: its seconds, else the default length, page_default_seconds.
     Returns (features (T, D), or None for a motion joined from parts, joints (T, J, 3)),
     float32."""
     from mlct.generate.prompts import clean_prompt
 
+    from mlct.generate.pipeline import stated_lengths
+
     text = clean_prompt(text)
+    (text,), (stated,) = stated_lengths([text], split_actions)  # "... for 8 seconds"
+    if frames is None and stated is not None:
+        frames = generator.frames_for(stated)
     if frames is None:  # the page's length when it is given none (static/model.js)
         frames = generator.frames_for(page_default_seconds(generator, text, split_actions))
     (frames,) = generator._lengths(1, int(frames), None)

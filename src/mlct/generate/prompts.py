@@ -86,3 +86,10 @@ def stated_seconds(text: str) -> tuple[str, float | None]:
     if seconds <= 0 or not rest:
         return text, None
     return " ".join(rest.split()), seconds
+
+
+def portable_stated() -> dict:
+    """stated_seconds' pattern, number words and units as JSON, for the static site's port
+    (serve/site/static/compose.js: statedSeconds); the pattern is case-insensitive."""
+    assert _STATED.flags & re.IGNORECASE
+    return {"pattern": _STATED.pattern, "numbers": _NUMBERS, "units": _UNITS}

@@ -43,7 +43,7 @@ from mlct.generate.onnx_compact import (float16_storage, quantize_int8,
                                         quantize_int8_weights, require_onnx)
 from mlct.generate.pipeline import (DEFAULT_SECONDS, MAX_SEED, MIN_PART_SECONDS, SEED_STRIDE,
                                     bundled_model_dir)
-from mlct.generate.prompts import MAX_PROMPT_CHARS
+from mlct.generate.prompts import MAX_PROMPT_CHARS, portable_stated
 from mlct.generate.samplers import ConsistencySampler, sampler_class
 from mlct.io import atomic_dir, check_writable_dir, read_format_json
 from mlct.motion.foot_lock import ANKLE_HEIGHT, FootLock
@@ -159,6 +159,8 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
         # does (static/compose.js: generate/compose.py's rules; static/chain.js: long_motion.py)
         "sequence": {"rules": portable_rules(), "min_part_seconds": MIN_PART_SECONDS,
                      "blend_seconds": BLEND_SECONDS},
+        # "... for 8 seconds": the clip's length, the phrase taken out (prompts.stated_seconds)
+        "stated": portable_stated(),
         # a clip's length when the page is not given one (pipeline.default_seconds)
         "default_seconds": DEFAULT_SECONDS,
         "durations": _portable_durations(model_dir, meta),

@@ -259,3 +259,28 @@ export function splitFrames(weights, frames, minFrames) {
   for (const [, i] of order) { if (left-- <= 0) break; share[i] += 1; }
   return share;
 }
+
+// prompts.stated_seconds (model.json "stated": its pattern, number words and units): [the text
+// without a phrase that says how long, the seconds it says], or [text, null] when it says none
+// or more than one ("walks for 5 seconds, then waves for 3 seconds": whose is whose is the
+// parts').
+export class StatedSeconds {
+  constructor(spec) {
+    this.pattern = new RegExp(spec.pattern.replaceAll("(?P<", "(?<"), "gi");
+    this.numbers = spec.numbers;
+    this.units = spec.units;
+  }
+
+  read(text) {
+    const found = [...text.matchAll(this.pattern)];
+    if (found.length !== 1) return [text, null];
+    const [match] = found;
+    const number = match.groups.n.toLowerCase();
+    const amount = /^[0-9]/.test(number) ? parseFloat(number) : this.numbers[number];
+    const unit = match.groups.unit.toLowerCase().replace(/s+$/, "") || "s";
+    const seconds = amount * this.units[unit];
+    const rest = strip(text.slice(0, match.index) + text.slice(match.index + match[0].length), " ,;");
+    if (!(seconds > 0) || !rest) return [text, null];
+    return [words(rest).join(" "), seconds];
+  }
+}

@@ -8,7 +8,7 @@ import * as ort from "./vendor/ort.wasm.min.mjs";
 import { WordPieceTokenizer } from "./tokenizer.js";
 import { PortableNoise } from "./noise.js";
 import { lockFeet, recoverFromRic } from "./motion.js";
-import { ActionSplitter, Durations, splitFrames } from "./compose.js";
+import { ActionSplitter, Durations, StatedSeconds, splitFrames } from "./compose.js";
 import { chainSegments, reattach } from "./chain.js";
 
 const PY_SPACE = /[\s\x1c-\x1f\x85]/u; // what Python's str.split() splits on (U+FEFF is no space)
@@ -98,6 +98,7 @@ export class MotionModel {
     // a sequence of actions made one part each and chained (a site made before has neither)
     this.splitter = config.sequence ? new ActionSplitter(config.sequence.rules) : null;
     this.durations = config.durations ? new Durations(config.durations) : null;
+    this.stated = config.stated ? new StatedSeconds(config.stated) : null;
   }
 
   get fps() { return this.config.skeleton.fps; }
@@ -313,7 +314,20 @@ export class MotionModel {
   async generate({ text, frames = null, nfe, seed, split = true, candidates = null }) {
     const start = performance.now();
     const clean = cleanPrompt(text, this.config.max_prompt_chars);
-    if (frames === null) frames = this.framesFor(await this.defaultSeconds(clean, split));
+    // "... for 8 seconds" (pipeline.stated_lengths): the model reads the prompt without the
+    // phrase, whose seconds are the length unless one is given; in a prompt of several actions
+    // it stays where it is (whose duration it gives is not clear)
+    let [model, stated] = this.stated ? this.stated.read(clean) : [clean, null];
+    if (stated !== null && split && this.splitter && this.splitter.split(model).length > 1) {
+      [model, stated] = [clean, null];
+    }
+    if (frames === null && stated !== null) {
+      frames = this.framesFor(stated);
+      if (frames > this.config.max_frames) {
+        throw new Error(`the prompt asks for ${stated} s; a motion made here lasts at most ${(this.config.max_frames / this.fps).toFixed(1)} s (mlct generate keeps a gait going past that)`);
+      }
+    }
+    if (frames === null) frames = this.framesFor(await this.defaultSeconds(model, split));
     const { max_frames: maxFrames } = this.config;
     const { max_nfe: maxNfe, default_nfe: defaultNfe } = this.config.sampler;
     const steps = nfe ?? defaultNfe;
@@ -329,7 +343,7 @@ export class MotionModel {
         : "this model has no critic to choose among candidates, so candidates must be 1");
     }
     const timing = { text_ms: 0, sample_ms: 0, decode_ms: 0 };
-    let { features, joints, parts, seams } = await this.make(clean, frames, steps, seed, timing, split, count);
+    let { features, joints, parts, seams } = await this.make(model, frames, steps, seed, timing, split, count);
     const mark = performance.now();
     // planted feet, as the Python pipeline's (a site made before it has no foot_lock)
     if (this.config.foot_lock) joints = lockFeet(joints, frames, this.config.skeleton, this.config.foot_lock);
