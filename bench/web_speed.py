@@ -51,12 +51,14 @@ class Isolated(http.server.SimpleHTTPRequestHandler):
         pass
 
 
-def sentences(count: int, sequence: bool = False) -> list[str]:
-    if sequence:  # "take i" on both parts: each a new text, nothing memoised
+def sentences(count: int, sequence: bool = False, first: int = 0) -> list[str]:
+    """count new sentences ("take i", i from `first`, on every part: nothing memoised)."""
+    if sequence:
         return [f"{SUBJECTS[i % len(SUBJECTS)]} {ACTIONS[(i * 7) % len(ACTIONS)]} (take {i}), "
-                f"then {ACTIONS[(i * 5 + 3) % len(ACTIONS)]} (take {i})" for i in range(count)]
+                f"then {ACTIONS[(i * 5 + 3) % len(ACTIONS)]} (take {i})"
+                for i in range(first, first + count)]
     return [f"{SUBJECTS[i % len(SUBJECTS)]} {ACTIONS[(i * 7) % len(ACTIONS)]}, take {i}"
-            for i in range(count)]
+            for i in range(first, first + count)]
 
 
 def quartiles(values: list[float]) -> str:
@@ -84,7 +86,7 @@ def measure(url: str, threads: int, count: int, nfe: int, candidates: list[int],
             frames = 120 if sequence else 80
             for n in candidates:
                 timings = []
-                for i, text in enumerate(sentences(WARMUP + count, sequence)):
+                for i, text in enumerate(sentences(WARMUP + count, sequence, first=1000 * n)):
                     timing = page.evaluate(
                         "async (r) => (await window.mlct.model.generate(r)).timing",
                         {"text": text, "frames": frames, "nfe": nfe, "seed": i, "candidates": n})
