@@ -363,6 +363,18 @@ def test_a_server_that_unpacks_the_gz_files_itself_works_too(site, page, tmp_pat
 SEQUENCE = "a person walks forward, then jumps up and down."
 
 
+def typed_in(page, text: str, seed: int, seconds: float) -> dict:
+    """The motion the page makes of text typed in the form, with its seed and a length set on
+    the slider (which turns "length from the text" off): window.mlct.lastMotion."""
+    page.fill("#prompt", text)
+    page.fill("#seed", str(seed))
+    page.locator("#seconds").fill(str(seconds))
+    page.press("#prompt", "Enter")
+    page.wait_for_function(f"window.mlct.lastMotion.text === {json.dumps(text)}",
+                           timeout=60_000)
+    return page.evaluate("window.mlct.lastMotion")
+
+
 def test_actions_are_split_as_in_python(page):
     """The page's splits (static/compose.js) give compose.split_actions' parts and
     split_concurrent's body and arms: on the benchmark's hand-written prompts and on the
@@ -402,13 +414,7 @@ def test_a_sequence_is_made_in_parts_as_in_python(page, reference):
     reference of the page (generate_with_portable_noise), and the parts show in the status."""
     from mlct.generate.compose import split_actions
 
-    page.fill("#prompt", SEQUENCE)
-    page.fill("#seed", "11")
-    page.locator("#seconds").fill("6")  # 120 frames
-    page.press("#prompt", "Enter")
-    page.wait_for_function(f"window.mlct.lastMotion.text === {json.dumps(SEQUENCE)}",
-                           timeout=60_000)
-    got = page.evaluate("window.mlct.lastMotion")
+    got = typed_in(page, SEQUENCE, seed=11, seconds=6)  # 120 frames
     parts = split_actions(SEQUENCE)
     assert len(parts) == 2 and got["frames"] == 120
     assert [p["text"] for p in got["parts"]] == parts
@@ -464,13 +470,7 @@ def test_an_arm_action_during_another_is_made_apart_as_in_python(page, reference
     """"jogs in place while clapping": the page makes the jog and the clap (standing) apart and
     puts the clap's arms on the jog (control_fit.reattach's port), as generate() does: Python's
     joints, and the hands meet while the feet go on jogging."""
-    page.fill("#prompt", CONCURRENT)
-    page.fill("#seed", "4")
-    page.locator("#seconds").fill("4")  # 80 frames
-    page.press("#prompt", "Enter")
-    page.wait_for_function(f"window.mlct.lastMotion.text === {json.dumps(CONCURRENT)}",
-                           timeout=60_000)
-    got = page.evaluate("window.mlct.lastMotion")
+    got = typed_in(page, CONCURRENT, seed=4, seconds=4)  # 80 frames
     assert [(p["text"], p.get("arms", False)) for p in got["parts"]] == [
         ("a person jogs in place", False), ("a person claps", True)]
     joints = np.asarray(got["joints"], dtype=np.float32).reshape(80, 22, 3)

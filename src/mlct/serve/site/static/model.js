@@ -236,9 +236,9 @@ export class MotionModel {
     const { min_part_seconds: minPart, blend_seconds: blendSeconds } = this.config.sequence;
     const minFrames = this.framesFor(minPart);
     if (parts.length < 2 || Math.floor(frames / parts.length) < minFrames) return null;
-    const weights = this.durations
-      ? this.durations.partWeights(await Promise.all(parts.map((p) => this.encode(p))), frames / this.fps, minPart)
-      : parts.map(() => 1);
+    const vectors = [];
+    if (this.durations) for (const part of parts) vectors.push(await this.encode(part)); // one run at a time
+    const weights = this.durations ? this.durations.partWeights(vectors, frames / this.fps, minPart) : parts.map(() => 1);
     const share = splitFrames(weights, frames, minFrames);
     const blend = Math.max(2, roundHalfEven(blendSeconds * this.fps));
     return { parts, share, blend, lengths: share.map((n, k) => (k + 1 < share.length ? n + blend : n)) };
@@ -314,6 +314,17 @@ export class MotionModel {
   async generate({ text, frames = null, nfe, seed, split = true, candidates = null }) {
     const start = performance.now();
     const clean = cleanPrompt(text, this.config.max_prompt_chars);
+    const { max_frames: maxFrames } = this.config;
+    const { max_nfe: maxNfe, default_nfe: defaultNfe } = this.config.sampler;
+    const steps = nfe ?? defaultNfe; // the request checked before any network runs
+    if (!Number.isInteger(steps) || steps < 1 || steps > maxNfe) throw new Error(`nfe must be within 1..${maxNfe}, got ${steps}`);
+    if (!Number.isSafeInteger(seed) || seed < 0) throw new Error(`seed must be a whole number >= 0, got ${seed}`);
+    const count = candidates ?? this.defaultCandidates;
+    const most = this.config.critic ? this.config.critic.max_candidates : 1;
+    if (!Number.isInteger(count) || count < 1 || count > most) {
+      throw new Error(this.config.critic ? `candidates must be within 1..${most}, got ${count}`
+        : "this model has no critic to choose among candidates, so candidates must be 1");
+    }
     // "... for 8 seconds" (pipeline.stated_lengths): the model reads the prompt without the
     // phrase, whose seconds are the length unless one is given; in a prompt of several actions
     // it stays where it is (whose duration it gives is not clear)
@@ -323,34 +334,24 @@ export class MotionModel {
     }
     if (frames === null && stated !== null) {
       frames = this.framesFor(stated);
-      if (frames > this.config.max_frames) {
-        throw new Error(`the prompt asks for ${stated} s; a motion made here lasts at most ${(this.config.max_frames / this.fps).toFixed(1)} s (mlct generate keeps a gait going past that)`);
+      if (frames > maxFrames) {
+        throw new Error(`the prompt asks for ${stated} s; a motion made here lasts at most ${(maxFrames / this.fps).toFixed(1)} s (mlct generate keeps a gait going past that)`);
       }
     }
-    if (frames === null) frames = this.framesFor(await this.defaultSeconds(model, split));
-    const { max_frames: maxFrames } = this.config;
-    const { max_nfe: maxNfe, default_nfe: defaultNfe } = this.config.sampler;
-    const steps = nfe ?? defaultNfe;
-    if (!Number.isInteger(frames) || frames < 1 || frames > maxFrames) {
+    if (frames !== null && (!Number.isInteger(frames) || frames < 1 || frames > maxFrames)) {
       throw new Error(`length ${frames} frames is outside 1..${maxFrames} (${(maxFrames / this.fps).toFixed(2)} s at ${this.fps} fps)`);
     }
-    if (!Number.isInteger(steps) || steps < 1 || steps > maxNfe) throw new Error(`nfe must be within 1..${maxNfe}, got ${steps}`);
-    if (!Number.isSafeInteger(seed) || seed < 0) throw new Error(`seed must be a whole number >= 0, got ${seed}`);
-    const count = candidates ?? this.defaultCandidates;
-    const most = this.config.critic ? this.config.critic.max_candidates : 1;
-    if (!Number.isInteger(count) || count < 1 || count > most) {
-      throw new Error(this.config.critic ? `candidates must be within 1..${most}, got ${count}`
-        : "this model has no critic to choose among candidates, so candidates must be 1");
-    }
     const timing = { text_ms: 0, sample_ms: 0, decode_ms: 0 };
-    let { features, joints, parts, seams } = await this.make(model, frames, steps, seed, timing, split, count);
+    if (frames === null) frames = this.framesFor(await this.defaultSeconds(model, split)); // within the window
+    timing.text_ms += performance.now() - start; // the length's text-encoder runs, if any
+    const made = await this.make(model, frames, steps, seed, timing, split, count);
     const mark = performance.now();
     // planted feet, as the Python pipeline's (a site made before it has no foot_lock)
-    if (this.config.foot_lock) joints = lockFeet(joints, frames, this.config.skeleton, this.config.foot_lock);
+    const joints = this.config.foot_lock ? lockFeet(made.joints, frames, this.config.skeleton, this.config.foot_lock) : made.joints;
     const end = performance.now();
     timing.decode_ms += end - mark;
     timing.total_ms = end - start;
-    return { text: clean, seed, nfe: steps, frames, candidates: count, features, joints, parts, seams, skeleton: this.config.skeleton,
-      footLock: this.config.foot_lock, timing };
+    return { text: clean, seed, nfe: steps, frames, candidates: count, features: made.features, joints,
+      parts: made.parts, seams: made.seams, skeleton: this.config.skeleton, footLock: this.config.foot_lock, timing };
   }
 }
