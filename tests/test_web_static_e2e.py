@@ -584,3 +584,28 @@ def test_a_stated_duration_sets_the_length_as_in_python(page, reference):
                           " walks for 20 seconds', nfe: 5, seed: 0}); return ''; } catch (e)"
                           " { return e.message; } }")
     assert error.startswith("the prompt asks for 20 s; a motion made here lasts at most 9.8 s")
+
+
+def test_a_gait_asked_for_longer_than_it_lasts_keeps_going_as_in_python(page, reference):
+    """"a person runs forward" for 9.8 s: the model's run stops after ~4 s; the page makes it
+    again as takes of its natural length chained into one run (keepgoing.js, the port of
+    generate/keep_going.py), as generate() does: Python's joints, still running at the end."""
+    from mlct.generate.keep_going import ground_speed
+
+    text = "a person runs forward"
+    got = typed_in(page, text, seed=4, seconds=9.8)  # 196 frames
+    assert got["frames"] == 196 and got["parts"][0].get("takes", 0) >= 2
+    joints = np.asarray(got["joints"], dtype=np.float32).reshape(196, 22, 3)
+    _, expected = generate_with_portable_noise(reference, text, 196, 5, 4)
+    gap = np.abs(joints - expected).max(-1)  # planted: see the sequence's test
+    assert (gap <= 2e-3).mean() > 0.99 and gap.max() < 0.01
+    check_joined_before_planting(page, reference, text, 196, 4)
+    speed = ground_speed(joints, 20)
+    assert speed[-20:].mean() > 0.5 * np.median(speed[10:70])  # running in its last second
+    # as the model made it in one take, it had stopped
+    made = page.evaluate("async () => { const m = window.mlct.model; const kg = m.keepGoing;"
+                         " m.keepGoing = null; try { return Array.from((await m.generate({text: "
+                         f"{json.dumps(text)}, frames: 196, nfe: 5, seed: 4}})).joints); }} finally"
+                         " { m.keepGoing = kg; } }")
+    stopped = ground_speed(np.float32(made).reshape(196, 22, 3), 20)
+    assert stopped[-20:].mean() < 0.3 * np.median(stopped[10:70])

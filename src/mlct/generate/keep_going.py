@@ -291,3 +291,15 @@ def retime(joints: np.ndarray, frames: int) -> np.ndarray:
     high = np.minimum(low + 1, len(joints) - 1)
     w = (at - low)[:, None, None]
     return (1 - w) * joints[low] + w * joints[high]
+
+
+def portable_rules() -> dict:
+    """This module's patterns and constants as JSON, for the static site's port of it
+    (serve/site/static/keepgoing.js); both patterns are case-insensitive."""
+    assert _COUNTED.flags & re.IGNORECASE and _TURNING.flags & re.IGNORECASE
+    return {"counted": _COUNTED.pattern, "turning": _TURNING.pattern,
+            "margin_seconds": MARGIN_SECONDS, "moving_speed": MOVING_SPEED,
+            "stopped_share": STOPPED_SHARE, "smooth_seconds": SMOOTH_SECONDS,
+            "steady_share": STEADY_SHARE, "max_turn_rate": MAX_TURN_RATE,
+            "min_straightness": MIN_STRAIGHTNESS, "moving_share": MOVING_SHARE,
+            "max_warp": MAX_WARP, "warp_cost": WARP_COST}

@@ -89,7 +89,8 @@ def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: 
     body made from the rest (control_fit.reattach), both with the seed; a sequence
     (compose.split_actions) one part each, its share from the duration model
     (MotionGenerator.part_frames), part k with seed + k as generate_long seeds it, chained
-    (long_motion.chain_segments). Neither the page nor this keeps a gait going. A phrase that
+    (long_motion.chain_segments); a gait asked for longer than it lasts kept going
+    (_whole_as_the_page). A phrase that
     says how long ("for 8 seconds", pipeline.stated_lengths) is taken out of the text; frames
     None: its seconds, else the default length, page_default_seconds.
     Returns (features (T, D), or None for a motion joined from parts, joints (T, J, 3)),
@@ -129,21 +130,53 @@ def _made_as_the_page(generator, text: str, frames: int, steps: int, seed: int, 
         from mlct.generate.control_fit import reattach
 
         _, body = _made_as_the_page(generator, pair[0], frames, steps, seed, split, candidates)
-        _, arms = _one_with_portable_noise(generator, pair[1], frames, steps, seed, candidates)
+        _, arms = _whole_as_the_page(generator, pair[1], frames, steps, seed, candidates)
         joints = reattach(arms.astype(np.float64), body.astype(np.float64),
                           part_joints("arms", generator.skeleton), generator.skeleton)
         return None, joints.astype(np.float32)
     parts = split_actions(text) if split else [text]
     # generate()'s rule: a sequence is split when each part gets MIN_PART_SECONDS
     if len(parts) == 1 or frames // len(parts) < generator.frames_for(MIN_PART_SECONDS):
-        return _one_with_portable_noise(generator, text, frames, steps, seed, candidates)
+        return _whole_as_the_page(generator, text, frames, steps, seed, candidates)
     blend = max(2, int(round(BLEND_SECONDS * generator.skeleton.fps)))
     vectors = np.concatenate([page_text_vector(generator, p).cpu().numpy() for p in parts])
     share = generator.part_frames(parts, frames, vectors)
     lengths = [n + blend for n in share[:-1]] + [share[-1]]  # each covers the next's blend
-    made = [_one_with_portable_noise(generator, part, n, steps, seed + k, candidates)[1]
+    made = [_whole_as_the_page(generator, part, n, steps, seed + k, candidates)[1]
             for k, (part, n) in enumerate(zip(parts, lengths))]
     return None, chain_segments(made, blend, generator.skeleton)[0].astype(np.float32)
+
+
+def _whole_as_the_page(generator, text: str, frames: int, steps: int, seed: int,
+                       candidates: int) -> tuple[np.ndarray | None, np.ndarray]:
+    """One prompt given to the model whole, as generate() makes it (pipeline._made's "whole"
+    items and _keep_going): a one-action gait asked for clearly longer than its natural length
+    that stopped early is made again as takes of that length (take k with seed + k), chained
+    into one continuing motion (generate/keep_going.py); (None, joints) then."""
+    from mlct.generate.compose import split_actions, split_concurrent
+    from mlct.generate.keep_going import keep_going, names_an_end, segment_count, stops_early
+    from mlct.generate.long_motion import BLEND_SECONDS
+    from mlct.generate.pipeline import MAX_SEED, MIN_PART_SECONDS
+
+    features, joints = _one_with_portable_noise(generator, text, frames, steps, seed, candidates)
+    fps = generator.skeleton.fps
+    if (generator.durations is None or not generator.keep_going or names_an_end(text)
+            or frames / fps < MIN_PART_SECONDS or len(split_actions(text)) > 1
+            or split_concurrent(text) is not None):
+        return features, joints
+    natural = generator.durations.clip_seconds(page_text_vector(generator, text).cpu().numpy())
+    if not stops_early(joints, fps, natural, generator.skeleton):
+        return features, joints
+    take = min(generator.frames_for(natural), generator.max_frames)
+    blend = max(2, int(round(BLEND_SECONDS * fps)))
+    count = segment_count(frames, take, blend)
+    for count in (count, 2 * count):  # twice as many when the stretches fell short
+        takes = [_one_with_portable_noise(generator, text, take, steps, (seed + k) % (MAX_SEED + 1),
+                                          candidates)[1] for k in range(count)]
+        chained = keep_going(takes, frames, blend, generator.skeleton)
+        if chained is not None:
+            return None, chained[0].astype(np.float32)
+    return features, joints  # the takes did not reach the length: as made
 
 
 def _one_with_portable_noise(generator, text: str, frames: int, steps: int, seed: int,

@@ -36,6 +36,7 @@ from mlct.generate.compose import portable_rules
 from mlct.generate.critic import MAX_CANDIDATES, Critic
 from mlct.generate.control import part_joints
 from mlct.generate.durations import FASTEST_TEMPO_SHARE, MIN_WEIGHT, read_durations
+from mlct.generate.keep_going import portable_rules as portable_keep_going
 from mlct.generate.long_motion import BLEND_SECONDS
 from mlct.generate.onnx_backend import OnnxMotionGenerator
 from mlct.generate.onnx_bundle import OnnxGraphs, weights_digest, write_onnx_graphs
@@ -159,6 +160,8 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
         # does (static/compose.js: generate/compose.py's rules; static/chain.js: long_motion.py)
         "sequence": {"rules": portable_rules(), "min_part_seconds": MIN_PART_SECONDS,
                      "blend_seconds": BLEND_SECONDS},
+        # a gait asked for longer than it lasts keeps going (generate/keep_going.py; keepgoing.js)
+        "keep_going": portable_keep_going(),
         # "... for 8 seconds": the clip's length, the phrase taken out (prompts.stated_seconds)
         "stated": portable_stated(),
         # a clip's length when the page is not given one (pipeline.default_seconds)

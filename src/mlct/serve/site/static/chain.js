@@ -6,7 +6,7 @@
 "use strict";
 
 // long_motion.heading: facing angle about +y, 0 when facing +Z, from the hips and shoulders.
-function headings(joints, frames, J, [rHip, lHip, rShoulder, lShoulder]) {
+export function headings(joints, frames, J, [rHip, lHip, rShoulder, lShoulder]) {
   const out = new Float64Array(frames);
   for (let t = 0; t < frames; t++) {
     const p = (j, k) => joints[(t * J + j) * 3 + k];
@@ -18,7 +18,7 @@ function headings(joints, frames, J, [rHip, lHip, rShoulder, lShoulder]) {
 }
 
 // numpy.unwrap (discont pi)
-function unwrap(angles) {
+export function unwrap(angles) {
   const out = Float64Array.from(angles);
   let correction = 0;
   for (let t = 1; t < angles.length; t++) {
@@ -35,7 +35,7 @@ function unwrap(angles) {
 const turn = (x, z, angle) => [Math.cos(angle) * x + Math.sin(angle) * z, -Math.sin(angle) * x + Math.cos(angle) * z];
 
 // long_motion._decompose: root xz track, unwrapped heading, pose in the body's own frame.
-function decompose(joints, frames, J, face) {
+export function decompose(joints, frames, J, face) {
   const root = [];
   for (let t = 0; t < frames; t++) root.push([joints[t * J * 3], joints[t * J * 3 + 2]]);
   const angle = Array.from(unwrap(headings(joints, frames, J, face)));
@@ -71,8 +71,9 @@ function rates(track, n, sub) {
 }
 
 // chain_segments: segments [{joints, frames}], each overlapping the next by `blend` frames ->
-// {joints (Float32Array), frames, seams (the frame where each later segment's blend starts)}.
-export function chainSegments(segments, blend, skeleton) {
+// {joints (Float32Array; Float64Array with float64), frames, seams (the frame where each later
+// segment's blend starts)}.
+export function chainSegments(segments, blend, skeleton, float64 = false) {
   const J = skeleton.parents.length;
   const face = skeleton.face_joints;
   const sub2 = (a, b) => [a[0] - b[0], a[1] - b[1]];
@@ -110,7 +111,7 @@ export function chainSegments(segments, blend, skeleton) {
     seams.push(start);
   }
   const frames = root.length;
-  const joints = new Float32Array(frames * J * 3);
+  const joints = float64 ? new Float64Array(frames * J * 3) : new Float32Array(frames * J * 3);
   for (let t = 0; t < frames; t++) {
     for (let j = 0; j < J; j++) {
       const o = j * 3;

@@ -10,6 +10,7 @@ import { PortableNoise } from "./noise.js";
 import { lockFeet, recoverFromRic } from "./motion.js";
 import { ActionSplitter, Durations, StatedSeconds, splitFrames } from "./compose.js";
 import { chainSegments, reattach } from "./chain.js";
+import { KeepGoing } from "./keepgoing.js";
 
 const PY_SPACE = /[\s\x1c-\x1f\x85]/u; // what Python's str.split() splits on (U+FEFF is no space)
 const CONTROL = /[\p{Cc}\p{Cf}\p{Cs}]/u;
@@ -99,6 +100,7 @@ export class MotionModel {
     this.splitter = config.sequence ? new ActionSplitter(config.sequence.rules) : null;
     this.durations = config.durations ? new Durations(config.durations) : null;
     this.stated = config.stated ? new StatedSeconds(config.stated) : null;
+    this.keepGoing = config.keep_going && this.durations ? new KeepGoing(config.keep_going, config.skeleton) : null;
   }
 
   get fps() { return this.config.skeleton.fps; }
@@ -259,6 +261,31 @@ export class MotionModel {
     return { features, joints, frames };
   }
 
+  // One prompt given to the model whole, as generate() makes it (pipeline._made, _keep_going):
+  // a one-action gait asked for clearly longer than its natural length that stopped early is
+  // made again as takes of that length (take k with seed + k), chained into one continuing
+  // motion (keepgoing.js); {features (null when kept going), joints, frames, takes}.
+  async whole(text, frames, steps, seed, timing, candidates) {
+    const made = await this.draw(text, frames, steps, seed, timing, candidates);
+    const kg = this.keepGoing;
+    if (!kg || kg.namesAnEnd(text) || frames / this.fps < this.config.sequence.min_part_seconds
+        || this.splitter.split(text).length > 1 || this.splitter.splitConcurrent(text) !== null) return made;
+    const natural = this.durations.partSeconds([await this.encode(text)])[0];
+    if (!kg.stopsEarly(made.joints, frames, natural)) return made;
+    const take = Math.min(this.framesFor(natural), this.config.max_frames);
+    const blend = Math.max(2, roundHalfEven(this.config.sequence.blend_seconds * this.fps));
+    const count = kg.segmentCount(frames, take, blend);
+    for (const n of [count, 2 * count]) { // twice as many when the stretches fell short
+      const takes = [];
+      for (let k = 0; k < n; k++) takes.push(await this.draw(text, take, steps, seed + k, timing, candidates));
+      const mark = performance.now();
+      const chained = kg.chain(takes, frames, blend);
+      timing.decode_ms += performance.now() - mark;
+      if (chained) return { features: null, joints: chained.joints, frames, takes: n };
+    }
+    return made; // the takes did not reach the length: as made
+  }
+
   // The seconds of a prompt given no length (pipeline.default_seconds): default_seconds, or
   // longer when the duration model says its actions take longer (a circle walk, two actions),
   // up to the window; the parts timed as they would be made (pipeline.auto_seconds).
@@ -284,7 +311,7 @@ export class MotionModel {
     const pair = split && this.splitter && this.config.skeleton.arm_joints ? this.splitter.splitConcurrent(text) : null;
     if (pair) {
       const body = await this.make(pair[0], frames, steps, seed, timing, split, candidates);
-      const arms = await this.draw(pair[1], frames, steps, seed, timing, candidates);
+      const arms = await this.whole(pair[1], frames, steps, seed, timing, candidates);
       const mark = performance.now();
       const joints = reattach(arms.joints, body.joints, frames, this.config.skeleton.arm_joints, this.config.skeleton);
       timing.decode_ms += performance.now() - mark;
@@ -295,11 +322,11 @@ export class MotionModel {
     const plan = split ? await this.plan(text, frames) : null;
     timing.text_ms += performance.now() - mark;
     if (!plan) {
-      const { features, joints } = await this.draw(text, frames, steps, seed, timing, candidates);
-      return { features, joints, seams: [], parts: [{ text, frames, seed }] };
+      const { features, joints, takes } = await this.whole(text, frames, steps, seed, timing, candidates);
+      return { features, joints, seams: [], parts: [{ text, frames, seed, ...(takes ? { takes } : {}) }] };
     }
     const made = [];
-    for (let k = 0; k < plan.parts.length; k++) made.push(await this.draw(plan.parts[k], plan.lengths[k], steps, seed + k, timing, candidates));
+    for (let k = 0; k < plan.parts.length; k++) made.push(await this.whole(plan.parts[k], plan.lengths[k], steps, seed + k, timing, candidates));
     mark = performance.now();
     const { joints, seams } = chainSegments(made, plan.blend, this.config.skeleton);
     timing.decode_ms += performance.now() - mark;
