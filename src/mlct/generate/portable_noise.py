@@ -105,7 +105,7 @@ def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: 
         frames = generator.frames_for(stated)
     if frames is None:  # the page's length when it is given none (static/model.js)
         frames = generator.frames_for(page_default_seconds(generator, text, split_actions))
-    (frames,) = generator._lengths(1, int(frames), None)
+    (frames,) = generator._lengths(1, int(frames), None, generator.longest_gait())
     steps = generator.check_nfe(nfe)
     if candidates is None:
         candidates = generator.candidates
@@ -151,23 +151,33 @@ def _whole_as_the_page(generator, text: str, frames: int, steps: int, seed: int,
                        candidates: int) -> tuple[np.ndarray | None, np.ndarray]:
     """One prompt given to the model whole, as generate() makes it (pipeline._made's "whole"
     items and _keep_going): a one-action gait asked for clearly longer than its natural length
-    that stopped early is made again as takes of that length (take k with seed + k), chained
-    into one continuing motion (generate/keep_going.py); (None, joints) then."""
+    that stopped early, or for longer than the window (made at the window's length first), is
+    made again as takes of that length (take k with seed + k), chained into one continuing
+    motion (generate/keep_going.py); (None, joints) then. Past the window anything else is the
+    window's error, as in generate()."""
     from mlct.generate.compose import split_actions, split_concurrent
-    from mlct.generate.keep_going import keep_going, names_an_end, segment_count, stops_early
+    from mlct.generate.keep_going import (is_gait, keep_going, names_an_end, segment_count,
+                                          stops_early)
     from mlct.generate.long_motion import BLEND_SECONDS
     from mlct.generate.pipeline import MAX_SEED, MIN_PART_SECONDS
 
-    features, joints = _one_with_portable_noise(generator, text, frames, steps, seed, candidates)
+    window = generator.max_frames
+    features, joints = _one_with_portable_noise(generator, text, min(frames, window), steps,
+                                                seed, candidates)
     fps = generator.skeleton.fps
+    single = len(split_actions(text)) == 1 and split_concurrent(text) is None
     if (generator.durations is None or not generator.keep_going or names_an_end(text)
-            or frames / fps < MIN_PART_SECONDS or len(split_actions(text)) > 1
-            or split_concurrent(text) is not None):
+            or frames / fps < MIN_PART_SECONDS or not single):
+        if frames > window:
+            raise generator._too_long(frames, text=text)
         return features, joints
     natural = generator.durations.clip_seconds(page_text_vector(generator, text).cpu().numpy())
-    if not stops_early(joints, fps, natural, generator.skeleton):
+    if frames > window:  # only a gait goes on past the window
+        if not is_gait(joints, fps, natural, generator.skeleton):
+            raise generator._too_long(frames, text=text)
+    elif not stops_early(joints, fps, natural, generator.skeleton):
         return features, joints
-    take = min(generator.frames_for(natural), generator.max_frames)
+    take = min(generator.frames_for(natural), window)
     blend = max(2, int(round(BLEND_SECONDS * fps)))
     count = segment_count(frames, take, blend)
     for count in (count, 2 * count):  # twice as many when the stretches fell short
@@ -176,6 +186,8 @@ def _whole_as_the_page(generator, text: str, frames: int, steps: int, seed: int,
         chained = keep_going(takes, frames, blend, generator.skeleton)
         if chained is not None:
             return None, chained[0].astype(np.float32)
+    if frames > window:
+        raise generator._too_long(frames, text=text)
     return features, joints  # the takes did not reach the length: as made
 
 

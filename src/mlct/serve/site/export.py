@@ -42,8 +42,8 @@ from mlct.generate.onnx_backend import OnnxMotionGenerator
 from mlct.generate.onnx_bundle import OnnxGraphs, weights_digest, write_onnx_graphs
 from mlct.generate.onnx_compact import (float16_storage, quantize_int8,
                                         quantize_int8_weights, require_onnx)
-from mlct.generate.pipeline import (DEFAULT_SECONDS, MAX_SEED, MIN_PART_SECONDS, SEED_STRIDE,
-                                    bundled_model_dir)
+from mlct.generate.pipeline import (DEFAULT_SECONDS, MAX_GAIT_SECONDS, MAX_SEED,
+                                    MIN_PART_SECONDS, SEED_STRIDE, bundled_model_dir)
 from mlct.generate.prompts import MAX_PROMPT_CHARS, portable_stated
 from mlct.generate.samplers import ConsistencySampler, sampler_class
 from mlct.io import atomic_dir, check_writable_dir, read_format_json
@@ -161,7 +161,7 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
         "sequence": {"rules": portable_rules(), "min_part_seconds": MIN_PART_SECONDS,
                      "blend_seconds": BLEND_SECONDS},
         # a gait asked for longer than it lasts keeps going (generate/keep_going.py; keepgoing.js)
-        "keep_going": portable_keep_going(),
+        "keep_going": {**portable_keep_going(), "max_gait_seconds": MAX_GAIT_SECONDS},
         # "... for 8 seconds": the clip's length, the phrase taken out (prompts.stated_seconds)
         "stated": portable_stated(),
         # a clip's length when the page is not given one (pipeline.default_seconds)

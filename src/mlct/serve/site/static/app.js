@@ -279,8 +279,9 @@ window.addEventListener("DOMContentLoaded", async () => {
     window.mlct.generate = (req) => generate(req);
     const c = model.config;
     $("model-info").textContent = `${c.sampler.name} model · ${c.skeleton.name} · ${c.skeleton.fps} fps · ` +
-      `up to ${(c.max_frames / c.skeleton.fps).toFixed(1)} s · WASM, ${model.threads} thread(s)`;
-    $("seconds").max = String(c.max_frames / c.skeleton.fps);
+      `up to ${(c.max_frames / c.skeleton.fps).toFixed(1)} s (a gait longer) · WASM, ${model.threads} thread(s)`;
+    // a gait keeps going past the model's window (keepgoing.js): the slider reaches 30 s
+    $("seconds").max = String(Math.min(30, model.longestGait / c.skeleton.fps));
     $("nfe").max = String(Math.min(10, c.sampler.max_nfe));
     $("nfe").value = String(c.sampler.default_nfe);
     // best of N: the model's default (8 for the bundled model, as mlct generate); 1 without a critic

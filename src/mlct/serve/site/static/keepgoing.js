@@ -81,6 +81,9 @@ export class KeepGoing {
     return gait ? median(stretch) : null;
   }
 
+  // is_gait: the motion goes somewhere through its natural length at a steady pace
+  isGait(joints, frames, natural) { return this.gaitPace(joints, frames, this.groundSpeed(joints, frames), natural) !== null; }
+
   // stops_early: a gait standing still in its last second, asked for more than the margin longer
   stopsEarly(joints, frames, natural) {
     if (frames / this.fps < natural + this.rules.margin_seconds) return false;

@@ -101,6 +101,8 @@ export class MotionModel {
     this.durations = config.durations ? new Durations(config.durations) : null;
     this.stated = config.stated ? new StatedSeconds(config.stated) : null;
     this.keepGoing = config.keep_going && this.durations ? new KeepGoing(config.keep_going, config.skeleton) : null;
+    // frames a one-action gait may last: past the window when it keeps going (pipeline.longest_gait)
+    this.longestGait = this.keepGoing ? this.framesFor(config.keep_going.max_gait_seconds) : config.max_frames;
   }
 
   get fps() { return this.config.skeleton.fps; }
@@ -266,12 +268,18 @@ export class MotionModel {
   // made again as takes of that length (take k with seed + k), chained into one continuing
   // motion (keepgoing.js); {features (null when kept going), joints, frames, takes}.
   async whole(text, frames, steps, seed, timing, candidates) {
-    const made = await this.draw(text, frames, steps, seed, timing, candidates);
+    const window = this.config.max_frames;
+    const made = await this.draw(text, Math.min(frames, window), steps, seed, timing, candidates);
     const kg = this.keepGoing;
     if (!kg || kg.namesAnEnd(text) || frames / this.fps < this.config.sequence.min_part_seconds
-        || this.splitter.split(text).length > 1 || this.splitter.splitConcurrent(text) !== null) return made;
+        || this.splitter.split(text).length > 1 || this.splitter.splitConcurrent(text) !== null) {
+      if (frames > window) throw this.tooLong(frames, text);
+      return made;
+    }
     const natural = this.durations.partSeconds([await this.encode(text)])[0];
-    if (!kg.stopsEarly(made.joints, frames, natural)) return made;
+    if (frames > window) { // only a gait goes on past the window
+      if (!kg.isGait(made.joints, window, natural)) throw this.tooLong(frames, text);
+    } else if (!kg.stopsEarly(made.joints, frames, natural)) return made;
     const take = Math.min(this.framesFor(natural), this.config.max_frames);
     const blend = Math.max(2, roundHalfEven(this.config.sequence.blend_seconds * this.fps));
     const count = kg.segmentCount(frames, take, blend);
@@ -283,7 +291,18 @@ export class MotionModel {
       timing.decode_ms += performance.now() - mark;
       if (chained) return { features: null, joints: chained.joints, frames, takes: n };
     }
+    if (frames > window) throw this.tooLong(frames, text);
     return made; // the takes did not reach the length: as made
+  }
+
+  // The window's error for a prompt (or a part) asked for longer than it that cannot go on
+  // (pipeline._too_long).
+  tooLong(frames, text) {
+    const window = this.config.max_frames;
+    const gaits = this.keepGoing ? "; only a gait (a walk, a jog, a run...) keeps going past it, up to " +
+      `${(this.longestGait / this.fps).toFixed(0)} s` : "";
+    return new Error(`'${text}': ${(frames / this.fps).toFixed(1)} s is longer than the model's window ` +
+      `(${(window / this.fps).toFixed(1)} s)${gaits}`);
   }
 
   // The seconds of a prompt given no length (pipeline.default_seconds): default_seconds, or
@@ -359,14 +378,11 @@ export class MotionModel {
     if (stated !== null && split && this.splitter && this.splitter.split(model).length > 1) {
       [model, stated] = [clean, null];
     }
-    if (frames === null && stated !== null) {
-      frames = this.framesFor(stated);
-      if (frames > maxFrames) {
-        throw new Error(`the prompt asks for ${stated} s; a motion made here lasts at most ${(maxFrames / this.fps).toFixed(1)} s (mlct generate keeps a gait going past that)`);
-      }
-    }
-    if (frames !== null && (!Number.isInteger(frames) || frames < 1 || frames > maxFrames)) {
-      throw new Error(`length ${frames} frames is outside 1..${maxFrames} (${(maxFrames / this.fps).toFixed(2)} s at ${this.fps} fps)`);
+    if (frames === null && stated !== null) frames = this.framesFor(stated);
+    // past the window only a one-action gait goes on (whole() says so otherwise)
+    const longest = this.longestGait;
+    if (frames !== null && (!Number.isInteger(frames) || frames < 1 || frames > longest)) {
+      throw new Error(`length ${frames} frames is outside 1..${longest} (${(longest / this.fps).toFixed(2)} s at ${this.fps} fps)`);
     }
     const timing = { text_ms: 0, sample_ms: 0, decode_ms: 0 };
     if (frames === null) frames = this.framesFor(await this.defaultSeconds(model, split)); // within the window
