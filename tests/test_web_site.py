@@ -218,3 +218,34 @@ def test_the_site_description_carries_the_sequence_rules_and_durations() -> None
     assert set(durations["offsets"]) == {"first", "middle", "last"}
     assert description["skeleton"]["face_joints"] == [2, 1, 17, 16]
     json.dumps(description)  # plain JSON
+
+
+def test_the_reference_makes_an_arm_action_apart_and_keeps_a_gait_going() -> None:
+    """The page's Python reference follows generate() further: "jogs in place while clapping"
+    is the jog with the clap's arms re-attached (control_fit.reattach), and a run asked for
+    9.8 s, which the model stops after ~4 s, is made again as takes chained into one run that
+    is still running in its last second (generate/keep_going.py)."""
+    import mlct
+    from mlct.generate.control import part_joints
+    from mlct.generate.control_fit import reattach
+    from mlct.generate.keep_going import ground_speed
+    from mlct.generate.portable_noise import _one_with_portable_noise, generate_with_portable_noise
+
+    generator = mlct.load(backend="torch")
+    lock, generator.foot_lock = generator.foot_lock, None  # compared as decoded and joined
+    try:
+        _, joints = generate_with_portable_noise(generator, "a person jogs in place while "
+                                                 "clapping", 80, 3, 2, candidates=1)
+        _, body = _one_with_portable_noise(generator, "a person jogs in place", 80, 3, 2)
+        _, arms = _one_with_portable_noise(generator, "a person claps", 80, 3, 2)
+        expected = reattach(arms.astype(np.float64), body.astype(np.float64),
+                            part_joints("arms", generator.skeleton), generator.skeleton)
+        assert np.abs(joints - expected).max() < 1e-5
+        text = "a person runs forward"
+        _, once = _one_with_portable_noise(generator, text, 196, 3, 4)
+        _, kept = generate_with_portable_noise(generator, text, 196, 3, 4, candidates=1)
+    finally:
+        generator.foot_lock = lock
+    once_speed, kept_speed = ground_speed(once, 20), ground_speed(kept, 20)
+    assert once_speed[-20:].mean() < 0.3 * np.median(once_speed[10:70])  # stopped
+    assert kept_speed[-20:].mean() > 0.5 * np.median(kept_speed[10:70])  # still running
