@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from mlct.generate.portable_noise import generate_with_portable_noise
+from mlct.serve.site.reference import generate_with_portable_noise
 from mlct.serve.site import export_site, load_site_reference
 
 PROMPTS = Path(__file__).resolve().parent / "data" / "quality_prompts.json"

@@ -45,7 +45,7 @@ from motion_quality import (MAX_FRAMES, PROMPTS, Tally, judge_prompt, print_tabl
 
 import mlct  # noqa: E402
 from mlct.eval.readouts import evaluate_label  # noqa: E402
-from mlct.generate.portable_noise import generate_with_portable_noise  # noqa: E402
+from mlct.serve.site.reference import generate_with_portable_noise  # noqa: E402
 from mlct.serve.site import export_site, load_site_reference  # noqa: E402
 
 VARIANTS = {"site: --text-encoder float32": {"text_encoder": "float32"},

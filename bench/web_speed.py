@@ -102,7 +102,7 @@ def measure(url: str, threads: int, count: int, nfe: int, candidates: list[int],
 
 
 def measure_python(site: Path, threads: int, count: int, nfe: int) -> None:
-    from mlct.generate.portable_noise import generate_with_portable_noise
+    from mlct.serve.site.reference import generate_with_portable_noise
     from mlct.serve.site import load_site_reference
 
     generator = load_site_reference(site, threads=threads)

@@ -168,7 +168,7 @@ def test_the_reference_makes_a_sequence_as_generate_chains_it() -> None:
     import mlct
     from mlct.generate.compose import split_actions
     from mlct.generate.long_motion import chain_segments
-    from mlct.generate.portable_noise import generate_with_portable_noise
+    from mlct.serve.site.reference import generate_with_portable_noise
     from mlct.motion.foot_lock import lock_feet
 
     generator = mlct.load(backend="torch")
@@ -229,7 +229,7 @@ def test_the_reference_makes_an_arm_action_apart_and_keeps_a_gait_going() -> Non
     from mlct.generate.control import part_joints
     from mlct.generate.control_fit import reattach
     from mlct.generate.keep_going import ground_speed
-    from mlct.generate.portable_noise import _one_with_portable_noise, generate_with_portable_noise
+    from mlct.serve.site.reference import _one_with_portable_noise, generate_with_portable_noise
 
     generator = mlct.load(backend="torch")
     lock, generator.foot_lock = generator.foot_lock, None  # compared as decoded and joined

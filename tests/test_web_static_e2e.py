@@ -35,11 +35,11 @@ pytest.importorskip("onnxruntime")
 Image = pytest.importorskip("PIL.Image")
 
 from mlct.errors import MlctError
-from mlct.generate.portable_noise import (PortableNoise, generate_with_portable_noise,
-                                          page_text_vector)
+from mlct.generate.portable_noise import PortableNoise
 from mlct.motion.foot_lock import foot_contacts
 from mlct.motion.skeleton import get_skeleton
 from mlct.serve.site import export_site, load_site_reference
+from mlct.serve.site.reference import generate_with_portable_noise, page_text_vector
 
 pytestmark = pytest.mark.slow  # an export (graphs, quantization) and a browser
 
@@ -487,7 +487,7 @@ def test_an_arm_action_during_another_is_made_apart_as_in_python(page, reference
 def test_the_length_comes_from_the_text_unless_set(page, reference):
     """With "length from the text" on (the default), the page gives a prompt the length Python's
     default_seconds gives it (a circle walk ~7 s, not 5); moving the slider sets it by hand."""
-    from mlct.generate.portable_noise import page_default_seconds
+    from mlct.serve.site.reference import page_default_seconds
 
     text = "a person walks in a circle"
     page.check("#auto-length")

@@ -16,7 +16,9 @@ SITE/ holds
 The browser runs what the onnx backend runs (generate/onnx_backend.py): tokenizer, text
 encoder, the consistency sampler around the denoiser (Algorithm 2), the decoder, the
 denormalisation and features -> joints, with the noise of generate/portable_noise.py in place
-of torch's, so `load_site_reference` gives the page's joints in Python (the end-to-end test).
+of torch's, and makes a prompt as generate() makes it (split, re-attached, kept going, best of
+N), so `load_site_reference` and reference.py give the page's joints in Python (the end-to-end
+test).
 """
 
 from __future__ import annotations
@@ -284,7 +286,7 @@ def load_site_reference(site: str | os.PathLike, model: str | os.PathLike | None
                         threads: int | None = None) -> OnnxMotionGenerator:
     """The onnx backend running the site's own graphs (the int8 text encoder included), for
     the model the site was made from: what the page computes, in Python. With
-    generate.portable_noise.generate_with_portable_noise, the page's motion for a seed."""
+    serve.site.reference.generate_with_portable_noise, the page's motion for a seed."""
     folder = Path(site) / MODEL_DIR
     if not (folder / SITE_JSON).is_file():
         raise MlctError(f"{site}: not an mlct web site (no {MODEL_DIR}/{SITE_JSON})")
