@@ -422,6 +422,7 @@ def test_a_sequence_is_made_in_parts_as_in_python(page, reference):
     assert [p["frames"] for p in got["parts"]] == reference.part_frames(parts, 120, vectors)
     assert [p["seed"] for p in got["parts"]] == [11, 12] and len(got["seams"]) == 1
     assert "2 parts" in page.inner_text("#status")
+    assert page.locator("#parts span").all_inner_texts() == parts  # under the timeline
     joints = np.asarray(got["joints"], dtype=np.float32).reshape(120, 22, 3)
     _, expected = generate_with_portable_noise(reference, SEQUENCE, 120, 5, 11)
     scale = float(np.ptp(expected[..., 1]))

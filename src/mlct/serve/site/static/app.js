@@ -154,6 +154,22 @@ function request() {
     nfe: Number($("nfe").value), seed: seed === "" ? Math.floor(Math.random() * 1e6) : Number(seed) };
 }
 
+// The prompt's parts under the timeline, each as wide as its share of the clip (an arm action
+// done during the others spans the whole clip); nothing for a one-part prompt.
+function showParts(motion) {
+  const row = $("parts");
+  row.replaceChildren();
+  if (motion.parts.length < 2) return;
+  for (const part of motion.parts) {
+    const span = document.createElement("span");
+    span.textContent = part.arms ? `+ arms: ${part.text}` : part.text;
+    span.title = `${part.text} · ${(part.frames / motion.skeleton.fps).toFixed(1)} s`;
+    span.style.flex = part.arms ? "0 0 auto" : `${part.frames} 1 0`;
+    if (part.arms) span.className = "arms";
+    row.appendChild(span);
+  }
+}
+
 // Generate (a request, or the form's) and show it; resolves to the motion.
 async function generate(req = null) {
   const body = req ?? request();
@@ -177,6 +193,7 @@ async function generate(req = null) {
     const t = motion.timing;
     const parts = motion.parts.length < 2 ? "" : ` · made as ${motion.parts.length} parts in turn: ` +
       motion.parts.map((p) => `“${p.text}” ${(p.frames / motion.skeleton.fps).toFixed(1)} s`).join(", then ");
+    showParts(motion);
     const best = motion.candidates > 1 ? `, best of ${motion.candidates}` : "";
     showStatus(`“${motion.text}” · ${motion.frames} frames, ${motion.nfe} steps${best}, seed ${motion.seed}${parts}`);
     $("timing").textContent = `in this page: ${t.total_ms.toFixed(1)} ms (text ${t.text_ms.toFixed(1)},` +
