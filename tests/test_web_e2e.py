@@ -120,7 +120,9 @@ def test_prompt_generate_play_download(page, tmp_path):
     path = tmp_path / download.value.suggested_filename
     download.value.save_as(path)
     text = path.read_text()
-    assert text.startswith("HIERARCHY") and "Frames: 80" in text
+    # "length from the text" (the default): the server's default length for the prompt, 5 s
+    assert page.inner_text("#seconds-value") == "auto · 5.0 s"
+    assert text.startswith("HIERARCHY") and "Frames: 100" in text
     assert path.name.startswith("the_woman_waves_the_right_hand") and path.suffix == ".bvh"
 
     shot = tmp_path / "web_app.png"

@@ -162,11 +162,14 @@ function setPlaying(playing) {
 // --- requests ----------------------------------------------------------------------------
 
 function requestBody() {
-  const body = { text: $("prompt").value, seconds: Number($("seconds").value), nfe: Number($("nfe").value) };
+  const body = { text: $("prompt").value, nfe: Number($("nfe").value) };
   const seed = $("seed").value.trim();
   if (seed !== "") body.seed = Number(seed);
   const control = window.mlctControl && window.mlctControl.control(); // control.js: path, pins
   if (control) body.control = control;
+  // without seconds the server gives the prompt generate()'s default length (5 s, or as long
+  // as its actions take); a path or pins keep the slider's
+  if (!$("auto-length").checked || control) body.seconds = Number($("seconds").value);
   return body;
 }
 
@@ -213,6 +216,9 @@ async function generate() {
     state.frame = 0;
     state.drawing = true; // the first frame is drawn here, not by tick
     $("scrub").max = String(motion.frames - 1);
+    if (body.seconds === undefined) { // show the length the text got (the slider keeps its own)
+      $("seconds-value").textContent = `auto · ${(motion.frames / motion.fps).toFixed(1)} s`;
+    }
     updateClock();
     await Plotly.react("plot", traces(state.frames), layout(state.frames.bounds), CONFIG);
     // The next animation frame paints the new motion: that is click -> first frame.
@@ -289,10 +295,12 @@ function bind() {
   });
   $("speed").addEventListener("change", () => { state.speed = Number($("speed").value); });
   const echo = () => {
-    $("seconds-value").textContent = `${Number($("seconds").value).toFixed(1)} s`;
+    const seconds = `${Number($("seconds").value).toFixed(1)} s`;
+    $("seconds-value").textContent = $("auto-length").checked ? "auto" : seconds;
     $("nfe-value").textContent = $("nfe").value;
   };
-  $("seconds").addEventListener("input", echo);
+  $("seconds").addEventListener("input", () => { $("auto-length").checked = false; echo(); });
+  $("auto-length").addEventListener("change", echo);
   $("nfe").addEventListener("input", echo);
   echo();
   $("dice").addEventListener("click", () => { $("seed").value = String(Math.floor(Math.random() * 1e6)); generate(); });
