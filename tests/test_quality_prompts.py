@@ -22,3 +22,14 @@ def test_the_second_held_out_set_covers_every_family_with_judgeable_labels() -> 
         p["text"] for p in prompts}
     for prompt in prompts:
         assert len(prompt["actions"]) == 1 and checks_for(prompt["actions"][0])
+
+
+def test_the_three_action_prompts_split_into_their_actions_with_judgeable_labels() -> None:
+    from mlct.generate.compose import split_actions
+
+    prompts = json.loads((DATA / "quality_prompts_three_actions.json").read_text())
+    prompts = prompts["three_actions"]
+    assert len(prompts) >= 15 and len({p["text"] for p in prompts}) == len(prompts)
+    for prompt in prompts:
+        assert len(prompt["actions"]) == 3 and all(checks_for(a) for a in prompt["actions"])
+        assert len(split_actions(prompt["text"])) == 3, prompt["text"]
