@@ -626,3 +626,23 @@ def test_a_gait_goes_on_past_the_window_and_anything_else_is_refused(page, refer
     assert error.startswith("'a person jumps': 15.0 s is longer than the model's window (9.8 s)")
     with pytest.raises(MlctError, match="outside 1..196"):
         generate_with_portable_noise(reference, "a person jumps for 15 seconds", None, 5, 0)
+
+
+def test_the_gif_download_is_the_motion_on_screen(page, tmp_path):
+    """The GIF button: every frame of the motion at its fps (50 ms delays), 480 pixels wide,
+    looping, frames that differ as the figure moves (gifenc in the page)."""
+    got = typed_in(page, "a person jumps up and down.", seed=5, seconds=2)  # 40 frames
+    with page.expect_download(timeout=60_000) as download:
+        page.click("#dl-gif")
+    path = tmp_path / download.value.suggested_filename
+    download.value.save_as(path)
+    assert path.name.startswith("a_person_jumps_up_and_down_seed5") and path.suffix == ".gif"
+    gif = Image.open(path)
+    assert gif.format == "GIF" and gif.n_frames == got["frames"] == 40
+    assert gif.size[0] == 480 and gif.info.get("loop") == 0 and gif.info["duration"] == 50
+    frames = []
+    for index in (0, 20):
+        gif.seek(index)
+        frames.append(np.asarray(gif.convert("RGB"), dtype=int))
+    assert (np.abs(frames[0] - frames[1]).max(-1) > 30).mean() > 1e-3  # the figure moved
+    assert page.evaluate("window.mlct.state.frame") < 40  # the view is back on a frame

@@ -1,13 +1,15 @@
-"""The npm files of the static site: onnxruntime-web (the WASM runtime of the graphs) and three
-(the 3D view), at the versions that npm/package-lock.json pins, copied into SITE/vendor/.
+"""The npm files of the static site: onnxruntime-web (the WASM runtime of the graphs), three
+(the 3D view) and gifenc (the GIF download), at the versions that npm/package-lock.json pins,
+copied into SITE/vendor/.
 
 Where they come from. Not from the repository (onnxruntime-web's WASM binary alone is 14 MB a
 version, its package 33 MB) and not from a CDN at run time (the site must work offline). At
-export time, the two package tarballs are taken from a cache folder, `MLCT_WEB_CACHE` or
+export time, the package tarballs are taken from a cache folder, `MLCT_WEB_CACHE` or
 ~/.cache/mlct/web; a missing one is fetched once from the npm registry, with npm when it is
 installed (`npm pack`), else over HTTPS from the registry's tarball URL, and checked against
 the sha512 that the lock file pins before anything is read from it. A machine without network
-access gets the tarballs elsewhere (`npm pack onnxruntime-web@1.30.0 three@0.187.0`) and passes
+access gets the tarballs elsewhere (`npm pack onnxruntime-web@1.30.0 three@0.187.0
+gifenc@1.0.3`) and passes
 their folder as `mlct export-web --vendor DIR`.
 """
 
@@ -45,6 +47,10 @@ FILES: dict[str, dict[str, str]] = {
         "package/examples/jsm/controls/OrbitControls.js": "OrbitControls.js",
         "package/examples/jsm/exporters/GLTFExporter.js": "GLTFExporter.js",  # the GLB download
         "package/LICENSE": "three.LICENSE",
+    },
+    "gifenc": {  # the GIF download: one palette for the clip, LZW in the page
+        "package/dist/gifenc.esm.js": "gifenc.esm.js",
+        "package/LICENSE.md": "gifenc.LICENSE.md",
     },
 }
 

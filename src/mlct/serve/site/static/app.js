@@ -198,7 +198,7 @@ async function generate(req = null) {
     showStatus(`“${motion.text}” · ${motion.frames} frames, ${motion.nfe} steps${best}, seed ${motion.seed}${parts}`);
     $("timing").textContent = `in this page: ${t.total_ms.toFixed(1)} ms (text ${t.text_ms.toFixed(1)},` +
       ` sampling ${t.sample_ms.toFixed(1)}, decoding + joints ${t.decode_ms.toFixed(1)}) · WASM, ${window.mlct.model.threads} thread(s)`;
-    for (const id of ["play", "scrub", "dl-json", "dl-npy", "dl-bvh", "dl-glb"]) $(id).disabled = false;
+    for (const id of ["play", "scrub", "dl-json", "dl-npy", "dl-bvh", "dl-glb", "dl-gif"]) $(id).disabled = false;
     return motion;
   } catch (error) {
     showStatus(error.message, true);
@@ -216,7 +216,42 @@ const DOWNLOADS = {
   npy: (m) => [npyBytes(m.joints, [m.frames, m.skeleton.joint_names.length, 3]), "application/octet-stream", "npy"],
   bvh: (m) => [bvhText(m), "application/octet-stream", "bvh"], // rotations fitted in bvh.js
   glb: async (m) => [await glbBytes(m), "model/gltf-binary", "glb"], // the same fit, three's GLTFExporter
+  gif: async (m) => [await gifBytes(m), "image/gif", "gif"], // the view, every frame (gifenc)
 };
+
+// An animated GIF of the view as it is (camera, size), every frame at the motion's fps, 480
+// pixels wide, one palette for the whole clip (as `mlct generate --out x.gif` makes one): the
+// frames are drawn and read back in one go, then encoded by gifenc (vendor/, pinned).
+const GIF_WIDTH = 480;
+async function gifBytes(motion) {
+  const { GIFEncoder, quantize, applyPalette } = await import("./vendor/gifenc.esm.js");
+  const source = view.renderer.domElement;
+  const canvas = document.createElement("canvas");
+  canvas.width = GIF_WIDTH;
+  canvas.height = Math.max(1, Math.round((GIF_WIDTH * source.height) / source.width));
+  const context = canvas.getContext("2d", { willReadFrequently: true });
+  const shown = state.frame;
+  const pixels = [];
+  for (let t = 0; t < motion.frames; t++) { // synchronous: playback does not run in between
+    drawFrame(t);
+    view.renderer.render(view.scene, view.camera);
+    context.drawImage(source, 0, 0, canvas.width, canvas.height);
+    pixels.push(context.getImageData(0, 0, canvas.width, canvas.height).data);
+  }
+  drawFrame(shown);
+  // the palette from every 10th frame together: the figure's colours in all its poses
+  const sample = new Uint8ClampedArray(Math.ceil(motion.frames / 10) * pixels[0].length);
+  for (let t = 0; t < motion.frames; t += 10) sample.set(pixels[t], (t / 10) * pixels[0].length);
+  const palette = quantize(sample, 256);
+  const gif = GIFEncoder();
+  const delay = 1000 / motion.skeleton.fps; // 50 ms at 20 fps, exact in 1/100 s
+  pixels.forEach((rgba, t) => {
+    gif.writeFrame(applyPalette(rgba, palette), canvas.width, canvas.height,
+      t === 0 ? { palette, delay, repeat: 0 } : { delay });
+  });
+  gif.finish();
+  return gif.bytes();
+}
 
 function fileName(motion, ext) {
   const slug = motion.text.toLowerCase().replace(/[^a-z0-9]+/g, "_").replace(/^_|_$/g, "").slice(0, 40) || "motion";
