@@ -63,9 +63,11 @@ _NUMBERS = {"a": 1, "an": 1, "one": 1, "two": 2, "three": 3, "four": 4, "five": 
             "fifteen": 15, "twenty": 20, "thirty": 30, "forty": 40, "forty-five": 45,
             "fifty": 50, "sixty": 60, "ninety": 90, "half a": 0.5}
 _UNITS = {"second": 1.0, "sec": 1.0, "s": 1.0, "minute": 60.0, "min": 60.0}
+# Digits are ASCII ([0-9], not \d, which also takes other scripts' digits): as the page reads
+# them (static/compose.js: StatedSeconds, from portable_stated).
 _STATED = re.compile(
     r"\s*[,;]?\s*\bfor\s+(?:about\s+|around\s+|roughly\s+)?"
-    r"(?P<n>\d+(?:\.\d+)?|" + "|".join(sorted((re.escape(k) for k in _NUMBERS), key=len,
+    r"(?P<n>[0-9]+(?:\.[0-9]+)?|" + "|".join(sorted((re.escape(k) for k in _NUMBERS), key=len,
                                              reverse=True)) + r")"
     r"\s*(?P<unit>seconds?|secs?|s|minutes?|mins?)\b", re.IGNORECASE)
 

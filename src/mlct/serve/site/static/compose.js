@@ -26,7 +26,7 @@ function splitOnce(pattern, text) {
 
 export class ActionSplitter {
   constructor(rules) {
-    const flags = (name) => (["listed", "gerund_word", "and"].includes(name) ? "gi" : "i");
+    const flags = (name) => (["listed", "gerund_word", "and"].includes(name) ? "giu" : "iu"); // u: Unicode case folding, as Python's
     this.re = {};
     for (const [name, source] of Object.entries(rules.patterns)) this.re[name] = new RegExp(source, flags(name));
     this.forms = new Map(Object.entries(rules.verb_forms)); // lemma -> [third person, gerund]
@@ -57,7 +57,7 @@ export class ActionSplitter {
   // done during another ("walks forward while waving"), or null. The body's prompt may still be
   // a sequence; the arms' prompt gets the text's subject.
   splitConcurrent(text) {
-    const pieces = text.split(new RegExp(`(${this.re.sequence.source})`, "i"));
+    const pieces = text.split(new RegExp(`(${this.re.sequence.source})`, "iu"));
     for (let k = 0; k < pieces.length; k += 2) { // the phrases; odd indices are the separators
       const split = this.splitPhrase(pieces[k]);
       if (split === null) continue;
@@ -144,7 +144,7 @@ export class ActionSplitter {
   returnsJoined(parts) { // "squats, then stands back up" is one squat
     const out = [];
     for (const part of parts) {
-      const [head, ...tail] = splitOnce(new RegExp(this.re.listed.source, "i"), this.withoutSubject(part)[1]);
+      const [head, ...tail] = splitOnce(new RegExp(this.re.listed.source, "iu"), this.withoutSubject(part)[1]);
       if (out.length && this.re.lowering.test(out[out.length - 1]) && this.onlyReturns(head)) {
         out[out.length - 1] = `${out[out.length - 1]}, then ${head}`;
         out.push(...tail.filter((t) => t.trim()));
