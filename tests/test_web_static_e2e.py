@@ -388,7 +388,8 @@ def test_actions_are_split_as_in_python(page):
              "stretches the arms up and leans to the side", "jogging forward, then jumping",
              "a person walks forward while waving", "waves and claps at the same time",
              "turns three hundred and sixty degrees", "a man is slowly walking, then is running",
-             "a person jumps; afterwards, kneels", "léft, then rîght", "then", ", then ,"]
+             "a person jumps; afterwards, kneels", "léft, then rîght", "then", ", then ,",
+             "ſomeone walks, then waves", "café walks, then waves", "a person jumps，then waves"]
     for name in ("quality_prompts.json", "quality_prompts_heldout.json",
                  "quality_prompts_heldout2.json"):
         data = json.loads((HERE.parent / "bench" / "data" / name).read_text())
@@ -568,7 +569,8 @@ def test_a_stated_duration_sets_the_length_as_in_python(page, reference):
     texts = ["a person jogs in place for 6 seconds", "walks forward, for about half a minute",
              "a person waves For Five Seconds", "claps for 2.5 s", "walks for 5 seconds, then "
              "waves for 3 seconds", "for 4 seconds", "a man bows for 0 seconds",
-             "a person runs for forty-five seconds", "someone stands for a minute"]
+             "a person runs for forty-five seconds", "someone stands for a minute",
+             "a person walks for ٥ seconds"]
     got = page.evaluate("(texts) => texts.map((t) => window.mlct.model.stated.read(t))", texts)
     assert [tuple(g) for g in got] == [stated_seconds(t) for t in texts]
     text = "a person jogs in place for 6 seconds."
