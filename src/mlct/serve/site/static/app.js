@@ -13,7 +13,8 @@ import { glbBytes } from "./glb.js";
 const COLOURS = { left: 0x2563eb, right: 0xdc2626, centre: 0x374151 };
 const EXAMPLES = ["a person walks forward at a brisk pace.", "a person jumps up and down.",
   "the woman waves the right hand back and forth two times.", "a person walks backward slowly.",
-  "someone bows.", "a man kicks with his right leg.", "a person walks forward, then waves with the right hand."];
+  "someone bows.", "a man kicks with his right leg.", "a person walks forward, then waves with the right hand.",
+  "a person jogs in place while clapping.", "a person runs forward for 8 seconds."];
 
 const $ = (id) => document.getElementById(id);
 const state = { motion: null, frame: 0, clock: 0, last: null, playing: true, busy: false, speed: 1 };
