@@ -81,7 +81,7 @@ def main() -> None:
     tally = Tally()
     for seed in range(args.seeds if -1 in chosen else 0):
         out = pipe.generate([p["text"] for p in items], seconds=SECONDS, nfe=NFE,
-                            seed=seed * 100_000, split_actions=False)
+                            seed=seed * 100_000, split_actions=False, candidates=1)
         for item, motion in zip(items, out):
             label = prompt_label(item["actions"], SECONDS)
             tally.add(label, evaluate_label(motion.joints, label))
@@ -96,8 +96,11 @@ def main() -> None:
             tally = Tally()
             for seed in range(args.seeds):
                 for k, item in enumerate(items):
+                    # one sample, the whole prompt: the variants compared as they were first
+                    # (docs/web.md's table), the torch row above made the same way
                     _, joints = generate_with_portable_noise(generator, item["text"], frames,
-                                                             NFE, seed * 1000 + k)
+                                                             NFE, seed * 1000 + k,
+                                                             split_actions=False, candidates=1)
                     label = prompt_label(item["actions"], SECONDS)
                     tally.add(label, evaluate_label(joints, label))
             report(name, tally)
