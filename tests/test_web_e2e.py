@@ -120,8 +120,10 @@ def test_prompt_generate_play_download(page, tmp_path):
     path = tmp_path / download.value.suggested_filename
     download.value.save_as(path)
     text = path.read_text()
-    # "length from the text" (the default): the server's default length for the prompt, 5 s
+    # "length from the text" (the default): the server's default length for the prompt, 5 s;
+    # best of the model's 8 by default, as mlct generate
     assert page.inner_text("#seconds-value") == "auto · 5.0 s"
+    assert page.input_value("#candidates") == "8" and "best of 8" in status
     assert text.startswith("HIERARCHY") and "Frames: 100" in text
     assert path.name.startswith("the_woman_waves_the_right_hand") and path.suffix == ".bvh"
 

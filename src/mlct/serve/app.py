@@ -35,6 +35,7 @@ from starlette.exceptions import HTTPException
 
 from mlct import __version__
 from mlct.errors import MlctError, first_line
+from mlct.generate.critic import MAX_CANDIDATES
 from mlct.generate.exports import export_bytes, motion_json
 from mlct.generate.files import slug
 from mlct.serve.batcher import DEFAULT_LENGTH, Batcher, QueueFull, ServerClosing
@@ -205,7 +206,10 @@ def _model_info(generator: Any) -> dict[str, Any]:
     return {"sampler": meta.get("sampler"), "skeleton": generator.skeleton.name,
             "fps": float(generator.skeleton.fps), "max_frames": generator.max_frames,
             "default_nfe": generator.default_nfe, "text_encoder": meta.get("text_encoder"),
-            "step": meta.get("step"), "backend": getattr(generator, "backend", "torch")}
+            "step": meta.get("step"), "backend": getattr(generator, "backend", "torch"),
+            # best of N by the model's critic: its default N (1 without a critic) and the most
+            "candidates": getattr(generator, "candidates", 1),
+            "max_candidates": MAX_CANDIDATES if getattr(generator, "critic", None) else 1}
 
 
 def _bearer_matches(header: str | None, token: str) -> bool:

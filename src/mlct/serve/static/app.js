@@ -162,7 +162,7 @@ function setPlaying(playing) {
 // --- requests ----------------------------------------------------------------------------
 
 function requestBody() {
-  const body = { text: $("prompt").value, nfe: Number($("nfe").value) };
+  const body = { text: $("prompt").value, nfe: Number($("nfe").value), candidates: Number($("candidates").value) };
   const seed = $("seed").value.trim();
   if (seed !== "") body.seed = Number(seed);
   const control = window.mlctControl && window.mlctControl.control(); // control.js: path, pins
@@ -228,7 +228,8 @@ async function generate() {
     window.mlct.firstFrameMs.push(firstFrame);
     window.mlct.framesDrawn += 1;
     const t = data.timing;
-    showStatus(`<b>${escapeHtml(motion.text)}</b> · ${motion.frames} frames, ${motion.nfe} steps,` +
+    const best = motion.candidates > 1 ? ` best of ${motion.candidates},` : "";
+    showStatus(`<b>${escapeHtml(motion.text)}</b> · ${motion.frames} frames, ${motion.nfe} steps,${best}` +
       ` seed ${motion.seed} · server <b>${t.server_ms.toFixed(0)} ms</b> (model` +
       ` ${t.generate_ms.toFixed(0)} ms, batch ${t.batch_size}) · round trip` +
       ` ${(received - clicked).toFixed(0)} ms · first frame <b>${firstFrame.toFixed(0)} ms</b>`);
@@ -278,6 +279,11 @@ async function loadInfo() {
       ` · up to ${limits.max_seconds.toFixed(1)} s`;
     $("seconds").max = String(limits.max_seconds);
     $("nfe").max = String(Math.min(10, limits.max_nfe));
+    // best of N: the model's default (8 for the bundled model); 1 without a critic
+    $("candidates").max = String(Math.min(16, model.max_candidates ?? 1));
+    $("candidates").value = String(model.candidates ?? 1);
+    $("candidates").disabled = (model.max_candidates ?? 1) < 2;
+    $("candidates-value").textContent = $("candidates").value;
     $("prompt").maxLength = limits.max_text_chars;
   } catch (_) {
     $("model-info").textContent = "the server did not answer /health";
@@ -298,9 +304,11 @@ function bind() {
     const seconds = `${Number($("seconds").value).toFixed(1)} s`;
     $("seconds-value").textContent = $("auto-length").checked ? "auto" : seconds;
     $("nfe-value").textContent = $("nfe").value;
+    $("candidates-value").textContent = $("candidates").value;
   };
   $("seconds").addEventListener("input", () => { $("auto-length").checked = false; echo(); });
   $("auto-length").addEventListener("change", echo);
+  $("candidates").addEventListener("input", echo);
   $("nfe").addEventListener("input", echo);
   echo();
   $("dice").addEventListener("click", () => { $("seed").value = String(Math.floor(Math.random() * 1e6)); generate(); });
