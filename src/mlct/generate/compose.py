@@ -277,9 +277,9 @@ def in_order(text: str) -> str:
 
 def portable_rules() -> dict:
     """split_actions' and split_concurrent's word lists and patterns as JSON, for the static
-    site's port of them
-    (serve/site/static/compose.js): the rules stay here, written once, and the page reads them
-    from model.json. Every pattern is case-insensitive (JavaScript flag "i")."""
+    site's port of them (serve/site/static/compose.js): the rules stay here, written once, and
+    the page reads them from model.json. Every pattern is case-insensitive (JavaScript flags
+    "iu": Unicode case folding, as Python's)."""
     patterns = {"sequence": _SEQUENCE, "subject": _SUBJECT, "lowering": _LOWERING,
                 "listed": _LISTED, "while": _WHILE, "same_time": _SAME_TIME,
                 "clause_first": _CLAUSE_FIRST, "clause_last": _CLAUSE_LAST,

@@ -92,6 +92,6 @@ def stated_seconds(text: str) -> tuple[str, float | None]:
 
 def portable_stated() -> dict:
     """stated_seconds' pattern, number words and units as JSON, for the static site's port
-    (serve/site/static/compose.js: statedSeconds); the pattern is case-insensitive."""
+    (serve/site/static/compose.js: StatedSeconds); the pattern is case-insensitive."""
     assert _STATED.flags & re.IGNORECASE
     return {"pattern": _STATED.pattern, "numbers": _NUMBERS, "units": _UNITS}
