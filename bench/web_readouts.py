@@ -6,6 +6,7 @@ page) on the benchmark's hand-written paraphrases, per text-encoder / denoiser c
     python bench/web_readouts.py [--seeds 3]     # about 10 minutes on 2 busy cores
     python bench/web_readouts.py --two-actions --seeds 5   # the page's sequences (~2 minutes)
     python bench/web_readouts.py --captions DATA --seeds 2  # the test captions (~15 minutes)
+    python bench/web_readouts.py --hand-written --seeds 3   # the three paraphrase sets (~10 min)
 
 Each variant makes every paraphrase of bench/data/quality_prompts.json (4 s, 5 NFE) with
 --seeds seeds, and scores it as bench/motion_quality.py does (mlct.eval.readouts.evaluate_label
@@ -24,7 +25,8 @@ the page now (the int8-weights text encoder; a sequence one part per action, cha
 action during another made apart and re-attached; static/compose.js, chain.js) at one sample
 and at the model's best of 8 by its critic; and the torch pipeline at both. Two-action prompts
 are judged as bench/motion_quality.py judges them: in order at the motion's own cut, and in
-halves.
+halves. --hand-written does the same for the three sets of hand-written one-action prompts
+(seen paraphrases, held-out, held-out 2) at the length each way gives a prompt asked for none.
 """
 
 from __future__ import annotations
@@ -40,8 +42,8 @@ import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from motion_quality import (MAX_FRAMES, PROMPTS, Tally, judge_prompt, print_table,  # noqa: E402
-                            prompt_label)
+from motion_quality import (HELDOUT, HELDOUT2, MAX_FRAMES, PROMPTS, Tally,  # noqa: E402
+                            judge_prompt, print_table, prompt_label)
 
 import mlct  # noqa: E402
 from mlct.eval.readouts import evaluate_label  # noqa: E402
@@ -65,6 +67,8 @@ def main() -> None:
                         "pipeline is -1); default: all")
     parser.add_argument("--two-actions", action="store_true",
                         help="the two-action prompts as the page makes them, split or whole")
+    parser.add_argument("--hand-written", action="store_true",
+                        help="the hand-written paraphrase sets, at the default length")
     parser.add_argument("--captions", type=Path, default=None,
                         help="a procedural benchmark: its test captions, as the page makes them")
     args = parser.parse_args()
@@ -72,6 +76,8 @@ def main() -> None:
         return two_actions(args.seeds)
     if args.captions is not None:
         return captions(args.captions, args.seeds)
+    if args.hand_written:
+        return hand_written(args.seeds)
     chosen = set(range(-1, len(VARIANTS)) if args.only is None else map(int, args.only))
     torch.set_num_threads(1)
     items = json.loads(PROMPTS.read_text(encoding="utf-8"))["paraphrases"]
@@ -145,6 +151,36 @@ def two_actions(seeds: int, seconds: float = 7.0) -> None:
             print(f"{name}: in order {tallies[0].summary()['overall']:.3f}, halves "
                   f"{tallies[1].summary()['overall']:.3f} ({tallies[0].summary()['motions']} "
                   f"motions)", flush=True)
+
+
+def hand_written(seeds: int) -> None:
+    torch.set_num_threads(1)
+    sets = {"seen paraphrases": json.loads(PROMPTS.read_text(encoding="utf-8"))["paraphrases"],
+            "held-out": json.loads(HELDOUT.read_text(encoding="utf-8"))["paraphrases"],
+            "held-out 2": json.loads(HELDOUT2.read_text(encoding="utf-8"))["paraphrases"]}
+    pipe = mlct.load()
+    print(f"hand-written sets ({', '.join(f'{k}: {len(v)}' for k, v in sets.items())}) x "
+          f"{seeds} seeds, the default length, {NFE} NFE")
+    columns: dict[str, dict] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        ways = makers(Path(tmp), pipe)
+        # no length asked (frames None): each way's default, the same rule in the page and the
+        # CLI; the page before had a 4-s slider
+        old_page = ways["page before"]
+        ways["page before"] = lambda text, frames, seed: old_page(
+            text, round(4.0 * pipe.skeleton.fps), seed)
+        for title, make in ways.items():
+            row = []
+            for name, items in sets.items():
+                tally = Tally()
+                for seed in range(seeds):
+                    for k, item in enumerate(items):
+                        joints = make(item["text"], None, seed * 1000 + k)
+                        tally.add(*judge_prompt(joints, item["actions"],
+                                                len(joints) / pipe.skeleton.fps))
+                row.append(f"{name} {tally.summary()['overall']:.3f} (side "
+                           f"{tally.summary()['named_side']:.3f})")
+            print(f"{title}: {', '.join(row)}", flush=True)
 
 
 def captions(data: Path, seeds: int) -> None:
