@@ -419,8 +419,7 @@ def test_a_sequence_is_made_in_parts_as_in_python(page, reference):
     parts = split_actions(SEQUENCE)
     assert len(parts) == 2 and got["frames"] == 120
     assert [p["text"] for p in got["parts"]] == parts
-    vectors = np.concatenate([page_text_vector(reference, p).numpy() for p in parts])
-    assert [p["frames"] for p in got["parts"]] == reference.part_frames(parts, 120, vectors)
+    assert [p["frames"] for p in got["parts"]] == reference.part_frames(parts, 120)
     assert [p["seed"] for p in got["parts"]] == [11, 12] and len(got["seams"]) == 1
     assert "2 parts" in page.inner_text("#status")
     assert page.locator("#parts span").all_inner_texts() == parts  # under the timeline
@@ -489,8 +488,6 @@ def test_an_arm_action_during_another_is_made_apart_as_in_python(page, reference
 def test_the_length_comes_from_the_text_unless_set(page, reference):
     """With "length from the text" on (the default), the page gives a prompt the length Python's
     default_seconds gives it (a circle walk ~7 s, not 5); moving the slider sets it by hand."""
-    from mlct.serve.site.reference import page_default_seconds
-
     text = "a person walks in a circle"
     page.check("#auto-length")
     page.fill("#prompt", text)
@@ -498,7 +495,7 @@ def test_the_length_comes_from_the_text_unless_set(page, reference):
     page.press("#prompt", "Enter")
     page.wait_for_function(f"window.mlct.lastMotion.text === {json.dumps(text)}", timeout=60_000)
     got = page.evaluate("window.mlct.lastMotion")
-    seconds = page_default_seconds(reference, text)
+    (seconds,) = reference.default_seconds([text])
     assert seconds > 6.0 and got["frames"] == reference.frames_for(seconds)
     assert page.inner_text("#seconds-value").startswith("auto")
     _, expected = generate_with_portable_noise(reference, text, None, 5, 2)

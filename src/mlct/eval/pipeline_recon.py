@@ -28,7 +28,7 @@ import numpy as np
 
 from mlct.generate.control import part_joints
 from mlct.generate.control_fit import reattach
-from mlct.generate.long_motion import BLEND_SECONDS, chain_segments
+from mlct.generate.long_motion import blend_frames, chain_segments
 from mlct.generate.pipeline import MIN_PART_SECONDS
 from mlct.motion.features import features_to_joints, joints_to_features
 from mlct.motion.skeleton import Skeleton
@@ -83,7 +83,7 @@ def pipeline_reconstruction(features: np.ndarray, label: Mapping[str, Any],
     fps = skeleton.fps
     frames = len(features)
     actions = label["actions"]
-    blend = max(2, int(round(BLEND_SECONDS * fps)))
+    blend = blend_frames(fps)
     if len(actions) > 1 and frames // len(actions) >= round(MIN_PART_SECONDS * fps):
         body = reconstruct_sequence(features, action_cuts(label, frames, fps, blend), blend,
                                     reconstruct, skeleton)

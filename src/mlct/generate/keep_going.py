@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -279,6 +279,41 @@ def keep_going(segments: Sequence[np.ndarray], frames: int, blend: int, skeleton
     joints, seams = chain_segments(parts, blend, skeleton)
     scale = (frames - 1) / max(len(joints) - 1, 1)
     return retime(joints, frames), [int(round(seam * scale)) for seam in seams]
+
+
+@dataclass(frozen=True)
+class KeptGoing:
+    """A gait made again as takes chained into one continuing motion (continue_gait)."""
+
+    joints: np.ndarray  # (frames, J, 3)
+    seams: list[int]  # where each seam's blend starts
+    takes: list[np.ndarray]  # the takes' joints, as made
+    take_frames: int  # each take's length: the natural length, within the window
+
+
+def continue_gait(joints: np.ndarray, frames: int, window: int, natural_seconds: float,
+                  blend: int, skeleton: Skeleton,
+                  make_takes: Callable[[int, int], Sequence[np.ndarray]]) -> KeptGoing | None:
+    """One prompt's motion, made at min(frames, window), and what keeping it going makes of it:
+    asked past the window, a gait (is_gait) is made again as takes; within it, a gait that
+    stops early (stops_early) is. make_takes(count, take_frames) makes `count` takes of the
+    prompt (take k with its seed + k). None: the motion stays as made; past the window that
+    is the caller's refusal (no gait, or takes that did not reach the length). The pipeline
+    (pipeline._keep_going) and the page's reference (serve/site/reference.py) both call it."""
+    fps = skeleton.fps
+    if frames > window:
+        if not is_gait(joints, fps, natural_seconds, skeleton):
+            return None
+    elif not stops_early(joints, fps, natural_seconds, skeleton):
+        return None
+    take = min(int(round(natural_seconds * fps)), window)
+    count = segment_count(frames, take, blend)
+    for count in (count, 2 * count):  # twice as many when the stretches fell short
+        takes = [np.asarray(t) for t in make_takes(count, take)]
+        chained = keep_going(takes, frames, blend, skeleton)
+        if chained is not None:
+            return KeptGoing(chained[0], chained[1], takes, take)
+    return None
 
 
 def retime(joints: np.ndarray, frames: int) -> np.ndarray:

@@ -51,6 +51,11 @@ class SegmentMaker(Protocol):
 BLEND_SECONDS = 0.75  # the shortest that kept seam speeds within the segments' (bench/long_motion.py)
 
 
+def blend_frames(fps: float, seconds: float = BLEND_SECONDS) -> int:
+    """The frames two chained segments overlap by (at least 2)."""
+    return max(2, int(round(seconds * fps)))
+
+
 @dataclass
 class LongMotion(GeneratedMotion):
     """A chained motion; seams are the frames where each later segment's blend starts."""
@@ -145,7 +150,7 @@ def generate_long(generator: SegmentMaker, texts: Sequence[str], seconds: Sequen
     if len(texts) != len(seconds):
         raise MlctError(f"{len(texts)} prompts but {len(seconds)} durations; give one each")
     fps = generator.skeleton.fps
-    blend = max(2, int(round(blend_seconds * fps)))
+    blend = blend_frames(fps, blend_seconds)
     frames = generator._lengths(len(texts), None, seconds, generator.longest_gait())
     # every segment but the last also covers the next one's blend
     lengths = [n + blend for n in frames[:-1]] + [frames[-1]]

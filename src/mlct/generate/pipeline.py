@@ -457,16 +457,12 @@ class MotionGenerator:
                              nfe=nfe, seed=seed, guidance=guidance, candidates=candidates)
         return made.renamed(text)
 
-    def part_frames(self, parts: Sequence[str], frames: int,
-                    vectors: np.ndarray | None = None) -> list[int]:
+    def part_frames(self, parts: Sequence[str], frames: int) -> list[int]:
         """Each part's frames of a sequence of `frames`: its share by how long its action takes
         and its place in the sequence (durations.py; equal when the model has no duration
-        model), at least MIN_PART_SECONDS where the total allows. vectors: the parts' text
-        vectors when the caller has them (default: encode_text of the parts, one batch)."""
-        if self.durations is not None and vectors is None:
-            vectors = self.encode_text(list(parts)).float().cpu().numpy()
-        weights = (self.durations.part_weights(vectors, frames / self.skeleton.fps,
-                                               MIN_PART_SECONDS)
+        model), at least MIN_PART_SECONDS where the total allows."""
+        weights = (self.durations.part_weights(self.encode_text(list(parts)).float().cpu().numpy(),
+                                               frames / self.skeleton.fps, MIN_PART_SECONDS)
                    if self.durations else np.ones(len(parts)))
         return split_frames(weights, frames, self.frames_for(MIN_PART_SECONDS))
 
@@ -478,9 +474,8 @@ class MotionGenerator:
         takes of its natural length chained into one continuing motion (generate/keep_going.py);
         out[i] is replaced in place. A prompt past the window that is no gait raises the
         window's error. Needs the duration model."""
-        from mlct.generate.keep_going import (is_gait, keep_going, names_an_end,
-                                              segment_count, stops_early)
-        from mlct.generate.long_motion import BLEND_SECONDS, LongMotion
+        from mlct.generate.keep_going import continue_gait, names_an_end
+        from mlct.generate.long_motion import LongMotion, blend_frames
 
         if self.durations is None or not self.keep_going:
             return
@@ -493,40 +488,34 @@ class MotionGenerator:
         if not todo:
             return
         vectors = self.encode_text([out[i].text for i in todo]).float().cpu().numpy()
-        blend = max(2, int(round(BLEND_SECONDS * fps)))
+        blend = blend_frames(fps)
         for i, vector in zip(todo, vectors):
             motion = out[i]
-            natural = self.durations.clip_seconds(vector[None])
-            if frames[i] > self.max_frames:
-                if not is_gait(motion.joints, fps, natural, self.skeleton):
+
+            def takes(count: int, take: int, text: str = motion.text, seed: int = seeds[i]
+                      ) -> list[np.ndarray]:
+                made = self.generate([text] * count, lengths=take, nfe=nfe,
+                                     seed=[(seed + k) % (MAX_SEED + 1) for k in range(count)],
+                                     guidance=guidance, split_actions=False,
+                                     candidates=candidates)
+                return [m.joints for m in made]
+
+            kept = continue_gait(motion.joints, frames[i], self.max_frames,
+                                 self.durations.clip_seconds(vector[None]), blend,
+                                 self.skeleton, takes)
+            if kept is None:
+                if frames[i] > self.max_frames:  # no gait, or its takes fell short
                     raise self._too_long(frames[i], text=motion.text)
-            elif not stops_early(motion.joints, fps, natural, self.skeleton):
-                continue
-            take = min(self.frames_for(natural), self.max_frames)
-            count = segment_count(frames[i], take, blend)
-            chained = None
-            for count in (count, 2 * count):  # twice as many when the stretches fell short
-                takes = self.generate([motion.text] * count, lengths=take, nfe=nfe,
-                                      seed=[(seeds[i] + k) % (MAX_SEED + 1)
-                                            for k in range(count)],
-                                      guidance=guidance, split_actions=False,
-                                      candidates=candidates)
-                chained = keep_going([t.joints for t in takes], frames[i], blend, self.skeleton)
-                if chained is not None:
-                    break
-            if chained is None:
-                if frames[i] > self.max_frames:
-                    raise self._too_long(frames[i], text=motion.text)
-                continue  # the takes did not reach the length: keep the motion as made
-            joints, seams = chained
+                continue  # as the model made it
             _LOG.info("%r kept going: %d takes of %.1f s chained into %.1f s (--no-keep-going: "
-                      "as the model made it)", motion.text, count, take / fps, frames[i] / fps)
+                      "as the model made it)", motion.text, len(kept.takes),
+                      kept.take_frames / fps, frames[i] / fps)
             # a LongMotion, as a chain of prompts is: its seams and the takes as made; its
             # features derived from the joints when read (generated.py)
-            out[i] = LongMotion(motion.text, None, joints.astype(np.float32), fps,
-                                self.skeleton.name, seeds[i], seams=tuple(seams),
-                                texts=tuple(t.text for t in takes), blend=blend,
-                                segments=tuple(t.joints for t in takes))
+            out[i] = LongMotion(motion.text, None, kept.joints.astype(np.float32), fps,
+                                self.skeleton.name, seeds[i], seams=tuple(kept.seams),
+                                texts=(motion.text,) * len(kept.takes), blend=blend,
+                                segments=tuple(kept.takes))
 
     def _concurrent(self, text: str, body: str, arms: str, frames: int, nfe: int | None,
                     seed: int, guidance: float | None, candidates: int) -> GeneratedMotion:

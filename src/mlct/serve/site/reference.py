@@ -37,7 +37,7 @@ def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: 
     (long_motion.chain_segments); a gait asked for longer than it lasts kept going
     (_whole_as_the_page). A phrase that
     says how long ("for 8 seconds", pipeline.stated_lengths) is taken out of the text; frames
-    None: its seconds, else the default length, page_default_seconds.
+    None: its seconds, else the default length (MotionGenerator.default_seconds).
     Returns (features (T, D), or None for a motion joined from parts, joints (T, J, 3)),
     float32."""
     from mlct.generate.prompts import clean_prompt
@@ -49,7 +49,7 @@ def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: 
     if frames is None and stated is not None:
         frames = generator.frames_for(stated)
     if frames is None:  # the page's length when it is given none (static/model.js)
-        frames = generator.frames_for(page_default_seconds(generator, text, split_actions))
+        frames = generator.frames_for(generator.default_seconds([text], split_actions)[0])
     (frames,) = generator._lengths(1, int(frames), None, generator.longest_gait())
     steps = generator.check_nfe(nfe)
     if candidates is None:
@@ -67,7 +67,7 @@ def _made_as_the_page(generator, text: str, frames: int, steps: int, seed: int, 
                       candidates: int) -> tuple[np.ndarray | None, np.ndarray]:
     """generate_with_portable_noise's motion before its feet are planted (static/model.js: make)."""
     from mlct.generate.compose import split_actions, split_concurrent
-    from mlct.generate.long_motion import BLEND_SECONDS, chain_segments
+    from mlct.generate.long_motion import blend_frames, chain_segments
     from mlct.generate.pipeline import MIN_PART_SECONDS
 
     if split and (pair := split_concurrent(text)) is not None:
@@ -83,9 +83,8 @@ def _made_as_the_page(generator, text: str, frames: int, steps: int, seed: int, 
     # generate()'s rule: a sequence is split when each part gets MIN_PART_SECONDS
     if len(parts) == 1 or frames // len(parts) < generator.frames_for(MIN_PART_SECONDS):
         return _whole_as_the_page(generator, text, frames, steps, seed, candidates)
-    blend = max(2, int(round(BLEND_SECONDS * generator.skeleton.fps)))
-    vectors = np.concatenate([page_text_vector(generator, p).cpu().numpy() for p in parts])
-    share = generator.part_frames(parts, frames, vectors)
+    blend = blend_frames(generator.skeleton.fps)
+    share = generator.part_frames(parts, frames)
     lengths = [n + blend for n in share[:-1]] + [share[-1]]  # each covers the next's blend
     made = [_whole_as_the_page(generator, part, n, steps, seed + k, candidates)[1]
             for k, (part, n) in enumerate(zip(parts, lengths))]
@@ -101,9 +100,8 @@ def _whole_as_the_page(generator, text: str, frames: int, steps: int, seed: int,
     motion (generate/keep_going.py); (None, joints) then. Past the window anything else is the
     window's error, as in generate()."""
     from mlct.generate.compose import split_actions, split_concurrent
-    from mlct.generate.keep_going import (is_gait, keep_going, names_an_end, segment_count,
-                                          stops_early)
-    from mlct.generate.long_motion import BLEND_SECONDS
+    from mlct.generate.keep_going import continue_gait, names_an_end
+    from mlct.generate.long_motion import blend_frames
     from mlct.generate.pipeline import MAX_SEED, MIN_PART_SECONDS
 
     window = generator.max_frames
@@ -111,29 +109,22 @@ def _whole_as_the_page(generator, text: str, frames: int, steps: int, seed: int,
                                                 seed, candidates)
     fps = generator.skeleton.fps
     single = len(split_actions(text)) == 1 and split_concurrent(text) is None
-    if (generator.durations is None or not generator.keep_going or names_an_end(text)
-            or frames / fps < MIN_PART_SECONDS or not single):
-        if frames > window:
-            raise generator._too_long(frames, text=text)
-        return features, joints
-    natural = generator.durations.clip_seconds(page_text_vector(generator, text).cpu().numpy())
-    if frames > window:  # only a gait goes on past the window
-        if not is_gait(joints, fps, natural, generator.skeleton):
-            raise generator._too_long(frames, text=text)
-    elif not stops_early(joints, fps, natural, generator.skeleton):
-        return features, joints
-    take = min(generator.frames_for(natural), window)
-    blend = max(2, int(round(BLEND_SECONDS * fps)))
-    count = segment_count(frames, take, blend)
-    for count in (count, 2 * count):  # twice as many when the stretches fell short
-        takes = [_one_with_portable_noise(generator, text, take, steps, (seed + k) % (MAX_SEED + 1),
-                                          candidates)[1] for k in range(count)]
-        chained = keep_going(takes, frames, blend, generator.skeleton)
-        if chained is not None:
-            return None, chained[0].astype(np.float32)
-    if frames > window:
+    kept = None
+    if (generator.durations is not None and generator.keep_going and not names_an_end(text)
+            and frames / fps >= MIN_PART_SECONDS and single):
+        natural = generator.durations.clip_seconds(
+            generator.encode_text([text]).float().cpu().numpy())
+        kept = continue_gait(
+            joints, frames, window, natural, blend_frames(fps),
+            generator.skeleton,
+            lambda count, take: [_one_with_portable_noise(
+                generator, text, take, steps, (seed + k) % (MAX_SEED + 1), candidates)[1]
+                for k in range(count)])
+    if kept is not None:
+        return None, kept.joints.astype(np.float32)
+    if frames > window:  # past the window only a gait goes on, as in generate()
         raise generator._too_long(frames, text=text)
-    return features, joints  # the takes did not reach the length: as made
+    return features, joints
 
 
 def _one_with_portable_noise(generator, text: str, frames: int, steps: int, seed: int,
@@ -166,9 +157,11 @@ def _one_with_portable_noise(generator, text: str, frames: int, steps: int, seed
 def page_text_vector(generator, text: str) -> torch.Tensor:
     """(1, c) the text's vector as the page computes it (static/model.js: encode): one network
     run for the text and, for a 'minilm+sides' model, another for its mirror, contrasted as
-    text/sides.py does. Not encode_text's one batch of both: an int8 text encoder (the site's)
+    text/sides.py does. Not encode_text's one batch of both: export-web's `--text-encoder int8`
     quantizes a batch's activations together, so a text's vector depends on its batch (0.09
-    apart seen), and the side contrast multiplies that by 4."""
+    apart seen), and the side contrast multiplies that by 4. The default int8-weights graph is
+    batch-independent (2e-8), so the durations and lengths here take encode_text's vectors;
+    the sampler's condition, where the difference shows most, takes this one."""
     from mlct.text.minilm import MiniLMEncoder
     from mlct.text.sides import SIDES_SUFFIX, contrast_sides
 
@@ -180,22 +173,3 @@ def page_text_vector(generator, text: str) -> torch.Tensor:
         if encoder.name.endswith(SIDES_SUFFIX):
             vector = contrast_sides([text], vector, lambda mirrors: encoder._embed(mirrors[:1]))
     return vector.float()
-
-
-def page_default_seconds(generator, text: str, split_actions: bool = True) -> float:
-    """pipeline.default_seconds of one text as the page computes it: its parts' vectors one at
-    a time (page_text_vector), not encode_text's batch."""
-    from mlct.generate.compose import split_actions as split_actions_of
-    from mlct.generate.compose import split_concurrent
-    from mlct.generate.pipeline import DEFAULT_SECONDS, MIN_PART_SECONDS
-
-    longest = generator.max_frames / generator.skeleton.fps
-    flat = min(DEFAULT_SECONDS, longest)
-    if generator.durations is None:
-        return flat
-    pair = split_concurrent(text) if split_actions else None
-    body = text if pair is None else pair[0]
-    parts = split_actions_of(body) if split_actions else [body]
-    vectors = np.concatenate([page_text_vector(generator, p).cpu().numpy() for p in parts])
-    clip = generator.durations.clip_seconds(vectors)
-    return max(flat, float(np.clip(clip, MIN_PART_SECONDS, longest)))
