@@ -20,6 +20,8 @@
 // the page's file back with mlct.motion.bvh.read_bvh).
 "use strict";
 
+import { median } from "./pymath.js";
+
 const TO_CM = { m: 100, mm: 0.1 };
 const END_SITE_FRACTION = 0.5;
 const PROCRUSTES_ROUNDS = 3;
@@ -121,12 +123,6 @@ export function kabsch(sources, targets) {
     [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
     [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz]];
   return quatToMatrix(topEigenvector(n));
-}
-
-function median(values) {
-  const sorted = Float64Array.from(values).sort();
-  const mid = sorted.length >> 1;
-  return sorted.length % 2 ? sorted[mid] : (sorted[mid - 1] + sorted[mid]) / 2;
 }
 
 // Euler angles (degrees) of R = Rz(a) Rx(b) Ry(c): intrinsic Z-X-Y, as the channels list them.

@@ -5,18 +5,9 @@
 "use strict";
 
 import { chainSegments, decompose, headings, unwrap } from "./chain.js";
+import { median, percentile, roundHalfEven as pyRound } from "./pymath.js";
 
-// numpy's median and percentile (linear interpolation between the closest ranks)
-function percentile(values, q) {
-  const sorted = Float64Array.from(values).sort();
-  const at = (q / 100) * (sorted.length - 1);
-  const low = Math.floor(at);
-  const high = Math.min(low + 1, sorted.length - 1);
-  return sorted[low] + (at - low) * (sorted[high] - sorted[low]);
-}
-const median = (values) => percentile(values, 50);
 const mean = (values) => values.reduce((a, b) => a + b, 0) / values.length;
-const pyRound = (x) => { const r = Math.round(x); return Math.abs(x % 1) === 0.5 && r % 2 !== 0 ? r - 1 : r; };
 
 export class KeepGoing {
   constructor(rules, skeleton) {

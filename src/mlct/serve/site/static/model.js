@@ -11,6 +11,7 @@ import { lockFeet, recoverFromRic } from "./motion.js";
 import { ActionSplitter, Durations, StatedSeconds, splitFrames } from "./compose.js";
 import { chainSegments, reattach } from "./chain.js";
 import { KeepGoing } from "./keepgoing.js";
+import { roundHalfEven } from "./pymath.js";
 
 const PY_SPACE = /[\s\x1c-\x1f\x85]/u; // what Python's str.split() splits on (U+FEFF is no space)
 const CONTROL = /[\p{Cc}\p{Cf}\p{Cs}]/u;
@@ -46,12 +47,6 @@ export function cleanPrompt(text, maxChars) {
   if (!cleaned) throw new Error("the prompt is empty; describe a motion, e.g. 'a person walks forward'");
   if (cleaned.length > maxChars) throw new Error(`the prompt has ${cleaned.length} characters; the limit is ${maxChars}`);
   return cleaned;
-}
-
-// Python's round(): halves to even (frames from seconds as mlct.generate computes them).
-export function roundHalfEven(x) {
-  const r = Math.round(x);
-  return Math.abs(x % 1) === 0.5 && r % 2 !== 0 ? r - 1 : r;
 }
 
 // A file's bytes; gzip's (1f 8b: the graphs and the WASM binary as export-web stores them,
