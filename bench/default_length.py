@@ -5,7 +5,7 @@ prompts of bench/data, scored by the read-outs as bench/motion_quality.py scores
 
 Rules: a flat 5 s (mlct's default until 2026-11-27); "5 s or what the actions take"
 (pipeline.default_seconds, the default since); the duration model's length alone
-(`seconds="auto"`). Sets: the seen paraphrases, the two held-out sets and the two-action
+(`seconds="auto"`). Sets: the seen paraphrases, the three held-out sets and the two-action
 prompts. Same seeds for every rule, in one run. Prints each set's pass rate per rule, the clip
 lengths, and the prompts a rule passes less often than the flat 5 s.
 """
@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 import mlct
-from motion_quality import HELDOUT, HELDOUT2, PROMPTS, judge_prompt
+from motion_quality import HELDOUT, HELDOUT2, HELDOUT3, PROMPTS, judge_prompt
 
 FLAT = 5.0
 
@@ -33,6 +33,7 @@ def main() -> None:
     sets = {"seen paraphrases": prompts["paraphrases"],
             "held-out": json.loads(HELDOUT.read_text(encoding="utf-8"))["paraphrases"],
             "held-out 2": json.loads(HELDOUT2.read_text(encoding="utf-8"))["paraphrases"],
+            "held-out 3": json.loads(HELDOUT3.read_text(encoding="utf-8"))["paraphrases"],
             "two actions": prompts["two_actions"]}
     pipe = mlct.load(args.model)
     print(f"model {args.model or 'bundled'}, {args.seeds} seeds; pass rate (clip seconds min / "

@@ -18,7 +18,9 @@ overall, of
       held-out ones (quality_prompts_heldout.json: written after the everyday caption
       vocabulary that `mlct data rephrase` trains on, using none of its new verbs; "held-out
       2", quality_prompts_heldout2.json: 43 more, two per family (three turns), written after
-      the first set had been used to choose pipeline rules, so a fresh measure);
+      the first set had been used to choose pipeline rules, so a fresh measure; "held-out 3",
+      quality_prompts_heldout3.json: 48 more by an author who had read no training vocabulary,
+      written before the colloquial vocabulary was trained on);
   (e) generations from two-action prompts, as the pipeline makes them (one part per action,
       chained) and as one whole prompt. A hand-written prompt has no labelled timing, so its
       actions are judged in order at the cut that suits the motion best (each part >= 1 s:
@@ -57,6 +59,8 @@ PROMPTS = Path(__file__).parent / "data" / "quality_prompts.json"
 HELDOUT = Path(__file__).parent / "data" / "quality_prompts_heldout.json"
 # a second set, written 2026-11-27 before any vocabulary made after it (its "about" says how)
 HELDOUT2 = Path(__file__).parent / "data" / "quality_prompts_heldout2.json"
+# a third, by an author who had read no training vocabulary (its "about" says how)
+HELDOUT3 = Path(__file__).parent / "data" / "quality_prompts_heldout3.json"
 SIDE_KEYS = ("side", "hand", "leg")
 MAX_FRAMES = 196
 
@@ -271,12 +275,14 @@ def main() -> None:
         prompts = json.loads(PROMPTS.read_text(encoding="utf-8"))
         prompts["heldout"] = json.loads(HELDOUT.read_text(encoding="utf-8"))["paraphrases"]
         prompts["heldout2"] = json.loads(HELDOUT2.read_text(encoding="utf-8"))["paraphrases"]
+        prompts["heldout3"] = json.loads(HELDOUT3.read_text(encoding="utf-8"))["paraphrases"]
         # "two actions" as a user gets them (each action made alone and chained,
         # generate/compose.py), and "... whole": the model given the whole prompt at once.
         for key, titles, seconds, split in (
                 ("paraphrases", ("paraphrases",), 4.0, not args.whole_prompt),
                 ("heldout", ("held-out para",), 4.0, not args.whole_prompt),
                 ("heldout2", ("held-out 2",), 4.0, not args.whole_prompt),
+                ("heldout3", ("held-out 3",), 4.0, not args.whole_prompt),
                 ("two_actions", ("two actions", "two, halves"), 7.0, True),
                 ("two_actions", ("two, whole",), 7.0, False)):
             tallies = [Tally() for _ in titles]

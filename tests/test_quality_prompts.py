@@ -33,3 +33,16 @@ def test_the_three_action_prompts_split_into_their_actions_with_judgeable_labels
     for prompt in prompts:
         assert len(prompt["actions"]) == 3 and all(checks_for(a) for a in prompt["actions"])
         assert len(split_actions(prompt["text"])) == 3, prompt["text"]
+
+
+def test_the_third_held_out_set_covers_every_family_with_judgeable_labels() -> None:
+    prompts = json.loads((DATA / "quality_prompts_heldout3.json").read_text())["paraphrases"]
+    families = Counter(p["actions"][0]["family"] for p in prompts)
+    assert set(families) == set(FAMILIES) and min(families.values()) >= 2
+    earlier = {p["text"] for name in ("quality_prompts.json", "quality_prompts_heldout.json",
+                                      "quality_prompts_heldout2.json")
+               for p in json.loads((DATA / name).read_text())["paraphrases"]}
+    assert len({p["text"] for p in prompts}) == len(prompts) >= 45
+    assert not earlier & {p["text"] for p in prompts}
+    for prompt in prompts:
+        assert len(prompt["actions"]) == 1 and checks_for(prompt["actions"][0])

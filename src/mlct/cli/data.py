@@ -95,9 +95,10 @@ def add_parser(commands: Commands) -> None:
     rephrase.add_argument("--out", required=True, type=Path, help="dataset directory to create")
     rephrase.add_argument("--per-motion", type=int, default=3, help="captions added (default 3)")
     rephrase.add_argument("--splits", default="train", help="comma-separated (default train)")
-    rephrase.add_argument("--vocabulary", default="everyday", choices=("everyday", "short"),
-                          help="everyday phrasings (default) or short ones: each action by its "
-                               "bare verb ('a woman waves')")
+    rephrase.add_argument("--vocabulary", default="everyday", choices=("everyday", "short", "colloquial"),
+                          help="everyday phrasings (default), short ones: each action by its "
+                               "bare verb ('a woman waves'), or colloquial ones: rarer verbs, "
+                               "turn sizes in words, a side after its noun, negation")
     rephrase.add_argument("--seed", type=int, default=0)
     rephrase.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
     rephrase.set_defaults(func=run_rephrase)

@@ -26,13 +26,15 @@ from mlct.data.captions import format_text_line, tag_caption
 from mlct.data.labels import read_labels
 from mlct.data.layout import read_split
 from mlct.data.synth.everyday import EVERYDAY
+from mlct.data.synth.colloquial import COLLOQUIAL
 from mlct.data.synth.short import SHORT
 from mlct.data.synth.text import Vocabulary, describe
 from mlct.errors import MlctError
 from mlct.io import atomic_dir, copy_dataset, write_text
 
 
-VOCABULARIES: dict[str, Vocabulary] = {"everyday": EVERYDAY, "short": SHORT}
+VOCABULARIES: dict[str, Vocabulary] = {"everyday": EVERYDAY, "short": SHORT,
+                                        "colloquial": COLLOQUIAL}
 
 
 def everyday_captions(record: dict[str, Any], rng: np.random.Generator, count: int,
