@@ -389,9 +389,14 @@ def test_actions_are_split_as_in_python(page):
              "a person walks forward while waving", "waves and claps at the same time",
              "turns three hundred and sixty degrees", "a man is slowly walking, then is running",
              "a person jumps; afterwards, kneels", "léft, then rîght", "then", ", then ,",
-             "ſomeone walks, then waves", "café walks, then waves", "a person jumps，then waves"]
+             "ſomeone walks, then waves", "café walks, then waves", "a person jumps，then waves",
+             "a tired woman sinks into a chair, then pushes herself back up",
+             "a goalkeeper sidesteps along the line, going to his right",
+             "an old man first sits down, then runs", "an elderly woman slowly walks, then sits",
+             "an old man walked forward, then sat", "a man is walking, turning left and waving",
+             "a boss walks, then waves", "ſomebody's ſister walks, then waves"]
     for name in ("quality_prompts.json", "quality_prompts_heldout.json",
-                 "quality_prompts_heldout2.json"):
+                 "quality_prompts_heldout2.json", "quality_prompts_heldout3.json"):
         data = json.loads((HERE.parent / "bench" / "data" / name).read_text())
         texts += [item["text"] for items in data.values() if isinstance(items, list)
                   for item in items if isinstance(item, dict) and "text" in item]

@@ -30,14 +30,24 @@ from __future__ import annotations
 
 import re
 
-from mlct.data.captions import VERB_FORMS
+from mlct.data.captions import VERB_FORMS as BENCHMARK_FORMS
+
+# The verbs the rules know: the benchmark's, and "push" for "pushes herself back up" (a return).
+VERB_FORMS = {**BENCHMARK_FORMS, "push": ("pushes", "pushing")}
 
 # The sequencing words, with the punctuation and "and" that may come with them.
 _SEQUENCE = re.compile(
     r"\s*(?:[,;.]\s*)?(?:\band\s+)?\b(?:then|after\s+that|afterwards)\b"
     r"\s*,?\s*", re.IGNORECASE)
+# A subject: an article and up to five words before the verb, which ends in "s" ("a tired woman
+# sinks", "the old man works", "a person is"); words of the subject do not ("a boss" may), nor
+# are they adverbs ("a person first sits", "a man slowly walks"); else an article and one word
+# ("a person walked"), or a pronoun.
 _SUBJECT = re.compile(
-    r"^(?:(?:a|an|the|this|that)\s+[a-z]+|someone|somebody|he|she|they|it|person|man|woman|"
+    r"^(?:(?:a|an|the|this|that)(?:\s+(?!(?:first|then|finally|also|again|now|just|still|"
+    r"(?!elderly|lonely|friendly|burly|curly|lovely|jolly|silly)[a-z]*ly)\b)"
+    r"(?:[a-z]*ss|[a-z]*[a-rt-z])){1,5}?(?=\s+[a-z]+s\b)|"
+    r"(?:a|an|the|this|that)\s+[a-z]+|someone|somebody|he|she|they|it|person|man|woman|"
     r"human|figure)\b", re.IGNORECASE)
 DEFAULT_SUBJECT = "a person"
 MIN_WORDS = 1  # a part must name something to be a prompt of its own
@@ -61,14 +71,16 @@ def split_actions(text: str) -> list[str]:
 # chair, then stands" as "sits down and stands up" is.
 _LOWERING = re.compile(r"\b(?:sit|sits|sitting|squat|squats|squatting|kneel|kneels|kneeling|"
                        r"crouch|crouches|crouching|bend|bends|bending|bow|bows|bowing|duck|ducks|"
-                       r"ducking)\b", re.IGNORECASE)
+                       r"ducking|sink|sinks|sinking|hunker|hunkers|hunkering|perch|perches|"
+                       r"perching)\b", re.IGNORECASE)
 
 
 # The words of a part that only comes back up ("stands back up", "gets up again", "rises to a
 # standing position"); any other word makes it an action of its own: "stands still", "stands
 # quietly", "stands in place" are the benchmark's stand family.
 _RETURN_WORDS = frozenset({"back", "up", "upright", "again", "straight", "fully", "slowly",
-                           "quickly", "to", "a", "standing", "position", "then"})
+                           "quickly", "to", "a", "standing", "position", "then", "himself",
+                           "herself", "themselves", "itself"})
 
 
 def _only_returns(phrase: str) -> bool:
@@ -99,7 +111,7 @@ def _returns_joined(parts: list[str]) -> list[str]:
 # back up", "bends forward and straightens up", "kneels and gets back up"), and the pairs that
 # name one action together ("stretches the arms up and leans to the side", "balances on the
 # left leg and hops").
-_RETURN_VERBS = frozenset({"stand", "straighten", "get", "rise"})
+_RETURN_VERBS = frozenset({"stand", "straighten", "get", "rise", "push"})
 _ONE_ACTION_PAIRS = frozenset({(first, then) for first in ("stretch", "reach", "raise")
                                for then in ("lean", "bend")}
                               | {("raise", "wave"), ("lift", "wave"), ("balance", "hop"),
@@ -121,14 +133,19 @@ def _split_listed(phrase: str) -> list[str]:
     current = _leading_verb(pieces[0])
     if current is None:
         return [phrase]
+    finite = _leading_word(pieces[0]) in _THIRD_PERSON
     actions = [pieces[0]]
     for separator, piece in zip(separators, pieces[1:]):
         verb = _leading_verb(piece)
         # a part that opens with standing ("stands and claps", "stands on the left leg and
         # hops") is the action that follows it
         opens_standing = len(actions) == 1 and current in _RETURN_VERBS
+        # after a finite verb, a comma and a gerund say how ("sidesteps along the line, going
+        # to his right"); in a progressive list ("is walking, turning left and ...") the
+        # gerunds are the actions
+        manner = finite and "," in separator and _leading_word(piece) in _GERUND
         if (verb is None or verb in _RETURN_VERBS or (current, verb) in _ONE_ACTION_PAIRS
-                or opens_standing):
+                or opens_standing or manner):
             current = verb if opens_standing and verb is not None else current
             actions[-1] += separator + piece
             continue
@@ -143,16 +160,22 @@ def _split_listed(phrase: str) -> list[str]:
 _ADVERBS = frozenset({"first", "finally", "also", "then", "again", "is", "are"})
 
 
-def _leading_verb(piece: str) -> str | None:
-    """The lemma of the verb a piece starts with, past two adverbs ("is slowly walking"); None when
-    it starts otherwise ("back", "sixty degrees")."""
+def _leading_word(piece: str) -> str:
+    """The word a piece starts with, past two adverbs ("is slowly walking": "walking")."""
     words = piece.lower().split()
     for _ in range(2):  # "is slowly walking"
         if len(words) > 1 and (words[0].endswith("ly") or words[0] in _ADVERBS):
             words = words[1:]
-    if not words or words[0] == "back":  # "walks forward and back": a direction here
+    return words[0] if words else ""
+
+
+def _leading_verb(piece: str) -> str | None:
+    """The lemma of the verb a piece starts with, past two adverbs ("is slowly walking"); None when
+    it starts otherwise ("back", "sixty degrees")."""
+    word = _leading_word(piece)
+    if not word or word == "back":  # "walks forward and back": a direction here
         return None
-    return _lemma(words[0])
+    return _lemma(word)
 
 
 def _finite_lead(phrase: str) -> str:

@@ -113,13 +113,18 @@ export class ActionSplitter {
     return found ? [found[0], phrase.slice(found[0].length).trim()] : ["", phrase];
   }
 
-  leadingVerb(piece) {
+  leadingWord(piece) { // past two adverbs: "is slowly walking" -> "walking"
     let list = words(piece.toLowerCase());
-    for (let i = 0; i < 2; i++) { // "is slowly walking"
+    for (let i = 0; i < 2; i++) {
       if (list.length > 1 && (list[0].endsWith("ly") || this.adverbs.has(list[0]))) list = list.slice(1);
     }
-    if (!list.length || list[0] === "back") return null; // "walks forward and back": a direction
-    return this.lemma(list[0]);
+    return list.length ? list[0] : "";
+  }
+
+  leadingVerb(piece) {
+    const word = this.leadingWord(piece);
+    if (!word || word === "back") return null; // "walks forward and back": a direction
+    return this.lemma(word);
   }
 
   finiteLead(phrase) { // "jogging forward" -> "jogs forward"
@@ -162,12 +167,15 @@ export class ActionSplitter {
     const separators = [...rest.matchAll(this.re.listed)].map((m) => m[0]);
     let current = this.leadingVerb(pieces[0]);
     if (current === null) return [phrase];
+    const finite = this.third.has(this.leadingWord(pieces[0]));
     const actions = [pieces[0]];
     separators.forEach((separator, i) => {
       const piece = pieces[i + 1];
       const verb = this.leadingVerb(piece);
       const opensStanding = actions.length === 1 && this.returnVerbs.has(current);
-      if (verb === null || this.returnVerbs.has(verb) || this.pairs.has(`${current} ${verb}`) || opensStanding) {
+      // after a finite verb, a comma and a gerund say how ("sidesteps along the line, going right")
+      const manner = finite && separator.includes(",") && this.gerund.has(this.leadingWord(piece));
+      if (verb === null || this.returnVerbs.has(verb) || this.pairs.has(`${current} ${verb}`) || opensStanding || manner) {
         if (opensStanding && verb !== null) current = verb;
         actions[actions.length - 1] += separator + piece;
         return;

@@ -1,0 +1,80 @@
+"""The hand-written one-action prompt sets, several models side by side in one run.
+
+    python bench/paraphrase_sets.py [--models bundled DIR ...] [--seeds 5] [--failures SET]
+
+Sets (bench/data): the seen paraphrases, held-out 1, 2 and 3. Each prompt is made at 4 s (as
+bench/motion_quality.py's columns) and at the pipeline's default length (what a user gets who
+gives none), the same seeds for every model, scored by the read-outs (motion_quality.judge_prompt).
+Prints per model and set: the pass rate at both lengths and, for the prompts that name a side or
+turn direction, that rate at 4 s; then, for --failures SET (default held-out 3), each prompt
+some model fails in some seed, with every model's pass counts.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+import mlct
+from motion_quality import HELDOUT, HELDOUT2, HELDOUT3, PROMPTS, SIDE_KEYS, judge_prompt
+
+SECONDS = 4.0
+
+
+def load_sets() -> dict[str, list[dict]]:
+    def read(path: Path) -> list[dict]:
+        return json.loads(path.read_text(encoding="utf-8"))["paraphrases"]
+    return {"seen": read(PROMPTS), "held-out 1": read(HELDOUT), "held-out 2": read(HELDOUT2),
+            "held-out 3": read(HELDOUT3)}
+
+
+def passes(pipe, items: list[dict], seconds: list[float], seeds: int) -> np.ndarray:
+    """How many of `seeds` samples of each prompt pass all its checks."""
+    count = np.zeros(len(items), dtype=int)
+    for seed in range(seeds):
+        made = pipe.generate([p["text"] for p in items], seconds=seconds, seed=seed * 100_000)
+        for i, (item, motion) in enumerate(zip(items, made)):
+            _, results = judge_prompt(motion.joints, item["actions"],
+                                      motion.joints.shape[0] / pipe.skeleton.fps)
+            count[i] += all(ok for _, ok in results)
+    return count
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--models", nargs="+", default=["bundled"])
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--failures", default="held-out 3")
+    args = parser.parse_args()
+    sets = load_sets()
+    results: dict[str, dict[str, dict[str, np.ndarray]]] = {}
+    print(f"{args.seeds} seeds; pass rate at 4 s | at the default length | named side at 4 s")
+    for name in args.models:
+        pipe = mlct.load(None if name == "bundled" else Path(name))
+        results[name] = {}
+        for set_name, items in sets.items():
+            texts = [p["text"] for p in items]
+            at4 = passes(pipe, items, [SECONDS] * len(items), args.seeds)
+            auto = passes(pipe, items, pipe.default_seconds(texts), args.seeds)
+            sided = np.array([any(k in a["params"] for a in p["actions"] for k in SIDE_KEYS)
+                              for p in items])
+            results[name][set_name] = {"4 s": at4, "default": auto}
+            print(f"{name:40} {set_name:11} {at4.sum() / (len(items) * args.seeds):.3f} | "
+                  f"{auto.sum() / (len(items) * args.seeds):.3f} | "
+                  f"{at4[sided].sum() / max(1, sided.sum() * args.seeds):.3f} "
+                  f"({len(items)} prompts, {int(sided.sum())} sided)", flush=True)
+    if args.failures in sets:
+        print(f"\n{args.failures}: prompts some model fails (passes of {args.seeds} at 4 s / "
+              f"at the default length; models in the order {', '.join(args.models)})")
+        for i, item in enumerate(sets[args.failures]):
+            cells = [(int(results[m][args.failures]["4 s"][i]),
+                      int(results[m][args.failures]["default"][i])) for m in args.models]
+            if any(c != (args.seeds, args.seeds) for c in cells):
+                print("  " + " | ".join(f"{a}/{b}" for a, b in cells) + f"  {item['text']}")
+
+
+if __name__ == "__main__":
+    main()
