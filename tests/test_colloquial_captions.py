@@ -27,6 +27,7 @@ COUNTS = {1: r"once|single", 2: r"twice|two|\b2\b", 3: r"three|\b3\b", 4: r"four
 SIZES = {45: r"eighth|small turn|slight turn", 90: r"quarter turn|quarter of a turn|right-angle|"
          r"is now in front", 135: r"sharp turn|more than a quarter", 180: r"half turn|half a turn|"
          r"about-face|way they came|all the way round"}
+# a turn said without its size ("turns left without stepping away") is a quarter turn
 
 
 def colloquial(actions: list, seeds: int = 12, **kw: object) -> list[str]:
@@ -64,6 +65,7 @@ def test_colloquial_captions_state_no_wrong_side_count_angle_or_speed(family: st
                     c = c.replace("more than a quarter turn but less than a half turn", "sharp turn")
                     sizes = {a for a, words in SIZES.items() if re.search(words, c)}
                     assert sizes <= {value}, (params, c)
+                    assert sizes or value == 90, (params, c)
             elif key == "speed" and family == "walk":
                 slow = [c for c in caps if re.search(r"saunter|plod|trudg|slow|hurry", c)]
                 fast = [c for c in caps if re.search(r"strid|march|quick|brisk|fast", c)]

@@ -10,7 +10,11 @@ read-outs passed) failed in four ways no training caption had shown the model (d
 This vocabulary says every family in those forms, and in other uncommon verbs, equally
 truthful: a phrase may leave a parameter out but never states a wrong side, count, angle, speed
 or order. A turn's size in words is said only where the word means one angle: a quarter turn
-is 90 degrees, a half turn 180, an eighth of a turn 45.
+is 90 degrees, a half turn 180, an eighth of a turn 45; a turn said without its size is a
+quarter turn, as in the benchmark's captions. A first version said "turns left without stepping
+away" of every size and "a complete about-face" of half turns: 6,000 steps on it made "turning
+ninety degrees left" a 50-degree turn and "a complete rotation to the right" (a spin) stand
+still in 2 seeds of 5 (docs/training.md, "Colloquial captions").
 
 It was written after held-out set 2's failures were read, so that set no longer measures unseen
 sentence forms for those four classes; the third set (quality_prompts_heldout3.json) was written
@@ -54,7 +58,7 @@ _SIZE_WORDS = {
     45: ("an eighth of a turn", "a small turn", "a slight turn"),
     90: ("a quarter turn", "a quarter of a turn", "a quarter turn", "a right-angle turn"),
     135: ("a sharp turn", "more than a quarter turn but less than a half turn"),
-    180: ("a half turn", "half a turn", "a half turn", "a complete about-face"),
+    180: ("a half turn", "half a turn", "a half turn", "an about-face"),
 }
 
 
@@ -115,13 +119,13 @@ def _turn(p: dict, rng: Rng) -> str:
     size = _pick(rng, _SIZE_WORDS[angle])
     forms = [f"<make> {size} to the {s}", f"<do> {size} to HIS {s}", f"<turn> {s}, {size}",
              f"<make> {size}, turning {s}", f"<turn> {s} by {size}", f"<turn> on the spot, "
-             f"{size} to the {s}", f"<pivot> {size} {s}wards", f"<turn> {s} without "
-             "stepping away"]
+             f"{size} to the {s}", f"<pivot> {size} {s}wards"]
     if angle == 180:
         forms += [f"<turn> to face the way they came, going {s}", f"<turn> all the way round, "
                   f"to the {s}"]
-    if angle == 90:
-        forms += [f"<turn> so that what was on HIS {s} is now in front"]
+    if angle == 90:  # a turn said without its size is a quarter turn, as in the benchmark
+        forms += [f"<turn> so that what was on HIS {s} is now in front",
+                  f"<turn> {s} without stepping away"]
     return _pick(rng, forms)
 
 
