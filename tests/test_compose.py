@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import torch
 import pytest
 
 import mlct
@@ -196,3 +197,27 @@ def test_after_and_before_clauses_are_put_in_order(text: str, ordered: str) -> N
 def test_a_clause_splits_into_actions_in_order() -> None:
     assert split_actions("a man turns left after walking forward") == [
         "a man walks forward", "a man turns left"]
+
+
+@pytest.mark.parametrize("text, read", [
+    ("a figure skater pirouettes to the right", "a person pirouettes to the right"),
+    ("the robot stays motionless, not moving a muscle", "a person stays motionless, not moving a muscle"),
+    ("a tired woman sinks into a chair", "a person sinks into a chair"),
+    ("he walks forward", "a person walks forward"),
+    ("an old man claps twice", "an old man claps twice"),  # a subject the captions use
+    ("The Woman jumps", "The Woman jumps"),
+    ("the left arm rises", "the left arm rises"),  # a body part, not who moves
+    ("walks forward, then waves", "walks forward, then waves"),  # no subject
+])
+def test_a_subject_the_captions_never_used_is_read_as_a_person(text: str, read: str) -> None:
+    from mlct.generate.compose import plain_subject
+
+    assert plain_subject(text) == read
+
+
+def test_the_generator_reads_unknown_subjects_as_a_person() -> None:
+    import mlct
+
+    pipe = mlct.load()
+    a, b, c = pipe.encode_text(["the robot waves", "a person waves", "a man waves"])
+    assert torch.equal(a, b) and not torch.equal(b, c)

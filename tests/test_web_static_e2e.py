@@ -379,7 +379,7 @@ def test_actions_are_split_as_in_python(page):
     """The page's splits (static/compose.js) give compose.split_actions' parts and
     split_concurrent's body and arms: on the benchmark's hand-written prompts and on the
     phrasings each rule is for."""
-    from mlct.generate.compose import split_actions, split_concurrent
+    from mlct.generate.compose import plain_subject, split_actions, split_concurrent
 
     texts = [SEQUENCE, "after walking forward, a man turns left", "a man walks before turning",
              "a person squats, then stands back up and walks away", "sits down, then stands still",
@@ -394,7 +394,8 @@ def test_actions_are_split_as_in_python(page):
              "a goalkeeper sidesteps along the line, going to his right",
              "an old man first sits down, then runs", "an elderly woman slowly walks, then sits",
              "an old man walked forward, then sat", "a man is walking, turning left and waving",
-             "a boss walks, then waves", "ſomebody's ſister walks, then waves"]
+             "a boss walks, then waves", "ſomebody's ſister walks, then waves",
+             "the left arm rises", "He walks", "A Person walks", "the robot's arm rises"]
     for name in ("quality_prompts.json", "quality_prompts_heldout.json",
                  "quality_prompts_heldout2.json", "quality_prompts_heldout3.json"):
         data = json.loads((HERE.parent / "bench" / "data" / name).read_text())
@@ -406,6 +407,11 @@ def test_actions_are_split_as_in_python(page):
     expected = [split_actions(t) for t in texts]
     assert sum(len(e) > 1 for e in expected) >= 30  # sequences among them, not only single actions
     got = page.evaluate("(texts) => texts.map((t) => window.mlct.model.splitter.split(t))", texts)
+    assert got == expected
+    expected = [plain_subject(t) for t in texts]
+    assert sum(e != t for e, t in zip(expected, texts)) >= 20  # subjects read as "a person"
+    got = page.evaluate("(texts) => texts.map((t) => window.mlct.model.splitter.plainSubject(t))",
+                        texts)
     assert got == expected
     expected = [split_concurrent(t) for t in texts]
     assert sum(e is not None for e in expected) >= 5

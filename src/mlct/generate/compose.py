@@ -53,6 +53,38 @@ DEFAULT_SUBJECT = "a person"
 MIN_WORDS = 1  # a part must name something to be a prompt of its own
 
 
+def _trained_subjects() -> frozenset[str]:
+    from mlct.data.synth.everyday import SUBJECTS
+    from mlct.data.synth.text import BENCHMARK
+
+    return frozenset(subject for subject, _ in BENCHMARK.subjects + SUBJECTS)
+
+
+# The subjects the training captions use (the benchmark's and the everyday vocabulary's; the
+# short and colloquial ones reuse them), and the words of a subject that is a body part ("the
+# left arm rises"), which stays.
+TRAINED_SUBJECTS = _trained_subjects()
+_BODY_WORDS = frozenset("arm arms hand hands leg legs foot feet knee knees head body torso hip "
+                        "hips shoulder shoulders elbow elbows wrist wrists chest back".split())
+
+
+def plain_subject(text: str) -> str:
+    """The text as the model reads it: a subject the training captions never used ("a figure
+    skater", "the robot", "a tired woman", "he") said as DEFAULT_SUBJECT. Who moves changes nothing
+    in the benchmark's motions, but an unknown subject moves the text's vector: "a figure skater
+    pirouettes to the right" stood still in 5 seeds of 5 where "a person pirouettes to the right"
+    spun (held-out set 3: 0.533 -> 0.642 of its read-outs for the bundled model). A text without
+    a subject, or whose subject is a body part, is unchanged."""
+    found = _SUBJECT.match(text)
+    if found is None:
+        return text
+    subject = found.group(0)
+    words = subject.lower().split()
+    if subject.lower() in TRAINED_SUBJECTS or _BODY_WORDS & set(words):
+        return text
+    return DEFAULT_SUBJECT + text[found.end():]
+
+
 def split_actions(text: str) -> list[str]:
     """The parts of a prompt that names actions in sequence; [text] when it names one."""
     parts = [p.strip(" ,;.") for p in _SEQUENCE.split(in_order(text))]
@@ -313,5 +345,6 @@ def portable_rules() -> dict:
             "return_verbs": sorted(_RETURN_VERBS), "return_words": sorted(_RETURN_WORDS),
             "one_action_pairs": sorted([a, b] for a, b in _ONE_ACTION_PAIRS),
             "adverbs": sorted(_ADVERBS), "arm_verbs": sorted(ARM_VERBS),
-            "default_subject": DEFAULT_SUBJECT,
+            "default_subject": DEFAULT_SUBJECT, "trained_subjects": sorted(TRAINED_SUBJECTS),
+            "body_words": sorted(_BODY_WORDS),
             "min_words": MIN_WORDS}

@@ -39,7 +39,7 @@ from mlct.motion.skeleton import get_skeleton
 from mlct.nn.inference import for_inference, weight_dtype
 from mlct.generate.compose import split_actions as split_actions_of
 from mlct.generate.durations import DurationModel, split_frames
-from mlct.generate.compose import split_concurrent
+from mlct.generate.compose import plain_subject, split_concurrent
 from mlct.generate.prompts import clean_prompt, stated_seconds
 
 if TYPE_CHECKING:
@@ -123,7 +123,9 @@ class MotionGenerator:
 
     def encode_text(self, texts: Sequence[str]) -> Tensor:
         """(B, c) frozen text embeddings. The last TEXT_MEMO_SIZE distinct texts are kept, so a
-        repeated prompt skips the encoder; the memo's memory is bounded (a server sees many)."""
+        repeated prompt skips the encoder; the memo's memory is bounded (a server sees many).
+        A subject the training captions never used is read as "a person" (compose.plain_subject)."""
+        texts = [plain_subject(t) for t in texts]
         found = {t: self._text_memo[t] for t in texts if t in self._text_memo}
         missing = sorted(set(texts) - set(found))
         if missing:

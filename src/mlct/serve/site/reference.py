@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from mlct.generate.compose import plain_subject
 from mlct.generate.portable_noise import PortableNoise
 
 
@@ -168,6 +169,7 @@ def page_text_vector(generator, text: str) -> torch.Tensor:
     encoder = generator.text_encoder
     if not isinstance(encoder, MiniLMEncoder):
         return generator.encode_text([text]).float()
+    text = plain_subject(text)  # as encode_text reads it
     with torch.no_grad():
         vector = encoder._embed([text])
         if encoder.name.endswith(SIDES_SUFFIX):

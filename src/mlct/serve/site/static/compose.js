@@ -39,6 +39,8 @@ export class ActionSplitter {
     this.adverbs = new Set(rules.adverbs);
     this.armVerbs = new Set(rules.arm_verbs);
     this.defaultSubject = rules.default_subject;
+    this.trainedSubjects = new Set(rules.trained_subjects ?? []);
+    this.bodyWords = new Set(rules.body_words ?? []);
     this.minWords = rules.min_words;
   }
 
@@ -97,6 +99,17 @@ export class ActionSplitter {
       }
     }
     return null;
+  }
+
+  // compose.plain_subject: a subject the training captions never used ("the robot") read as
+  // the default one; none, a trained one or a body part ("the left arm") left as it is
+  plainSubject(text) {
+    if (!this.trainedSubjects.size) return text;
+    const found = this.re.subject.exec(text);
+    if (!found) return text;
+    const subject = found[0].toLowerCase();
+    if (this.trainedSubjects.has(subject) || words(subject).some((w) => this.bodyWords.has(w))) return text;
+    return this.defaultSubject + text.slice(found[0].length);
   }
 
   firstVerb(phrase) { return this.leadingVerb(this.withoutSubject(phrase)[1]); }

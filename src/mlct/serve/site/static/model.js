@@ -109,6 +109,7 @@ export class MotionModel {
   // The text's embedding (1, c): pooled vector, then the first token states when the model has
   // slots; for a 'minilm+sides' model, side-contrasted as text/sides.py does.
   async encode(text) {
+    if (this.splitter) text = this.splitter.plainSubject(text); // as encode_text reads it
     if (this.memo.has(text)) return this.memo.get(text);
     const emb = await this.embed(text);
     const alpha = this.config.text_encoder.side_contrast || 0;
