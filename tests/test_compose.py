@@ -207,6 +207,8 @@ def test_a_clause_splits_into_actions_in_order() -> None:
     ("an old man claps twice", "an old man claps twice"),  # a subject the captions use
     ("The Woman jumps", "The Woman jumps"),
     ("the left arm rises", "the left arm rises"),  # a body part, not who moves
+    ("a man power walks", "a man power walks"),  # a trained subject's further words stay
+    ("a person side shuffles to the right", "a person side shuffles to the right"),
     ("walks forward, then waves", "walks forward, then waves"),  # no subject
 ])
 def test_a_subject_the_captions_never_used_is_read_as_a_person(text: str, read: str) -> None:

@@ -395,7 +395,8 @@ def test_actions_are_split_as_in_python(page):
              "an old man first sits down, then runs", "an elderly woman slowly walks, then sits",
              "an old man walked forward, then sat", "a man is walking, turning left and waving",
              "a boss walks, then waves", "ſomebody's ſister walks, then waves",
-             "the left arm rises", "He walks", "A Person walks", "the robot's arm rises"]
+             "the left arm rises", "He walks", "A Person walks", "the robot's arm rises",
+             "a man power walks", "a person side shuffles to the right"]
     for name in ("quality_prompts.json", "quality_prompts_heldout.json",
                  "quality_prompts_heldout2.json", "quality_prompts_heldout3.json"):
         data = json.loads((HERE.parent / "bench" / "data" / name).read_text())

@@ -41,6 +41,7 @@ export class ActionSplitter {
     this.defaultSubject = rules.default_subject;
     this.trainedSubjects = new Set(rules.trained_subjects ?? []);
     this.bodyWords = new Set(rules.body_words ?? []);
+    this.verbHalves = new Set(rules.verb_halves ?? []);
     this.minWords = rules.min_words;
   }
 
@@ -107,8 +108,11 @@ export class ActionSplitter {
     if (!this.trainedSubjects.size) return text;
     const found = this.re.subject.exec(text);
     if (!found) return text;
-    const subject = found[0].toLowerCase();
-    if (this.trainedSubjects.has(subject) || words(subject).some((w) => this.bodyWords.has(w))) return text;
+    const list = words(found[0].toLowerCase());
+    // a trained subject, or one followed by half a two-word verb ("a man power walks"), stays
+    const trained = list.map((_, k) => k + 1).filter((k) => this.trainedSubjects.has(list.slice(0, k).join(" ")));
+    const last = trained.length ? trained[trained.length - 1] : 0;
+    if (list.some((w) => this.bodyWords.has(w)) || (last && (last === list.length || this.verbHalves.has(list[last])))) return text;
     return this.defaultSubject + text.slice(found[0].length);
   }
 
