@@ -66,6 +66,9 @@ def test_colloquial_captions_state_no_wrong_side_count_angle_or_speed(family: st
                     sizes = {a for a, words in SIZES.items() if re.search(words, c)}
                     assert sizes <= {value}, (params, c)
                     assert sizes or value == 90, (params, c)
+                    # the benchmark's convention: a bare "turns left" is a quarter turn
+                    bare = re.search(r"turn(s|ing) (to the )?(left|right)\b(?! by)", c)
+                    assert not bare or value == 90, (params, c)
             elif key == "speed" and family == "walk":
                 slow = [c for c in caps if re.search(r"saunter|plod|trudg|slow|hurry", c)]
                 fast = [c for c in caps if re.search(r"strid|march|quick|brisk|fast", c)]

@@ -117,15 +117,18 @@ def _side_step(p: dict, rng: Rng) -> str:
 def _turn(p: dict, rng: Rng) -> str:
     s, angle = p["side"], p["angle"]
     size = _pick(rng, _SIZE_WORDS[angle])
-    forms = [f"<make> {size} to the {s}", f"<do> {size} to HIS {s}", f"<turn> {s}, {size}",
-             f"<make> {size}, turning {s}", f"<turn> {s} by {size}", f"<turn> on the spot, "
-             f"{size} to the {s}", f"<pivot> {size} {s}wards"]
+    # "turns left" / "turning left" (not "turns left by ...") is said only of quarter turns, as
+    # in the benchmark's captions: said of every size, it made "turning ninety degrees left" a
+    # 50-degree turn (docs/training.md, "Colloquial captions")
+    forms = [f"<make> {size} to the {s}", f"<do> {size} to HIS {s}", f"<make> {size}, going {s}",
+             f"<turn> {s} by {size}", f"<turn> on the spot, {size} to the {s}",
+             f"<pivot> {size} to the {s}"]
     if angle == 180:
         forms += [f"<turn> to face the way they came, going {s}", f"<turn> all the way round, "
                   f"to the {s}"]
     if angle == 90:  # a turn said without its size is a quarter turn, as in the benchmark
         forms += [f"<turn> so that what was on HIS {s} is now in front",
-                  f"<turn> {s} without stepping away"]
+                  f"<turn> {s} without stepping away", f"<turn> {s}, {size}"]
     return _pick(rng, forms)
 
 
