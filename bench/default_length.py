@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 import mlct
-from motion_quality import HELDOUT, HELDOUT2, HELDOUT3, PROMPTS, judge_prompt
+from motion_quality import PROMPTS, hand_written_sets, prompt_passes
 
 FLAT = 5.0
 
@@ -30,11 +30,7 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=5)
     args = parser.parse_args()
     prompts = json.loads(PROMPTS.read_text(encoding="utf-8"))
-    sets = {"seen paraphrases": prompts["paraphrases"],
-            "held-out": json.loads(HELDOUT.read_text(encoding="utf-8"))["paraphrases"],
-            "held-out 2": json.loads(HELDOUT2.read_text(encoding="utf-8"))["paraphrases"],
-            "held-out 3": json.loads(HELDOUT3.read_text(encoding="utf-8"))["paraphrases"],
-            "two actions": prompts["two_actions"]}
+    sets = {**hand_written_sets(), "two actions": prompts["two_actions"]}
     pipe = mlct.load(args.model)
     print(f"model {args.model or 'bundled'}, {args.seeds} seeds; pass rate (clip seconds min / "
           f"median / max)")
@@ -46,13 +42,7 @@ def main() -> None:
         rates = {}
         cells = []
         for rule, seconds in rules.items():
-            passed = np.zeros(len(items))
-            for seed in range(args.seeds):
-                made = pipe.generate(texts, seconds=seconds, seed=seed * 100_000)
-                for i, (item, motion) in enumerate(zip(items, made)):
-                    _, results = judge_prompt(motion.joints, item["actions"],
-                                              motion.joints.shape[0] / pipe.skeleton.fps)
-                    passed[i] += all(ok for _, ok in results) / args.seeds
+            passed = prompt_passes(pipe, items, seconds, args.seeds) / args.seeds
             rates[rule] = passed
             cells.append(f"{rule}: {passed.mean():.3f} ({min(seconds):.1f} / "
                          f"{float(np.median(seconds)):.1f} / {max(seconds):.1f} s)")

@@ -153,6 +153,27 @@ def judge_prompt(joints: np.ndarray, actions: list[dict[str, Any]], seconds: flo
     return label, evaluate_in_order(joints, actions)
 
 
+def hand_written_sets() -> dict[str, list[dict[str, Any]]]:
+    """The hand-written one-action sets: the seen paraphrases and held-out sets 1, 2 and 3."""
+    def read(path: Path) -> list[dict[str, Any]]:
+        return json.loads(path.read_text(encoding="utf-8"))["paraphrases"]
+    return {"seen": read(PROMPTS), "held-out 1": read(HELDOUT), "held-out 2": read(HELDOUT2),
+            "held-out 3": read(HELDOUT3)}
+
+
+def prompt_passes(pipe: Any, items: list[dict[str, Any]], seconds: list[float],
+                  seeds: int) -> np.ndarray:
+    """How many of `seeds` samples of each hand-written prompt pass all its checks."""
+    count = np.zeros(len(items), dtype=int)
+    for seed in range(seeds):
+        made = pipe.generate([p["text"] for p in items], seconds=seconds, seed=seed * 100_000)
+        for i, (item, motion) in enumerate(zip(items, made)):
+            _, results = judge_prompt(motion.joints, item["actions"],
+                                      motion.joints.shape[0] / pipe.skeleton.fps)
+            count[i] += all(ok for _, ok in results)
+    return count
+
+
 def in_order_judge_check(real_joints: list[np.ndarray], labels: list[dict[str, Any]]
                          ) -> dict[str, Any]:
     """The in-order judge on the data's sequences, their timing dropped: the pass rate in their

@@ -13,34 +13,14 @@ some model fails in some seed, with every model's pass counts.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
 
 import mlct
-from motion_quality import HELDOUT, HELDOUT2, HELDOUT3, PROMPTS, SIDE_KEYS, judge_prompt
+from motion_quality import SIDE_KEYS, hand_written_sets, prompt_passes
 
 SECONDS = 4.0
-
-
-def load_sets() -> dict[str, list[dict]]:
-    def read(path: Path) -> list[dict]:
-        return json.loads(path.read_text(encoding="utf-8"))["paraphrases"]
-    return {"seen": read(PROMPTS), "held-out 1": read(HELDOUT), "held-out 2": read(HELDOUT2),
-            "held-out 3": read(HELDOUT3)}
-
-
-def passes(pipe, items: list[dict], seconds: list[float], seeds: int) -> np.ndarray:
-    """How many of `seeds` samples of each prompt pass all its checks."""
-    count = np.zeros(len(items), dtype=int)
-    for seed in range(seeds):
-        made = pipe.generate([p["text"] for p in items], seconds=seconds, seed=seed * 100_000)
-        for i, (item, motion) in enumerate(zip(items, made)):
-            _, results = judge_prompt(motion.joints, item["actions"],
-                                      motion.joints.shape[0] / pipe.skeleton.fps)
-            count[i] += all(ok for _, ok in results)
-    return count
 
 
 def main() -> None:
@@ -49,7 +29,7 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--failures", default="held-out 3")
     args = parser.parse_args()
-    sets = load_sets()
+    sets = hand_written_sets()
     results: dict[str, dict[str, dict[str, np.ndarray]]] = {}
     print(f"{args.seeds} seeds; pass rate at 4 s | at the default length | named side at 4 s")
     for name in args.models:
@@ -57,8 +37,8 @@ def main() -> None:
         results[name] = {}
         for set_name, items in sets.items():
             texts = [p["text"] for p in items]
-            at4 = passes(pipe, items, [SECONDS] * len(items), args.seeds)
-            auto = passes(pipe, items, pipe.default_seconds(texts), args.seeds)
+            at4 = prompt_passes(pipe, items, [SECONDS] * len(items), args.seeds)
+            auto = prompt_passes(pipe, items, pipe.default_seconds(texts), args.seeds)
             sided = np.array([any(k in a["params"] for a in p["actions"] for k in SIDE_KEYS)
                               for p in items])
             results[name][set_name] = {"4 s": at4, "default": auto}

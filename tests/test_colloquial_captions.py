@@ -17,7 +17,7 @@ from mlct.data.layout import DatasetLayout
 from mlct.data.synth.colloquial import COLLOQUIAL, COLLOQUIAL_VERBS, FORMS
 from mlct.data.synth.rephrase import rephrase_dataset
 from mlct.data.synth.text import FAMILIES, describe
-from test_everyday import make_benchmark
+from test_everyday import captions_in, make_benchmark
 from test_synth_text import act, param_grid, random_motion
 
 # Counts said as numbers; "one" is left out: "one knee, the left one" names a limb, not a count.
@@ -31,8 +31,7 @@ SIZES = {45: r"eighth|small turn|slight turn", 90: r"quarter turn|quarter of a t
 
 
 def colloquial(actions: list, seeds: int = 12, **kw: object) -> list[str]:
-    return [c for s in range(seeds)
-            for c in describe(actions, np.random.default_rng(s), vocabulary=COLLOQUIAL, **kw)]
+    return captions_in(COLLOQUIAL, actions, seeds, **kw)
 
 
 @pytest.mark.parametrize("family", FAMILIES)

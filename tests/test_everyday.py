@@ -25,9 +25,14 @@ HELDOUT = Path(__file__).parents[1] / "bench" / "data" / "quality_prompts_heldou
 BENCHMARK_WORDS = {w for forms in VERB_FORMS.values() for w in forms} | set(VERB_FORMS)
 
 
-def everyday(actions: list, seeds: int = 12, **kw: object) -> list[str]:
+def captions_in(vocabulary, actions: list, seeds: int = 12, **kw: object) -> list[str]:
+    """A vocabulary's captions of `actions`, over `seeds` seeds."""
     return [c for s in range(seeds)
-            for c in describe(actions, np.random.default_rng(s), vocabulary=EVERYDAY, **kw)]
+            for c in describe(actions, np.random.default_rng(s), vocabulary=vocabulary, **kw)]
+
+
+def everyday(actions: list, seeds: int = 12, **kw: object) -> list[str]:
+    return captions_in(EVERYDAY, actions, seeds, **kw)
 
 
 @pytest.mark.parametrize("family", FAMILIES)

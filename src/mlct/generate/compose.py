@@ -31,6 +31,7 @@ from __future__ import annotations
 import re
 
 from mlct.data.captions import VERB_FORMS as BENCHMARK_FORMS
+from mlct.data.synth.everyday import ALL_SUBJECTS
 
 # The verbs the rules know: the benchmark's, and "push" for "pushes herself back up" (a return).
 VERB_FORMS = {**BENCHMARK_FORMS, "push": ("pushes", "pushing")}
@@ -53,17 +54,9 @@ DEFAULT_SUBJECT = "a person"
 MIN_WORDS = 1  # a part must name something to be a prompt of its own
 
 
-def _trained_subjects() -> frozenset[str]:
-    from mlct.data.synth.everyday import SUBJECTS
-    from mlct.data.synth.text import BENCHMARK
-
-    return frozenset(subject for subject, _ in BENCHMARK.subjects + SUBJECTS)
-
-
-# The subjects the training captions use (the benchmark's and the everyday vocabulary's; the
-# short and colloquial ones reuse them), and the words of a subject that is a body part ("the
+# The subjects the training captions use, and the words of a subject that is a body part ("the
 # left arm rises"), which stays.
-TRAINED_SUBJECTS = _trained_subjects()
+TRAINED_SUBJECTS = frozenset(subject for subject, _ in ALL_SUBJECTS)
 _VERB_HALVES = frozenset("power speed side race tip goose moon back cart hand high long".split())
 _BODY_WORDS = frozenset("arm arms hand hands leg legs foot feet knee knees head body torso hip "
                         "hips shoulder shoulders elbow elbows wrist wrists chest back".split())

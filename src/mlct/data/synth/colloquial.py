@@ -27,10 +27,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from mlct.data.captions import VERB_FORMS
+from mlct.data.synth.everyday import ALL_SUBJECTS
 from mlct.data.synth.everyday import FORMS as EVERYDAY_FORMS
-from mlct.data.synth.everyday import SUBJECTS as EVERYDAY_SUBJECTS
-from mlct.data.synth.text import _ROTATION, _SUBJECTS, FAMILIES, Rng, Vocabulary, _num, _pick, _times
+from mlct.data.synth.text import _ROTATION, FAMILIES, Rng, Vocabulary, _num, _pick, _times
 
 # Verbs this vocabulary adds, with (third person, gerund). The "not..." entries are negations
 # said as one verb, so a sentence's other forms conjugate them ("is not moving", "before
@@ -51,7 +50,7 @@ _NEW_VERBS = {
     "notstir": ("doesn't stir", "not stirring"), "notmovex": ("doesn't move", "not moving"),
 }
 COLLOQUIAL_VERBS = frozenset(v for v in _NEW_VERBS if not v.startswith("not"))
-FORMS: dict[str, tuple[str, str]] = {**VERB_FORMS, **EVERYDAY_FORMS, **_NEW_VERBS}
+FORMS: dict[str, tuple[str, str]] = {**EVERYDAY_FORMS, **_NEW_VERBS}  # the benchmark's too
 
 # A turn's size in words: only words that mean one angle.
 _SIZE_WORDS = {
@@ -260,4 +259,4 @@ PHRASES: dict[str, Callable[[dict, Rng], str]] = {
 }
 assert set(PHRASES) == set(FAMILIES)
 
-COLLOQUIAL = Vocabulary(PHRASES, tuple(dict.fromkeys(_SUBJECTS + EVERYDAY_SUBJECTS)), FORMS)
+COLLOQUIAL = Vocabulary(PHRASES, ALL_SUBJECTS, FORMS)

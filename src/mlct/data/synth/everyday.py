@@ -19,7 +19,8 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from mlct.data.captions import VERB_FORMS
-from mlct.data.synth.text import (_DEGREES, _ROTATION, FAMILIES, Rng, Vocabulary, _hand, _n_of,
+from mlct.data.synth.text import (_DEGREES, _ROTATION, _SUBJECTS, FAMILIES, Rng, Vocabulary,
+                                  _hand, _n_of,
                                   _num, _pick, _times)
 
 # Verbs this vocabulary adds to the benchmark's, with (third person, gerund).
@@ -226,3 +227,7 @@ SUBJECTS = (("somebody", "their"), ("a guy", "his"), ("a girl", "her"), ("a kid"
             ("the man", "his"), ("a lady", "her"))
 
 EVERYDAY = Vocabulary(PHRASES, SUBJECTS, FORMS)
+# Every subject a training caption uses (the benchmark's and these, once each): the short and
+# colloquial vocabularies draw from it, and the generator reads any other as "a person"
+# (generate/compose.py: plain_subject).
+ALL_SUBJECTS = tuple(dict.fromkeys(_SUBJECTS + SUBJECTS))

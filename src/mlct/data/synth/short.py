@@ -19,8 +19,8 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from mlct.data.captions import VERB_FORMS
-from mlct.data.synth.everyday import SUBJECTS as EVERYDAY_SUBJECTS
-from mlct.data.synth.text import _SUBJECTS, BENCHMARK, FAMILIES, Rng, Vocabulary, _pick
+from mlct.data.synth.everyday import ALL_SUBJECTS
+from mlct.data.synth.text import BENCHMARK, FAMILIES, Rng, Vocabulary, _pick
 
 
 _FIXED: dict[str, tuple[str, ...]] = {
@@ -101,4 +101,4 @@ PHRASES: dict[str, Callable[[dict, Rng], str]] = {
 }
 assert set(PHRASES) == set(FAMILIES)
 
-SHORT = Vocabulary(PHRASES, tuple(dict.fromkeys(_SUBJECTS + EVERYDAY_SUBJECTS)), VERB_FORMS)
+SHORT = Vocabulary(PHRASES, ALL_SUBJECTS, VERB_FORMS)
