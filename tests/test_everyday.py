@@ -118,6 +118,28 @@ def test_rephrase_adds_captions_to_train_only_and_keeps_the_rest(tmp_path: Path)
     assert parse_text_line(line).tokens  # HumanML3D's caption#tokens#start#end
 
 
+def test_rephrase_skips_the_families_asked(tmp_path: Path) -> None:
+    from mlct.data.labels import read_labels
+
+    src = make_benchmark(tmp_path)
+    labels = read_labels(src)
+    train = DatasetLayout.existing(src).read_split("train")
+    families = {name: {a["family"] for a in labels[name]["actions"]} for name in train}
+    skipped = families[train[0]]
+    summary = rephrase_dataset(src, tmp_path / "rich", per_motion=1, skip_families=tuple(skipped))
+    kept = [name for name in train if not families[name] & skipped]
+    assert summary["motions"] == len(kept) < len(train)
+    src_layout, rich = DatasetLayout.existing(src), DatasetLayout.existing(tmp_path / "rich")
+    for name in train:
+        grew = len(rich.read_texts(name)) - len(src_layout.read_texts(name))
+        assert grew == (1 if name in kept else 0), name
+    meta = json.loads((tmp_path / "rich" / "synth.json").read_text())
+    assert meta["rephrased"]["skip_families"] == sorted(skipped)
+    with pytest.raises(MlctError, match="unknown family 'tunr'"):
+        rephrase_dataset(src, tmp_path / "bad", skip_families=("tunr",))
+    assert not (tmp_path / "bad").exists()
+
+
 def test_rephrase_refuses_bad_input_and_leaves_nothing(tmp_path: Path) -> None:
     src = make_benchmark(tmp_path)
     with pytest.raises(MlctError, match="split 'nope'"):

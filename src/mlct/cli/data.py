@@ -24,7 +24,8 @@ def run_rephrase(args: argparse.Namespace) -> int:
 
     summary = rephrase_dataset(args.src, args.out, per_motion=args.per_motion,
                                splits=tuple(args.splits.split(",")), seed=args.seed,
-                               overwrite=args.overwrite, vocabulary=args.vocabulary)
+                               overwrite=args.overwrite, vocabulary=args.vocabulary,
+                               skip_families=tuple(f for f in args.skip_families.split(",") if f))
     print(f"wrote {args.out}: {summary['captions']} {args.vocabulary} captions added to "
           f"{summary['motions']} motions ({args.splits})")
     return 0
@@ -99,6 +100,9 @@ def add_parser(commands: Commands) -> None:
                           help="everyday phrasings (default), short ones: each action by its "
                                "bare verb ('a woman waves'), or colloquial ones: rarer verbs, "
                                "turn sizes in words, a side after its noun, negation")
+    rephrase.add_argument("--skip-families", default="",
+                          help="comma-separated action families whose motions keep their "
+                               "captions as they are, e.g. turn,spin")
     rephrase.add_argument("--seed", type=int, default=0)
     rephrase.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
     rephrase.set_defaults(func=run_rephrase)

@@ -28,7 +28,7 @@ from mlct.data.layout import read_split
 from mlct.data.synth.everyday import EVERYDAY
 from mlct.data.synth.colloquial import COLLOQUIAL
 from mlct.data.synth.short import SHORT
-from mlct.data.synth.text import Vocabulary, describe
+from mlct.data.synth.text import FAMILIES, Vocabulary, describe
 from mlct.errors import MlctError
 from mlct.io import atomic_dir, copy_dataset, write_text
 
@@ -47,14 +47,29 @@ def everyday_captions(record: dict[str, Any], rng: np.random.Generator, count: i
     return describe(actions, rng, count, with_, vocabulary=VOCABULARIES[vocabulary])
 
 
+def _families_of(record: dict[str, Any]) -> set[str]:
+    concurrent = record.get("concurrent")
+    return {a["family"] for a in record["actions"]} | (
+        set() if concurrent is None else {concurrent["family"]})
+
+
 def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion: int = 3,
                      splits: tuple[str, ...] = ("train",), seed: int = 0,
-                     overwrite: bool = False, vocabulary: str = "everyday") -> dict[str, Any]:
-    """Write DST (module docstring); returns {"motions": rephrased, "captions": added}."""
+                     overwrite: bool = False, vocabulary: str = "everyday",
+                     skip_families: tuple[str, ...] = ()) -> dict[str, Any]:
+    """Write DST (module docstring); returns {"motions": rephrased, "captions": added}.
+
+    A motion with an action (or a concurrent one) of `skip_families` keeps its captions as they
+    are: a vocabulary can then be added to some families without moving what the others' words
+    mean (the colloquial turns pulled plain turns towards smaller angles, docs/training.md)."""
     src, out = Path(src), Path(out)
     if vocabulary not in VOCABULARIES:
         raise MlctError(f"--vocabulary must be one of {', '.join(VOCABULARIES)}, "
                         f"got {vocabulary!r}")
+    unknown = sorted(set(skip_families) - set(FAMILIES))
+    if unknown:
+        raise MlctError(f"--skip-families: unknown family {unknown[0]!r} "
+                        f"(families: {', '.join(FAMILIES)})")
     if per_motion < 1:
         raise MlctError(f"--per-motion must be >= 1, got {per_motion}")
     if out.resolve() == src.resolve():
@@ -71,6 +86,7 @@ def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion:
     if missing:
         raise MlctError(f"{src}: {len(missing)} motions of {', '.join(splits)} have no label "
                         f"(first: {missing[0]})")
+    chosen = {name for name in chosen if not _families_of(labels[name]) & set(skip_families)}
     rng = np.random.default_rng(seed)
     added = 0
     with atomic_dir(out) as work:
@@ -89,6 +105,8 @@ def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion:
             if (src / "synth.json").is_file() else {}
         step = {"from": str(src), "vocabulary": vocabulary, "per_motion": per_motion,
                 "splits": list(splits), "seed": seed, "captions_added": added}
+        if skip_families:
+            step["skip_families"] = sorted(skip_families)
         before = meta.get("rephrased")
         meta["rephrased"] = step if before is None else [
             *(before if isinstance(before, list) else [before]), step]
