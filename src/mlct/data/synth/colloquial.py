@@ -14,7 +14,10 @@ is 90 degrees, a half turn 180, an eighth of a turn 45; a turn said without its 
 quarter turn, as in the benchmark's captions. A first version said "turns left without stepping
 away" of every size and "a complete about-face" of half turns: 6,000 steps on it made "turning
 ninety degrees left" a 50-degree turn and "a complete rotation to the right" (a spin) stand
-still in 2 seeds of 5 (docs/training.md, "Colloquial captions").
+still in 2 seeds of 5 (docs/training.md, "Colloquial captions"). A turn word is said only of
+motions that turn: "steps backwards without turning round" and "edges along without turning"
+(348 training captions) taught the pooled vector of "turning" to mean no turn, and the same
+fine-tune with the turn families left out still made "a person turns left" a 140-degree turn.
 
 It was written after held-out set 2's failures were read, so that set no longer measures unseen
 sentence forms for those four classes; the third set (quality_prompts_heldout3.json) was written
@@ -99,8 +102,8 @@ def _walk_backward(p: dict, rng: Rng) -> str:
     speed = {"slow": ("slowly", "carefully, a step at a time"), "normal": ("", ""),
              "fast": ("quickly", "in a hurry")}[p["speed"]]
     phrase = _pick(rng, ("<backpedal>", "<backpedal> a few steps", "<walk> backwards, facing "
-                         "the front the whole time", "<step> backwards without turning round",
-                         "<back> up without looking behind", "<walk> back, not turning"))
+                         "the front the whole time", "<step> backwards, eyes to the front",
+                         "<back> up without looking behind", "<walk> back, still facing ahead"))
     return f"{phrase} {_pick(rng, speed)}"
 
 
@@ -109,7 +112,7 @@ def _side_step(p: dict, rng: Rng) -> str:
     return _pick(rng, (f"<sidle> to the {s}", f"<sidle> over to HIS {s}", f"<edge> sideways to "
                        f"the {s}", f"<crab> sideways to the {s}", f"<sidle> {_num(n, rng)} steps, "
                        f"going {s}", f"<step> sideways {_times(n, rng)}, to the {s}",
-                       f"<edge> along to the {s} without turning", f"<move> sideways, toward "
+                       f"<edge> along to the {s}, chest to the front", f"<move> sideways, toward "
                        f"the {s}, facing front"))
 
 
