@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from mlct.data.layout import DatasetLayout
-from mlct.data.synth.colloquial import COLLOQUIAL, COLLOQUIAL_VERBS, FORMS
+from mlct.data.synth.colloquial import (_ADDRESSEES, _PLACES, COLLOQUIAL, COLLOQUIAL_VERBS,
+                                        CONTEXT, CONTEXT_SHARE, FORMS)
 from mlct.data.synth.rephrase import rephrase_dataset
 from mlct.data.synth.text import FAMILIES, describe
 from test_everyday import captions_in, make_benchmark
@@ -30,14 +31,16 @@ SIZES = {45: r"eighth|small turn|slight turn", 90: r"quarter turn|quarter of a t
 # a turn said without its size ("turns left without stepping away") is a quarter turn
 
 
-def colloquial(actions: list, seeds: int = 12, **kw: object) -> list[str]:
-    return captions_in(COLLOQUIAL, actions, seeds, **kw)
+def colloquial(actions: list, seeds: int = 12, vocabulary=COLLOQUIAL, **kw: object) -> list[str]:
+    return captions_in(vocabulary, actions, seeds, **kw)
 
 
+@pytest.mark.parametrize("vocabulary", [COLLOQUIAL, CONTEXT], ids=["colloquial", "context"])
 @pytest.mark.parametrize("family", FAMILIES)
-def test_colloquial_captions_state_no_wrong_side_count_angle_or_speed(family: str) -> None:
+def test_colloquial_captions_state_no_wrong_side_count_angle_or_speed(family: str,
+                                                                      vocabulary) -> None:
     for params in param_grid(family):
-        caps = colloquial([act(family, **params)])
+        caps = colloquial([act(family, **params)], vocabulary=vocabulary)
         said = " | ".join(caps)
         assert all(not re.search(r"[<>]|\bHIS\b|\s,|\s\s|\ba arm|\ba [aeiou]", c)
                    for c in caps), said
@@ -94,6 +97,24 @@ def test_colloquial_captions_carry_the_four_forms_held_out_set_2_failed_on() -> 
     assert any(re.search(r"does not move|doesn't move|not moving", c) for c in stands)
     steps = colloquial([act("side_step", side="left", steps=2)], seeds=20)
     assert any("sidles" in c or "sidling" in c for c in steps)  # a rarer verb
+
+
+def test_context_captions_carry_places_and_addressees_and_keep_the_side() -> None:
+    context = re.compile("|".join(re.escape(c.replace("HIS ", "")).replace(r"to\ ", r"to\ \w*\ ?")
+                                  for c in _PLACES + _ADDRESSEES))
+    waves = colloquial([act("wave", hand="left", count=2)], seeds=60, vocabulary=CONTEXT)
+    with_context = [c for c in waves if context.search(c)]
+    assert 0.5 * CONTEXT_SHARE < len(with_context) / len(waves) < 1.5 * CONTEXT_SHARE
+    assert any(re.search(r"(to|for|at|across) [\w ]+, [\w ]*left", c) for c in with_context), \
+        with_context  # an addressee before the clause that names the side
+    walks = colloquial([act("walk", speed="normal", direction="forward", steps=4)], seeds=60,
+                       vocabulary=CONTEXT)
+    assert not any(re.search("|".join(map(re.escape, _ADDRESSEES[:1] + _ADDRESSEES[2:])), c)
+                   for c in walks)  # addressees only with the actions one does for someone
+    assert any(re.search("|".join(map(re.escape, _PLACES)), c) for c in walks)
+    # the plain vocabulary is unchanged by the context one (its datasets stay reproducible)
+    assert not any(context.search(c) for c in colloquial([act("wave", hand="left", count=2)],
+                                                         seeds=60))
 
 
 def test_colloquial_sentences_conjugate_negations_and_new_verbs() -> None:

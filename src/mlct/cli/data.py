@@ -96,10 +96,13 @@ def add_parser(commands: Commands) -> None:
     rephrase.add_argument("--out", required=True, type=Path, help="dataset directory to create")
     rephrase.add_argument("--per-motion", type=int, default=3, help="captions added (default 3)")
     rephrase.add_argument("--splits", default="train", help="comma-separated (default train)")
-    rephrase.add_argument("--vocabulary", default="everyday", choices=("everyday", "short", "colloquial"),
+    rephrase.add_argument("--vocabulary", default="everyday",
+                          choices=("everyday", "short", "colloquial", "context"),
                           help="everyday phrasings (default), short ones: each action by its "
                                "bare verb ('a woman waves'), or colloquial ones: rarer verbs, "
-                               "turn sizes in words, a side after its noun, negation")
+                               "turn sizes in words, a side after its noun, negation; "
+                               "context: the colloquial ones, a third of them with a place "
+                               "or an addressee ('waves to a friend across the street')")
     rephrase.add_argument("--skip-families", default="",
                           help="comma-separated action families whose motions keep their "
                                "captions as they are, e.g. turn,spin")

@@ -253,6 +253,38 @@ def _stand(p: dict, rng: Rng) -> str:
                        "moving", "<do> nothing at all", "<stand> there and <notmove>"))
 
 
+# Where and to whom: words that change nothing in the motion. A prompt's pooled vector drifts
+# with every word it holds, so "a boy waves across the street to his mother, using his left
+# hand" waved the right hand where "a boy waves, using his left hand" waved the left (5 of 5);
+# captions with such words teach the model to read past them. Places go with any action,
+# addressees with the arm actions one does for someone.
+_PLACES = ("in the park", "in the kitchen", "on the beach", "in the gym", "on a stage",
+           "in the hallway", "in the garden", "in the rain", "on the pavement",
+           "in an empty room", "at the bus stop", "in front of the mirror")
+_ADDRESSEES = ("to a friend across the street", "to HIS mother", "at the camera",
+               "for the crowd", "to the audience", "across the room", "to a neighbour",
+               "for the children")
+_FOR_SOMEONE = frozenset({"wave", "clap", "bow", "raise_arms"})
+CONTEXT_SHARE = 0.35  # of phrases that carry a place or an addressee
+
+
+def _with_context(family: str, maker: Callable[[dict, Rng], str]) -> Callable[[dict, Rng], str]:
+    """`maker`'s phrase, sometimes with a place or an addressee: at its end, or before its last
+    comma clause ("<wave> to a friend across the street, using HIS left hand")."""
+    words = _PLACES + (_ADDRESSEES if family in _FOR_SOMEONE else ())
+
+    def phrase(p: dict, rng: Rng) -> str:
+        said = maker(p, rng)
+        if rng.random() >= CONTEXT_SHARE:
+            return said
+        context = _pick(rng, words)
+        if ", " in said and rng.random() < 0.5:
+            head, tail = said.rsplit(", ", 1)
+            return f"{head} {context}, {tail}"
+        return f"{said} {context}"
+    return phrase
+
+
 PHRASES: dict[str, Callable[[dict, Rng], str]] = {
     "walk": _walk, "jog": _jog, "run": _run, "walk_backward": _walk_backward,
     "side_step": _side_step, "turn": _turn, "circle": _circle, "jump": _jump, "hop": _hop,
@@ -263,3 +295,6 @@ PHRASES: dict[str, Callable[[dict, Rng], str]] = {
 assert set(PHRASES) == set(FAMILIES)
 
 COLLOQUIAL = Vocabulary(PHRASES, ALL_SUBJECTS, FORMS)
+# the same phrases, CONTEXT_SHARE of them with a place or an addressee (`--vocabulary context`)
+CONTEXT = Vocabulary({family: _with_context(family, maker) for family, maker in PHRASES.items()},
+                     ALL_SUBJECTS, FORMS)

@@ -26,7 +26,7 @@ from mlct.data.captions import format_text_line, tag_caption
 from mlct.data.labels import read_labels
 from mlct.data.layout import read_split
 from mlct.data.synth.everyday import EVERYDAY
-from mlct.data.synth.colloquial import COLLOQUIAL
+from mlct.data.synth.colloquial import COLLOQUIAL, CONTEXT
 from mlct.data.synth.short import SHORT
 from mlct.data.synth.text import FAMILIES, Vocabulary, describe
 from mlct.errors import MlctError
@@ -34,7 +34,7 @@ from mlct.io import atomic_dir, copy_dataset, write_text
 
 
 VOCABULARIES: dict[str, Vocabulary] = {"everyday": EVERYDAY, "short": SHORT,
-                                        "colloquial": COLLOQUIAL}
+                                        "colloquial": COLLOQUIAL, "context": CONTEXT}
 
 
 def everyday_captions(record: dict[str, Any], rng: np.random.Generator, count: int,
