@@ -168,3 +168,50 @@ def test_join_onto_puts_a_continued_denoiser_into_the_base_model(tmp_path):
 @pytest.mark.parametrize("script", ["gpu_stage2_continue.sh", "gpu_stage2_carry.sh"])
 def test_gpu_stage2_scripts_parse(script):
     subprocess.run(["bash", "-n", str(TOOLS.parent / "bench" / script)], check=True)
+
+
+def test_interpolate_models_mixes_what_differs_and_refuses_bad_input(tmp_path):
+    """tools/interpolate_models.py: alpha 0 is the base, 1 the fine-tune, 0.5 the midpoint;
+    equal tensors and other files are the fine-tune's; bad input leaves nothing behind."""
+    import numpy as np
+    from safetensors.numpy import load_file, save_file
+
+    sys.path.insert(0, str(TOOLS))
+    try:
+        from interpolate_models import interpolate
+    finally:
+        sys.path.pop(0)
+    from mlct.errors import MlctError
+
+    def model(name, denoiser):
+        path = tmp_path / name
+        path.mkdir()
+        save_file({"denoiser.w": denoiser, "decoder.b": np.ones(3, np.float16),
+                   "norm.mean": np.zeros(2, np.float32)}, str(path / "model.safetensors"))
+        (path / "config.json").write_text(json.dumps({"step": name}))
+        return path
+
+    base = model("base", np.zeros((2, 2), np.float16))
+    tuned = model("tuned", np.full((2, 2), 2.0, np.float16))
+    for alpha, value in ((0.0, 0.0), (0.5, 1.0), (1.0, 2.0)):
+        out = tmp_path / f"mix{alpha}"
+        assert interpolate(base, tuned, alpha, out) == 1
+        mixed = load_file(str(out / "model.safetensors"))
+        assert mixed["denoiser.w"].dtype == np.float16
+        np.testing.assert_array_equal(mixed["denoiser.w"], np.full((2, 2), value, np.float16))
+        np.testing.assert_array_equal(mixed["decoder.b"], np.ones(3, np.float16))
+        config = json.loads((out / "config.json").read_text())
+        assert config["step"] == "tuned" and config["interpolated"]["alpha"] == alpha
+    other = model("other", np.zeros((3, 2), np.float16))
+    with pytest.raises(MlctError, match="same tensors"):
+        interpolate(base, other, 0.5, tmp_path / "bad")
+    with pytest.raises(MlctError, match="alpha"):
+        interpolate(base, tuned, 1.5, tmp_path / "bad")
+    with pytest.raises(MlctError, match="exists"):
+        interpolate(base, tuned, 0.5, tmp_path / "mix0.5")
+    assert not (tmp_path / "bad").exists()
+    run = subprocess.run([sys.executable, str(TOOLS / "interpolate_models.py"), str(base),
+                          str(tmp_path / "nope"), "--out", str(tmp_path / "cli")],
+                         capture_output=True, text=True)
+    assert run.returncode == 2 and "no model.safetensors" in run.stderr
+    assert "Traceback" not in run.stderr
