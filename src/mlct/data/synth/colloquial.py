@@ -16,8 +16,9 @@ away" of every size and "a complete about-face" of half turns: 6,000 steps on it
 ninety degrees left" a 50-degree turn and "a complete rotation to the right" (a spin) stand
 still in 2 seeds of 5 (docs/training.md, "Colloquial captions"). A turn word is said only of
 motions that turn: "steps backwards without turning round" and "edges along without turning"
-(348 training captions) taught the pooled vector of "turning" to mean no turn, and the same
-fine-tune with the turn families left out still made "a person turns left" a 140-degree turn.
+(348 training captions) paired "turning" with motions that do not turn. Runs without them still
+moved turns' sizes; seeing the turns more often held them best (docs/training.md, "Why the
+turns shrink").
 
 It was written after held-out set 2's failures were read, so that set no longer measures unseen
 sentence forms for those four classes; the third set (quality_prompts_heldout3.json) was written
@@ -255,9 +256,11 @@ def _stand(p: dict, rng: Rng) -> str:
 
 # Where and to whom: words that change nothing in the motion. A prompt's pooled vector drifts
 # with every word it holds, so "a boy waves across the street to his mother, using his left
-# hand" waved the right hand where "a boy waves, using his left hand" waved the left (5 of 5);
-# captions with such words teach the model to read past them. Places go with any action,
-# addressees with the arm actions one does for someone.
+# hand" waved the right hand where "a boy waves, using his left hand" waved the left (5 of 5).
+# Captions with such words were meant to teach the model to read past them; 2,500 steps on them
+# did not cure that prompt (docs/training.md, "Colloquial captions, shipped"), so the shipped
+# model was not trained on them. Places go with any action, addressees with the arm actions one
+# does for someone.
 _PLACES = ("in the park", "in the kitchen", "on the beach", "in the gym", "on a stage",
            "in the hallway", "in the garden", "in the rain", "on the pavement",
            "in an empty room", "at the bus stop", "in front of the mirror")
