@@ -25,6 +25,7 @@ import numpy as np
 from mlct.data.captions import format_text_line, tag_caption
 from mlct.data.labels import read_labels
 from mlct.data.layout import read_split
+from mlct.data.oversample import families_of
 from mlct.data.synth.everyday import EVERYDAY
 from mlct.data.synth.colloquial import COLLOQUIAL, CONTEXT
 from mlct.data.synth.short import SHORT
@@ -45,12 +46,6 @@ def everyday_captions(record: dict[str, Any], rng: np.random.Generator, count: i
     with_ = None if concurrent is None else SimpleNamespace(family=concurrent["family"],
                                                             params=concurrent["params"])
     return describe(actions, rng, count, with_, vocabulary=VOCABULARIES[vocabulary])
-
-
-def _families_of(record: dict[str, Any]) -> set[str]:
-    concurrent = record.get("concurrent")
-    return {a["family"] for a in record["actions"]} | (
-        set() if concurrent is None else {concurrent["family"]})
 
 
 def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion: int = 3,
@@ -86,7 +81,7 @@ def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion:
     if missing:
         raise MlctError(f"{src}: {len(missing)} motions of {', '.join(splits)} have no label "
                         f"(first: {missing[0]})")
-    chosen = {name for name in chosen if not _families_of(labels[name]) & set(skip_families)}
+    chosen = {name for name in chosen if not set(families_of(labels[name])) & set(skip_families)}
     rng = np.random.default_rng(seed)
     added = 0
     with atomic_dir(out) as work:
