@@ -17,13 +17,22 @@ from mlct.text.sides import SIDE_CONTRAST, contrast_sides, mirror_sides
     # no side word: only whole words count
     ("the leftover outright rightful cleft", "the leftover outright rightful cleft"),
     ("", ""),
+    # "right" naming no side stays; the side named beside it is swapped
+    ("the robot turns by a right angle, toward the left",
+     "the robot turns by a right angle, toward the right"),
+    ("a Right-Angle turn to the left", "a Right-Angle turn to the right"),
+    ("all right, he waves the left hand right now", "all right, he waves the right hand right now"),
+    ("turns right away", "turns right away"),
+    ("walks right, then angles left", "walks left, then angles right"),
+    ("a ball right of him", "a ball left of him"),
 ])
 def test_mirror_sides(text: str, mirrored: str) -> None:
     assert mirror_sides(text) == mirrored
 
 
 def test_mirror_of_mirror_is_the_caption() -> None:
-    for text in ("kicks with the Left leg", "turns right, then left", "jumps"):
+    for text in ("kicks with the Left leg", "turns right, then left", "jumps",
+                 "a left angle, all left, left away"):
         assert mirror_sides(mirror_sides(text)) == text
 
 

@@ -283,7 +283,8 @@ def test_sides_are_contrasted_as_in_python(page, reference):
     from mlct.text.sides import SIDE_CONTRAST, mirror_sides
 
     texts = ["a person waves with the LEFT hand", "Right foot, then left", "walks anticlockwise",
-             "a person jumps", "the leftover cleft", "gauche: léft ǀright_"]
+             "a person jumps", "the leftover cleft", "gauche: léft ǀright_",
+             "a Right-Angle turn to the left, all right", "turns right away, then left now"]
     got = page.evaluate("async (texts) => { const m = await import('./model.js');"
                         " return texts.map((t) => m.mirrorSides(t)); }", texts)
     assert got == [mirror_sides(t) for t in texts]

@@ -27,8 +27,13 @@ SIDE_CONTRAST = 4.0
 # Each word and its mirror; "clockwise" is seen from above (the benchmark's captions use both).
 _MIRROR = {"left": "right", "right": "left", "clockwise": "counterclockwise",
            "counterclockwise": "clockwise", "anticlockwise": "clockwise"}
-_WORD = re.compile(r"\b(" + "|".join(sorted(_MIRROR, key=len, reverse=True)) + r")\b",
-                   re.IGNORECASE)
+# "right" that names no side: "a right angle" ("a right-angle turn to the left" is a left
+# turn), "all right", "right away", "right now". Both words are held to the same rule so that the
+# mirror of a mirror stays the caption.
+_NOT_A_SIDE_BEFORE = r"(?<!\ball\s)"
+_NOT_A_SIDE_AFTER = r"(?![-\s]+angle)(?!\s+(?:away|now)\b)"
+_WORD = re.compile(_NOT_A_SIDE_BEFORE + r"\b(" + "|".join(sorted(_MIRROR, key=len, reverse=True))
+                   + r")\b" + _NOT_A_SIDE_AFTER, re.IGNORECASE)
 
 
 def mirror_sides(text: str) -> str:

@@ -21,7 +21,13 @@ const CONTROL = /[\p{Cc}\p{Cf}\p{Cs}]/u;
 // hence the lookarounds on letters, marks, digits and "_" instead of JS's ASCII \b.
 const SIDE_MIRROR = { left: "right", right: "left", clockwise: "counterclockwise",
   counterclockwise: "clockwise", anticlockwise: "clockwise" };
-const SIDE_WORD = /(?<![\p{L}\p{M}\p{N}_])(counterclockwise|anticlockwise|clockwise|right|left)(?![\p{L}\p{M}\p{N}_])/giu;
+// As there, "right" naming no side ("a right angle", "all right", "right away", "right now") is
+// left alone; SP is Python's \s (str.isspace: U+001C-U+001F and U+0085 too, U+FEFF not).
+const SP = String.raw`(?:(?!\ufeff)[\s\x1c-\x1f\x85])`;
+const NOT_WORD = String.raw`[\p{L}\p{M}\p{N}_]`;
+const SIDE_WORD = new RegExp(
+  String.raw`(?<!(?<!${NOT_WORD})all${SP})(?<!${NOT_WORD})(counterclockwise|anticlockwise|clockwise|right|left)(?!${NOT_WORD})`
+  + String.raw`(?!(?:-|${SP})+angle)(?!${SP}+(?:away|now)(?!${NOT_WORD}))`, "giu");
 
 export function mirrorSides(text) {
   return text.replace(SIDE_WORD, (word) => {
