@@ -356,6 +356,34 @@ def test_cache_shared_between_instances(tmp_path):
     assert EmbeddingCache(path).count() == 3 and EmbeddingCache(path).count("fake") == 2
 
 
+class RuleChangedEncoder(FakeEncoder):
+    """The same name and network, a changed rule around it: a versioned cache key."""
+
+    @property
+    def cache_key(self) -> str:
+        return f"{self.name}@rule2"
+
+
+def test_cache_key_keeps_vectors_of_an_older_rule_out(tmp_path):
+    path = tmp_path / "c.sqlite3"
+    EmbeddingCache(path).put_many("fake", {"turns by a right angle": np.zeros(8, np.float32)})
+    enc = CachedTextEncoder(RuleChangedEncoder(), path)
+    assert enc.name == "fake"  # the identity checkpoints record is unchanged
+    out = enc.encode(["turns by a right angle"])
+    # the old rule's zeros are not served: the encoder's own vector is
+    torch.testing.assert_close(out, FakeEncoder().encode(["turns by a right angle"]))
+    assert EmbeddingCache(path).count("fake@rule2") == 1
+
+
+def test_minilm_sides_cache_key_names_the_mirror_rule():
+    from mlct.text.minilm import MiniLMEncoder
+    from mlct.text.sides import MIRROR_VERSION
+    sided, plain = object.__new__(MiniLMEncoder), object.__new__(MiniLMEncoder)
+    sided.name, plain.name = "minilm+sides", "minilm"
+    assert sided.cache_key == f"minilm+sides@mirror{MIRROR_VERSION}"
+    assert plain.cache_key == "minilm"  # no rule around the plain network: caches stay valid
+
+
 def test_cache_mixed_hits_misses_and_duplicates(tmp_path):
     inner = CountingEncoder(FakeEncoder())
     enc = CachedTextEncoder(inner, tmp_path)  # a directory holds the default file name

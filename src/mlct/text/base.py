@@ -14,13 +14,19 @@ from mlct.errors import MlctError
 class TextEncoder(ABC):
     """A frozen text encoder: `encode(texts)` -> (B, dim) float32 CPU tensor, no grad.
 
-    `name` is a stable identity string (the embedding cache key, recorded in checkpoints): two
-    encoders with the same name must give the same embeddings.
+    `name` is a stable identity string (recorded in checkpoints): two encoders with the same
+    name must give the same embeddings. `cache_key` names them in the on-disk embedding cache
+    (text/cache.py): the name, plus a version where a rule around the network changed what
+    some captions embed to, so that no cache serves a vector the rule no longer gives.
     """
 
     name: str
     dim: int
     _null: Tensor | None = None
+
+    @property
+    def cache_key(self) -> str:
+        return self.name
 
     def encode(self, texts: Sequence[str]) -> Tensor:
         """Embed a batch of captions: (B,) strings -> (B, dim) float32 on the CPU."""

@@ -159,15 +159,16 @@ class CachedTextEncoder(TextEncoder):
         self.cache = cache if isinstance(cache, EmbeddingCache) else EmbeddingCache(cache)
         self.name = encoder.name
         self.dim = encoder.dim
+        self.key = encoder.cache_key
 
     def _encode(self, texts: list[str]) -> Tensor:
         unique = list(dict.fromkeys(texts))  # keeps first-seen order, drops repeats
-        found = self.cache.get_many(self.name, unique, dim=self.dim)
+        found = self.cache.get_many(self.key, unique, dim=self.dim)
         missing = [t for t in unique if t not in found]
         if missing:
             # One batched call for every miss; the inner encoder batches internally.
             fresh = dict(zip(missing, self.inner.encode(missing).numpy()))
-            self.cache.put_many(self.name, fresh)
+            self.cache.put_many(self.key, fresh)
             found.update(fresh)
         return torch.from_numpy(np.stack([found[t] for t in texts]))  # (B, dim), input order
 

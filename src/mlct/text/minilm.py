@@ -22,7 +22,7 @@ from torch import Tensor, nn
 from mlct.errors import MlctError, first_line
 from mlct.text.bert import BertConfig, BertModel, mean_pool
 from mlct.text.base import TextEncoder
-from mlct.text.sides import SIDES_SUFFIX, contrast_sides, mirror_sides
+from mlct.text.sides import MIRROR_VERSION, SIDES_SUFFIX, contrast_sides, mirror_sides
 
 # The sentence-transformers pipeline this loader reproduces, module by module (modules.json).
 _PIPELINE = ("Transformer", "Pooling", "Normalize")
@@ -92,6 +92,12 @@ class MiniLMEncoder(TextEncoder):
         self.token_slots = token_slots
         self.dim = (1 + token_slots) * config.hidden_size
         return config
+
+    @property
+    def cache_key(self) -> str:
+        if self.name.endswith(SIDES_SUFFIX):  # the contrast's captions follow the mirror rule
+            return f"{self.name}@mirror{MIRROR_VERSION}"
+        return self.name
 
     @torch.no_grad()  # not inference_mode: its tensors would be refused later by autograd
     def _encode(self, texts: list[str]) -> Tensor:

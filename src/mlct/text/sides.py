@@ -23,6 +23,9 @@ from torch import Tensor
 SIDES_SUFFIX = "+sides"  # a text encoder spec ending so ("minilm+sides") contrasts the sides
 # alpha = 4 puts the two sides of a sentence 0.19 x 9 = 1.7 apart, about as far as two actions.
 SIDE_CONTRAST = 4.0
+# The mirror rule's version, in the embedding cache's key: 2 leaves "right" alone where it names
+# no side ("a right angle"); version 1 swapped it.
+MIRROR_VERSION = 2
 
 # Each word and its mirror; "clockwise" is seen from above (the benchmark's captions use both).
 _MIRROR = {"left": "right", "right": "left", "clockwise": "counterclockwise",
