@@ -202,9 +202,18 @@ def test_interpolate_models_mixes_what_differs_and_refuses_bad_input(tmp_path):
         np.testing.assert_array_equal(mixed["decoder.b"], np.ones(3, np.float16))
         config = json.loads((out / "config.json").read_text())
         assert config["step"] == "tuned" and config["interpolated"]["alpha"] == alpha
+    # several fine-tunes: their uniform average, then mixed with the base
+    seed2 = model("seed2", np.full((2, 2), 4.0, np.float16))
+    assert interpolate(base, [tuned, seed2], 0.5, tmp_path / "soup") == 1
+    soup = load_file(str(tmp_path / "soup" / "model.safetensors"))
+    np.testing.assert_array_equal(soup["denoiser.w"], np.full((2, 2), 1.5, np.float16))
+    config = json.loads((tmp_path / "soup" / "config.json").read_text())
+    assert config["interpolated"]["tuned"] == [str(tuned), str(seed2)]
     other = model("other", np.zeros((3, 2), np.float16))
     with pytest.raises(MlctError, match="same tensors"):
         interpolate(base, other, 0.5, tmp_path / "bad")
+    with pytest.raises(MlctError, match="same tensors"):
+        interpolate(base, [tuned, other], 0.5, tmp_path / "bad")
     with pytest.raises(MlctError, match="alpha"):
         interpolate(base, tuned, 1.5, tmp_path / "bad")
     with pytest.raises(MlctError, match="exists"):
