@@ -1,6 +1,7 @@
 """How far a turn turns: the heading change of turn and spin prompts, several models side by side.
 
     python bench/turn_sizes.py [--models bundled DIR ...] [--seeds 5] [--seconds 4]
+                               [--also "PROMPT@DEGREES" ...] [--only-also]
 
 The read-outs pass a turn within a band around its size, so a model whose turns all shrink by a
 third can still pass most of them; this prints the angles themselves. Each prompt below has the
@@ -8,7 +9,8 @@ size the benchmark's convention gives it (a bare "turns left" is a quarter turn,
 benchmark's captions; a spin is a whole one), in degrees, positive to the person's left. For
 each model and prompt: the heading change of every seed, and the median of |turned - size|;
 then per model the median and the mean of that error over all prompts and seeds, and the share
-of turns within 30 degrees of their size. A fine-tune that pulls turns towards smaller angles
+of turns within 30 degrees of their size. `--also` adds prompts of one's own (their size after
+the "@", positive to the left), `--only-also` runs just those. A fine-tune that pulls turns towards smaller angles
 (docs/training.md, "Colloquial captions") shows here first.
 """
 
@@ -44,7 +46,20 @@ def main() -> None:
     parser.add_argument("--models", nargs="+", default=["bundled"])
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--seconds", type=float, default=4.0)
+    parser.add_argument("--also", action="append", default=[], metavar="PROMPT@DEGREES",
+                        help="another prompt and its size in degrees, positive = left")
+    parser.add_argument("--only-also", action="store_true", help="only the --also prompts")
     args = parser.parse_args()
+    try:
+        extra = [(text, float(size)) for text, _, size in
+                 (item.rpartition("@") for item in args.also)]
+    except ValueError:
+        parser.error("--also takes PROMPT@DEGREES, e.g. 'a person turns left@90'")
+    if any(not text for text, _ in extra):
+        parser.error("--also takes PROMPT@DEGREES, e.g. 'a person turns left@90'")
+    prompts = extra if args.only_also else [*PROMPTS, *extra]
+    if not prompts:
+        parser.error("--only-also needs at least one --also")
     errors: dict[str, list[float]] = {}
     print(f"{args.seeds} seeds at {args.seconds:g} s; degrees turned (positive = left) and the "
           f"median |error| against the size")
@@ -52,7 +67,7 @@ def main() -> None:
         pipe = mlct.load(None if name == "bundled" else Path(name))
         errors[name] = []
         print(f"\n{name}")
-        for text, size in PROMPTS:
+        for text, size in prompts:
             turned = np.array([np.degrees(heading_change(pipe.generate(
                 [text], seconds=args.seconds, seed=seed)[0].joints))
                 for seed in range(args.seeds)])
