@@ -209,6 +209,10 @@ def guided_latent(pipe: MotionGenerator, text: str, frames: int, seed: int, nfe:
     """(1, n, d): the best of method.candidates latents for the control, each sampled with the
     control's gradient applied to every step's x0 when method.guide."""
     decoder = differentiable_decoder(pipe) if method.guide else None
+    if method.guide and decoder is None:  # asked for, and it would silently do nothing
+        raise MlctError(f"decoder guidance needs a differentiable decoder, which the "
+                        f"{getattr(pipe, 'backend', 'onnx')} backend has not; load the model "
+                        f"with backend='torch', or use ControlMethod(guide=False)")
     count = max(1, method.candidates)
     cond = pipe.encode_text([text]).expand(count, -1)
     generators = [torch.Generator().manual_seed(s) for s in candidate_seeds(seed, count)]
@@ -238,7 +242,7 @@ def guided_latent(pipe: MotionGenerator, text: str, frames: int, seed: int, nfe:
     x = pipe.sampler.noise((count, *pipe.ae.latent_shape), generators)
     with torch.no_grad():
         z = pipe.sampler.sample(pipe.denoiser, x, cond, steps, generator=generators,
-                                uncond=uncond, guide=guide if decoder is not None else None)
+                                uncond=uncond, guide=guide if method.guide else None)
         if count == 1:
             return z
         best = int(torch.argmin(losses(_joints(pipe, pipe.ae, z, frames))))
