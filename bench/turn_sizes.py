@@ -10,8 +10,8 @@ benchmark's captions; a spin is a whole one), in degrees, positive to the person
 each model and prompt: the heading change of every seed, and the median of |turned - size|;
 then per model the median and the mean of that error over all prompts and seeds, and the share
 of turns within 30 degrees of their size. `--also` adds prompts of one's own (their size after
-the "@", positive to the left), `--only-also` runs just those. A fine-tune that pulls turns towards smaller angles
-(docs/training.md, "Colloquial captions") shows here first.
+the "@", positive to the left), `--only-also` runs just those. A fine-tune that pulls turns
+towards smaller angles (docs/training.md, "Colloquial captions") shows here first.
 """
 
 from __future__ import annotations
@@ -53,9 +53,9 @@ def main() -> None:
     try:
         extra = [(text, float(size)) for text, _, size in
                  (item.rpartition("@") for item in args.also)]
+        if any(not text for text, _ in extra):
+            raise ValueError("no prompt before the '@'")
     except ValueError:
-        parser.error("--also takes PROMPT@DEGREES, e.g. 'a person turns left@90'")
-    if any(not text for text, _ in extra):
         parser.error("--also takes PROMPT@DEGREES, e.g. 'a person turns left@90'")
     prompts = extra if args.only_also else [*PROMPTS, *extra]
     if not prompts:

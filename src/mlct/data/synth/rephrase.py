@@ -81,7 +81,8 @@ def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion:
     if missing:
         raise MlctError(f"{src}: {len(missing)} motions of {', '.join(splits)} have no label "
                         f"(first: {missing[0]})")
-    chosen = {name for name in chosen if not set(families_of(labels[name])) & set(skip_families)}
+    skip = set(skip_families)
+    chosen = {name for name in chosen if skip.isdisjoint(families_of(labels[name]))}
     rng = np.random.default_rng(seed)
     added = 0
     with atomic_dir(out) as work:
