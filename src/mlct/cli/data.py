@@ -1,4 +1,4 @@
-"""`mlct data synth|rephrase|oversample|stats|check|import`: make, check and describe datasets."""
+"""`mlct data synth|rephrase|oversample|merge|stats|check|import`: make, check and describe datasets."""
 
 from __future__ import annotations
 
@@ -39,6 +39,16 @@ def run_oversample(args: argparse.Namespace) -> int:
                                  single_only=not args.with_sequences, overwrite=args.overwrite)
     print(f"wrote {args.out}: {summary['chosen']} motions of {args.split} listed {args.times} "
           f"times ({summary['items']} items)")
+    return 0
+
+
+def run_merge(args: argparse.Namespace) -> int:
+    from mlct.data.merge import merge_datasets
+
+    summary = merge_datasets(args.sources, args.out, overwrite=args.overwrite)
+    sizes = ", ".join(f"{split} {n}" for split, n in summary["splits"].items())
+    print(f"wrote {args.out}: {sum(summary['motions'])} motions from {len(args.sources)} "
+          f"datasets ({sizes}; Mean/Std of {args.sources[0]})")
     return 0
 
 
@@ -125,6 +135,14 @@ def add_parser(commands: Commands) -> None:
                             "(default: the family alone)")
     oversample.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
     oversample.set_defaults(func=run_oversample)
+
+    merge = data_commands.add_parser(
+        "merge", help="one dataset from several: the first's names and Mean/Std, the others' "
+        "names prefixed d2_, d3_ ..., each split the sources' lists joined")
+    merge.add_argument("sources", type=Path, nargs="+", help="two or more datasets")
+    merge.add_argument("--out", required=True, type=Path, help="dataset directory to create")
+    merge.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
+    merge.set_defaults(func=run_merge)
 
     stats = data_commands.add_parser("stats", help="write Mean/Std and print dataset statistics")
     stats.add_argument("dir", type=Path)
