@@ -356,6 +356,36 @@ def test_cache_shared_between_instances(tmp_path):
     assert EmbeddingCache(path).count() == 3 and EmbeddingCache(path).count("fake") == 2
 
 
+class FailingAfter(CountingEncoder):
+    """Fails on its n-th batch: a run killed part way through encoding a new dataset."""
+
+    def __init__(self, inner: TextEncoder, fail_on: int) -> None:
+        super().__init__(inner)
+        self.fail_on = fail_on
+
+    def _encode(self, texts: list[str]) -> torch.Tensor:
+        if len(self.calls) + 1 == self.fail_on:
+            raise KeyboardInterrupt
+        return super()._encode(texts)
+
+
+def test_cache_encodes_many_misses_in_chunks_and_keeps_the_done_ones(tmp_path, monkeypatch):
+    import mlct.text.cache as cache_module
+
+    monkeypatch.setattr(cache_module, "ENCODE_CHUNK", 4)
+    path = tmp_path / "c.sqlite3"
+    texts = [f"caption {i}" for i in range(10)]
+    failing = FailingAfter(FakeEncoder(), fail_on=3)
+    with pytest.raises(KeyboardInterrupt):
+        CachedTextEncoder(failing, path).encode(texts)
+    assert [len(c) for c in failing.calls] == [4, 4]
+    assert EmbeddingCache(path).count("fake") == 8  # the two finished chunks were stored
+    again = CountingEncoder(FakeEncoder())
+    out = CachedTextEncoder(again, path).encode(texts)
+    assert again.calls == [texts[8:]]  # only what the interrupted run had not done
+    torch.testing.assert_close(out, FakeEncoder().encode(texts), rtol=0, atol=0)
+
+
 class RuleChangedEncoder(FakeEncoder):
     """The same name and network, a changed rule around it: a versioned cache key."""
 

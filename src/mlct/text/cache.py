@@ -27,6 +27,10 @@ SCHEMA_VERSION = 1  # stored as PRAGMA user_version
 _TIMEOUT_S = 120.0  # how long a process waits for another's write lock
 _CHUNK = 500  # rows per query: old SQLite builds allow at most 999 bound variables
 _DTYPE = np.dtype("<f4")  # blobs are little-endian float32 on every machine
+# Misses are encoded and stored this many at a time: a new dataset of ~100,000 captions takes
+# minutes on a CPU, so the work is saved as it goes (an interrupted run keeps what it did, and
+# a second process started beside it finds part of it) and a progress bar says where it is.
+ENCODE_CHUNK = 4096
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS embeddings (
@@ -166,10 +170,17 @@ class CachedTextEncoder(TextEncoder):
         found = self.cache.get_many(self.key, unique, dim=self.dim)
         missing = [t for t in unique if t not in found]
         if missing:
-            # One batched call for every miss; the inner encoder batches internally.
-            fresh = dict(zip(missing, self.inner.encode(missing).numpy()))
-            self.cache.put_many(self.key, fresh)
-            found.update(fresh)
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=len(missing), desc=f"encoding captions ({self.key})", unit="text",
+                       disable=len(missing) <= ENCODE_CHUNK, dynamic_ncols=True)
+            for i in range(0, len(missing), ENCODE_CHUNK):
+                chunk = missing[i : i + ENCODE_CHUNK]
+                fresh = dict(zip(chunk, self.inner.encode(chunk).numpy()))
+                self.cache.put_many(self.key, fresh)
+                found.update(fresh)
+                bar.update(len(chunk))
+            bar.close()
         return torch.from_numpy(np.stack([found[t] for t in texts]))  # (B, dim), input order
 
     def __repr__(self) -> str:
