@@ -348,6 +348,10 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
         import mlct.generate.onnx_backend as onnx_backend
 
         onnx_backend.ONE_THREAD_MAX_BATCH = spec["one_thread_max_batch"]
+    if spec.get("torch_min_batch") is not None:
+        import mlct.generate.onnx_backend as onnx_backend
+
+        onnx_backend.TORCH_MIN_BATCH = spec["torch_min_batch"] or None  # 0: never
     preset, sampler, nfes = MODELS[spec["model"]]
     bundle = bundle_in_memory(preset, sampler)  # read (or built) once for every generator here
     gen = MotionGenerator(*bundle, spec["device"], spec["dtype"])
@@ -414,10 +418,10 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
         import shutil
 
         shutil.rmtree(folder, ignore_errors=True)
-    from mlct.generate.onnx_backend import ONE_THREAD_MAX_BATCH
+    from mlct.generate.onnx_backend import ONE_THREAD_MAX_BATCH, TORCH_MIN_BATCH
 
     return {"model": spec["model"], "dtype": spec["dtype"], "backend": spec["backend"],
-            "one_thread_max_batch": ONE_THREAD_MAX_BATCH,
+            "one_thread_max_batch": ONE_THREAD_MAX_BATCH, "torch_min_batch": TORCH_MIN_BATCH,
             "device": str(device), "threads": torch.get_num_threads(), "aits": rows, "throughput": tput,
             "costs": costs, "bandwidth_gb_s": {k: v / 1e9 for k, v in bandwidth.items()}}
 
@@ -602,7 +606,9 @@ def report(results: list[dict[str, Any]], info: dict[str, Any], device: str) -> 
     onnx = [r for r in results if r["backend"].startswith("onnx")]
     if onnx:
         print(f"onnx backends: batches up to {onnx[0]['one_thread_max_batch']} run the sampler "
-              f"graph on one thread (ONE_THREAD_MAX_BATCH)")
+              f"graph on one thread (ONE_THREAD_MAX_BATCH); batches of "
+              f"{onnx[0].get('torch_min_batch') or 'no size'} or more are run by the torch "
+              f"networks (TORCH_MIN_BATCH)")
     print("\nAITS at batch 1, 196 frames, medians in ms (warm: text from the memo; cold: "
           "encoder run; limit / c.lim: the warm / cold limits)")
     head = (f"{'model':<10} {'backend':<14} {'dtype':<8} {'NFE':>3} {'text':>6} {'sampl':>7} {'decode':>6} "
@@ -672,6 +678,9 @@ def main() -> None:
     parser.add_argument("--one-thread-max-batch", type=int, default=None, metavar="B",
                         help="onnx backends: batches up to B run the sampler graph on one thread "
                              "(default: the backend's ONE_THREAD_MAX_BATCH; 0: never)")
+    parser.add_argument("--torch-min-batch", type=int, default=None, metavar="B",
+                        help="onnx backends: batches of B or more are run by the torch networks "
+                             "(default: the backend's TORCH_MIN_BATCH; 0: never)")
     parser.add_argument("--runs", type=int, default=20, help="timed runs per AITS figure (at "
                         "most; fewer where a run is slow)")
     parser.add_argument("--json", default=None, help="write every figure to this file")
@@ -720,6 +729,7 @@ def main() -> None:
             spec = {"model": model, "dtype": dtype, "backend": backend, "device": args.device,
                     "threads": args.threads, "quick": args.quick, "runs": args.runs,
                     "one_thread_max_batch": args.one_thread_max_batch,
+                    "torch_min_batch": args.torch_min_batch,
                     "aits_budget_s": 20.0,
                     "throughput_budget_s": args.throughput_budget or (
                         1.0 if args.quick else 15.0),

@@ -145,3 +145,25 @@ def test_keep_going_gives_the_torch_motions(backends) -> None:
     two = 40  # the last 2 s still jog: the takes were chained, not one stopping sample
     root = made[1][0].joints[-two:, 0, [0, 2]]
     assert np.linalg.norm(np.diff(root, axis=0), axis=1).sum() > 2.0
+
+
+def test_a_large_batch_is_run_by_the_torch_networks_with_the_same_motions(backends) -> None:
+    from mlct.generate.onnx_backend import TORCH_MIN_BATCH, OnnxMotionGenerator
+
+    assert TORCH_MIN_BATCH is not None and TORCH_MIN_BATCH > 1
+    torch_gen, _ = backends
+    onnx_gen = OnnxMotionGenerator.load(Path(backends[1].graphs.denoiser).parent.parent)
+    onnx_gen.keep_going = False
+    texts = (TEXTS * TORCH_MIN_BATCH)[:TORCH_MIN_BATCH]
+    lengths = [40 + 3 * i for i in range(TORCH_MIN_BATCH)]
+    small = onnx_gen.generate(texts[:-1], lengths=lengths[:-1], nfe=3, seed=2, candidates=1)
+    assert onnx_gen._torch_networks is None  # one short of the size: the ONNX graphs
+    want = torch_gen.generate(texts, lengths=lengths, nfe=3, seed=2, candidates=1)
+    got = onnx_gen.generate(texts, lengths=lengths, nfe=3, seed=2, candidates=1)
+    assert onnx_gen._torch_networks is not None
+    assert gap(want, got) < JOINTS_M
+    assert gap(small, got[:-1]) < JOINTS_M  # per-item seeds: the batch size changes nothing
+    never = OnnxMotionGenerator.load(Path(backends[1].graphs.denoiser).parent.parent)
+    never.keep_going, never.torch_min_batch = False, None
+    assert gap(want, never.generate(texts, lengths=lengths, nfe=3, seed=2, candidates=1)) < JOINTS_M
+    assert never._torch_networks is None

@@ -82,6 +82,12 @@ MAX_SAMPLER_GRAPHS = 3
 # takes 38.7 ms on two threads and 44.1 on one (docs/performance.md, 2026-11-25 17:05 UTC).
 ONE_THREAD_MAX_BATCH = 1
 ONE_THREAD_MAX_BYTES = 32_000_000
+# Batches of at least this many latents are sampled and decoded by the torch networks (built
+# once, on the first such batch, from the same weights): past batch 1 oneDNN's packed products
+# beat ONNX Runtime's on this CPU work (bundled model, 5 NFE, 2 threads: batch 8 222/s against
+# 153/s, batch 64 355/s against 220/s; docs/performance.md, "Large batches go to torch"). The
+# motions are the same within float rounding (tests/test_onnx_sampler.py). None: never.
+TORCH_MIN_BATCH: int | None = 8
 
 
 class OnnxMotionGenerator(MotionGenerator):
@@ -109,6 +115,9 @@ class OnnxMotionGenerator(MotionGenerator):
         self._fused: dict[int, Any] = {}  # step count -> its sampler graph (bytes, or None)
         self._sessions: dict[tuple[int, int], Any] = {}  # (step count, threads) -> session
         self._calls: dict[int, int] = {}  # step count -> sample_features calls with it
+        self.torch_min_batch = TORCH_MIN_BATCH
+        self._tensors = tensors  # the torch networks of large batches are built from them
+        self._torch_networks: tuple[Any, Any] | None = None
         super().__init__(meta, tensors, "cpu", "float32")
         self.clamp = latent_clamp(self.config)
 
@@ -116,14 +125,25 @@ class OnnxMotionGenerator(MotionGenerator):
         return (OnnxDecoder(self.graphs.decoder, self.threads),
                 OnnxDenoiser(self.graphs.denoiser, self.threads))
 
+    def _large(self, batch: int) -> bool:
+        return self.torch_min_batch is not None and batch >= self.torch_min_batch
+
+    def networks_for(self, batch: int) -> tuple[Any, Any]:
+        """The ONNX graphs, or for a batch of torch_min_batch or more the torch networks."""
+        if not self._large(batch):
+            return self.ae, self.denoiser
+        if self._torch_networks is None:
+            self._torch_networks = MotionGenerator._networks(self, self._tensors)
+        return self._torch_networks
+
     @torch.inference_mode()
     def sample_latents(self, cond: Tensor, nfe: int | None = None,
                        seed: int | Sequence[int] | None = None, guidance: float | None = None
                        ) -> Tensor:
         """As the torch backend's, for a consistency model without its per-step torch glue:
         the noise and coefficients once (onnx_sampler.consistency_feeds), then one denoiser
-        call and a few numpy operations per step."""
-        if not isinstance(self.sampler, ConsistencySampler):
+        call and a few numpy operations per step. A large batch goes to the torch networks."""
+        if not isinstance(self.sampler, ConsistencySampler) or self._large(cond.shape[0]):
             return super().sample_latents(cond, nfe, seed, guidance)
         feeds = self._feeds(cond, nfe, seed)
         return torch.from_numpy(run_steps(self.denoiser.session, feeds, _array(cond.float()),
@@ -135,8 +155,8 @@ class OnnxMotionGenerator(MotionGenerator):
         (onnx_sampler.py), built in memory at the second call with it (one-off commands never
         pay the build, a server or a batch loop does once) when `fused` and the onnx package is
         installed; otherwise sample_latents, then the decoder."""
-        session = (self._sampler_session(self.check_nfe(nfe), cond.shape[0]) if self.fused
-                   else None)
+        session = (self._sampler_session(self.check_nfe(nfe), cond.shape[0])
+                   if self.fused and not self._large(cond.shape[0]) else None)
         if session is None:
             return super().sample_features(cond, nfe, seed, guidance, lengths)
         feeds = self._feeds(cond, nfe, seed)

@@ -98,6 +98,11 @@ class MotionGenerator:
         return (for_inference(ae.to(self.device), self.dtype),
                 for_inference(denoiser.to(self.device), self.dtype))
 
+    def networks_for(self, batch: int) -> tuple[Any, Any]:
+        """(decoder, denoiser) that sample and decode a batch of this size: the backend's own
+        (another backend may hand large batches to networks that run them faster)."""
+        return self.ae, self.denoiser
+
     @classmethod
     def load(cls, path: str | os.PathLike, device: torch.device | str | None = None,
              dtype: str | torch.dtype = "float32") -> MotionGenerator:
@@ -214,8 +219,8 @@ class MotionGenerator:
         steps = self.check_nfe(nfe)
         uncond = self.encode_text([""]) if self.sampler.cfg else None  # (1, c) the null text
         x = self.sampler.noise(shape, generator)  # x_T (B, n, d)
-        return self.sampler.sample(self.denoiser, x, cond, steps, generator=generator,
-                                   guidance=guidance, uncond=uncond)
+        return self.sampler.sample(self.networks_for(batch)[1], x, cond, steps,
+                                   generator=generator, guidance=guidance, uncond=uncond)
 
     @torch.inference_mode()
     def decode(self, z: Tensor, lengths: Sequence[int]) -> list[np.ndarray]:
@@ -223,7 +228,7 @@ class MotionGenerator:
         item."""
         lens = torch.tensor(list(lengths), device=self.device)
         z = z / self.config.schedule.latent_scale  # back to the autoencoder's latent
-        feats = self.ae.decode(z, lens, max(lengths))  # (B, T, D) normalized
+        feats = self.networks_for(z.shape[0])[0].decode(z, lens, max(lengths))  # normalized
         feats = (feats.float().cpu() * self.std + self.mean).numpy()
         return [feats[i, :n] for i, n in enumerate(lengths)]  # numpy views: cheap per item
 
