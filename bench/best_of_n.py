@@ -1,6 +1,10 @@
 """What best-of-N sampling costs: a prompt's generate() time with 1, 4, 8 and 16 candidates.
 
-    python bench/best_of_n.py [--model DIR] [--backends torch,onnx] [--repeat 30] [--threads 2]
+    python bench/best_of_n.py [--model DIR] [--backends torch,auto] [--repeat 30] [--threads 2]
+
+An onnx generator (auto picks one when onnxruntime is installed) samples a batch of
+TORCH_MIN_BATCH latents or more with the torch networks; its row "... onnx only" is the same
+generator with that turned off, timed in the same run.
 
 Batch 1, 5 NFE, 196 frames, a warm text (the prompt's vector memoized, as a server or a batch
 loop has it), interleaved run by run so that a busy machine slows every column alike; prints
@@ -22,7 +26,7 @@ from mlct.errors import MlctError
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--model", default=None)
-    parser.add_argument("--backends", default="torch,onnx")
+    parser.add_argument("--backends", default="torch,auto")
     parser.add_argument("--candidates", default="1,4,8,16")
     parser.add_argument("--repeat", type=int, default=30)
     parser.add_argument("--threads", type=int, default=2)
@@ -35,6 +39,11 @@ def main() -> None:
             gens[backend] = mlct.load(args.model, backend=backend)
         except MlctError as err:
             print(f"{backend}: skipped ({err})")
+            continue
+        if getattr(gens[backend], "torch_min_batch", None) is not None:
+            only = mlct.load(args.model, backend=backend)
+            only.torch_min_batch = None
+            gens[f"{backend} onnx only"] = only
     text = "a person jumps twice"
     times: dict[tuple[str, int], list[float]] = {(b, n): [] for b in gens for n in counts}
     for gen in gens.values():
@@ -49,11 +58,11 @@ def main() -> None:
             times[(backend, n)].append(1000 * (time.perf_counter() - start))
     print(f"generate('{text}'), 196 frames, 5 NFE, warm text, {args.threads} threads, "
           f"median of {args.repeat} (ms):")
-    print(f"{'backend':<8}" + "".join(f"{'N=' + str(n):>12}" for n in counts))
+    print(f"{'backend':<16}" + "".join(f"{'N=' + str(n):>12}" for n in counts))
     for backend in gens:
         base = statistics.median(times[(backend, counts[0])])
         cells = [statistics.median(times[(backend, n)]) for n in counts]
-        print(f"{backend:<8}" + "".join(f"{c:>7.1f} {c / base:>3.1f}x" for c in cells))
+        print(f"{backend:<16}" + "".join(f"{c:>7.1f} {c / base:>3.1f}x" for c in cells))
     gen = next(iter(gens.values()))
     if gen.critic is not None:
         z = torch.randn(16, *gen.ae.latent_shape)

@@ -4,7 +4,8 @@
   bfloat16 products (pipeline.py);
 - cuda-graphs: the torch pipeline on a GPU, replayed from CUDA graphs (cuda_graph_backend.py);
 - onnx: the same pipeline with the three networks as ONNX graphs run by ONNX Runtime on the CPU
-  (onnx_backend.py; the graphs come from `mlct convert MODEL_DIR --onnx`);
+  (onnx_backend.py; the graphs come from `mlct convert MODEL_DIR --onnx`); a batch of
+  TORCH_MIN_BATCH latents or more is handed to the torch networks, faster there;
 - onnx-int8: the same with the denoiser's matrix products in int8 (the graphs from `mlct
   convert MODEL_DIR --onnx --int8` or made once into the cache): ~2x faster sampling, motions
   as good by the read-outs but not the float32 ones (asked for by name: docs/performance.md);
