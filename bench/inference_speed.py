@@ -606,9 +606,10 @@ def report(results: list[dict[str, Any]], info: dict[str, Any], device: str) -> 
     onnx = [r for r in results if r["backend"].startswith("onnx")]
     if onnx:
         print(f"onnx backends: batches up to {onnx[0]['one_thread_max_batch']} run the sampler "
-              f"graph on one thread (ONE_THREAD_MAX_BATCH); batches of "
-              f"{onnx[0].get('torch_min_batch') or 'no size'} or more are run by the torch "
-              f"networks (TORCH_MIN_BATCH)")
+              f"graph on one thread (ONE_THREAD_MAX_BATCH); "
+              + (f"batches of {onnx[0]['torch_min_batch']} or more are run by the torch networks"
+                 if onnx[0].get("torch_min_batch") else "no batch is handed to the torch networks")
+              + " (TORCH_MIN_BATCH)")
     print("\nAITS at batch 1, 196 frames, medians in ms (warm: text from the memo; cold: "
           "encoder run; limit / c.lim: the warm / cold limits)")
     head = (f"{'model':<10} {'backend':<14} {'dtype':<8} {'NFE':>3} {'text':>6} {'sampl':>7} {'decode':>6} "
