@@ -90,3 +90,16 @@ def test_cli_merge_exit_codes(tmp_path: Path) -> None:
     assert ok.returncode == 0 and "18 motions from 2 datasets" in ok.stdout, ok.stderr
     again = subprocess.run(run, capture_output=True, text=True)
     assert again.returncode == 2 and "exists" in again.stderr and "Traceback" not in again.stderr
+
+
+def test_check_accepts_a_merged_oversampled_split(tmp_path: Path) -> None:
+    from mlct.data.check import check_dataset
+
+    a, b = two_benchmarks(tmp_path)
+    family = read_labels(b)[DatasetLayout.existing(b).read_split("train")[0]]["actions"][0][
+        "family"]
+    oversample_dataset(b, tmp_path / "b3", [family], times=3, single_only=False)
+    merge_datasets([a, tmp_path / "b3"], tmp_path / "ab")
+    assert json.loads((tmp_path / "ab" / "synth.json").read_text())["repeating_splits"] == [
+        "train"]
+    assert not [p for p in check_dataset(tmp_path / "ab") if p.kind == "duplicate"]

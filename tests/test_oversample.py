@@ -91,3 +91,16 @@ def test_cli_oversample_exit_codes(tmp_path: Path) -> None:
     bad = subprocess.run(base + [str(tmp_path / "x"), "--families", "cartwheel"],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "cartwheel" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_check_accepts_the_repeats_of_an_oversampled_split_only(tmp_path: Path) -> None:
+    from mlct.data.check import check_dataset
+
+    src = make_benchmark(tmp_path)
+    oversample_dataset(src, tmp_path / "focus", [single_family(src)], times=3)
+    assert not [p for p in check_dataset(tmp_path / "focus") if p.kind == "duplicate"]
+    # a repeat in a split that was not oversampled is still a problem
+    val = tmp_path / "focus" / "val.txt"
+    first = val.read_text().split()[0]
+    val.write_text(val.read_text() + first + "\n")
+    assert [p.path for p in check_dataset(tmp_path / "focus") if p.kind == "duplicate"] == [val]

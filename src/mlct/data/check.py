@@ -65,6 +65,20 @@ def check_dataset(directory: str | os.PathLike,
     return sorted(checker.problems, key=lambda p: (str(p.path), p.line or 0))
 
 
+def _repeating_splits(root: Path) -> set[str]:
+    """Splits whose synth.json says they repeat motions on purpose (`mlct data oversample`,
+    or a merge of such datasets); an unreadable synth.json allows none."""
+    import json
+
+    from mlct.data.oversample import repeating_splits
+
+    try:
+        meta = json.loads((root / "synth.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return set()
+    return repeating_splits(meta) if isinstance(meta, dict) else set()
+
+
 class _Checker:
     """One pass over a dataset, collecting problems."""
 
@@ -73,6 +87,7 @@ class _Checker:
         self.skeleton = skeleton
         self.problems: list[Problem] = []
         self.feature_frames: dict[str, int] = {}  # name -> T of the well-formed feature files
+        self.repeating = _repeating_splits(layout.root)
 
     def add(self, path: Path, message: str, kind: str, line: int | None = None) -> None:
         """Record a problem."""
@@ -211,13 +226,15 @@ class _Checker:
                 self.add(path, error.detail, "unreadable")
                 continue
             first_line: dict[str, int] = {}
+            repeats = split in self.repeating  # oversampled on purpose: repeats are no problem
             for number, line in enumerate(lines, start=1):
                 name = line.strip()
                 if not name:
                     continue
                 if name in first_line:
-                    self.add(path, f"{name!r} listed again (first on line {first_line[name]})",
-                             "duplicate", number)
+                    if not repeats:
+                        self.add(path, f"{name!r} listed again (first on line "
+                                       f"{first_line[name]})", "duplicate", number)
                     continue
                 first_line[name] = number
                 problem = split_name_problem(name)

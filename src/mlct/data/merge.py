@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from mlct.data.labels import LABELS_FILE, read_labels
+from mlct.data.oversample import repeating_splits
 from mlct.data.layout import (FEATURES_DIR, JOINTS_DIR, OPTIONAL_SPLITS, SPLITS, TEXTS_DIR,
                               read_split)
 from mlct.errors import MlctError
@@ -78,6 +79,13 @@ def _link_motions(src: Path, work: Path, prefix: str) -> int:
     return count
 
 
+def _repeating(src: Path) -> set[str]:
+    meta_path = src / "synth.json"
+    if not meta_path.is_file():
+        return set()
+    return repeating_splits(json.loads(meta_path.read_text(encoding="utf-8")))
+
+
 def _merged_labels(sources: list[Path]) -> list[dict[str, Any]] | None:
     """Every source's label records, renamed; None when a source has no labels.jsonl."""
     if not all((src / LABELS_FILE).is_file() for src in sources):
@@ -117,7 +125,9 @@ def merge_datasets(sources: list[str | os.PathLike], out: str | os.PathLike,
         meta = {"merged": [{"from": str(src), "prefix": source_prefix(i), "motions": n}
                            for i, (src, n) in enumerate(zip(sources, motions))],
                 "normalization_from": str(sources[0]),
-                "splits": {split: len(names) for split, names in splits.items()}}
+                "splits": {split: len(names) for split, names in splits.items()},
+                # an oversampled source's repeats are kept, and `mlct data check` told so
+                "repeating_splits": sorted(set().union(*map(_repeating, sources)))}
         first_meta = sources[0] / "synth.json"
         if first_meta.is_file():  # the generator, skeleton and fps of the first, for readers
             first = json.loads(first_meta.read_text(encoding="utf-8"))

@@ -24,6 +24,15 @@ from mlct.errors import MlctError
 from mlct.io import atomic_dir, copy_dataset, write_text
 
 
+def repeating_splits(meta: dict[str, Any]) -> set[str]:
+    """The splits a dataset's synth.json says list motions more than once on purpose: the one
+    `oversample` rebalanced, and those of the sources a `merge` joined."""
+    splits = set(meta.get("repeating_splits", []))
+    if isinstance(meta.get("oversampled"), dict) and meta["oversampled"].get("split"):
+        splits.add(meta["oversampled"]["split"])
+    return splits
+
+
 def families_of(record: dict[str, Any]) -> list[str]:
     """The families a labels.jsonl record shows, in time order, a concurrent one last."""
     families = [action["family"] for action in record["actions"]]
