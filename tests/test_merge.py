@@ -78,6 +78,16 @@ def test_merge_refuses_bad_input_and_leaves_nothing(tmp_path: Path) -> None:
     synthesize_dataset(kit, num=4, seed=0, skeleton="kit", progress=False)
     with pytest.raises(MlctError, match="different feature widths"):
         merge_datasets([a, kit], tmp_path / "ab")
+    (b / "synth.json").write_text("{not json")
+    with pytest.raises(MlctError, match="synth.json: not readable JSON"):
+        merge_datasets([a, b], tmp_path / "ab")
+    synthesize_dataset(tmp_path / "c", num=3, seed=2, progress=False)
+    name = DatasetLayout.existing(a).read_split("all")[0]
+    for folder in ("new_joint_vecs", "new_joints", "texts"):  # a first source with a d2_ name
+        for f in (a / folder).glob(f"{name}.*"):
+            (a / folder / f"d2_{f.name}").write_bytes(f.read_bytes())
+    with pytest.raises(MlctError, match="two sources give"):
+        merge_datasets([a, tmp_path / "c"], tmp_path / "ab")
     assert not (tmp_path / "ab").exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".ab")]
 

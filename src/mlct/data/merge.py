@@ -74,16 +74,27 @@ def _link_motions(src: Path, work: Path, prefix: str) -> int:
         if not (src / folder).is_dir():
             continue
         for f in sorted((src / folder).iterdir()):
-            link_or_copy(f, work / folder / f"{prefix}{f.name}")
+            target = work / folder / f"{prefix}{f.name}"
+            if target.exists():  # e.g. a first source that already has a d2_ name
+                raise MlctError(f"two sources give {folder}/{target.name}; rename one "
+                                f"source's motions first")
+            link_or_copy(f, target)
             count += folder == FEATURES_DIR
     return count
 
 
-def _repeating(src: Path) -> set[str]:
-    meta_path = src / "synth.json"
-    if not meta_path.is_file():
-        return set()
-    return repeating_splits(json.loads(meta_path.read_text(encoding="utf-8")))
+def _source_meta(src: Path) -> dict[str, Any]:
+    """A source's synth.json ({} when it has none; a benchmark's provenance, not required)."""
+    path = src / "synth.json"
+    if not path.is_file():
+        return {}
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as error:
+        raise MlctError(f"{path}: not readable JSON ({error})") from None
+    if not isinstance(meta, dict):
+        raise MlctError(f"{path}: not a JSON object")
+    return meta
 
 
 def _merged_labels(sources: list[Path]) -> list[dict[str, Any]] | None:
@@ -102,6 +113,7 @@ def merge_datasets(sources: list[str | os.PathLike], out: str | os.PathLike,
     """Write DST (module docstring); returns {"motions": per source, "splits": sizes}."""
     sources, out = [Path(s) for s in sources], Path(out)
     _check_sources(sources, out, overwrite)
+    metas = [_source_meta(src) for src in sources]
     splits: dict[str, list[str]] = {}
     motions = []
     with atomic_dir(out) as work:
@@ -127,10 +139,8 @@ def merge_datasets(sources: list[str | os.PathLike], out: str | os.PathLike,
                 "normalization_from": str(sources[0]),
                 "splits": {split: len(names) for split, names in splits.items()},
                 # an oversampled source's repeats are kept, and `mlct data check` told so
-                "repeating_splits": sorted(set().union(*map(_repeating, sources)))}
-        first_meta = sources[0] / "synth.json"
-        if first_meta.is_file():  # the generator, skeleton and fps of the first, for readers
-            first = json.loads(first_meta.read_text(encoding="utf-8"))
-            meta = {**{k: first[k] for k in KEPT_META if k in first}, **meta}
+                "repeating_splits": sorted(set().union(*(repeating_splits(m) for m in metas)))}
+        # the generator, skeleton and fps of the first, for readers
+        meta = {**{k: metas[0][k] for k in KEPT_META if k in metas[0]}, **meta}
         write_text(work / "synth.json", json.dumps(meta, indent=2) + "\n")
     return {"motions": motions, "splits": {k: len(v) for k, v in splits.items()}}
