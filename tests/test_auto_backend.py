@@ -150,10 +150,14 @@ def test_cli_verbose_says_which_backend(auto, tmp_path, capsys) -> None:
                  "--out", str(out), "--quiet", "--verbose"]) == 0
     err = capsys.readouterr().err
     assert "mlct: backend onnx (auto: ONNX Runtime" in err
+    from mlct.generate.onnx_backend import TORCH_MIN_BATCH
+
+    assert f"batches of {TORCH_MIN_BATCH} or more latents on the torch networks" in err
     assert np.load(out).shape == (20, 22, 3)
     assert main(["generate", "a person walks forward", "--seconds", "1", "--seed", "0",
                  "--out", str(out), "--quiet", "--verbose", "--backend", "torch"]) == 0
-    assert "mlct: backend torch (asked for)" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "mlct: backend torch (asked for)" in err and "torch networks" not in err
 
 
 def test_auto_on_what_is_not_a_model_says_what_is_wrong(auto, tmp_path) -> None:

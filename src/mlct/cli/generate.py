@@ -62,7 +62,10 @@ def run(args: argparse.Namespace) -> int:
         if status:
             print(" " * 50, end="\r", file=sys.stderr, flush=True)
         if args.verbose:
-            print(f"mlct: backend {generator.backend_note}", file=sys.stderr, flush=True)
+            handoff = getattr(generator, "torch_min_batch", None)  # the onnx backends'
+            print(f"mlct: backend {generator.backend_note}"
+                  + (f"; batches of {handoff} or more latents on the torch networks"
+                     if handoff else ""), file=sys.stderr, flush=True)
             _show_decisions()
         return generator
 
