@@ -344,13 +344,11 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
 
     if spec["threads"]:
         torch.set_num_threads(spec["threads"])
-    if spec.get("one_thread_max_batch") is not None:
-        import mlct.generate.onnx_backend as onnx_backend
+    import mlct.generate.onnx_backend as onnx_backend
 
+    if spec.get("one_thread_max_batch") is not None:
         onnx_backend.ONE_THREAD_MAX_BATCH = spec["one_thread_max_batch"]
     if spec.get("torch_min_batch") is not None:
-        import mlct.generate.onnx_backend as onnx_backend
-
         onnx_backend.TORCH_MIN_BATCH = spec["torch_min_batch"] or None  # 0: never
     preset, sampler, nfes = MODELS[spec["model"]]
     bundle = bundle_in_memory(preset, sampler)  # read (or built) once for every generator here

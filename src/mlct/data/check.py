@@ -39,6 +39,7 @@ from mlct.data.layout import (
     split_name_problem,
     width_problems,
 )
+from mlct.errors import MlctError
 from mlct.motion.skeleton import Skeleton, skeleton_for_dim
 
 
@@ -68,15 +69,13 @@ def check_dataset(directory: str | os.PathLike,
 def _repeating_splits(root: Path) -> set[str]:
     """Splits whose synth.json says they repeat motions on purpose (`mlct data oversample`,
     or a merge of such datasets); an unreadable synth.json allows none."""
-    import json
-
+    from mlct.data.labels import read_synth_meta
     from mlct.data.oversample import repeating_splits
 
     try:
-        meta = json.loads((root / "synth.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        return repeating_splits(read_synth_meta(root))
+    except MlctError:
         return set()
-    return repeating_splits(meta) if isinstance(meta, dict) else set()
 
 
 class _Checker:

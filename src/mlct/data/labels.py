@@ -13,6 +13,22 @@ from typing import Any
 from mlct.errors import MlctError
 
 LABELS_FILE = "labels.jsonl"
+SYNTH_META = "synth.json"  # how a benchmark was made: seed, version, what later steps changed
+
+
+def read_synth_meta(data_dir: str | os.PathLike) -> dict[str, Any]:
+    """synth.json of a dataset ({} when it has none: it is provenance, not required); an
+    unreadable one raises MlctError naming it."""
+    path = Path(data_dir) / SYNTH_META
+    if not path.is_file():
+        return {}
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as error:
+        raise MlctError(f"{path}: not readable JSON ({error})") from None
+    if not isinstance(meta, dict):
+        raise MlctError(f"{path}: not a JSON object")
+    return meta
 
 
 def read_labels(data_dir: str | os.PathLike) -> dict[str, dict[str, Any]]:

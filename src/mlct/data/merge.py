@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from mlct.data.labels import LABELS_FILE, read_labels
+from mlct.data.labels import LABELS_FILE, SYNTH_META, read_labels, read_synth_meta
 from mlct.data.oversample import repeating_splits
 from mlct.data.layout import (FEATURES_DIR, JOINTS_DIR, OPTIONAL_SPLITS, SPLITS, TEXTS_DIR,
                               read_split)
@@ -83,20 +83,6 @@ def _link_motions(src: Path, work: Path, prefix: str) -> int:
     return count
 
 
-def _source_meta(src: Path) -> dict[str, Any]:
-    """A source's synth.json ({} when it has none; a benchmark's provenance, not required)."""
-    path = src / "synth.json"
-    if not path.is_file():
-        return {}
-    try:
-        meta = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError) as error:
-        raise MlctError(f"{path}: not readable JSON ({error})") from None
-    if not isinstance(meta, dict):
-        raise MlctError(f"{path}: not a JSON object")
-    return meta
-
-
 def _merged_labels(sources: list[Path]) -> list[dict[str, Any]] | None:
     """Every source's label records, renamed; None when a source has no labels.jsonl."""
     if not all((src / LABELS_FILE).is_file() for src in sources):
@@ -113,7 +99,7 @@ def merge_datasets(sources: list[str | os.PathLike], out: str | os.PathLike,
     """Write DST (module docstring); returns {"motions": per source, "splits": sizes}."""
     sources, out = [Path(s) for s in sources], Path(out)
     _check_sources(sources, out, overwrite)
-    metas = [_source_meta(src) for src in sources]
+    metas = [read_synth_meta(src) for src in sources]
     splits: dict[str, list[str]] = {}
     motions = []
     with atomic_dir(out) as work:
@@ -142,5 +128,5 @@ def merge_datasets(sources: list[str | os.PathLike], out: str | os.PathLike,
                 "repeating_splits": sorted(set().union(*(repeating_splits(m) for m in metas)))}
         # the generator, skeleton and fps of the first, for readers
         meta = {**{k: metas[0][k] for k in KEPT_META if k in metas[0]}, **meta}
-        write_text(work / "synth.json", json.dumps(meta, indent=2) + "\n")
+        write_text(work / SYNTH_META, json.dumps(meta, indent=2) + "\n")
     return {"motions": motions, "splits": {k: len(v) for k, v in splits.items()}}

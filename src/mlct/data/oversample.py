@@ -18,7 +18,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from mlct.data.labels import read_labels
+from mlct.data.labels import SYNTH_META, read_labels, read_synth_meta
 from mlct.data.layout import read_split
 from mlct.errors import MlctError
 from mlct.io import atomic_dir, copy_dataset, write_text
@@ -89,8 +89,8 @@ def oversample_dataset(src: str | os.PathLike, out: str | os.PathLike, families:
     with atomic_dir(out) as work:
         copy_dataset(src, work, skip={split_file.name, "synth.json"})
         write_text(work / split_file.name, "\n".join(listed) + "\n")
-        if (src / "synth.json").is_file():
-            meta = json.loads((src / "synth.json").read_text(encoding="utf-8"))
+        if (src / SYNTH_META).is_file():
+            meta = read_synth_meta(src)
             meta["oversampled"] = {"from": str(src), "split": split, "families": list(families),
                                    "times": times, "single_only": single_only,
                                    "motions": len(chosen)}

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from mlct.data.captions import format_text_line, tag_caption
-from mlct.data.labels import read_labels
+from mlct.data.labels import read_labels, read_synth_meta
 from mlct.data.layout import read_split
 from mlct.data.oversample import families_of
 from mlct.data.synth.everyday import EVERYDAY
@@ -97,8 +97,7 @@ def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion:
                 text = text.rstrip("\n") + "\n" + "\n".join(lines) + "\n"
                 added += len(lines)
             (work / "texts" / path.name).write_text(text, encoding="utf-8")
-        meta = json.loads((src / "synth.json").read_text(encoding="utf-8")) \
-            if (src / "synth.json").is_file() else {}
+        meta = read_synth_meta(src)
         step = {"from": str(src), "vocabulary": vocabulary, "per_motion": per_motion,
                 "splits": list(splits), "seed": seed, "captions_added": added}
         if skip_families:
