@@ -291,15 +291,11 @@ class KeptGoing:
     take_frames: int  # each take's length: the natural length, within the window
 
 
-def continue_gait(joints: np.ndarray, frames: int, window: int, natural_seconds: float,
-                  blend: int, skeleton: Skeleton,
-                  make_takes: Callable[[int, int], Sequence[np.ndarray]]) -> KeptGoing | None:
-    """One prompt's motion, made at min(frames, window), and what keeping it going makes of it:
-    asked past the window, a gait (is_gait) is made again as takes; within it, a gait that
-    stops early (stops_early) is. make_takes(count, take_frames) makes `count` takes of the
-    prompt (take k with its seed + k). None: the motion stays as made; past the window that
-    is the caller's refusal (no gait, or takes that did not reach the length). The pipeline
-    (pipeline._keep_going) and the page's reference (serve/site/reference.py) both call it."""
+def takes_needed(joints: np.ndarray, frames: int, window: int, natural_seconds: float,
+                 blend: int, skeleton: Skeleton) -> tuple[int, int] | None:
+    """(count, take frames) of the takes continue_gait will first ask make_takes for, or None
+    when the motion stays as made: asked past the window, a gait (is_gait) is made again as
+    takes; within it, a gait that stops early (stops_early) is."""
     fps = skeleton.fps
     if frames > window:
         if not is_gait(joints, fps, natural_seconds, skeleton):
@@ -307,7 +303,22 @@ def continue_gait(joints: np.ndarray, frames: int, window: int, natural_seconds:
     elif not stops_early(joints, fps, natural_seconds, skeleton):
         return None
     take = min(int(round(natural_seconds * fps)), window)
-    count = segment_count(frames, take, blend)
+    return segment_count(frames, take, blend), take
+
+
+def continue_gait(joints: np.ndarray, frames: int, window: int, natural_seconds: float,
+                  blend: int, skeleton: Skeleton,
+                  make_takes: Callable[[int, int], Sequence[np.ndarray]]) -> KeptGoing | None:
+    """One prompt's motion, made at min(frames, window), and what keeping it going makes of it
+    (takes_needed says whether and how many). make_takes(count, take_frames) makes `count`
+    takes of the prompt (take k with its seed + k). None: the motion stays as made; past the
+    window that is the caller's refusal (no gait, or takes that did not reach the length). The
+    pipeline (pipeline._keep_going) and the page's reference (serve/site/reference.py) both
+    call it."""
+    needed = takes_needed(joints, frames, window, natural_seconds, blend, skeleton)
+    if needed is None:
+        return None
+    count, take = needed
     for count in (count, 2 * count):  # twice as many when the stretches fell short
         takes = [np.asarray(t) for t in make_takes(count, take)]
         chained = keep_going(takes, frames, blend, skeleton)

@@ -86,10 +86,15 @@ class MotionGenerator:
         self.candidates = self.critic.candidates if self.critic is not None else 1
         # locomotion asked for longer than its natural length keeps going (generate/keep_going.py)
         self.keep_going = True
+        # a list of prompts has all its samples (a sequence's parts, a body and its arms, the
+        # takes of gaits that keep going) made in a few large batches (generate/batch_plan.py);
+        # False: one prompt's path at a time, as before (the same motions, slower)
+        self.make_ahead = True
         # a foot standing on the floor stays where it stands (motion/foot_lock.py); None: the
         # joints as decoded, their feet sliding as the data's do
         self.foot_lock: FootLock | None = FootLock()
-        self._nesting = threading.local()  # parts_of_a_whole, per thread (the server's batcher)
+        # parts_of_a_whole and the samples made ahead, per thread (the server's batcher)
+        self._nesting = threading.local()
 
     def _networks(self, tensors: dict[str, Tensor]) -> tuple[Any, Any]:
         """The AE decoder and the denoiser that sample_latents and decode run: the bundle's
@@ -241,9 +246,27 @@ class MotionGenerator:
     def best_features(self, cond: Tensor, nfe: int | None, seeds: Sequence[int],
                       guidance: float | None, lengths: Sequence[int], candidates: int
                       ) -> list[np.ndarray]:
+        """sample_best's features, taken from the samples the outermost generate() made ahead
+        for its whole list of prompts (generate/batch_plan.py) where it made them."""
+        memo = getattr(self._nesting, "memo", None)
+        if memo is None or not memo.serves(self.check_nfe(nfe), guidance, candidates):
+            return self.sample_best(cond, nfe, seeds, guidance, lengths, candidates)
+        found = [memo.get(row, n, s) for row, n, s in zip(cond, lengths, seeds)]
+        missing = [i for i, f in enumerate(found) if f is None]
+        if missing:
+            made = self.sample_best(cond[missing], nfe, [seeds[i] for i in missing], guidance,
+                                    [lengths[i] for i in missing], candidates)
+            for i, feats in zip(missing, made):
+                found[i] = feats
+        return found  # type: ignore[return-value]
+
+    def sample_best(self, cond: Tensor, nfe: int | None, seeds: Sequence[int],
+                      guidance: float | None, lengths: Sequence[int], candidates: int
+                      ) -> list[np.ndarray]:
         """sample_features, each prompt the best of `candidates` latents by the critic: the
         first candidate of a seed is the plain sample of that seed, the others have seeds
-        derived from it, so a motion is replayed from (text, length, nfe, seed, candidates)."""
+        derived from it, so a motion is replayed from (text, length, nfe, seed, candidates).
+        Always samples; best_features first looks in the samples made ahead."""
         if candidates == 1 or self.critic is None:
             return self.sample_features(cond, nfe, list(seeds), guidance, lengths)
         rows = cond.repeat_interleave(candidates, dim=0)
@@ -323,6 +346,56 @@ class MotionGenerator:
         if guidance is not None and not _is_scale(guidance):  # a consistency model ignores it
             raise MlctError(f"guidance must be a number >= 0, got {guidance!r}")
         seeds = self._seeds(len(texts), seed)
+        with self._made_ahead(texts, frames, seeds, split_actions, nfe, guidance, candidates):
+            return self._made_each(texts, frames, seeds, split_actions, nfe, guidance,
+                                   candidates)
+
+    @contextlib.contextmanager
+    def _made_ahead(self, texts: Sequence[str], frames: Sequence[int], seeds: Sequence[int],
+                    split_actions: bool, nfe: int | None, guidance: float | None,
+                    candidates: int) -> Iterator[None]:
+        """The outermost generate() makes every sample its prompts' paths will ask for in a
+        few large batches first (generate/batch_plan.py), where some prompt is more than one
+        sample; the paths then read them (best_features)."""
+        from mlct.generate.batch_plan import planned_samples
+
+        if getattr(self._nesting, "memo", None) is not None:  # an inner call: the outer's
+            yield
+            return
+        planned = planned_samples(self, texts, frames, seeds, split_actions)
+        if [s.text for s in planned] == list(texts):  # one sample each: one batch already
+            yield
+            return
+        with self.samples_ahead(planned, nfe, guidance, candidates):
+            yield
+
+    @contextlib.contextmanager
+    def samples_ahead(self, samples: Sequence[Any], nfe: int | None, guidance: float | None,
+                      candidates: int) -> Iterator[None]:
+        """Within it, best_features reads these batch_plan.Samples, made now in a few large
+        batches (added to the memo of an outer call with the same settings, else a new one)."""
+        from mlct.generate.batch_plan import SampleMemo, fill
+
+        if not self.make_ahead:
+            yield
+            return
+        steps = self.check_nfe(nfe)
+        outer = getattr(self._nesting, "memo", None)
+        if outer is not None and outer.serves(steps, guidance, candidates):
+            fill(self, outer, samples)
+            yield
+            return
+        self._nesting.memo = SampleMemo(steps, guidance, candidates)
+        try:
+            fill(self, self._nesting.memo, samples)
+            yield
+        finally:
+            self._nesting.memo = outer
+
+    def _made_each(self, texts: list[str], frames: list[int], seeds: list[int],
+                   split_actions: bool, nfe: int | None, guidance: float | None,
+                   candidates: int) -> Generation:
+        """_made's motions, prompt by prompt (their samples maybe made ahead)."""
         out: list[GeneratedMotion | None] = [None] * len(texts)
         if split_actions:
             for i, t in enumerate(texts):
@@ -481,8 +554,9 @@ class MotionGenerator:
         takes of its natural length chained into one continuing motion (generate/keep_going.py);
         out[i] is replaced in place. A prompt past the window that is no gait raises the
         window's error. Needs the duration model."""
-        from mlct.generate.keep_going import continue_gait, names_an_end
-        from mlct.generate.long_motion import LongMotion, blend_frames
+        from mlct.generate.batch_plan import Sample
+        from mlct.generate.keep_going import names_an_end, takes_needed
+        from mlct.generate.long_motion import blend_frames
 
         if self.durations is None or not self.keep_going:
             return
@@ -495,34 +569,52 @@ class MotionGenerator:
         if not todo:
             return
         vectors = self.encode_text([out[i].text for i in todo]).float().cpu().numpy()
+        natural = [self.durations.clip_seconds(vector[None]) for vector in vectors]
         blend = blend_frames(fps)
-        for i, vector in zip(todo, vectors):
-            motion = out[i]
+        # every prompt's first takes in a few large batches (generate/batch_plan.py)
+        ahead = []
+        for i, seconds in zip(todo, natural):
+            needed = takes_needed(out[i].joints, frames[i], self.max_frames, seconds, blend,
+                                  self.skeleton)
+            if needed is not None:
+                ahead += [Sample(out[i].text, needed[1], (seeds[i] + k) % (MAX_SEED + 1))
+                          for k in range(needed[0])]
+        with self.samples_ahead(ahead, nfe, guidance, candidates):
+            for i, seconds in zip(todo, natural):
+                self._keep_going_one(out, i, frames[i], seconds, blend, nfe, seeds[i], guidance,
+                                     candidates)
 
-            def takes(count: int, take: int, text: str = motion.text, seed: int = seeds[i]
-                      ) -> list[np.ndarray]:
-                made = self.generate([text] * count, lengths=take, nfe=nfe,
-                                     seed=[(seed + k) % (MAX_SEED + 1) for k in range(count)],
-                                     guidance=guidance, split_actions=False,
-                                     candidates=candidates)
-                return [m.joints for m in made]
+    def _keep_going_one(self, out: list[GeneratedMotion | None], i: int, frames: int,
+                        natural_seconds: float, blend: int, nfe: int | None, seed: int,
+                        guidance: float | None, candidates: int) -> None:
+        """_keep_going for out[i]."""
+        from mlct.generate.keep_going import continue_gait
+        from mlct.generate.long_motion import LongMotion
 
-            kept = continue_gait(motion.joints, frames[i], self.max_frames,
-                                 self.durations.clip_seconds(vector[None]), blend,
-                                 self.skeleton, takes)
-            if kept is None:
-                if frames[i] > self.max_frames:  # no gait, or its takes fell short
-                    raise self._too_long(frames[i], text=motion.text)
-                continue  # as the model made it
-            _LOG.info("%r kept going: %d takes of %.1f s chained into %.1f s (--no-keep-going: "
-                      "as the model made it)", motion.text, len(kept.takes),
-                      kept.take_frames / fps, frames[i] / fps)
-            # a LongMotion, as a chain of prompts is: its seams and the takes as made; its
-            # features derived from the joints when read (generated.py)
-            out[i] = LongMotion(motion.text, None, kept.joints.astype(np.float32), fps,
-                                self.skeleton.name, seeds[i], seams=tuple(kept.seams),
-                                texts=(motion.text,) * len(kept.takes), blend=blend,
-                                segments=tuple(kept.takes))
+        fps = self.skeleton.fps
+        motion = out[i]
+
+        def takes(count: int, take: int) -> list[np.ndarray]:
+            made = self.generate([motion.text] * count, lengths=take, nfe=nfe,
+                                 seed=[(seed + k) % (MAX_SEED + 1) for k in range(count)],
+                                 guidance=guidance, split_actions=False, candidates=candidates)
+            return [m.joints for m in made]
+
+        kept = continue_gait(motion.joints, frames, self.max_frames, natural_seconds, blend,
+                             self.skeleton, takes)
+        if kept is None:
+            if frames > self.max_frames:  # no gait, or its takes fell short
+                raise self._too_long(frames, text=motion.text)
+            return  # as the model made it
+        _LOG.info("%r kept going: %d takes of %.1f s chained into %.1f s (--no-keep-going: "
+                  "as the model made it)", motion.text, len(kept.takes),
+                  kept.take_frames / fps, frames / fps)
+        # a LongMotion, as a chain of prompts is: its seams and the takes as made; its
+        # features derived from the joints when read (generated.py)
+        out[i] = LongMotion(motion.text, None, kept.joints.astype(np.float32), fps,
+                            self.skeleton.name, seed, seams=tuple(kept.seams),
+                            texts=(motion.text,) * len(kept.takes), blend=blend,
+                            segments=tuple(kept.takes))
 
     def _concurrent(self, text: str, body: str, arms: str, frames: int, nfe: int | None,
                     seed: int, guidance: float | None, candidates: int) -> GeneratedMotion:

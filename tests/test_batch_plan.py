@@ -1,0 +1,106 @@
+"""A list of prompts is sampled in a few large batches, whatever each prompt becomes
+(generate/batch_plan.py), and every motion is the one its prompt makes alone."""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import numpy as np
+import pytest
+
+import mlct
+from mlct.generate.batch_plan import Sample, planned_samples
+
+MIXED = ["a person walks forward, then waves with the right hand",  # a sequence
+         "a person walks forward while waving the left hand",  # a body and its arms
+         "a person jumps twice",  # plain
+         "someone squats, then claps, then bows"]  # a sequence of three
+MIXED_SECONDS = [7.0, 5.0, 4.0, 8.0]
+
+
+@pytest.fixture(scope="module")
+def generator():
+    return mlct.load(backend="torch")
+
+
+class Recorder:
+    """Wraps sample_best: the batch size of each call and every item's (row, frames, seed)."""
+
+    def __init__(self, generator) -> None:
+        self.generator, self.inner = generator, generator.sample_best
+        self.calls: list[int] = []
+        self.items: list[tuple[bytes, int, int]] = []
+
+    def __call__(self, cond, nfe, seeds, guidance, lengths, candidates):
+        self.calls.append(len(seeds))
+        self.items += [(row.float().numpy().tobytes(), int(n), int(s))
+                       for row, n, s in zip(cond, lengths, seeds)]
+        return self.inner(cond, nfe, seeds, guidance, lengths, candidates)
+
+    def __enter__(self) -> "Recorder":
+        self.generator.sample_best = self
+        return self
+
+    def __exit__(self, *exc) -> None:
+        del self.generator.sample_best  # the class's method again
+
+
+def made(generator, texts, seconds, seed, ahead: bool, **kwargs):
+    generator.make_ahead = ahead
+    try:
+        with Recorder(generator) as recorder:
+            out = generator.generate(texts, seconds=seconds, seed=seed, **kwargs)
+    finally:
+        generator.make_ahead = True
+    return out, recorder
+
+
+def test_a_mixed_list_is_sampled_in_one_batch_with_the_same_motions(generator):
+    out, ahead = made(generator, MIXED, MIXED_SECONDS, 3, True)
+    alone, before = made(generator, MIXED, MIXED_SECONDS, 3, False)
+    assert ahead.calls == [8]  # 2 parts + body and arms + 1 + 3 parts, one batch
+    assert len(before.calls) == 5  # one per prompt's path, the concurrent one two
+    assert Counter(ahead.items) == Counter(before.items)  # the same samples asked for
+    for a, b in zip(out, alone):
+        assert type(a) is type(b) and a.joints.shape == b.joints.shape
+        np.testing.assert_allclose(a.joints, b.joints, atol=1e-4)
+
+
+def test_the_plan_lists_what_the_paths_ask_for(generator):
+    fps = generator.skeleton.fps
+    frames = [int(round(s * fps)) for s in MIXED_SECONDS]
+    plan = planned_samples(generator, MIXED, frames, [3, 4, 5, 6], True)
+    texts = sorted({s.text for s in plan})
+    rows = dict(zip(texts, generator.encode_text(texts)))
+    _, recorder = made(generator, MIXED, MIXED_SECONDS, 3, False)
+    assert Counter((rows[s.text].float().numpy().tobytes(), s.frames, s.seed) for s in plan) \
+        == Counter(recorder.items)
+    # split_actions=False: one sample per prompt, as given
+    whole = planned_samples(generator, MIXED, frames, [3, 4, 5, 6], False)
+    assert whole == [Sample(t, n, s) for t, n, s in zip(MIXED, frames, [3, 4, 5, 6])]
+
+
+def test_gaits_that_keep_going_get_their_takes_in_one_batch(generator):
+    texts = ["a person jogs forward", "a person walks forward", "a person runs forward"]
+    out, ahead = made(generator, texts, 9.0, 0, True, candidates=1)
+    alone, before = made(generator, texts, 9.0, 0, False, candidates=1)
+    assert all(len(m.seams) >= 1 for m in out)  # each kept going
+    assert len(ahead.calls) == 2  # the prompts, then every prompt's takes
+    assert len(before.calls) == 4  # the prompts, then each prompt's takes
+    assert Counter(ahead.items) == Counter(before.items)
+    for a, b in zip(out, alone):
+        np.testing.assert_allclose(a.joints, b.joints, atol=1e-4)
+
+
+def test_an_unforeseen_sample_is_still_made(generator):
+    """A sample the memo does not hold (other settings than the plan's) is sampled where it is
+    asked for: best_features falls through to sample_best."""
+    from mlct.generate.batch_plan import SampleMemo
+
+    generator._nesting.memo = SampleMemo(generator.check_nfe(None), None, 1)
+    try:
+        out = generator.generate("a person jumps", seconds=3.0, seed=0, candidates=1)[0]
+    finally:
+        generator._nesting.memo = None
+    alone = generator.generate("a person jumps", seconds=3.0, seed=0, candidates=1)[0]
+    np.testing.assert_allclose(out.joints, alone.joints, atol=1e-5)
