@@ -156,6 +156,10 @@ class ConsistencyConfig(_Section):
     # Items of each batch decoded for it: decoding costs more than the denoiser's step, so a
     # random share of the batch carries the term (batches are shuffled: the first items).
     motion_items: int = Field(8, ge=1)
+    # Ours (0 = off): Gaussian noise added to each training text vector, its size relative to
+    # the vector's norm (0.5: cosine ~0.89 to the clean one). A paraphrase the model never
+    # saw lands near, not on, a training caption's vector; the noise trains the neighbourhood.
+    text_noise: float = Field(0.0, ge=0.0)
     huber_c: float = Field(0.001, gt=0.0)  # gamma of the pseudo-Huber metric
     target: Literal["ema", "online"] = "ema"  # EMA target network or online stop-gradient
     target_decay: float = Field(0.995, ge=0.0, lt=1.0)  # EMA rate of the target network

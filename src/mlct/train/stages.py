@@ -288,6 +288,15 @@ def load_frozen_autoencoder(path: Path, device: torch.device
     return model, norm.to(device), checkpoint.meta
 
 
+def noisy_text(cond: Tensor, scale: float, generator: torch.Generator | None = None) -> Tensor:
+    """(B, c) text vectors plus isotropic Gaussian noise whose expected norm is `scale` times
+    each vector's (consistency.text_noise; unchanged at 0)."""
+    if scale <= 0:
+        return cond
+    noise = torch.randn(cond.shape, generator=generator, device=cond.device, dtype=cond.dtype)
+    return cond + noise * (scale * cond.norm(dim=-1, keepdim=True) / cond.shape[-1] ** 0.5)
+
+
 class TextTable:
     """Frozen text embeddings of every caption a run sees, encoded once (through the disk cache)."""
 
@@ -389,7 +398,8 @@ class ConsistencyStage(LatentStage):
         c = self.config.consistency
         target = self.target.module if self.target is not None else self.online
         return consistency_training_loss(
-            model, target, self.latents(batch), self.text.of_batch(batch), self.text.null,
+            model, target, self.latents(batch),
+            noisy_text(self.text.of_batch(batch), c.text_noise, generator), self.text.null,
             self.schedule, self.grid, guidance=c.guidance, uncond_weight=c.uncond_weight,
             huber_c=c.huber_c, clamp=self.clamp, denoise_weight=c.denoise_weight,
             generator=generator, decode=self._decoder(batch) if c.motion_weight else None,
