@@ -104,3 +104,15 @@ def test_an_unforeseen_sample_is_still_made(generator):
         generator._nesting.memo = None
     alone = generator.generate("a person jumps", seconds=3.0, seed=0, candidates=1)[0]
     np.testing.assert_allclose(out.joints, alone.joints, atol=1e-5)
+
+
+def test_the_samples_are_made_a_few_dozen_latents_a_call_on_a_cpu(generator, monkeypatch):
+    """Past ~64 latents a call the CPU's time per motion grows (the cache), so the memo is
+    filled in calls of PREFETCH_LATENTS latents: here 16, two prompts of 8 candidates each."""
+    from mlct.generate import batch_plan
+
+    monkeypatch.setitem(batch_plan.PREFETCH_LATENTS, "cpu", 16)
+    out, ahead = made(generator, MIXED, MIXED_SECONDS, 3, True)
+    assert ahead.calls == [2, 2, 2, 2]
+    first, _ = made(generator, MIXED[:1], MIXED_SECONDS[:1], 3, True)
+    np.testing.assert_allclose(out[0].joints, first[0].joints, atol=1e-4)

@@ -34,11 +34,11 @@ from mlct.generate.prompts import clean_prompt
 if TYPE_CHECKING:
     from mlct.generate.pipeline import MotionGenerator
 
-# Samples made per sampler call when filling the memo: past ~64 motions the per-motion time is
-# flat (docs/performance.md, "Large batches go to torch"), and 256 x 8 candidates keeps the
-# latents' batch near 2,000.
-PREFETCH_BATCH = 256
-
+# Latents per sampler call when filling the memo (a sample is `candidates` latents). On a CPU
+# the time per motion is least near 64 and grows past a few hundred, where a batch's
+# activations leave the cache (docs/performance.md, "Throughput and memory": 335 motions/s at
+# 64, 284 at 512, 195 at 4,096). A GPU wants thousands (75,000 motions/s at 4,096 on an H200).
+PREFETCH_LATENTS = {"cpu": 64, "cuda": 4096}
 
 @dataclass(frozen=True)
 class Sample:
@@ -105,15 +105,17 @@ class SampleMemo:
 
 
 def fill(pipe: "MotionGenerator", memo: SampleMemo, samples: Sequence[Sample]) -> None:
-    """Make every sample not yet in the memo, PREFETCH_BATCH at a time, and keep them."""
+    """Make every sample not yet in the memo, PREFETCH_LATENTS latents a call, and keep them."""
     unique = list(dict.fromkeys(samples))
     if not unique:
         return
     texts = list(dict.fromkeys(s.text for s in unique))
     rows = dict(zip(texts, pipe.encode_text(texts)))
     todo = [s for s in unique if memo.get(rows[s.text], s.frames, s.seed) is None]
-    for start in range(0, len(todo), PREFETCH_BATCH):
-        chunk = todo[start:start + PREFETCH_BATCH]
+    latents = PREFETCH_LATENTS.get(torch.device(pipe.device).type, PREFETCH_LATENTS["cpu"])
+    per_call = max(1, latents // memo.candidates)
+    for start in range(0, len(todo), per_call):
+        chunk = todo[start:start + per_call]
         cond = torch.stack([rows[s.text] for s in chunk])
         made = pipe.sample_best(cond, memo.steps, [s.seed for s in chunk], memo.guidance,
                                 [s.frames for s in chunk], memo.candidates)
