@@ -174,8 +174,14 @@ def _knees_and_hips(skeleton: Skeleton) -> list[int]:
     return sorted(set(out))
 
 
-def _pose_distance(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.linalg.norm(a - b, axis=-1).mean())
+def _windows(x: np.ndarray, blend: int) -> np.ndarray:
+    """(L, J, 3) -> (L - blend + 1, blend, J, 3): every run of `blend` frames, as a view."""
+    return np.lib.stride_tricks.sliding_window_view(x, blend, axis=0).transpose(0, 3, 1, 2)
+
+
+def _pose_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Mean joint distance of (..., blend, J, 3) pose windows, broadcast: (...)."""
+    return np.linalg.norm(a - b, axis=-1).mean(axis=(-2, -1))
 
 
 @dataclass(frozen=True)
@@ -228,9 +234,13 @@ def keep_going(segments: Sequence[np.ndarray], frames: int, blend: int, skeleton
     stretches = [moving_stretch(seg, fps) for seg in segments]
 
     def match(tail: np.ndarray, k: int, starts: range) -> tuple[float, int]:
-        scored = [(_pose_distance(tail, local[k][s:s + blend]), s) for s in starts
-                  if s + blend <= len(local[k])]
-        return min(scored) if scored else (math.inf, starts[0])
+        """The start among `starts` whose blend window of take k is nearest `tail`."""
+        valid = range(starts[0], min(starts[-1] + 1, len(local[k]) - blend + 1))
+        if not valid:
+            return math.inf, starts[0]
+        distances = _pose_distances(_windows(local[k], blend)[valid[0]:valid[-1] + 1], tail)
+        best = int(np.argmin(distances))  # the first of equals, as the starts go up
+        return float(distances[best]), valid[best]
 
     # The first piece from the start; then middle pieces, each starting where its pose matches
     # the chain's last blend frames, until the last segment can finish the clip.
@@ -258,22 +268,26 @@ def keep_going(segments: Sequence[np.ndarray], frames: int, blend: int, skeleton
     chain = np.concatenate([local[p.segment][p.start:p.end - (blend if i < len(pieces) - 1
                                                                   else 0)]
                             for i, p in enumerate(pieces)])
-    best: tuple[float, list[_Piece], int, int] | None = None
     first_last = stretches[last][0]
     slack = max(1, min(int(MAX_WARP * frames), search))  # a stride's freedom is enough
-    for s in range(first_last, min(first_last + search, len(segments[last]) - blend - 1)):
-        exact = frames + blend - (len(segments[last]) - s)  # the c that needs no retiming
-        for c in range(max(blend + 1, exact - slack), min(length, exact + slack) + 1):
-            kept = _cut(pieces, c, blend)
-            if kept is None:
-                continue
-            score = (_pose_distance(chain[c - blend:c], local[last][s:s + blend])
-                     + WARP_COST * abs(c - exact) / frames)
-            if best is None or score < best[0]:
-                best = (score, kept, s, c)
-    if best is None:
+    starts = np.arange(first_last, min(first_last + search, len(segments[last]) - blend - 1))
+    if not len(starts):
         return None
-    _, kept, s, _ = best
+    exact = frames + blend - (len(segments[last]) - starts)  # (S,) the c needing no retiming
+    cuts = exact[:, None] + np.arange(-slack, slack + 1)[None]  # (S, W) c within the warp
+    allowed = (cuts >= blend + 1) & (cuts <= length)
+    kept_at = {int(c): _cut(pieces, int(c), blend) for c in np.unique(cuts[allowed])}
+    allowed &= np.vectorize(lambda c: kept_at.get(int(c)) is not None, otypes=[bool])(cuts)
+    if not allowed.any():
+        return None
+    # score[s, c]: the poses' disagreement over the blend plus the retiming's cost; the pair
+    # with the least, the first of equals in the order (s, then c) going up
+    at = np.where(allowed, cuts, blend + 1) - blend  # a harmless window where not allowed
+    score = (_pose_distances(_windows(chain, blend)[at],
+                             _windows(local[last], blend)[starts][:, None])
+             + WARP_COST * np.abs(cuts - exact[:, None]) / frames)
+    si, wi = np.unravel_index(int(np.argmin(np.where(allowed, score, np.inf))), score.shape)
+    kept, s = kept_at[int(cuts[si, wi])], int(starts[si])
     parts = [np.asarray(segments[p.segment])[p.start:p.end] for p in kept]
     parts.append(np.asarray(segments[last])[s:])
     joints, seams = chain_segments(parts, blend, skeleton)

@@ -126,7 +126,7 @@ export class KeepGoing {
     const legs = this.legs();
     const local = segments.map(({ joints, frames: n }) => decompose(joints, n, J, this.skeleton.face_joints).local
       .map((pose) => legs.map((j) => [pose[j * 3], pose[j * 3 + 1], pose[j * 3 + 2]])));
-    const distance = (a, b) => { // _pose_distance
+    const distance = (a, b) => { // _pose_distances
       let sum = 0;
       let count = 0;
       a.forEach((pose, t) => pose.forEach((p, j) => { sum += Math.hypot(p[0] - b[t][j][0], p[1] - b[t][j][1], p[2] - b[t][j][2]); count++; }));
