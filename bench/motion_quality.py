@@ -38,7 +38,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from collections import defaultdict
+from collections import Counter, defaultdict
 from pathlib import Path
 from typing import Any, Callable
 
@@ -162,8 +162,9 @@ def hand_written_sets() -> dict[str, list[dict[str, Any]]]:
 
 
 def prompt_passes(pipe: Any, items: list[dict[str, Any]], seconds: list[float],
-                  seeds: int) -> np.ndarray:
-    """How many of `seeds` samples of each hand-written prompt pass all its checks."""
+                  seeds: int, failed: list[Counter] | None = None) -> np.ndarray:
+    """How many of `seeds` samples of each hand-written prompt pass all its checks; with
+    `failed` (one Counter per prompt), how often each of its checks failed."""
     count = np.zeros(len(items), dtype=int)
     for seed in range(seeds):
         made = pipe.generate([p["text"] for p in items], seconds=seconds, seed=seed * 100_000)
@@ -171,6 +172,8 @@ def prompt_passes(pipe: Any, items: list[dict[str, Any]], seconds: list[float],
             _, results = judge_prompt(motion.joints, item["actions"],
                                       motion.joints.shape[0] / pipe.skeleton.fps)
             count[i] += all(ok for _, ok in results)
+            if failed is not None:
+                failed[i].update(name for name, ok in results if not ok)
     return count
 
 

@@ -7,12 +7,14 @@ bench/motion_quality.py's columns) and at the pipeline's default length (what a 
 gives none), the same seeds for every model, scored by the read-outs (motion_quality.judge_prompt).
 Prints per model and set: the pass rate at both lengths and, for the prompts that name a side or
 turn direction, that rate at 4 s; then, for --failures SET (default held-out 3), each prompt
-some model fails in some seed, with every model's pass counts.
+some model fails in some seed, with every model's pass counts and the checks that failed (how
+many seeds each, at 4 s and at the default length).
 """
 
 from __future__ import annotations
 
 import argparse
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -37,11 +39,14 @@ def main() -> None:
         results[name] = {}
         for set_name, items in sets.items():
             texts = [p["text"] for p in items]
-            at4 = prompt_passes(pipe, items, [SECONDS] * len(items), args.seeds)
-            auto = prompt_passes(pipe, items, pipe.default_seconds(texts), args.seeds)
+            failed4, failed_auto = [Counter() for _ in items], [Counter() for _ in items]
+            at4 = prompt_passes(pipe, items, [SECONDS] * len(items), args.seeds, failed4)
+            auto = prompt_passes(pipe, items, pipe.default_seconds(texts), args.seeds,
+                                 failed_auto)
             sided = np.array([any(k in a["params"] for a in p["actions"] for k in SIDE_KEYS)
                               for p in items])
-            results[name][set_name] = {"4 s": at4, "default": auto}
+            results[name][set_name] = {"4 s": at4, "default": auto, "failed 4 s": failed4,
+                                       "failed default": failed_auto}
             print(f"{name:40} {set_name:11} {at4.sum() / (len(items) * args.seeds):.3f} | "
                   f"{auto.sum() / (len(items) * args.seeds):.3f} | "
                   f"{at4[sided].sum() / max(1, sided.sum() * args.seeds):.3f} "
@@ -54,6 +59,14 @@ def main() -> None:
                       int(results[m][args.failures]["default"][i])) for m in args.models]
             if any(c != (args.seeds, args.seeds) for c in cells):
                 print("  " + " | ".join(f"{a}/{b}" for a, b in cells) + f"  {item['text']}")
+                for m in args.models:
+                    print(f"        {m}: 4 s {checks(results[m][args.failures]['failed 4 s'][i])}"
+                          f"; default {checks(results[m][args.failures]['failed default'][i])}")
+
+
+def checks(failed: Counter) -> str:
+    """'circle.heading 5, circle.path 3': each failed check and in how many seeds."""
+    return ", ".join(f"{name.split(':', 1)[-1]} {n}" for name, n in failed.most_common()) or "-"
 
 
 if __name__ == "__main__":

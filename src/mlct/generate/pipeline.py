@@ -303,7 +303,11 @@ class MotionGenerator:
         seed: an int s gives item i the seed s + i, a sequence one seed per item; either way an
         item's motion depends only on its text, length, nfe and seed, not on the rest of the
         batch (generate(["a", "b"], seed=0)[1] is generate("b", seed=1)[0], up to float
-        rounding of a different batch size). None is random; the seed used is recorded."""
+        rounding of a different batch size). None is random; the seed used is recorded.
+
+        A list is sampled in a few large batches whatever its prompts become (a sequence's
+        parts, a body and its arms, a gait's takes: generate/batch_plan.py), so pass many
+        prompts in one call rather than one call each."""
         with self.parts_of_a_whole():
             made = self._made(texts, lengths, seconds, nfe, seed, guidance, split_actions,
                               control, candidates)
