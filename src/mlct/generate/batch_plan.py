@@ -21,7 +21,7 @@ never change a motion beyond float rounding.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 import torch
@@ -30,9 +30,6 @@ from torch import Tensor
 from mlct.generate.compose import split_actions as split_actions_of
 from mlct.generate.compose import split_concurrent
 from mlct.generate.prompts import clean_prompt
-
-if TYPE_CHECKING:
-    from mlct.generate.pipeline import MotionGenerator
 
 # Latents per sampler call when filling the memo (a sample is `candidates` latents). On a CPU
 # the time per motion is least near 64 and grows past a few hundred, where a batch's
@@ -50,16 +47,16 @@ class Sample:
     seed: int
 
 
-def planned_samples(pipe: "MotionGenerator", texts: Sequence[str], frames: Sequence[int],
+def planned_samples(pipe: Any, texts: Sequence[str], frames: Sequence[int],
                     seeds: Sequence[int], split_actions: bool) -> list[Sample]:
     """The samples generate(texts, lengths=frames, seed=seeds, split_actions=...) will ask the
     model for, as far as the prompts alone decide them (keep-going takes depend on the first
-    sample and are not listed). Mirrors MotionGenerator._made and generate_long."""
+    sample and are not listed). Mirrors MotionGenerator._made and generate_long; `pipe` is
+    the MotionGenerator (not imported: it imports this module)."""
     from mlct.generate.long_motion import blend_frames
-    from mlct.generate.pipeline import MIN_PART_SECONDS
 
     blend = blend_frames(pipe.skeleton.fps)
-    min_part = pipe.frames_for(MIN_PART_SECONDS)
+    min_part = pipe.min_part_frames()
     out: list[Sample] = []
     for text, n, seed in zip(texts, frames, seeds):
         if split_actions and (pair := split_concurrent(text)) is not None:
@@ -104,7 +101,7 @@ class SampleMemo:
         return len(self._made)
 
 
-def fill(pipe: "MotionGenerator", memo: SampleMemo, samples: Sequence[Sample]) -> None:
+def fill(pipe: Any, memo: SampleMemo, samples: Sequence[Sample]) -> None:
     """Make every sample not yet in the memo, PREFETCH_LATENTS latents a call, and keep them."""
     unique = list(dict.fromkeys(samples))
     if not unique:

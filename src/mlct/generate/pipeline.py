@@ -412,7 +412,7 @@ class MotionGenerator:
         # only such a prompt may be a gait that keeps going (_keep_going)
         single = {i for i, t in enumerate(texts)
                   if len(parts_of[i]) == 1 and split_concurrent(t) is None}
-        min_part = self.frames_for(MIN_PART_SECONDS)
+        min_part = self.min_part_frames()
         whole = [i for i, (parts, n) in enumerate(zip(plans, frames)) if out[i] is None
                  and (len(parts) == 1 or n // len(parts) < min_part)]
         for i in whole:  # past the window only a one-action gait goes on (_keep_going)
@@ -540,6 +540,11 @@ class MotionGenerator:
         made = generate_long(self, parts, [n / fps for n in self.part_frames(parts, frames)],
                              nfe=nfe, seed=seed, guidance=guidance, candidates=candidates)
         return made.renamed(text)
+
+    def min_part_frames(self) -> int:
+        """The fewest frames a sequence's part may get (MIN_PART_SECONDS); a prompt whose parts
+        would get fewer is made whole."""
+        return self.frames_for(MIN_PART_SECONDS)
 
     def part_frames(self, parts: Sequence[str], frames: int) -> list[int]:
         """Each part's frames of a sequence of `frames`: its share by how long its action takes
