@@ -160,6 +160,10 @@ class ConsistencyConfig(_Section):
     # the vector's norm (0.5: cosine ~0.89 to the clean one). A paraphrase the model never
     # saw lands near, not on, a training caption's vector; the noise trains the neighbourhood.
     text_noise: float = Field(0.0, ge=0.0)
+    # Its shape: "isotropic" (the size above is a share of each vector's norm) or "captions":
+    # drawn from how one motion's captions differ from their mean (the size is a multiple of
+    # that spread), so it moves a vector as a rephrasing does, not across an angle or a count.
+    text_noise_shape: Literal["isotropic", "captions"] = "isotropic"
     huber_c: float = Field(0.001, gt=0.0)  # gamma of the pseudo-Huber metric
     target: Literal["ema", "online"] = "ema"  # EMA target network or online stop-gradient
     target_decay: float = Field(0.995, ge=0.0, lt=1.0)  # EMA rate of the target network

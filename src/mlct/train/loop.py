@@ -167,6 +167,9 @@ def _build_stage(stage: str, config: Config, run: Path, data: Text2MotionDataset
                                         EmbeddingCache(cache_dir))
             table = TextTable(encoder, captions, info.device)
         distributed.barrier(info)
+    if config.consistency.text_noise > 0 and config.consistency.text_noise_shape == "captions":
+        table.residuals = table.caption_residuals(
+            [[record.caption for record in item.captions] for item in data.items])
     path = find_autoencoder(run, ae_path)
     cls = ConsistencyStage if stage == "cm" else DiffusionStage
     built = cls(config, info.device, path, table)

@@ -288,13 +288,23 @@ def load_frozen_autoencoder(path: Path, device: torch.device
     return model, norm.to(device), checkpoint.meta
 
 
-def noisy_text(cond: Tensor, scale: float, generator: torch.Generator | None = None) -> Tensor:
-    """(B, c) text vectors plus isotropic Gaussian noise whose expected norm is `scale` times
-    each vector's (consistency.text_noise; unchanged at 0)."""
+def noisy_text(cond: Tensor, scale: float, generator: torch.Generator | None = None,
+               residuals: Tensor | None = None, draws: int = 8) -> Tensor:
+    """(B, c) text vectors plus Gaussian noise (consistency.text_noise; unchanged at 0).
+    Without `residuals`: isotropic, its expected norm `scale` times each vector's. With
+    `residuals` (M, c), how captions of one motion differ from their mean: a random Gaussian
+    mix of `draws` of them, whose covariance is theirs, times `scale`."""
     if scale <= 0:
         return cond
-    noise = torch.randn(cond.shape, generator=generator, device=cond.device, dtype=cond.dtype)
-    return cond + noise * (scale * cond.norm(dim=-1, keepdim=True) / cond.shape[-1] ** 0.5)
+    if residuals is None:
+        noise = torch.randn(cond.shape, generator=generator, device=cond.device, dtype=cond.dtype)
+        return cond + noise * (scale * cond.norm(dim=-1, keepdim=True) / cond.shape[-1] ** 0.5)
+    rows = torch.randint(0, residuals.shape[0], (cond.shape[0], draws), generator=generator,
+                         device=residuals.device)
+    weights = torch.randn((cond.shape[0], draws, 1), generator=generator,
+                          device=residuals.device)
+    noise = (weights * residuals[rows]).sum(dim=1) / draws ** 0.5  # (B, c)
+    return cond + scale * noise.to(cond.dtype)
 
 
 class TextTable:
@@ -307,6 +317,7 @@ class TextTable:
         self.index = {caption: row for row, caption in enumerate(unique)}
         self.table = embeddings.float().to(device)  # (N, c)
         self.null = encoder.null_embedding().float().to(device)  # (c,) the embedding of ""
+        self.residuals: Tensor | None = None  # caption_residuals, for text_noise_shape=captions
 
     def rows(self, captions: list[str]) -> Tensor:
         """(B,) long, on the host: each caption's row of the table."""
@@ -317,6 +328,21 @@ class TextTable:
 
     def __call__(self, captions: list[str]) -> Tensor:
         return self.table[self.rows(captions).to(self.table.device)]  # (B, c)
+
+    def caption_residuals(self, groups: list[list[str]]) -> Tensor:
+        """(M, c): each caption's embedding minus the mean of its group's (the captions of one
+        motion), for the groups of two or more; the spread a rephrasing moves a vector by."""
+        out = []
+        for group in groups:
+            rows = sorted({self.index[c] for c in group if c in self.index})
+            if len(rows) >= 2:
+                vectors = self.table[rows]
+                # unbiased: a group of n has n - 1 degrees of freedom around its own mean
+                out.append((vectors - vectors.mean(dim=0)) * (len(rows) / (len(rows) - 1)) ** 0.5)
+        if not out:
+            raise MlctError("consistency.text_noise_shape=captions needs motions with two or "
+                            "more captions")
+        return torch.cat(out)
 
     def of_batch(self, batch: dict[str, Any]) -> Tensor:
         """The batch's embeddings: from its rows when it carries them (a fixed-shape batch,
@@ -399,7 +425,8 @@ class ConsistencyStage(LatentStage):
         target = self.target.module if self.target is not None else self.online
         return consistency_training_loss(
             model, target, self.latents(batch),
-            noisy_text(self.text.of_batch(batch), c.text_noise, generator), self.text.null,
+            noisy_text(self.text.of_batch(batch), c.text_noise, generator,
+                       self.text.residuals), self.text.null,
             self.schedule, self.grid, guidance=c.guidance, uncond_weight=c.uncond_weight,
             huber_c=c.huber_c, clamp=self.clamp, denoise_weight=c.denoise_weight,
             generator=generator, decode=self._decoder(batch) if c.motion_weight else None,
