@@ -261,8 +261,8 @@ class MotionGenerator:
         return found  # type: ignore[return-value]
 
     def sample_best(self, cond: Tensor, nfe: int | None, seeds: Sequence[int],
-                      guidance: float | None, lengths: Sequence[int], candidates: int
-                      ) -> list[np.ndarray]:
+                    guidance: float | None, lengths: Sequence[int], candidates: int
+                    ) -> list[np.ndarray]:
         """sample_features, each prompt the best of `candidates` latents by the critic: the
         first candidate of a seed is the plain sample of that seed, the others have seeds
         derived from it, so a motion is replayed from (text, length, nfe, seed, candidates).
@@ -363,8 +363,8 @@ class MotionGenerator:
         sample; the paths then read them (best_features)."""
         from mlct.generate.batch_plan import planned_samples
 
-        if getattr(self._nesting, "memo", None) is not None:  # an inner call: the outer's
-            yield
+        if not self.make_ahead or getattr(self._nesting, "memo", None) is not None:
+            yield  # one path at a time, or an inner call (the outer call made its samples)
             return
         planned = planned_samples(self, texts, frames, seeds, split_actions)
         if [s.text for s in planned] == list(texts):  # one sample each: one batch already
