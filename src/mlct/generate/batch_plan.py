@@ -5,12 +5,12 @@ sequence ("walks forward, then waves") one per action (long_motion.generate_long
 action done during another ("walks while waving") a body and its arms (pipeline._concurrent);
 a gait asked for past its natural length several takes (keep_going). Those paths call
 generate() again, one prompt at a time, so a list of 64 sequences sampled 64 small batches
-(25 motions/s at batch 64 against ~150 for plain prompts; bench/batched_prompts.py).
+(29 motions/s against 177 for 64 plain prompts, torch, 2 threads; bench/batched_prompts.py).
 
 Each sample depends only on its (text, length, seed, nfe, guidance, candidates): every item
 draws its noise from its own seed (pipeline.generators_for), so it does not matter which batch
-it is made in. So the outermost generate() first lists the samples its prompts will ask for
-(`planned_samples`, the same decisions as MotionGenerator._made in the same order), makes
+it is made in. So the outermost generate() of a list first lists the samples its prompts will
+ask for (`planned_samples`, the same decisions as MotionGenerator._made in the same order), makes
 them all in a few large batches, and keeps them in a `SampleMemo` that best_features reads
 before it samples. The per-prompt paths then run as before and find their samples made. A
 sample the plan did not foresee (a keep-going take; `pipeline._keep_going` asks for those in
@@ -36,6 +36,7 @@ from mlct.generate.prompts import clean_prompt
 # activations leave the cache (docs/performance.md, "Throughput and memory": 335 motions/s at
 # 64, 284 at 512, 195 at 4,096). A GPU wants thousands (75,000 motions/s at 4,096 on an H200).
 PREFETCH_LATENTS = {"cpu": 64, "cuda": 4096}
+
 
 @dataclass(frozen=True)
 class Sample:
@@ -97,9 +98,6 @@ class SampleMemo:
     def put(self, row: Tensor, frames: int, seed: int, features: np.ndarray) -> None:
         self._made[self._key(row, frames, seed)] = features
 
-    def __len__(self) -> int:
-        return len(self._made)
-
 
 def fill(pipe: Any, memo: SampleMemo, samples: Sequence[Sample]) -> None:
     """Make every sample not yet in the memo, PREFETCH_LATENTS latents a call, and keep them."""
@@ -118,4 +116,3 @@ def fill(pipe: Any, memo: SampleMemo, samples: Sequence[Sample]) -> None:
                                 [s.frames for s in chunk], memo.candidates)
         for s, feats in zip(chunk, made):
             memo.put(rows[s.text], s.frames, s.seed, feats)
-

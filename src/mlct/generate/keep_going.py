@@ -277,7 +277,7 @@ def keep_going(segments: Sequence[np.ndarray], frames: int, blend: int, skeleton
     cuts = exact[:, None] + np.arange(-slack, slack + 1)[None]  # (S, W) c within the warp
     allowed = (cuts >= blend + 1) & (cuts <= length)
     kept_at = {int(c): _cut(pieces, int(c), blend) for c in np.unique(cuts[allowed])}
-    allowed &= np.vectorize(lambda c: kept_at.get(int(c)) is not None, otypes=[bool])(cuts)
+    allowed &= np.isin(cuts, [c for c, kept in kept_at.items() if kept is not None])
     if not allowed.any():
         return None
     # score[s, c]: the poses' disagreement over the blend plus the retiming's cost; the pair

@@ -363,8 +363,11 @@ class MotionGenerator:
         sample; the paths then read them (best_features)."""
         from mlct.generate.batch_plan import planned_samples
 
-        if not self.make_ahead or getattr(self._nesting, "memo", None) is not None:
-            yield  # one path at a time, or an inner call (the outer call made its samples)
+        # One prompt's path already makes its own samples in one call (a sequence's parts,
+        # a gait's takes), so only a list is planned: a batch of 1 pays nothing for it.
+        if (not self.make_ahead or len(texts) < 2
+                or getattr(self._nesting, "memo", None) is not None):
+            yield  # one path at a time, one prompt, or an inner call (the outer made them)
             return
         planned = planned_samples(self, texts, frames, seeds, split_actions)
         if [s.text for s in planned] == list(texts):  # one sample each: one batch already
