@@ -251,8 +251,13 @@ def part_costs(gen: Any) -> dict[str, dict[str, float]]:
     def linear_flops(x: Any, w: Any, *args: Any, out_shape: Any = None, **kwargs: Any) -> int:
         return 2 * math.prod(out_shape) * x[-1]  # (..., K) x (N, K)^T
 
-    # the packed products of mlct.nn.inference are an op the counter does not know
-    mapping = {torch.ops.mkldnn._linear_pointwise: linear_flops}
+    def conv_flops(x: Any, w: Any, *args: Any, out_shape: Any = None, **kwargs: Any) -> int:
+        return 2 * math.prod(out_shape) * math.prod(w[1:])  # w: (C_out, C_in / groups, kh, kw)
+
+    # the packed products and fused convolutions of mlct.nn.inference are ops the counter does
+    # not know
+    mapping = {torch.ops.mkldnn._linear_pointwise: linear_flops,
+               torch.ops.mkldnn._convolution_pointwise: conv_flops}
 
     def flops(fn: Callable[[], Any]) -> float:
         with FlopCounterMode(display=False, custom_mapping=mapping) as counter, torch.no_grad():

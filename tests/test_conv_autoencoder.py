@@ -124,6 +124,13 @@ def test_arm_tokens_encode_and_decode_the_arms_alone() -> None:
         changed = (ae.decode(other, LENGTHS) - out).abs().amax(dim=(0, 1))
         assert changed[body].max() == 0 and changed[columns].max() > 0
         assert torch.all(out[~lengths_to_mask(LENGTHS, 60)] == 0)
+        # each decoder's features land in their own columns, in order
+        body_out = ae._decode_part(z[:, :2], ae.from_tokens, ae.decoder).transpose(1, 2)[:, :60]
+        arm_out = ae._decode_part(z[:, 2:], ae.arm_from_tokens,
+                                  ae.arm_decoder).transpose(1, 2)[:, :60]
+        valid = lengths_to_mask(LENGTHS, 60)
+        torch.testing.assert_close(out[..., body][valid], body_out[valid])
+        torch.testing.assert_close(out[..., columns][valid], arm_out[valid])
     with pytest.raises(ValueError, match="arm_tokens"):
         ConvMotionAutoencoder(263, n_tokens=2, arm_tokens=2, arm_columns=columns)
     with pytest.raises(ValueError, match="VAE"):

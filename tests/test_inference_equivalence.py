@@ -16,7 +16,8 @@ from mlct.generate.bundle import read_bundle
 from mlct.errors import MlctError
 from mlct.nn.build import build_autoencoder, build_denoiser
 from mlct.motion.features import recover_from_ric
-from mlct.nn.inference import FastEncoderLayer, FastLinear, for_inference
+from mlct.nn.inference import (ChannelsLastConvs, FastEncoderLayer, FastLinear,
+                                for_inference)
 from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
 from mlct.io import strip_prefix
 
@@ -154,3 +155,52 @@ def test_the_condition_cache_computes_the_terms_once_for_the_calls_given_it(bund
     torch.testing.assert_close(mixed, other_t)
     torch.testing.assert_close(clone, want[0])
     torch.testing.assert_close(after, want[0])
+
+
+def _conv_chains() -> dict[str, nn.Sequential]:
+    """The conv autoencoder's stacks in small: a decoder's (nearest upsampling, kernel-3 convs,
+    GELUs, a last conv without a GELU) and an encoder's (stride-2 kernel-4 convs), plus a tanh
+    GELU and a conv without a bias."""
+    torch.manual_seed(0)
+    return {
+        "decoder": nn.Sequential(nn.Upsample(scale_factor=2, mode="nearest"),
+                                 nn.Conv1d(16, 16, 3, padding=1), nn.GELU(),
+                                 nn.Conv1d(16, 16, 3, padding=1), nn.GELU(),
+                                 nn.Conv1d(16, 7, 3, padding=1)),
+        "encoder": nn.Sequential(nn.Conv1d(16, 16, 3, padding=1), nn.GELU(),
+                                 nn.Conv1d(16, 16, 4, stride=2, padding=1), nn.GELU(),
+                                 nn.Conv1d(16, 16, 3, padding=1), nn.GELU()),
+        "odd": nn.Sequential(nn.GELU(), nn.Conv1d(16, 16, 3, padding=2, dilation=2, bias=False),
+                             nn.GELU(approximate="tanh")),
+    }
+
+
+@pytest.mark.parametrize("name", ["decoder", "encoder", "odd"])
+def test_channels_last_convs_are_the_sequential(name):
+    chain = _conv_chains()[name].eval()
+    fast = ChannelsLastConvs(chain, torch.float32)
+    x = torch.randn(3, 16, 24)
+    with torch.no_grad():
+        want, got = chain(x), fast(x)
+    torch.testing.assert_close(got, want, atol=1e-5, rtol=1e-5)
+    # the frames come out channels-last: their (B, T, C) view is the memory as laid out
+    assert got.transpose(1, 2).is_contiguous()
+    half = ChannelsLastConvs(chain, torch.bfloat16)
+    with torch.no_grad():
+        out = half(x)
+    assert out.dtype == torch.float32
+    torch.testing.assert_close(out, want, atol=0.05, rtol=0.05)
+
+
+def test_for_inference_swaps_conv_stacks_only_for_the_cpu_kernels():
+    """prepack=False (what the ONNX export passes) keeps the Conv1d layers for the exporter."""
+    chains = _conv_chains()
+    net = nn.ModuleDict({"dec": chains["decoder"], "other": nn.Sequential(nn.Conv1d(4, 4, 3),
+                                                                           nn.ReLU())})
+    plain = for_inference(copy.deepcopy(net), prepack=False)
+    assert isinstance(plain["dec"], nn.Sequential) and isinstance(plain["dec"][1], nn.Conv1d)
+    fast = for_inference(copy.deepcopy(net))
+    assert isinstance(fast["dec"], ChannelsLastConvs)
+    assert isinstance(fast["other"], nn.Sequential)  # a ReLU: not a stack it can run
+    with pytest.raises(ValueError, match="ChannelsLastConvs takes"):
+        ChannelsLastConvs(net["other"], torch.float32)

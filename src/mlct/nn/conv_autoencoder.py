@@ -148,9 +148,18 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         self.body_columns, self.arm_columns = body, arm
         if arm_tokens:  # index tensors built once, not per call; not part of the weights
             self.register_buffer("arm_index", torch.tensor(arm), persistent=False)
-            # where each feature sits in cat(body, arm): the decoders' outputs put back in order
-            order = torch.argsort(torch.tensor(body + arm))
-            self.register_buffer("feature_order", order, persistent=False)
+        # the decoders' outputs put back in feature order: runs (part, start, stop) of each
+        # part's columns, in order; slices joined once are far cheaper than a gather along the
+        # features (13 runs for the HumanML3D arms: 35 ms against ~5 for 64 clips on a thread)
+        source = {f: (0, i) for i, f in enumerate(body)} | {f: (1, i) for i, f in enumerate(arm)}
+        self.feature_runs: list[tuple[int, int, int]] = []
+        for f in range(feature_dim):
+            part, i = source[f]
+            last = self.feature_runs[-1] if self.feature_runs else None
+            if last and last[0] == part and last[2] == i:
+                self.feature_runs[-1] = (part, last[1], i + 1)
+            else:
+                self.feature_runs.append((part, i, i + 1))
         body_tokens = n_tokens - arm_tokens
         n_enc = 2 * n_tokens if latent_type == "vae" else body_tokens
 
@@ -213,14 +222,17 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         self._check_latent(z)
         t = int(lengths.max()) if max_len is None else max_len
         self._check_lengths(lengths, t)
+        # (B, T, F) views of the stacks' (B, F, coarse * 8): joined and ordered along the last
+        # axis, which is the memory's fastest one when the stacks run channels-last (inference)
         if not self.arm_tokens:
-            out = self._decode_part(z, self.from_tokens, self.decoder)  # (B, D, coarse * 8)
+            out = self._decode_part(z, self.from_tokens, self.decoder).transpose(1, 2)
         else:
             k = self.n_tokens - self.arm_tokens
-            out = torch.cat([self._decode_part(z[:, :k], self.from_tokens, self.decoder),
-                             self._decode_part(z[:, k:], self.arm_from_tokens, self.arm_decoder)],
-                            dim=1).index_select(1, self.feature_order)  # features in order
-        out = out[:, :, :t].transpose(1, 2)  # (B, T, D)
+            parts = (self._decode_part(z[:, :k], self.from_tokens, self.decoder).transpose(1, 2),
+                     self._decode_part(z[:, k:], self.arm_from_tokens,
+                                       self.arm_decoder).transpose(1, 2))
+            out = torch.cat([parts[p][..., a:b] for p, a, b in self.feature_runs], dim=2)
+        out = out[:, :t]  # (B, T, D)
         valid = lengths_to_mask(lengths.to(z.device), t)  # (B, T)
         return out.masked_fill(~valid.unsqueeze(-1), 0.0)  # padded frames exactly 0
 
