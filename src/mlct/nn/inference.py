@@ -123,7 +123,8 @@ class ChannelsLastConvs(nn.Module):
     channels-last once, as (B, C, 1, T), and every layer runs on that layout: a convolution of
     height 1 with the GELU after it fused in (oneDNN's post-op), a nearest upsampling along T.
     The output is (B, C, T) with channels-last strides, which a caller reads as any (B, C, T)
-    tensor and transposes to (B, T, C) for free. Off the CPU: the layers as they are."""
+    tensor and transposes to (B, T, C) for free. Off the CPU, or where a gradient must flow
+    back through it: the layers as they are."""
 
     def __init__(self, chain: nn.Sequential, dtype: torch.dtype) -> None:
         super().__init__()
@@ -157,7 +158,9 @@ class ChannelsLastConvs(nn.Module):
 
     def forward(self, x: Tensor) -> Tensor:
         h = x.to(self.weights[0].dtype)
-        cpu = x.device.type == "cpu"
+        # oneDNN's fused op has no backward: a gradient through the stack (decoder guidance,
+        # control/) takes the layers as they are
+        cpu = x.device.type == "cpu" and not (x.requires_grad and torch.is_grad_enabled())
         if cpu:
             if self._cl is None:
                 self._cl = [w.unsqueeze(2).contiguous(memory_format=torch.channels_last)
@@ -218,10 +221,12 @@ def is_conv_chain(chain: nn.Module) -> bool:
 
 
 def for_inference(module: nn.Module, dtype: str | torch.dtype = "float32",
-                  prepack: bool = True) -> nn.Module:
-    """Swap `module`'s encoder layers and linears for the fast ones, in place; returns it, in
-    eval mode without gradients. bfloat16 converts the swapped weights once. Call it after
-    moving the module to its device; prepack=False keeps plain products (for comparisons)."""
+                  prepack: bool = True, channels_last: bool = True) -> nn.Module:
+    """Swap `module`'s encoder layers, linears and conv stacks for the fast ones, in place;
+    returns it, in eval mode without gradients. bfloat16 converts the swapped weights once. Call
+    it after moving the module to its device; prepack=False keeps plain products and the
+    Conv1d layers (for comparisons and the ONNX export), channels_last=False the Conv1d layers
+    alone (bench/decoder_layout.py)."""
     dt = weight_dtype(dtype)
     module.eval().requires_grad_(False)
     for name, child in module.named_children():
@@ -229,8 +234,8 @@ def for_inference(module: nn.Module, dtype: str | torch.dtype = "float32",
             setattr(module, name, FastEncoderLayer(child, dt, prepack))
         elif isinstance(child, nn.Linear):
             setattr(module, name, FastLinear(child.weight, child.bias, dt, prepack))
-        elif prepack and is_conv_chain(child):
+        elif prepack and channels_last and is_conv_chain(child):
             setattr(module, name, ChannelsLastConvs(child, dt))
         else:
-            for_inference(child, dt, prepack)
+            for_inference(child, dt, prepack, channels_last)
     return module
