@@ -11,11 +11,14 @@ from mlct.nn.dropout import CheapDropout, keep_mask, use_cheap_dropout
 
 def test_the_mask_drops_at_the_rate_and_rescales_the_kept():
     torch.manual_seed(0)
-    mask = keep_mask(torch.Size([64, 8, 1024]), 0.1)
-    dropped = (mask == 0).float().mean().item()
+    keep = keep_mask(torch.Size([64, 8, 1024]), 0.1)
+    assert keep.dtype == torch.bool and keep.shape == (64, 8, 1024)
+    dropped = 1.0 - keep.float().mean().item()
     assert abs(dropped - 0.1) < 0.002  # 524,288 draws: the standard error is 0.0004
-    assert torch.all((mask == 0) | torch.isclose(mask, torch.tensor(1 / 0.9)))
-    assert abs(mask.mean().item() - 1.0) < 0.003  # the expectation is kept
+    x = torch.ones(64, 8, 1024)
+    y = CheapDropout(0.1).train()(x)
+    assert torch.all((y == 0) | torch.isclose(y, torch.tensor(1 / 0.9)))
+    assert abs(y.mean().item() - 1.0) < 0.003  # the expectation is kept
 
 
 def test_a_seed_repeats_the_masks_and_another_changes_them():
@@ -40,6 +43,8 @@ def test_the_module_trains_like_dropout_and_is_the_identity_in_eval():
     assert torch.equal(CheapDropout(0.0).train()(x), x)
     bf = layer.train()(x.detach().bfloat16())
     assert bf.dtype == torch.bfloat16
+    kept_bf = bf != 0  # the scale applied in bfloat16 arithmetic, rounded per element
+    torch.testing.assert_close(bf[kept_bf], (x.detach().bfloat16() * 2)[kept_bf])
     with pytest.raises(ValueError, match="dropout probability"):
         CheapDropout(1.0)
 

@@ -7,8 +7,7 @@ on a 2-core EPYC (docs/performance.md):
   (packed once, as torch.compile's CPU freezing does) the product chain of the paper-size
   denoiser runs 1.8x faster in fp32 and 3x faster with bfloat16 weights;
 - PyTorch's fused encoder-layer kernel is slower than scaled-dot-product attention plus plain
-  products when a padding mask is given (the decoder's case).
-
+  products when a padding mask is given (the decoder's case);
 - a Conv1d over (B, C, T) in PyTorch's default layout runs at half the GEMM peak on oneDNN;
   the same convolution over channels-last frames (C the fastest axis) runs at the peak
   (a 128 -> 128, kernel-3 conv of 64 x 200 frames, one thread of this repository's Intel host:
