@@ -20,7 +20,9 @@
 # steps with short, bare-verb captions added (`mlct data rephrase --vocabulary short`, 52 min),
 # then 3,000 with colloquial ones, three times with three seeds (42-45 min each, one core each),
 # the three runs averaged in weight space and mixed 0.7 with the model before.
-# About 13.5 h in all on a free machine (issue 14 asks for 3 h: not met).
+# About 13.5 h in all on a free machine (issue 14 asks for 3 h: not met), timed before the CPU
+# trainer's cheaper dropout masks and fused AdamW (2026-11-28: a stage-2 step 1.15-1.29x faster,
+# docs/training.md, "Dropout's random numbers on the CPU"); the whole has not been re-timed.
 # Resumable: run it
 # again with the same WORK_DIR after an interruption and each stage continues from its last
 # checkpoint. The result replaces src/mlct/assets/model (float16 weights). CM_SEED (default 0)
