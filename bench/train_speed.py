@@ -29,6 +29,7 @@ def _run_one(preset: str, stage: str, steps: int, device: str, precision: str) -
     from mlct.diffusion.parameterization import ConsistencyFunction
     from mlct.diffusion.schedule import karras_time_grid
     from mlct.nn.build import build_autoencoder, build_denoiser
+    from mlct.train.loop import training_optimizer
     from mlct.train.stages import AutoencoderStage, schedule_of
 
     torch.manual_seed(0)
@@ -75,7 +76,7 @@ def _run_one(preset: str, stage: str, steps: int, device: str, precision: str) -
                     x0 = ae.encode(motion, lengths).z
                 return diffusion_training_loss(model, x0, cond, null, schedule)["loss"]
         assert (n, d) == ae.latent_shape
-    optimizer = torch.optim.AdamW(model.parameters(), lr=1e-4)
+    optimizer = training_optimizer(model, 1e-4, 0.0, dev)  # the trainer's (CPU: cheaper kernels)
     use_bf16 = precision == "bf16" or (precision == "auto" and dev.type == "cuda")
 
     def one_step():

@@ -378,6 +378,20 @@ def _is_autoencoder_run(path: Path) -> bool:
         (path / WEIGHTS).is_file() and (path / STATE).is_file())
 
 
+def training_optimizer(model: torch.nn.Module, lr: float, weight_decay: float,
+                       device: torch.device, capturable: bool = False) -> torch.optim.AdamW:
+    """The trainer's AdamW for `model`, and on the CPU its cheaper kernels: the dropout masks'
+    random numbers from PCG64 (nn/dropout.py; the same rate, a quarter the time) and the fused
+    AdamW (one pass over all parameters instead of a dozen small ops per tensor; docs/training.md,
+    "Dropout's random numbers on the CPU"). capturable: AdamW's step count on the device, which
+    a CUDA graph needs. bench/train_speed.py times the step with the same choices."""
+    cpu = device.type == "cpu"
+    if cpu:
+        use_cheap_dropout(model)
+    return torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=weight_decay,
+                             capturable=capturable, fused=True if cpu else None)
+
+
 def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoint: Any,
            info: distributed.DistInfo, ae_path: str | Path | None,
            progress: bool, stop_at: int | None,
@@ -424,14 +438,7 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
     graphed = tc.cuda_graph and info.device.type == "cuda"
     if tc.cuda_graph:
         _check_capturable(config, stage_name, info)
-    cpu = info.device.type == "cpu"
-    if cpu:  # the dropout masks' random numbers from PCG64: the same rate, a quarter the time
-        use_cheap_dropout(model)
-    # capturable: AdamW's step count on the device, which a CUDA graph needs; on the CPU the
-    # fused kernel: one pass over all parameters instead of a dozen small ops per tensor
-    # (docs/training.md, "Dropout's random numbers on the CPU")
-    optimizer = torch.optim.AdamW(model.parameters(), lr=tc.lr, weight_decay=tc.weight_decay,
-                                  capturable=graphed, fused=True if cpu else None)
+    optimizer = training_optimizer(model, tc.lr, tc.weight_decay, info.device, graphed)
     scheduler = torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, T_max=tc.max_steps,
                                                            eta_min=tc.lr_min)
     step = 0
