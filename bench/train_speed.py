@@ -19,9 +19,17 @@ import resource
 import subprocess
 import sys
 import time
+from collections.abc import Callable
+from typing import Any
 
 
-def _run_one(preset: str, stage: str, steps: int, device: str, precision: str) -> dict:
+def build_step(preset: str, stage: str, device: str, precision: str,
+               cheap_dropout: bool | None = None, fused_adamw: bool | None = None
+               ) -> tuple[Callable[[], None], Any, int, bool]:
+    """(one training step, the trained module, batch size, bf16 autocast?) of a stage at a
+    preset's sizes, on synthetic batches of the real shapes. The optimizer and CPU kernels are
+    the trainer's (train/loop.py prepare_training) unless cheap_dropout / fused_adamw name a
+    variant to compare (bench/train_cpu_kernels.py)."""
     import torch
 
     from mlct.config import load_config
@@ -29,7 +37,8 @@ def _run_one(preset: str, stage: str, steps: int, device: str, precision: str) -
     from mlct.diffusion.parameterization import ConsistencyFunction
     from mlct.diffusion.schedule import karras_time_grid
     from mlct.nn.build import build_autoencoder, build_denoiser
-    from mlct.train.loop import training_optimizer
+    from mlct.nn.dropout import use_cheap_dropout
+    from mlct.train.loop import prepare_training
     from mlct.train.stages import AutoencoderStage, schedule_of
 
     torch.manual_seed(0)
@@ -38,7 +47,6 @@ def _run_one(preset: str, stage: str, steps: int, device: str, precision: str) -
     tc = getattr(config.train, stage)
     batch = tc.batch_size
     text_dim, feature_dim, frames = 384, 263, 196
-    rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     if stage == "ae":
         ae_stage = AutoencoderStage(config, dev, torch.zeros(feature_dim), torch.ones(feature_dim),
                                     "humanml3d")
@@ -76,7 +84,13 @@ def _run_one(preset: str, stage: str, steps: int, device: str, precision: str) -
                     x0 = ae.encode(motion, lengths).z
                 return diffusion_training_loss(model, x0, cond, null, schedule)["loss"]
         assert (n, d) == ae.latent_shape
-    optimizer = training_optimizer(model, 1e-4, 0.0, dev)  # the trainer's (CPU: cheaper kernels)
+    if cheap_dropout is None and fused_adamw is None:
+        optimizer = prepare_training(model, 1e-4, 0.0, dev)  # the trainer's choices
+    else:
+        if cheap_dropout:
+            use_cheap_dropout(model)
+        optimizer = torch.optim.AdamW(model.parameters(), lr=1e-4,
+                                      fused=True if fused_adamw else None)
     use_bf16 = precision == "bf16" or (precision == "auto" and dev.type == "cuda")
 
     def one_step():
@@ -87,6 +101,15 @@ def _run_one(preset: str, stage: str, steps: int, device: str, precision: str) -
         torch.nn.utils.clip_grad_norm_(model.parameters(), 10.0)
         optimizer.step()
 
+    return one_step, model, batch, use_bf16
+
+
+def _run_one(preset: str, stage: str, steps: int, device: str, precision: str) -> dict:
+    import torch
+
+    rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    one_step, model, batch, use_bf16 = build_step(preset, stage, device, precision)
+    dev = torch.device(device)
     one_step()  # warm-up
     if dev.type == "cuda":
         torch.cuda.synchronize()

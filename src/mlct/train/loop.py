@@ -378,13 +378,13 @@ def _is_autoencoder_run(path: Path) -> bool:
         (path / WEIGHTS).is_file() and (path / STATE).is_file())
 
 
-def training_optimizer(model: torch.nn.Module, lr: float, weight_decay: float,
-                       device: torch.device, capturable: bool = False) -> torch.optim.AdamW:
-    """The trainer's AdamW for `model`, and on the CPU its cheaper kernels: the dropout masks'
-    random numbers from PCG64 (nn/dropout.py; the same rate, a quarter the time) and the fused
-    AdamW (one pass over all parameters instead of a dozen small ops per tensor; docs/training.md,
-    "Dropout's random numbers on the CPU"). capturable: AdamW's step count on the device, which
-    a CUDA graph needs. bench/train_speed.py times the step with the same choices."""
+def prepare_training(model: torch.nn.Module, lr: float, weight_decay: float,
+                     device: torch.device, capturable: bool = False) -> torch.optim.AdamW:
+    """Make `model` ready to train on `device` and return its AdamW. On the CPU: its dropouts
+    swapped for CheapDropout (nn/dropout.py: PCG64's masks, the same rate, a quarter the time)
+    and the AdamW fused (one pass over all parameters instead of a dozen small ops per tensor;
+    docs/training.md, "Dropout's random numbers on the CPU"). capturable: AdamW's step count on
+    the device, which a CUDA graph needs. bench/train_speed.py times the step with it."""
     cpu = device.type == "cpu"
     if cpu:
         use_cheap_dropout(model)
@@ -438,7 +438,7 @@ def _train(stage_name: str, data_dir: Path, run: Path, config: Config, checkpoin
     graphed = tc.cuda_graph and info.device.type == "cuda"
     if tc.cuda_graph:
         _check_capturable(config, stage_name, info)
-    optimizer = training_optimizer(model, tc.lr, tc.weight_decay, info.device, graphed)
+    optimizer = prepare_training(model, tc.lr, tc.weight_decay, info.device, graphed)
     scheduler = torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, T_max=tc.max_steps,
                                                            eta_min=tc.lr_min)
     step = 0
