@@ -318,7 +318,7 @@ CLI_CASES = [
     (["frobnicate"], "invalid choice: 'frobnicate'"),
     (["--bogus"], "required: command"),
     (["data"], "required: data_command"),
-    (["train"], "required: {ae,cm,diffusion,durations,critic,evaluator,classifier}"),
+    (["train"], "required: {ae,cm,diffusion,durations,critic,anchors,evaluator,classifier}"),
     (["train", "durations"], "required: --data, --model"),
     (["train", "ae"], "required: --data, --out"),
     (["generate", W, "--out", "x.npy", "--bogus"], "unrecognized arguments: --bogus"),

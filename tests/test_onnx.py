@@ -50,9 +50,9 @@ def largest_gap(a, b) -> float:
 
 def test_convert_copies_the_bundle_and_writes_three_graphs(converted) -> None:
     names = sorted(p.name for p in converted.iterdir())
-    # the duration model and the critic travel with the weights (generate/bundle.py)
+    # the duration model, the critic and the text anchors travel with the weights (bundle.py)
     assert names == ["Mean.npy", "Std.npy", "config.json", "critic.safetensors", "durations.json",
-                     "model.safetensors", ONNX_DIR]
+                     "model.safetensors", ONNX_DIR, "text_anchors.safetensors"]
     assert sorted(p.name for p in (converted / ONNX_DIR).iterdir()) == [
         "decoder.onnx", "denoiser.onnx", MANIFEST, "text_encoder.onnx"]
 

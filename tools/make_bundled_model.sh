@@ -19,7 +19,8 @@
 # other), the duration model (2 min) and the best-of-N critic (4 min), and last 6,000 stage-2
 # steps with short, bare-verb captions added (`mlct data rephrase --vocabulary short`, 52 min),
 # then 3,000 with colloquial ones, three times with three seeds (42-45 min each, one core each),
-# the three runs averaged in weight space and mixed 0.7 with the model before.
+# the three runs averaged in weight space and mixed 0.7 with the model before, and the text
+# anchors (seconds).
 # About 13.5 h in all on a free machine (issue 14 asks for 3 h: not met), timed before the CPU
 # trainer's cheaper dropout masks and fused AdamW (2026-11-28: a stage-2 step 1.15-1.29x faster,
 # docs/training.md, "Dropout's random numbers on the CPU"); the whole has not been re-timed.
@@ -178,6 +179,9 @@ rm -rf "$work/model"
 python "$(dirname "$0")/interpolate_models.py" "$work/model_shortcm" "${soup[@]}" \
     --alpha 0.7 --out "$work/model"
 cp "$previous/durations.json" "$previous/critic.safetensors" "$work/model/"
+# the text anchors (generate/text_anchors.py): 12,000 one-action captions of the last stage's
+# data, which a prompt worded unlike all of them is pulled towards before sampling (seconds)
+mlct train anchors --data "$work/synth_collturns" --model "$work/model"
 rm -rf "$repo/src/mlct/assets/model"
 cp -r "$work/model" "$repo/src/mlct/assets/model"
 echo "$repo/src/mlct/assets/model"

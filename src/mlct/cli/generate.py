@@ -46,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
                                      control=_control(args), candidates=args.candidates,
                                      keep_going=not args.no_keep_going,
                                      plant_feet=not args.no_plant_feet,
+                                     text_anchors=not args.no_text_anchors,
                                      in_place=args.in_place)
     names = ["_".join(prompts)] if long else [p for p in prompts for _ in range(args.num)]
     paths = generate_files.output_paths(names, args.out, args.out_dir, args.format)
@@ -167,6 +168,10 @@ def add_parser(commands: Commands) -> None:
                           help="leave the feet as the model decodes them, sliding a few "
                                "centimetres per step as the training data's do, instead of "
                                "holding each standing foot where it stands")
+    generate.add_argument("--no-text-anchors", action="store_true",
+                          help="sample every prompt from its own text vector, also one worded "
+                               "unlike all the model's training captions (by default pulled part "
+                               "of the way towards the nearest ones: docs/training.md)")
     generate.add_argument("--in-place", action="store_true",
                           help="keep the pelvis over where it started (no travel over the "
                                "ground; turns, height and poses as made): an 'in place' clip "

@@ -1,4 +1,5 @@
-"""`mlct train ae|cm|diffusion|durations|critic|evaluator|classifier`: the model's stages, and the judges."""
+"""`mlct train ae|cm|diffusion|durations|critic|anchors|evaluator|classifier`: the model's stages,
+and the judges."""
 
 from __future__ import annotations
 
@@ -149,6 +150,27 @@ def run_critic(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_anchors(args: argparse.Namespace) -> int:
+    """Make the model's text anchors (train/text_anchors.py) and write them beside its weights."""
+    from mlct.generate.pipeline import bundled_model_dir
+    from mlct.train.text_anchors import make_text_anchors
+
+    model_dir = bundled_model_dir() if args.model == "bundled" else Path(args.model)
+    make_text_anchors(args.data, model_dir, split=args.split, calibrate=args.calibrate,
+                      size=args.size, pull=args.pull, seed=args.seed)
+    return 0
+
+
+def _beside_model_options(parser: argparse.ArgumentParser, data: str, file: str, split: str
+                          ) -> None:
+    """--data, --model and --split of the stages that write a file beside a model's weights."""
+    parser.add_argument("--data", required=True, type=Path, help=data)
+    parser.add_argument("--model", required=True, metavar="MODEL_DIR",
+                        help=f"the exported model to add {file} to ('bundled' = the model that "
+                        "ships with mlct)")
+    parser.add_argument("--split", default="train", help=split)
+
+
 def _trainer_options(parser: argparse.ArgumentParser, what: str, batch_size: int) -> None:
     """The options the evaluator and the action classifier trainers share."""
     parser.add_argument("--data", required=True, type=Path, help="dataset directory")
@@ -166,7 +188,7 @@ def add_parser(commands: Commands) -> None:
     train = commands.add_parser("train", help="train a stage: ae, then cm (or diffusion); "
                                 "or the evaluator")
     stages = train.add_subparsers(dest="stage", required=True, parser_class=Parser,
-                                  metavar="{ae,cm,diffusion,durations,critic,evaluator,"
+                                  metavar="{ae,cm,diffusion,durations,critic,anchors,evaluator,"
                                   "classifier}")
     for stage, help_text in (("ae", "stage 1: the motion autoencoder"),
                              ("cm", "stage 2: latent consistency training (MLCT)"),
@@ -195,22 +217,15 @@ def add_parser(commands: Commands) -> None:
 
     durations = stages.add_parser("durations", help="how long each action of a split prompt "
                                   "takes: fitted on a labelled dataset, written beside a model")
-    durations.add_argument("--data", required=True, type=Path,
-                           help="a labelled dataset (labels.jsonl: `mlct data synth`)")
-    durations.add_argument("--model", required=True, metavar="MODEL_DIR",
-                           help="the exported model to add durations.json to ('bundled' = the "
-                           "model that ships with mlct)")
-    durations.add_argument("--split", default="train", help="the split to fit on (train)")
+    _beside_model_options(durations, "a labelled dataset (labels.jsonl: `mlct data synth`)",
+                          "durations.json", "the split to fit on (train)")
     durations.set_defaults(func=run_durations)
 
     critic = stages.add_parser("critic", help="the text-motion critic of best-of-N sampling: "
                                "trained on a dataset, written beside a model")
-    critic.add_argument("--data", required=True, type=Path, help="dataset directory (its "
-                        "labels.jsonl, when present, keeps same-label motions off each other)")
-    critic.add_argument("--model", required=True, metavar="MODEL_DIR",
-                        help="the exported model to add critic.safetensors to ('bundled' = the "
-                        "model that ships with mlct)")
-    critic.add_argument("--split", default="train", help="the split to train on (train)")
+    _beside_model_options(critic, "dataset directory (its labels.jsonl, when present, keeps "
+                          "same-label motions off each other)", "critic.safetensors",
+                          "the split to train on (train)")
     critic.add_argument("--steps", type=int, default=3000)
     critic.add_argument("--seed", type=int, default=0)
     critic.add_argument("--candidates", type=int, default=8,
@@ -220,6 +235,20 @@ def add_parser(commands: Commands) -> None:
                         "motion by the benchmark's read-outs (needs labels.jsonl; 0: off)")
     critic.add_argument("--quiet", action="store_true", help="print only the summary")
     critic.set_defaults(func=run_critic)
+
+    anchors = stages.add_parser("anchors", help="the training captions that a prompt worded "
+                                "unlike any of them is pulled towards: written beside a model")
+    _beside_model_options(anchors, "dataset directory (its labels.jsonl, when present, keeps "
+                          "the one-action motions' captions)", "text_anchors.safetensors",
+                          "the captions to keep (train)")
+    anchors.add_argument("--calibrate", default="val", help="the split whose captions the "
+                         "anchors must leave alone (val)")
+    anchors.add_argument("--size", type=int, default=12000, help="at most this many captions "
+                         "(a seeded sample; default 12000, 4.6 MB)")
+    anchors.add_argument("--pull", type=float, default=0.5, help="the largest share of the "
+                         "nearest captions' mean in a far prompt's vector (default 0.5)")
+    anchors.add_argument("--seed", type=int, default=0)
+    anchors.set_defaults(func=run_anchors)
 
     evaluator = stages.add_parser("evaluator", help="the text-motion matching evaluator of "
                                   "the standard metrics (Guo et al. 2022)")

@@ -10,7 +10,8 @@ A bundle is a directory:
   width, skeleton, text encoder;
 - Mean.npy, Std.npy: the dataset statistics, in the standard layout's names;
 - optionally onnx/: the networks as ONNX graphs for the onnx backend (onnx_bundle.py owns them);
-- optionally durations.json (durations.py) and critic.safetensors (critic.py).
+- optionally durations.json (durations.py), critic.safetensors (critic.py) and
+  text_anchors.safetensors (text_anchors.py).
 It holds no optimizer state and no text-encoder weights (the text encoder is named and loaded
 from its own package or directory).
 """
@@ -37,7 +38,8 @@ ENCODER_KEY = "ae_encoder"  # the AE encoder's tensors in a bundle (since stage-
 META_KEYS = ("sampler", "config", "feature_dim", "skeleton", "text_encoder", "text_dim")
 CONFIG, WEIGHTS = "config.json", "model.safetensors"
 BUNDLE_FILES = (CONFIG, WEIGHTS, "Mean.npy", "Std.npy")  # a bundle's files (its onnx/ aside)
-OPTIONAL_FILES = ("durations.json", "critic.safetensors")  # what a model may carry besides
+# what a model may carry besides (generate/durations.py, critic.py, text_anchors.py)
+OPTIONAL_FILES = ("durations.json", "critic.safetensors", "text_anchors.safetensors")
 
 
 

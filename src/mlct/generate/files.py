@@ -46,7 +46,19 @@ class Request:
     candidates: int | None = None  # best-of-N by the model's critic; None: the model's default
     keep_going: bool = True  # locomotion longer than its natural length: chained takes
     plant_feet: bool = True  # a standing foot held where it stands (motion/foot_lock.py)
+    text_anchors: bool = True  # a far prompt pulled towards the training captions' vectors
     in_place: bool = False  # the pelvis kept over its start: the engine applies root motion
+
+
+def _configured(generator: Any, request: Request) -> Any:
+    """The generator with the request's pipeline switches set (keep going, planted feet, text
+    anchors)."""
+    generator.keep_going = request.keep_going
+    if not request.plant_feet:
+        generator.foot_lock = None
+    if not request.text_anchors:
+        generator.text_anchors = None
+    return generator
 
 
 def slug(text: str, limit: int = 40) -> str:
@@ -106,10 +118,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
         if len(request.seconds) != len(request.prompts):
             raise MlctError(f"{len(request.prompts)} prompts but {len(request.seconds)} "
                             f"durations; give one each")
-        generator = load()
-        generator.keep_going = request.keep_going
-        if not request.plant_feet:
-            generator.foot_lock = None
+        generator = _configured(load(), request)
         seconds = generator.long_part_seconds(request.prompts, request.seconds)
         motion = generate_long(generator, request.prompts, seconds, request.nfe,
                                request.seed, candidates=request.candidates)
@@ -119,10 +128,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     seeds = None if request.seed is None else [request.seed + i for i in range(len(texts))]
     lengths = _per_text(request.lengths, request.prompts, request.num, "--length")
     seconds = _per_text(request.seconds, request.prompts, request.num, "--seconds")
-    generator = load()
-    generator.keep_going = request.keep_going
-    if not request.plant_feet:
-        generator.foot_lock = None
+    generator = _configured(load(), request)
     written = []
     # The text encoder loads on first use (a CLIP one takes seconds): load it and embed the first
     # batch's prompts before the bar starts, so that the bar's first step and its ETA time

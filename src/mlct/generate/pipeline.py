@@ -24,6 +24,7 @@ from torch import Tensor
 
 from mlct.generate.bundle import ENCODER_PREFIXES, read_bundle
 from mlct.generate.critic import Critic, check_candidates, read_critic
+from mlct.generate.text_anchors import TextAnchors, read_text_anchors
 from mlct.io import strip_prefix
 from mlct.config import Config, config_from_dict
 from mlct.devices import resolve_device
@@ -84,6 +85,11 @@ class MotionGenerator:
             read_critic(meta["model_dir"], meta["text_encoder"], int(meta["text_dim"]),
                         ae.n_tokens * ae.latent_dim) if meta.get("model_dir") else None)
         self.candidates = self.critic.candidates if self.critic is not None else 1
+        # a prompt worded unlike every training caption is pulled part of the way towards the
+        # nearest ones before sampling (generate/text_anchors.py); None: sampled as worded
+        self.text_anchors: TextAnchors | None = (
+            read_text_anchors(meta["model_dir"], meta["text_encoder"], int(meta["text_dim"]))
+            if meta.get("model_dir") else None)
         # locomotion asked for longer than its natural length keeps going (generate/keep_going.py)
         self.keep_going = True
         # a list of prompts has all its samples (a sequence's parts, a body and its arms, the
@@ -266,10 +272,13 @@ class MotionGenerator:
         """sample_features, each prompt the best of `candidates` latents by the critic: the
         first candidate of a seed is the plain sample of that seed, the others have seeds
         derived from it, so a motion is replayed from (text, length, nfe, seed, candidates).
-        Always samples; best_features first looks in the samples made ahead."""
+        The network samples from the text vectors as the model's text anchors pull them (none:
+        as given); the critic scores against `cond` itself. Always samples; best_features
+        first looks in the samples made ahead."""
+        sampled = cond if self.text_anchors is None else self.text_anchors(cond)
         if candidates == 1 or self.critic is None:
-            return self.sample_features(cond, nfe, list(seeds), guidance, lengths)
-        rows = cond.repeat_interleave(candidates, dim=0)
+            return self.sample_features(sampled, nfe, list(seeds), guidance, lengths)
+        rows = sampled.repeat_interleave(candidates, dim=0)
         seeds_of = [(s + k * SEED_STRIDE) % (MAX_SEED + 1)
                     for s in seeds for k in range(candidates)]
         z = self.sample_latents(rows, nfe, seeds_of, guidance)  # (B * N, n, d)

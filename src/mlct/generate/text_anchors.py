@@ -1,0 +1,125 @@
+"""Prompts worded unlike any training caption, pulled part of the way towards the nearest ones
+(ours; the paper conditions on the text vector as it is).
+
+Stage 2 learnt its text-to-latent map on the training captions' vectors. A prompt worded unlike
+all of them ("a teacher at the whiteboard swings round a quarter of the way, toward her right")
+lands away from those vectors, where the map was never trained, and the motion is often not the
+one asked for even when the nearest training captions name the right action (held-out wording,
+docs/training.md, "Far prompts pulled towards the training captions"). So before sampling, a
+prompt's vector c becomes
+
+    c' = (1 - a) c + a m,   m = the mean of its `neighbours` nearest training-caption vectors,
+    a = pull * clip((near - s) / span, 0, 1),   s = its cosine with the nearest one,
+
+so a prompt at least as close to the training captions as 95 % of unseen benchmark captions
+(`near`, measured on the validation split when the anchors are made) is left as it is, and one
+`span` further away is pulled by `pull`. The critic still scores the candidates against the
+prompt's own vector. The anchors are the training captions' vectors (int8, one scale per row):
+
+    MODEL_DIR/text_anchors.safetensors   "vectors" (N, c) int8, "scales" (N, 1) float16; what
+                                         made them and the rule's constants in the metadata
+                                         ("mlct": JSON)
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import torch
+import torch.nn.functional as F
+from safetensors import safe_open
+from safetensors.torch import save
+from torch import Tensor
+
+from mlct.errors import MlctError, first_line
+from mlct.io import atomic_path
+
+FILE = "text_anchors.safetensors"
+FORMAT, VERSION = "mlct-text-anchors", 1
+
+
+@dataclass(frozen=True)
+class TextAnchors:
+    """Training-caption vectors and the pull rule of the module docstring."""
+
+    vectors: Tensor  # (N, c) float32, as the model's text encoder gives them
+    near: float  # cosine at or above which a prompt is left alone
+    span: float  # how much further below `near` the pull reaches `pull`
+    pull: float  # the largest share of the neighbours' mean, in [0, 1]
+    neighbours: int = 5
+    info: dict[str, Any] | None = None
+
+    def __post_init__(self) -> None:
+        if self.vectors.ndim != 2 or len(self.vectors) < self.neighbours:
+            raise MlctError(f"text anchors need at least {self.neighbours} vectors, "
+                            f"got {tuple(self.vectors.shape)}")
+        if not (0.0 <= self.pull <= 1.0 and self.span > 0.0 and self.neighbours >= 1):
+            raise MlctError(f"text anchors: pull must be in [0, 1], span > 0 and neighbours "
+                            f">= 1, got {self.pull}, {self.span}, {self.neighbours}")
+        object.__setattr__(self, "_unit", F.normalize(self.vectors.float(), dim=1))
+
+    def weights(self, cond: Tensor) -> tuple[Tensor, Tensor]:
+        """(a (B,), m (B, c)): each row's pull and its neighbours' mean."""
+        unit = F.normalize(cond.float().cpu(), dim=1)  # (B, c)
+        sims = unit @ self._unit.T  # (B, N)
+        top = sims.topk(self.neighbours, dim=1)
+        mean = self.vectors[top.indices].mean(dim=1)  # (B, c)
+        pull = self.pull * ((self.near - top.values[:, 0]) / self.span).clamp(0.0, 1.0)
+        return pull, mean
+
+    def __call__(self, cond: Tensor) -> Tensor:
+        """cond (B, c) -> the pulled vectors, same dtype and device."""
+        pull, mean = self.weights(cond)
+        if not bool((pull > 0).any()):
+            return cond
+        out = (1.0 - pull[:, None]) * cond.float().cpu() + pull[:, None] * mean
+        return out.to(dtype=cond.dtype, device=cond.device)
+
+
+def save_text_anchors(model_dir: str | os.PathLike, anchors: TextAnchors, text_encoder: str
+                      ) -> Path:
+    """Write MODEL_DIR/text_anchors.safetensors atomically: int8 rows, a float16 scale each."""
+    vectors = anchors.vectors.float()
+    scales = (vectors.abs().amax(dim=1, keepdim=True) / 127.0).clamp(min=1e-12).half()
+    rows = torch.round(vectors / scales.float()).clamp(-127, 127).to(torch.int8)
+    info = {"format": FORMAT, "version": VERSION, "text_encoder": text_encoder,
+            "text_dim": int(vectors.shape[1]), "near": anchors.near, "span": anchors.span,
+            "pull": anchors.pull, "neighbours": anchors.neighbours, **(anchors.info or {})}
+    path = Path(model_dir) / FILE
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(save({"vectors": rows.contiguous(), "scales": scales.contiguous()},
+                             metadata={"mlct": json.dumps(info)}))
+    return path
+
+
+def read_text_anchors(model_dir: str | os.PathLike, text_encoder: str, text_dim: int
+                      ) -> TextAnchors | None:
+    """The model folder's anchors, None when it has none; MlctError when the file is damaged
+    or was made with another text encoder."""
+    path = Path(model_dir) / FILE
+    if not path.is_file():
+        return None
+    try:
+        with safe_open(str(path), framework="pt") as f:
+            info = json.loads((f.metadata() or {})["mlct"])
+            rows, scales = f.get_tensor("vectors"), f.get_tensor("scales")
+        if info.get("format") != FORMAT or info.get("version") != VERSION:
+            raise ValueError(f"not {FORMAT} version {VERSION}")
+        if rows.dtype != torch.int8 or rows.ndim != 2 or tuple(scales.shape) != (len(rows), 1):
+            raise ValueError(f"vectors {tuple(rows.shape)} {rows.dtype}, scales "
+                             f"{tuple(scales.shape)}")
+        vectors = rows.float() * scales.float()
+        rule = (float(info["near"]), float(info["span"]), float(info["pull"]),
+                int(info["neighbours"]))
+    except Exception as error:  # safetensors, json and the checks raise several kinds
+        raise MlctError(f"{path}: not text anchors ({first_line(error)})") from None
+    if info["text_encoder"] != text_encoder or vectors.shape[1] != text_dim:
+        raise MlctError(f"{path}: made with the text encoder {info['text_encoder']!r} "
+                        f"({vectors.shape[1]}-d), the model uses {text_encoder!r} ({text_dim}-d); "
+                        f"remake them with `mlct train anchors`")
+    near, span, pull, neighbours = rule
+    return TextAnchors(vectors, near, span, pull, neighbours, info)

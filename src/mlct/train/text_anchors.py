@@ -1,0 +1,87 @@
+"""`mlct train anchors`: a model's text anchors (generate/text_anchors.py) from a dataset's
+training captions, written beside its weights.
+
+The anchors are the model's text vectors of one split's captions, each caption once; with
+labels.jsonl only those of one-action motions, since the pipeline samples a sequence one part at
+a time. At most `size` of them are kept (a seeded sample; int8 rows, so 12,000 take 4.6 MB).
+`near` is measured, not chosen: the `quantile` of the calibration split's captions' cosine with
+their nearest anchor, so that unseen captions worded as the benchmark's are left alone.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from mlct.data.labels import LABELS_FILE, read_labels
+from mlct.data.layout import DatasetLayout
+from mlct.errors import MlctError
+from mlct.generate.bundle import read_bundle
+from mlct.generate.text_anchors import TextAnchors, read_text_anchors, save_text_anchors
+
+SIZE = 12000
+PULL, SPAN, NEIGHBOURS, QUANTILE = 0.5, 0.2, 5, 0.05
+
+
+def split_captions(data_dir: str | os.PathLike, split: str) -> list[str]:
+    """The split's distinct captions, sorted; of one-action motions where labels.jsonl says."""
+    layout = DatasetLayout.existing(data_dir)
+    labels = read_labels(data_dir) if (Path(data_dir) / LABELS_FILE).is_file() else {}
+    captions: set[str] = set()
+    for name in layout.read_split(split):
+        label = labels.get(name) or labels.get(name.split("_")[0])  # oversampled copies: NAME_k
+        if label is not None and len(label.get("actions", [])) != 1:
+            continue
+        captions.update(record.caption.strip() for record in layout.read_texts(name))
+    return sorted(c for c in captions if c)
+
+
+def make_text_anchors(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
+                      split: str = "train", calibrate: str = "val", size: int = SIZE,
+                      pull: float = PULL, span: float = SPAN, neighbours: int = NEIGHBOURS,
+                      quantile: float = QUANTILE, seed: int = 0, log: Any = print
+                      ) -> dict[str, Any]:
+    """Make the anchors of the model in `model_dir` from `data_dir` and write them there;
+    returns what it measured."""
+    if size < neighbours or not 0.0 < quantile < 1.0 or not 0.0 <= pull <= 1.0:
+        raise MlctError(f"size must be >= neighbours ({neighbours}), quantile in (0, 1) and "
+                        f"pull in [0, 1], got {size}, {quantile} and {pull}")
+    from mlct.text import load_text_encoder
+    from mlct.text.cache import CachedTextEncoder
+
+    meta, _ = read_bundle(model_dir)
+    layout = DatasetLayout.existing(data_dir)
+    if calibrate not in layout.splits():
+        raise MlctError(f"{data_dir}: no '{calibrate}' split to measure the anchors' reach on")
+    captions = split_captions(data_dir, split)
+    held = split_captions(data_dir, calibrate)
+    if len(captions) < neighbours or not held:
+        raise MlctError(f"{data_dir}: too few captions ({len(captions)} in '{split}', "
+                        f"{len(held)} in '{calibrate}')")
+    if len(captions) > size:
+        keep = np.random.default_rng(seed).choice(len(captions), size, replace=False)
+        captions = [captions[i] for i in sorted(keep)]
+    encoder = CachedTextEncoder(load_text_encoder(meta["text_encoder"]))
+    vectors = torch.cat([encoder.encode(captions[i:i + 512]).float()
+                         for i in range(0, len(captions), 512)])
+    # the cosines as the int8 file will give them back
+    path = save_text_anchors(model_dir, TextAnchors(vectors, 1.0, span, pull, neighbours),
+                             meta["text_encoder"])
+    stored = read_text_anchors(model_dir, meta["text_encoder"], vectors.shape[1])
+    assert stored is not None
+    probe = torch.nn.functional.normalize(encoder.encode(held).float(), dim=1)
+    nearest = (probe @ torch.nn.functional.normalize(stored.vectors, dim=1).T).amax(dim=1)
+    near = float(np.quantile(nearest.numpy(), quantile))
+    info = {"data": str(data_dir), "split": split, "captions": len(captions),
+            "calibration": {"split": calibrate, "captions": len(held), "quantile": quantile},
+            "seed": seed}
+    save_text_anchors(model_dir, TextAnchors(stored.vectors, round(near, 4), span, pull,
+                                             neighbours, info), meta["text_encoder"])
+    log(f"text anchors: {len(captions)} captions of '{split}'; near {near:.3f} (the "
+        f"{quantile:.0%} quantile of {len(held)} '{calibrate}' captions' nearest cosine); "
+        f"{path.stat().st_size / 1e6:.1f} MB; {path}")
+    return {"captions": len(captions), "near": near, "path": str(path)}
