@@ -51,6 +51,26 @@ def test_a_prompt_near_the_captions_is_left_alone_and_a_far_one_is_pulled() -> N
     assert anchors(far.double()).dtype == torch.float64
 
 
+def test_a_row_seen_before_comes_from_the_memo_which_stays_bounded(monkeypatch) -> None:
+    from mlct.generate import text_anchors
+
+    monkeypatch.setattr(text_anchors, "MEMO_ROWS", 3)
+    anchors = _anchors()
+    far = torch.tensor([[-1.0, -1.0, 0.5], [0.0, -1.0, 0.2]])
+    first = anchors(far)
+    calls = []
+    weights = anchors.weights
+    object.__setattr__(anchors, "weights", lambda c: calls.append(len(c)) or weights(c))
+    torch.testing.assert_close(anchors(far), first)
+    assert calls == []  # both rows from the memo
+    mixed = torch.cat([far[:1], torch.tensor([[0.2, -1.0, 0.0]])])
+    torch.testing.assert_close(anchors(mixed)[0], first[0])
+    assert calls == [1]  # only the new row computed
+    for k in range(5):
+        anchors(torch.tensor([[-1.0, float(k), 0.3]]))
+    assert len(anchors._memo) == 3
+
+
 def test_the_rule_refuses_what_cannot_work() -> None:
     with pytest.raises(MlctError, match="pull must be in"):
         _anchors(pull=1.5)

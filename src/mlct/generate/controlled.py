@@ -214,10 +214,7 @@ def guided_latent(pipe: MotionGenerator, text: str, frames: int, seed: int, nfe:
                         f"{getattr(pipe, 'backend', 'onnx')} backend has not; load the model "
                         f"with backend='torch', or use ControlMethod(guide=False)")
     count = max(1, method.candidates)
-    cond = pipe.encode_text([text])
-    if pipe.text_anchors is not None:  # as generate() samples (generate/text_anchors.py)
-        cond = pipe.text_anchors(cond)
-    cond = cond.expand(count, -1)
+    cond = pipe.sampling_text(pipe.encode_text([text])).expand(count, -1)  # as generate()'s
     generators = [torch.Generator().manual_seed(s) for s in candidate_seeds(seed, count)]
     steps = pipe.check_nfe(nfe)
     uncond = pipe.encode_text([""]) if pipe.sampler.cfg else None

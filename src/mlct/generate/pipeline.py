@@ -266,6 +266,12 @@ class MotionGenerator:
                 found[i] = feats
         return found  # type: ignore[return-value]
 
+    def sampling_text(self, cond: Tensor) -> Tensor:
+        """The text vectors (B, c) the network samples from: a prompt worded unlike every
+        training caption pulled towards the nearest ones by the model's text anchors
+        (generate/text_anchors.py), any other as it is."""
+        return cond if self.text_anchors is None else self.text_anchors(cond)
+
     def sample_best(self, cond: Tensor, nfe: int | None, seeds: Sequence[int],
                     guidance: float | None, lengths: Sequence[int], candidates: int
                     ) -> list[np.ndarray]:
@@ -275,7 +281,7 @@ class MotionGenerator:
         The network samples from the text vectors as the model's text anchors pull them (none:
         as given); the critic scores against `cond` itself. Always samples; best_features
         first looks in the samples made ahead."""
-        sampled = cond if self.text_anchors is None else self.text_anchors(cond)
+        sampled = self.sampling_text(cond)
         if candidates == 1 or self.critic is None:
             return self.sample_features(sampled, nfe, list(seeds), guidance, lengths)
         rows = sampled.repeat_interleave(candidates, dim=0)

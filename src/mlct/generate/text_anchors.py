@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import json
 import os
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -40,6 +42,7 @@ from mlct.io import atomic_path
 
 FILE = "text_anchors.safetensors"
 FORMAT, VERSION = "mlct-text-anchors", 1
+MEMO_ROWS = 4096  # pulled rows kept, least recently made first out
 
 
 @dataclass(frozen=True)
@@ -60,23 +63,45 @@ class TextAnchors:
         if not (0.0 <= self.pull <= 1.0 and self.span > 0.0 and self.neighbours >= 1):
             raise MlctError(f"text anchors: pull must be in [0, 1], span > 0 and neighbours "
                             f">= 1, got {self.pull}, {self.span}, {self.neighbours}")
-        object.__setattr__(self, "_unit", F.normalize(self.vectors.float(), dim=1))
+        # the unit vectors as (c, N) columns: one product gives every prompt's cosines
+        object.__setattr__(self, "_columns",
+                           F.normalize(self.vectors.float(), dim=1).T.contiguous())
+        object.__setattr__(self, "_memo", OrderedDict())  # row bytes -> pulled row
+        object.__setattr__(self, "_lock", threading.Lock())  # the server's threads share it
 
     def weights(self, cond: Tensor) -> tuple[Tensor, Tensor]:
-        """(a (B,), m (B, c)): each row's pull and its neighbours' mean."""
-        unit = F.normalize(cond.float().cpu(), dim=1)  # (B, c)
-        sims = unit @ self._unit.T  # (B, N)
-        top = sims.topk(self.neighbours, dim=1)
-        mean = self.vectors[top.indices].mean(dim=1)  # (B, c)
-        pull = self.pull * ((self.near - top.values[:, 0]) / self.span).clamp(0.0, 1.0)
+        """(a (B,), m (B, c)): each row's pull and its neighbours' mean (zeros where a is 0:
+        a row near the captions needs no neighbours)."""
+        sims = F.normalize(cond.float().cpu(), dim=1) @ self._columns  # (B, N)
+        pull = self.pull * ((self.near - sims.amax(dim=1)) / self.span).clamp(0.0, 1.0)
+        mean = torch.zeros(len(sims), self.vectors.shape[1])
+        far = (pull > 0).nonzero().flatten()
+        if len(far):
+            top = sims[far].topk(self.neighbours, dim=1).indices  # (F, k)
+            mean[far] = self.vectors[top].mean(dim=1)
         return pull, mean
 
     def __call__(self, cond: Tensor) -> Tensor:
-        """cond (B, c) -> the pulled vectors, same dtype and device."""
-        pull, mean = self.weights(cond)
-        if not bool((pull > 0).any()):
+        """cond (B, c) -> the pulled vectors, same dtype and device. A row seen before is
+        taken from a memo (MEMO_ROWS): the 12,000 cosines cost ~0.4 ms a prompt on 2 CPU
+        threads, 5 % of a warm batch-1 generate()."""
+        rows = cond.float().cpu()
+        keys = [row.numpy().tobytes() for row in rows]
+        memo: OrderedDict[bytes, Tensor] = self._memo  # type: ignore[attr-defined]
+        with self._lock:  # type: ignore[attr-defined]
+            found = [memo.get(k) for k in keys]
+        missing = [i for i, f in enumerate(found) if f is None]
+        if missing:
+            pull, mean = self.weights(rows[missing])
+            made = (1.0 - pull[:, None]) * rows[missing] + pull[:, None] * mean
+            with self._lock:  # type: ignore[attr-defined]
+                for i, row in zip(missing, made):
+                    found[i] = memo[keys[i]] = row
+                while len(memo) > MEMO_ROWS:
+                    memo.popitem(last=False)
+        out = torch.stack(found)  # type: ignore[arg-type]
+        if torch.equal(out, rows):
             return cond
-        out = (1.0 - pull[:, None]) * cond.float().cpu() + pull[:, None] * mean
         return out.to(dtype=cond.dtype, device=cond.device)
 
 
