@@ -138,6 +138,26 @@ def test_making_keeps_one_action_captions_and_leaves_the_calibration_split_alone
     assert len(mlct.load(model, backend="torch").text_anchors.vectors) == 5
 
 
+def test_a_run_stopped_before_the_end_leaves_the_models_anchors_as_they_were(
+        model_and_data: tuple[Path, Path], tmp_path: Path, monkeypatch) -> None:
+    from mlct.train import text_anchors as maker
+
+    model, data = model_and_data
+    copy = tmp_path / "model"
+    shutil.copytree(model, copy)
+    maker.make_text_anchors(data, copy, size=20, log=lambda _: None)
+    before = (copy / FILE).read_bytes()
+
+    def stopped(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(maker.np, "quantile", stopped)  # the last measurement, before writing
+    with pytest.raises(KeyboardInterrupt):
+        maker.make_text_anchors(data, copy, size=30, log=lambda _: None)
+    assert (copy / FILE).read_bytes() == before
+    assert sorted(p.name for p in copy.iterdir()) == sorted(p.name for p in model.iterdir())
+
+
 def test_the_pipeline_samples_the_pulled_vector_and_the_critic_judges_the_prompt(
         model_and_data: tuple[Path, Path]) -> None:
     model, _ = model_and_data

@@ -105,12 +105,19 @@ class TextAnchors:
         return out.to(dtype=cond.dtype, device=cond.device)
 
 
+def int8_rows(vectors: Tensor) -> tuple[Tensor, Tensor]:
+    """(N, c) -> int8 rows (N, c) and float16 scales (N, 1), as the file stores them; rows *
+    scales gives the vectors back within half a step."""
+    vectors = vectors.float()
+    scales = (vectors.abs().amax(dim=1, keepdim=True) / 127.0).clamp(min=1e-12).half()
+    return torch.round(vectors / scales.float()).clamp(-127, 127).to(torch.int8), scales
+
+
 def save_text_anchors(model_dir: str | os.PathLike, anchors: TextAnchors, text_encoder: str
                       ) -> Path:
     """Write MODEL_DIR/text_anchors.safetensors atomically: int8 rows, a float16 scale each."""
     vectors = anchors.vectors.float()
-    scales = (vectors.abs().amax(dim=1, keepdim=True) / 127.0).clamp(min=1e-12).half()
-    rows = torch.round(vectors / scales.float()).clamp(-127, 127).to(torch.int8)
+    rows, scales = int8_rows(vectors)
     info = {"format": FORMAT, "version": VERSION, "text_encoder": text_encoder,
             "text_dim": int(vectors.shape[1]), "near": anchors.near, "span": anchors.span,
             "pull": anchors.pull, "neighbours": anchors.neighbours, **(anchors.info or {})}

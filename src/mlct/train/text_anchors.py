@@ -21,7 +21,7 @@ from mlct.data.labels import LABELS_FILE, read_labels
 from mlct.data.layout import DatasetLayout
 from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
-from mlct.generate.text_anchors import TextAnchors, read_text_anchors, save_text_anchors
+from mlct.generate.text_anchors import TextAnchors, int8_rows, save_text_anchors
 
 SIZE = 12000
 PULL, SPAN, NEIGHBOURS, QUANTILE = 0.5, 0.2, 5, 0.05
@@ -68,19 +68,18 @@ def make_text_anchors(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
     encoder = CachedTextEncoder(load_text_encoder(meta["text_encoder"]))
     vectors = torch.cat([encoder.encode(captions[i:i + 512]).float()
                          for i in range(0, len(captions), 512)])
-    # the cosines as the int8 file will give them back
-    path = save_text_anchors(model_dir, TextAnchors(vectors, 1.0, span, pull, neighbours),
-                             meta["text_encoder"])
-    stored = read_text_anchors(model_dir, meta["text_encoder"], vectors.shape[1])
-    assert stored is not None
+    rows, scales = int8_rows(vectors)
+    stored = rows.float() * scales.float()  # the cosines as the int8 file will give them back
     probe = torch.nn.functional.normalize(encoder.encode(held).float(), dim=1)
-    nearest = (probe @ torch.nn.functional.normalize(stored.vectors, dim=1).T).amax(dim=1)
+    nearest = (probe @ torch.nn.functional.normalize(stored, dim=1).T).amax(dim=1)
     near = float(np.quantile(nearest.numpy(), quantile))
     info = {"data": str(data_dir), "split": split, "captions": len(captions),
             "calibration": {"split": calibrate, "captions": len(held), "quantile": quantile},
             "seed": seed}
-    save_text_anchors(model_dir, TextAnchors(stored.vectors, round(near, 4), span, pull,
-                                             neighbours, info), meta["text_encoder"])
+    # written once, atomically, when everything is measured: an interrupted run leaves the
+    # model's anchors (or their absence) as they were
+    path = save_text_anchors(model_dir, TextAnchors(stored, round(near, 4), span, pull,
+                                                    neighbours, info), meta["text_encoder"])
     log(f"text anchors: {len(captions)} captions of '{split}'; near {near:.3f} (the "
         f"{quantile:.0%} quantile of {len(held)} '{calibrate}' captions' nearest cosine); "
         f"{path.stat().st_size / 1e6:.1f} MB; {path}")
