@@ -2,7 +2,7 @@
 
     python bench/paraphrase_sets.py [--models bundled DIR ...] [--seeds 5] [--failures SET]
 
-Sets (bench/data): the seen paraphrases, held-out 1, 2 and 3. Each prompt is made at 4 s (as
+Sets (bench/data): the seen paraphrases, held-out 1, 2, 3 and 4. Each prompt is made at 4 s (as
 bench/motion_quality.py's columns) and at the pipeline's default length (what a user gets who
 gives none), the same seeds for every model, scored by the read-outs (motion_quality.judge_prompt).
 Prints per model and set: the pass rate at both lengths and, for the prompts that name a side or

@@ -46,3 +46,17 @@ def test_the_third_held_out_set_covers_every_family_with_judgeable_labels() -> N
     assert not earlier & {p["text"] for p in prompts}
     for prompt in prompts:
         assert len(prompt["actions"]) == 1 and checks_for(prompt["actions"][0])
+
+
+def test_the_fourth_held_out_set_covers_every_family_with_judgeable_labels() -> None:
+    prompts = json.loads((DATA / "quality_prompts_heldout4.json").read_text())["paraphrases"]
+    families = Counter(p["actions"][0]["family"] for p in prompts)
+    assert set(families) == set(FAMILIES) and min(families.values()) >= 2
+    earlier = {p["text"] for name in ("quality_prompts.json", "quality_prompts_heldout.json",
+                                      "quality_prompts_heldout2.json",
+                                      "quality_prompts_heldout3.json")
+               for p in json.loads((DATA / name).read_text())["paraphrases"]}
+    assert len({p["text"] for p in prompts}) == len(prompts) >= 42
+    assert not earlier & {p["text"] for p in prompts}
+    for prompt in prompts:
+        assert len(prompt["actions"]) == 1 and checks_for(prompt["actions"][0])
