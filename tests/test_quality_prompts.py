@@ -6,6 +6,8 @@ import json
 from collections import Counter
 from pathlib import Path
 
+import pytest
+
 from mlct.data.synth.text import FAMILIES
 from mlct.eval.readouts import checks_for
 
@@ -35,28 +37,23 @@ def test_the_three_action_prompts_split_into_their_actions_with_judgeable_labels
         assert len(split_actions(prompt["text"])) == 3, prompt["text"]
 
 
-def test_the_third_held_out_set_covers_every_family_with_judgeable_labels() -> None:
-    prompts = json.loads((DATA / "quality_prompts_heldout3.json").read_text())["paraphrases"]
-    families = Counter(p["actions"][0]["family"] for p in prompts)
-    assert set(families) == set(FAMILIES) and min(families.values()) >= 2
-    earlier = {p["text"] for name in ("quality_prompts.json", "quality_prompts_heldout.json",
-                                      "quality_prompts_heldout2.json")
-               for p in json.loads((DATA / name).read_text())["paraphrases"]}
-    assert len({p["text"] for p in prompts}) == len(prompts) >= 45
-    assert not earlier & {p["text"] for p in prompts}
-    for prompt in prompts:
-        assert len(prompt["actions"]) == 1 and checks_for(prompt["actions"][0])
+SETS_IN_ORDER = ("quality_prompts.json", "quality_prompts_heldout.json",
+                 "quality_prompts_heldout2.json", "quality_prompts_heldout3.json",
+                 "quality_prompts_heldout4.json")
 
 
-def test_the_fourth_held_out_set_covers_every_family_with_judgeable_labels() -> None:
-    prompts = json.loads((DATA / "quality_prompts_heldout4.json").read_text())["paraphrases"]
+@pytest.mark.parametrize("name, fewest", [("quality_prompts_heldout3.json", 45),
+                                          ("quality_prompts_heldout4.json", 42)])
+def test_a_late_held_out_set_covers_every_family_with_judgeable_labels(name: str,
+                                                                      fewest: int) -> None:
+    """Held-out sets 3 and 4: two prompts or more per family, none repeating a set before it,
+    each one action the read-outs can judge."""
+    prompts = json.loads((DATA / name).read_text())["paraphrases"]
     families = Counter(p["actions"][0]["family"] for p in prompts)
     assert set(families) == set(FAMILIES) and min(families.values()) >= 2
-    earlier = {p["text"] for name in ("quality_prompts.json", "quality_prompts_heldout.json",
-                                      "quality_prompts_heldout2.json",
-                                      "quality_prompts_heldout3.json")
-               for p in json.loads((DATA / name).read_text())["paraphrases"]}
-    assert len({p["text"] for p in prompts}) == len(prompts) >= 42
+    earlier = {p["text"] for before in SETS_IN_ORDER[:SETS_IN_ORDER.index(name)]
+               for p in json.loads((DATA / before).read_text())["paraphrases"]}
+    assert len({p["text"] for p in prompts}) == len(prompts) >= fewest
     assert not earlier & {p["text"] for p in prompts}
     for prompt in prompts:
         assert len(prompt["actions"]) == 1 and checks_for(prompt["actions"][0])

@@ -90,6 +90,12 @@ def test_the_file_round_trips_in_int8_and_refuses_what_does_not_fit(tmp_path: Pa
     # int8 rows with a scale each: every number within half a step of its row's scale
     step = vectors.abs().amax(1, keepdim=True) / 127
     assert bool(((loaded.vectors - vectors).abs() <= 0.51 * step + 1e-3).all())
+    # saved again with another rule, the file keeps the new rule, not the info's old one
+    save_text_anchors(tmp_path, TextAnchors(loaded.vectors, 0.7, 0.1, 0.3, 4, loaded.info),
+                      "minilm+sides")
+    again = read_text_anchors(tmp_path, "minilm+sides", 384)
+    assert (again.near, again.span, again.pull, again.neighbours) == (0.7, 0.1, 0.3, 4)
+    assert again.info["seed"] == 3
     assert read_text_anchors(tmp_path / "none", "minilm+sides", 384) is None
     with pytest.raises(MlctError, match="text encoder 'minilm\\+sides'"):
         read_text_anchors(tmp_path, "minilm", 384)

@@ -118,9 +118,10 @@ def save_text_anchors(model_dir: str | os.PathLike, anchors: TextAnchors, text_e
     """Write MODEL_DIR/text_anchors.safetensors atomically: int8 rows, a float16 scale each."""
     vectors = anchors.vectors.float()
     rows, scales = int8_rows(vectors)
-    info = {"format": FORMAT, "version": VERSION, "text_encoder": text_encoder,
-            "text_dim": int(vectors.shape[1]), "near": anchors.near, "span": anchors.span,
-            "pull": anchors.pull, "neighbours": anchors.neighbours, **(anchors.info or {})}
+    # the rule and the format last: anchors read from a file carry the old ones in their info
+    info = {**(anchors.info or {}), "format": FORMAT, "version": VERSION,
+            "text_encoder": text_encoder, "text_dim": int(vectors.shape[1]), "near": anchors.near,
+            "span": anchors.span, "pull": anchors.pull, "neighbours": anchors.neighbours}
     path = Path(model_dir) / FILE
     with atomic_path(path) as tmp:
         tmp.write_bytes(save({"vectors": rows.contiguous(), "scales": scales.contiguous()},

@@ -33,7 +33,7 @@ def split_captions(data_dir: str | os.PathLike, split: str) -> list[str]:
     labels = read_labels(data_dir) if (Path(data_dir) / LABELS_FILE).is_file() else {}
     captions: set[str] = set()
     for name in layout.read_split(split):
-        label = labels.get(name) or labels.get(name.split("_")[0])  # oversampled copies: NAME_k
+        label = labels.get(name)  # a motion without a label is kept: nothing says it is not one
         if label is not None and len(label.get("actions", [])) != 1:
             continue
         captions.update(record.caption.strip() for record in layout.read_texts(name))
