@@ -1,8 +1,9 @@
 """The hand-written one-action prompt sets, several models side by side in one run.
 
     python bench/paraphrase_sets.py [--models bundled DIR ...] [--seeds 5] [--failures SET]
+        [--sets "held-out 5" ...]
 
-Sets (bench/data): the seen paraphrases, held-out 1, 2, 3 and 4. Each prompt is made at 4 s (as
+Sets (bench/data): the seen paraphrases, held-out 1 to 5 (--sets: only those named). Each prompt is made at 4 s (as
 bench/motion_quality.py's columns) and at the pipeline's default length (what a user gets who
 gives none), the same seeds for every model, scored by the read-outs (motion_quality.judge_prompt).
 Prints per model and set: the pass rate at both lengths and, for the prompts that name a side or
@@ -30,8 +31,15 @@ def main() -> None:
     parser.add_argument("--models", nargs="+", default=["bundled"])
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--failures", default="held-out 3")
+    parser.add_argument("--sets", nargs="+", default=None,
+                        help="only these sets, e.g. 'held-out 5' (default: all)")
     args = parser.parse_args()
     sets = hand_written_sets()
+    if args.sets is not None:
+        unknown = sorted(set(args.sets) - set(sets))
+        if unknown:
+            parser.error(f"unknown set {unknown[0]!r}; the sets: {', '.join(sets)}")
+        sets = {name: items for name, items in sets.items() if name in args.sets}
     results: dict[str, dict[str, dict[str, np.ndarray]]] = {}
     print(f"{args.seeds} seeds; pass rate at 4 s | at the default length | named side at 4 s")
     for name in args.models:
