@@ -203,6 +203,10 @@ def test_a_clause_splits_into_actions_in_order() -> None:
     ("a figure skater pirouettes to the right", "a person pirouettes to the right"),
     ("the robot stays motionless, not moving a muscle", "a person stays motionless, not moving a muscle"),
     ("a tired woman sinks into a chair", "a person sinks into a chair"),
+    # "dress" ends in s but is no verb; the subject runs to "twirls", seven words long
+    ("a little girl in a party dress twirls all the way round",
+     "a person twirls all the way round"),
+    ("a man in a woolly hat waves", "a person waves"),  # "woolly" is not an adverb
     ("he walks forward", "a person walks forward"),
     ("an old man claps twice", "an old man claps twice"),  # a subject the captions use
     ("The Woman jumps", "The Woman jumps"),

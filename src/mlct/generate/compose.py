@@ -40,14 +40,16 @@ VERB_FORMS = {**BENCHMARK_FORMS, "push": ("pushes", "pushing")}
 _SEQUENCE = re.compile(
     r"\s*(?:[,;.]\s*)?(?:\band\s+)?\b(?:then|after\s+that|afterwards)\b"
     r"\s*,?\s*", re.IGNORECASE)
-# A subject: an article and up to five words before the verb, which ends in "s" ("a tired woman
-# sinks", "the old man works", "a person is"); words of the subject do not ("a boss" may), nor
+# A subject: an article and up to seven words before the verb, which ends in "s" but not "ss"
+# ("a tired woman sinks", "the old man works", "a person is"; "a little girl in a party dress
+# twirls", whose "dress" is not its verb); words of the subject do not ("a boss" may), nor
 # are they adverbs ("a person first sits", "a man slowly walks"); else an article and one word
 # ("a person walked"), or a pronoun.
 _SUBJECT = re.compile(
     r"^(?:(?:a|an|the|this|that)(?:\s+(?!(?:first|then|finally|also|again|now|just|still|"
-    r"(?!elderly|lonely|friendly|burly|curly|lovely|jolly|silly)[a-z]*ly)\b)"
-    r"(?:[a-z]*ss|[a-z]*[a-rt-z])){1,5}?(?=\s+[a-z]+s\b)|"
+    r"(?!elderly|lonely|friendly|burly|curly|lovely|jolly|silly|woolly|early|ugly|holy|family)"
+    r"[a-z]*ly)\b)"
+    r"(?:[a-z]*ss|[a-z]*[a-rt-z])){1,7}?(?=\s+[a-z]*[a-rt-z]s\b)|"
     r"(?:a|an|the|this|that)\s+[a-z]+|someone|somebody|he|she|they|it|person|man|woman|"
     r"human|figure)\b", re.IGNORECASE)
 DEFAULT_SUBJECT = "a person"
