@@ -79,6 +79,10 @@ def test_sequences_split_into_parts_with_a_subject(text: str, parts: list[str]) 
     "Then a person jumps",  # nothing before the sequencing word
     "a person claps, followed by a bow",  # a noun phrase follows: no prompt of its own
     "the athlete strengthens his legs",  # 'then' inside a word
+    # going down, then only coming back up: one action
+    "an old lady lowers herself onto a bench and then gets up again",
+    "a man sits on a stool for a moment, then rises to his feet",
+    "a girl lowers onto her left knee, then rises.",
 ])
 def test_single_actions_stay_whole(text: str) -> None:
     assert split_actions(text) == [text]

@@ -102,15 +102,17 @@ def split_actions(text: str) -> list[str]:
 _LOWERING = re.compile(r"\b(?:sit|sits|sitting|squat|squats|squatting|kneel|kneels|kneeling|"
                        r"crouch|crouches|crouching|bend|bends|bending|bow|bows|bowing|duck|ducks|"
                        r"ducking|sink|sinks|sinking|hunker|hunkers|hunkering|perch|perches|"
-                       r"perching)\b", re.IGNORECASE)
+                       r"perching|lower|lowers|lowering)\b", re.IGNORECASE)
 
 
 # The words of a part that only comes back up ("stands back up", "gets up again", "rises to a
-# standing position"); any other word makes it an action of its own: "stands still", "stands
-# quietly", "stands in place" are the benchmark's stand family.
+# standing position", "pushes himself back up to his feet"); any other word makes it an action
+# of its own: "stands still", "stands quietly", "stands in place" are the benchmark's stand
+# family.
 _RETURN_WORDS = frozenset({"back", "up", "upright", "again", "straight", "fully", "slowly",
                            "quickly", "to", "a", "standing", "position", "then", "himself",
-                           "herself", "themselves", "itself"})
+                           "herself", "themselves", "itself", "his", "her", "their", "its",
+                           "feet"})
 
 
 def _only_returns(phrase: str) -> bool:
