@@ -83,6 +83,8 @@ def test_sequences_split_into_parts_with_a_subject(text: str, parts: list[str]) 
     "an old lady lowers herself onto a bench and then gets up again",
     "a man sits on a stool for a moment, then rises to his feet",
     "a girl lowers onto her left knee, then rises.",
+    "a man gets down on his right knee, then gets up",
+    "the runner stretches with arms overhead, leaning left and then right",  # one lean
 ])
 def test_single_actions_stay_whole(text: str) -> None:
     assert split_actions(text) == [text]
@@ -211,6 +213,11 @@ def test_a_clause_splits_into_actions_in_order() -> None:
     ("a little girl in a party dress twirls all the way round",
      "a person twirls all the way round"),
     ("a man in a woolly hat waves", "a person waves"),  # "woolly" is not an adverb
+    ("a nervous man proposing in a restaurant gets down on one knee",  # "nervous" is no verb
+     "a person gets down on one knee"),
+    ("a man with his dog walks forward", "a person walks forward"),  # nor is "his"
+    # a word after "the" is a noun: "stands" is not the verb
+    ("a fan in the stands waves both hands", "a person in the stands waves both hands"),
     ("he walks forward", "a person walks forward"),
     ("an old man claps twice", "an old man claps twice"),  # a subject the captions use
     ("The Woman jumps", "The Woman jumps"),

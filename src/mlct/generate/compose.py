@@ -44,12 +44,16 @@ _SEQUENCE = re.compile(
 # ("a tired woman sinks", "the old man works", "a person is"; "a little girl in a party dress
 # twirls", whose "dress" is not its verb); words of the subject do not ("a boss" may), nor
 # are they adverbs ("a person first sits", "a man slowly walks"); else an article and one word
-# ("a person walked"), or a pronoun.
+# ("a person walked"), or a pronoun. A word after a determiner is a noun, not the verb ("a fan
+# in the stands waves"), and a subject's words may end in "us" or "is" ("a nervous man", "a man
+# with his dog"), which no verb does.
 _SUBJECT = re.compile(
     r"^(?:(?:a|an|the|this|that)(?:\s+(?!(?:first|then|finally|also|again|now|just|still|"
     r"(?!elderly|lonely|friendly|burly|curly|lovely|jolly|silly|woolly|early|ugly|holy|family)"
     r"[a-z]*ly)\b)"
-    r"(?:[a-z]*ss|[a-z]*[a-rt-z])){1,7}?(?=\s+[a-z]*[a-rt-z]s\b)|"
+    r"(?:[a-z]*(?:ss|us|is)|[a-z]*[a-rt-z])){1,7}?"
+    r"(?<!\ba)(?<!\ban)(?<!\bthe)(?<!\bhis)(?<!\bher)(?<!\btheir)(?<!\bits)"
+    r"(?=\s+(?!(?:his|this)\b)[a-z]*[a-rtv-z]s\b)|"
     r"(?:a|an|the|this|that)\s+[a-z]+|someone|somebody|he|she|they|it|person|man|woman|"
     r"human|figure)\b", re.IGNORECASE)
 DEFAULT_SUBJECT = "a person"
@@ -102,7 +106,8 @@ def split_actions(text: str) -> list[str]:
 _LOWERING = re.compile(r"\b(?:sit|sits|sitting|squat|squats|squatting|kneel|kneels|kneeling|"
                        r"crouch|crouches|crouching|bend|bends|bending|bow|bows|bowing|duck|ducks|"
                        r"ducking|sink|sinks|sinking|hunker|hunkers|hunkering|perch|perches|"
-                       r"perching|lower|lowers|lowering)\b", re.IGNORECASE)
+                       r"perching|lower|lowers|lowering|gets?\s+down|getting\s+down)\b",
+                       re.IGNORECASE)
 
 
 # The words of a part that only comes back up ("stands back up", "gets up again", "rises to a
@@ -121,6 +126,16 @@ def _only_returns(phrase: str) -> bool:
             and all(w in _RETURN_WORDS for w in words[1:]))
 
 
+# A part made only of these names no action: "leaning left and then right" is one lean.
+_DIRECTION_WORDS = frozenset("left right forward forwards backward backwards back sideways up "
+                             "down around round again to the other side way".split())
+
+
+def _only_directions(phrase: str) -> bool:
+    words = re.findall(r"[a-z]+", phrase.lower())
+    return bool(words) and all(w in _DIRECTION_WORDS for w in words)
+
+
 def _returns_joined(parts: list[str]) -> list[str]:
     """Sequence parts with a part that only stands back up (a _RETURN_VERBS verb and
     _RETURN_WORDS) joined to a part before it that goes down: "squats, then stands back up" is
@@ -129,6 +144,9 @@ def _returns_joined(parts: list[str]) -> list[str]:
     walk)."""
     out: list[str] = []
     for part in parts:
+        if out and _only_directions(part):  # "leans left and then right": one lean
+            out[-1] = f"{out[-1]}, then {part}"
+            continue
         rest = _without_subject(part)[1]
         head, *tail = _LISTED.split(rest, maxsplit=1)
         if out and _LOWERING.search(out[-1]) and _only_returns(head):
@@ -347,4 +365,4 @@ def portable_rules() -> dict:
             "adverbs": sorted(_ADVERBS), "arm_verbs": sorted(ARM_VERBS),
             "default_subject": DEFAULT_SUBJECT, "trained_subjects": sorted(TRAINED_SUBJECTS),
             "body_words": sorted(_BODY_WORDS), "verb_halves": sorted(_VERB_HALVES),
-            "min_words": MIN_WORDS}
+            "direction_words": sorted(_DIRECTION_WORDS), "min_words": MIN_WORDS}

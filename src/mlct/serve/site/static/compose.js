@@ -42,6 +42,7 @@ export class ActionSplitter {
     this.trainedSubjects = new Set(rules.trained_subjects ?? []);
     this.bodyWords = new Set(rules.body_words ?? []);
     this.verbHalves = new Set(rules.verb_halves ?? []);
+    this.directionWords = new Set(rules.direction_words ?? []);
     this.minWords = rules.min_words;
   }
 
@@ -166,6 +167,11 @@ export class ActionSplitter {
   returnsJoined(parts) { // "squats, then stands back up" is one squat
     const out = [];
     for (const part of parts) {
+      const list = part.toLowerCase().match(/[a-z]+/g) ?? [];
+      if (out.length && list.length && list.every((w) => this.directionWords.has(w))) { // "leans left and then right"
+        out[out.length - 1] = `${out[out.length - 1]}, then ${part}`;
+        continue;
+      }
       const [head, ...tail] = splitOnce(new RegExp(this.re.listed.source, "iu"), this.withoutSubject(part)[1]);
       if (out.length && this.re.lowering.test(out[out.length - 1]) && this.onlyReturns(head)) {
         out[out.length - 1] = `${out[out.length - 1]}, then ${head}`;
