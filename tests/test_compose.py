@@ -238,3 +238,29 @@ def test_the_generator_reads_unknown_subjects_as_a_person() -> None:
     pipe = mlct.load()
     a, b, c = pipe.encode_text(["the robot waves", "a person waves", "a man waves"])
     assert torch.equal(a, b) and not torch.equal(b, c)
+
+
+def test_verbose_says_how_each_prompt_is_read(tmp_path, capsys):
+    """--verbose logs each prompt's parts as the text encoder gets them, with the text anchors'
+    pull where there is one; without it stderr says nothing of the kind."""
+    from mlct.cli import main
+
+    far = "a little girl in a party dress twirls all the way round on the spot"
+    assert main(["generate", far, "--seconds", "2", "--seed", "0", "--backend", "torch",
+                 "--candidates", "1", "--verbose", "--out", str(tmp_path / "f.npy")]) == 0
+    err = capsys.readouterr().err
+    assert (f"{far!r} read as 'a person twirls all the way round on the spot' (pulled 0.50 "
+            "towards the training captions)") in err
+    text = "the robot walks forward while clapping, then sits down"
+    assert main(["generate", text, "--seconds", "4", "--seed", "0", "--backend", "torch",
+                 "--candidates", "1", "--verbose", "--out", str(tmp_path / "s.npy")]) == 0
+    assert (f"{text!r} read as 'a person walks forward', then 'a person sits down'; its arms "
+            "as 'a person claps'") in capsys.readouterr().err
+    import logging
+
+    log = logging.getLogger("mlct")  # as a new process starts it: --verbose set it up above
+    log.handlers = [h for h in log.handlers if type(h).__name__ != "_ToStderr"]
+    log.setLevel(logging.NOTSET)
+    assert main(["generate", text, "--seconds", "4", "--seed", "0", "--backend", "torch",
+                 "--candidates", "1", "--out", str(tmp_path / "q.npy")]) == 0
+    assert "read as" not in capsys.readouterr().err

@@ -323,12 +323,38 @@ class MotionGenerator:
         A list is sampled in a few large batches whatever its prompts become (a sequence's
         parts, a body and its arms, a gait's takes: generate/batch_plan.py), so pass many
         prompts in one call rather than one call each."""
+        if not getattr(self._nesting, "depth", 0) and _LOG.isEnabledFor(logging.INFO):
+            self._log_reading(texts, split_actions)  # --verbose: how each prompt is read
         with self.parts_of_a_whole():
             made = self._made(texts, lengths, seconds, nfe, seed, guidance, split_actions,
                               control, candidates)
         if control is not None:  # generate/controlled.py plants a motion on a path alone
             return made
         return Generation([self.plant_feet(m) for m in made])
+
+    def _log_reading(self, texts: Any, split: bool) -> None:
+        """Log how each prompt is read: its parts (a sequence, a body and its arms), each part
+        as the text encoder gets it (compose.plain_subject), and how far the text anchors pull
+        it. A misreading shows here first ("a little girl in a party dress twirls" was once read
+        as "a person dress twirls")."""
+        if not isinstance(texts, (list, tuple)):
+            texts = [texts]
+        for text in texts:
+            if not isinstance(text, str) or not text.strip():
+                continue  # _made refuses it with its own message
+            pair = split_concurrent(text) if split else None  # as _made_each makes it
+            body, arms = (text, None) if pair is None else pair
+            parts = split_actions_of(body) if split else [body]
+
+            def read(part: str) -> str:
+                pull = 0.0
+                if self.text_anchors is not None:
+                    pull = float(self.text_anchors.weights(self.encode_text([part]))[0][0])
+                note = f" (pulled {pull:.2f} towards the training captions)" if pull else ""
+                return f"{plain_subject(part)!r}{note}"
+
+            _LOG.info("%r read as %s%s", text, ", then ".join(read(p) for p in parts),
+                      f"; its arms as {read(arms)}" if arms else "")
 
     def _made(self, texts: str | Sequence[str], lengths: Any, seconds: Any, nfe: int | None,
               seed: Any, guidance: float | None, split_actions: bool, control: Any,
