@@ -51,6 +51,31 @@ def test_a_prompt_near_the_captions_is_left_alone_and_a_far_one_is_pulled() -> N
     assert anchors(far.double()).dtype == torch.float64
 
 
+def test_neighbours_that_all_say_the_same_pull_a_far_prompt_further() -> None:
+    """groups: a far prompt whose neighbours share one label is pulled by agreed_pull; one
+    whose neighbours differ, or whose labels are mixed (-1), by pull as before."""
+    far = torch.tensor([[-1.0, -1.0, 0.5]])
+    top = (F.normalize(_anchors().vectors, dim=1) @ F.normalize(far, dim=1)[0]).topk(2).indices
+    for groups, expected in (([0, 0, 0, 0, 0], 1.0), ([0, 1, 2, 3, 4], 0.5),
+                             ([-1, -1, -1, -1, -1], 0.5)):
+        anchors = TextAnchors(_anchors().vectors, near=0.9, span=0.2, pull=0.5, neighbours=2,
+                              groups=torch.tensor(groups), agreed_pull=1.0)
+        assert float(anchors.weights(far)[0][0]) == pytest.approx(expected)
+    # agreement among the two nearest only: give them one group, the rest others
+    groups = torch.arange(5)
+    groups[top] = 7
+    anchors = TextAnchors(_anchors().vectors, 0.9, 0.2, 0.5, 2, groups=groups, agreed_pull=0.8)
+    torch.testing.assert_close(anchors(far), 0.2 * far + 0.8 * anchors.vectors[top].mean(0))
+    # halfway down the span, half of agreed_pull
+    halfway = torch.tensor([[0.8, 0.0, 0.6]])
+    same = TextAnchors(_anchors().vectors, 0.9, 0.2, 0.5, 2, groups=torch.zeros(5, dtype=torch.long))
+    assert float(same.weights(halfway)[0][0]) == pytest.approx(0.5)
+    with pytest.raises(MlctError, match="groups of shape"):
+        TextAnchors(_anchors().vectors, 0.9, 0.2, 0.5, 2, groups=torch.zeros(4))
+    with pytest.raises(MlctError, match="agreed_pull must be in"):
+        TextAnchors(_anchors().vectors, 0.9, 0.2, 0.5, 2, agreed_pull=1.2)
+
+
 def test_a_row_seen_before_comes_from_the_memo_which_stays_bounded(monkeypatch) -> None:
     from mlct.generate import text_anchors
 
@@ -96,6 +121,16 @@ def test_the_file_round_trips_in_int8_and_refuses_what_does_not_fit(tmp_path: Pa
     again = read_text_anchors(tmp_path, "minilm+sides", 384)
     assert (again.near, again.span, again.pull, again.neighbours) == (0.7, 0.1, 0.3, 4)
     assert again.info["seed"] == 3
+    assert again.groups is None and again.agreed_pull == 0.3  # no groups: pull everywhere
+    # the groups travel as int16, with their pull
+    groups = torch.arange(40) % 3 - 1
+    save_text_anchors(tmp_path, TextAnchors(loaded.vectors, 0.7, 0.1, 0.3, 4, loaded.info,
+                                            groups, 0.9), "minilm+sides")
+    grouped = read_text_anchors(tmp_path, "minilm+sides", 384)
+    assert torch.equal(grouped.groups, groups) and grouped.agreed_pull == 0.9
+    save_text_anchors(tmp_path, TextAnchors(loaded.vectors, 0.7, 0.1, 0.3, 4, grouped.info),
+                      "minilm+sides")  # saved again without them: no stale agreed_pull
+    assert read_text_anchors(tmp_path, "minilm+sides", 384).agreed_pull == 0.3
     assert read_text_anchors(tmp_path / "none", "minilm+sides", 384) is None
     with pytest.raises(MlctError, match="text encoder 'minilm\\+sides'"):
         read_text_anchors(tmp_path, "minilm", 384)
@@ -139,6 +174,24 @@ def test_making_keeps_one_action_captions_and_leaves_the_calibration_split_alone
     held = split_captions(data, "val")
     pull, _ = anchors.weights(gen.encode_text(held))
     assert float((pull > 0).float().mean()) <= 0.05 + 1.0 / len(held)
+    # each caption's group is its motion's label signature: captions of the same signature
+    # share a group, and none is mixed in the tiny benchmark
+    from mlct.train.text_anchors import SIGNATURE_KEYS
+
+    signature = {}
+    for name in layout.read_split("train"):
+        if len(labels[name]["actions"]) == 1:
+            action = labels[name]["actions"][0]
+            sig = (action["family"], *(action["params"].get(k) for k in SIGNATURE_KEYS),
+                   (labels[name].get("concurrent") or {}).get("family"))
+            for r in layout.read_texts(name):
+                signature.setdefault(r.caption.strip(), set()).add(sig)
+    groups = anchors.groups.tolist()
+    assert anchors.agreed_pull == 1.0 and len(groups) == len(kept)
+    for a, b in [(0, i) for i in range(1, len(kept))]:
+        same = signature[kept[a]] == signature[kept[b]] and len(signature[kept[a]]) == 1
+        assert (groups[a] == groups[b] >= 0) == same
+    assert all((g >= 0) == (len(signature[c]) == 1) for g, c in zip(groups, kept))
     # a sample smaller than the captions keeps that many
     make_text_anchors(data, model, size=5, log=lambda _: None)
     assert len(mlct.load(model, backend="torch").text_anchors.vectors) == 5
@@ -195,9 +248,10 @@ def test_cli_train_anchors_names_bad_input(model_and_data: tuple[Path, Path],
     (copy / FILE).unlink(missing_ok=True)
     base = [sys.executable, "-m", "mlct.cli", "train", "anchors", "--data", str(data),
             "--model", str(copy)]
-    bad = subprocess.run(base + ["--pull", "2"], capture_output=True, text=True)
-    assert bad.returncode == 2 and "pull in [0, 1]" in bad.stderr
-    assert "Traceback" not in bad.stderr and not (copy / FILE).exists()
+    for flag in ("--pull", "--agreed-pull"):
+        bad = subprocess.run(base + [flag, "2"], capture_output=True, text=True)
+        assert bad.returncode == 2 and "pull in [0, 1]" in bad.stderr
+        assert "Traceback" not in bad.stderr and not (copy / FILE).exists()
     ok = subprocess.run(base + ["--size", "50"], capture_output=True, text=True)
     assert ok.returncode == 0, ok.stderr
     assert "text anchors:" in ok.stdout and (copy / FILE).is_file()

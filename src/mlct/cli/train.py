@@ -157,7 +157,8 @@ def run_anchors(args: argparse.Namespace) -> int:
 
     model_dir = bundled_model_dir() if args.model == "bundled" else Path(args.model)
     make_text_anchors(args.data, model_dir, split=args.split, calibrate=args.calibrate,
-                      size=args.size, pull=args.pull, seed=args.seed)
+                      size=args.size, pull=args.pull, seed=args.seed,
+                      agreed_pull=args.agreed_pull)
     return 0
 
 
@@ -247,6 +248,9 @@ def add_parser(commands: Commands) -> None:
                          "(a seeded sample; default 12000, 4.6 MB)")
     anchors.add_argument("--pull", type=float, default=0.5, help="the largest share of the "
                          "nearest captions' mean in a far prompt's vector (default 0.5)")
+    anchors.add_argument("--agreed-pull", type=float, default=1.0, help="the same where every "
+                         "neighbour's motion has the same label (action, side, angle, mode; "
+                         "needs labels.jsonl; default 1.0)")
     anchors.add_argument("--seed", type=int, default=0)
     anchors.set_defaults(func=run_anchors)
 

@@ -13,10 +13,17 @@ prompt's vector c becomes
 
 so a prompt at least as close to the training captions as 95 % of unseen benchmark captions
 (`near`, measured on the validation split when the anchors are made) is left as it is, and one
-`span` further away is pulled by `pull`. The critic still scores the candidates against the
-prompt's own vector. The anchors are the training captions' vectors (int8, one scale per row):
+`span` further away is pulled by `pull`. Where the anchors know what each caption says (its
+motion's label: the action, its side, angle and mode; `groups`) and all the neighbours say the
+same, the pull reaches `agreed_pull` instead: "a nurse is walking down the hospital corridor"
+is nearest five captions that say "a person is walking", and half a pull towards them still
+stood still where the whole one walks; neighbours that differ (turns of several sizes) keep
+the prompt's own say. The critic still scores the candidates against the prompt's own vector.
+The anchors are the training captions' vectors (int8, one scale per row):
 
-    MODEL_DIR/text_anchors.safetensors   "vectors" (N, c) int8, "scales" (N, 1) float16; what
+    MODEL_DIR/text_anchors.safetensors   "vectors" (N, c) int8, "scales" (N, 1) float16,
+                                         optionally "groups" (N,) int16 (a caption's label
+                                         signature, -1 where its motions' labels differ); what
                                          made them and the rule's constants in the metadata
                                          ("mlct": JSON)
 """
@@ -55,14 +62,21 @@ class TextAnchors:
     pull: float  # the largest share of the neighbours' mean, in [0, 1]
     neighbours: int = 5
     info: dict[str, Any] | None = None
+    groups: Tensor | None = None  # (N,) each caption's label signature, -1: unknown or mixed
+    agreed_pull: float = 1.0  # the largest share where every neighbour has the same group
 
     def __post_init__(self) -> None:
         if self.vectors.ndim != 2 or len(self.vectors) < self.neighbours:
             raise MlctError(f"text anchors need at least {self.neighbours} vectors, "
                             f"got {tuple(self.vectors.shape)}")
-        if not (0.0 <= self.pull <= 1.0 and self.span > 0.0 and self.neighbours >= 1):
-            raise MlctError(f"text anchors: pull must be in [0, 1], span > 0 and neighbours "
-                            f">= 1, got {self.pull}, {self.span}, {self.neighbours}")
+        if not (0.0 <= self.pull <= 1.0 and self.span > 0.0 and self.neighbours >= 1
+                and 0.0 <= self.agreed_pull <= 1.0):
+            raise MlctError(f"text anchors: pull and agreed_pull must be in [0, 1], span > 0 "
+                            f"and neighbours >= 1, got {self.pull}, {self.agreed_pull}, "
+                            f"{self.span}, {self.neighbours}")
+        if self.groups is not None and tuple(self.groups.shape) != (len(self.vectors),):
+            raise MlctError(f"text anchors: {len(self.vectors)} vectors but groups of shape "
+                            f"{tuple(self.groups.shape)}")
         # the unit vectors as (c, N) columns: one product gives every prompt's cosines
         object.__setattr__(self, "_columns",
                            F.normalize(self.vectors.float(), dim=1).T.contiguous())
@@ -79,6 +93,11 @@ class TextAnchors:
         if len(far):
             top = sims[far].topk(self.neighbours, dim=1).indices  # (F, k)
             mean[far] = self.vectors[top].mean(dim=1)
+            if self.groups is not None and self.pull > 0:
+                groups = self.groups[top]  # (F, k)
+                agreed = (groups >= 0).all(dim=1) & (groups == groups[:, :1]).all(dim=1)
+                pull[far] = torch.where(agreed, pull[far] * (self.agreed_pull / self.pull),
+                                        pull[far])
         return pull, mean
 
     def __call__(self, cond: Tensor) -> Tensor:
@@ -122,10 +141,15 @@ def save_text_anchors(model_dir: str | os.PathLike, anchors: TextAnchors, text_e
     info = {**(anchors.info or {}), "format": FORMAT, "version": VERSION,
             "text_encoder": text_encoder, "text_dim": int(vectors.shape[1]), "near": anchors.near,
             "span": anchors.span, "pull": anchors.pull, "neighbours": anchors.neighbours}
+    tensors = {"vectors": rows.contiguous(), "scales": scales.contiguous()}
+    if anchors.groups is not None:
+        tensors["groups"] = anchors.groups.to(torch.int16).contiguous()
+        info["agreed_pull"] = anchors.agreed_pull
+    else:
+        info.pop("agreed_pull", None)
     path = Path(model_dir) / FILE
     with atomic_path(path) as tmp:
-        tmp.write_bytes(save({"vectors": rows.contiguous(), "scales": scales.contiguous()},
-                             metadata={"mlct": json.dumps(info)}))
+        tmp.write_bytes(save(tensors, metadata={"mlct": json.dumps(info)}))
     return path
 
 
@@ -140,14 +164,19 @@ def read_text_anchors(model_dir: str | os.PathLike, text_encoder: str, text_dim:
         with safe_open(str(path), framework="pt") as f:
             info = json.loads((f.metadata() or {})["mlct"])
             rows, scales = f.get_tensor("vectors"), f.get_tensor("scales")
+            groups = f.get_tensor("groups") if "groups" in f.keys() else None
         if info.get("format") != FORMAT or info.get("version") != VERSION:
             raise ValueError(f"not {FORMAT} version {VERSION}")
         if rows.dtype != torch.int8 or rows.ndim != 2 or tuple(scales.shape) != (len(rows), 1):
             raise ValueError(f"vectors {tuple(rows.shape)} {rows.dtype}, scales "
                              f"{tuple(scales.shape)}")
+        if groups is not None and (groups.dtype != torch.int16
+                                   or tuple(groups.shape) != (len(rows),)):
+            raise ValueError(f"groups {tuple(groups.shape)} {groups.dtype}")
         vectors = rows.float() * scales.float()
         rule = (float(info["near"]), float(info["span"]), float(info["pull"]),
                 int(info["neighbours"]))
+        agreed_pull = float(info.get("agreed_pull", rule[2]))
     except Exception as error:  # safetensors, json and the checks raise several kinds
         raise MlctError(f"{path}: not text anchors ({first_line(error)})") from None
     if info["text_encoder"] != text_encoder or vectors.shape[1] != text_dim:
@@ -155,4 +184,5 @@ def read_text_anchors(model_dir: str | os.PathLike, text_encoder: str, text_dim:
                         f"({vectors.shape[1]}-d), the model uses {text_encoder!r} ({text_dim}-d); "
                         f"remake them with `mlct train anchors`")
     near, span, pull, neighbours = rule
-    return TextAnchors(vectors, near, span, pull, neighbours, info)
+    return TextAnchors(vectors, near, span, pull, neighbours, info,
+                       None if groups is None else groups.long(), agreed_pull)

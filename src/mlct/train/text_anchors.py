@@ -3,7 +3,10 @@ training captions, written beside its weights.
 
 The anchors are the model's text vectors of one split's captions, each caption once; with
 labels.jsonl only those of one-action motions, since the pipeline samples a sequence one part at
-a time. At most `size` of them are kept (a seeded sample; int8 rows, so 12,000 take 4.6 MB).
+a time, each with its label's signature (the action, its side, angle and mode, and an arm action
+done during it), so that a prompt whose neighbours all say the same is pulled further
+(`agreed_pull`). At most `size` of them are kept (a seeded sample; int8 rows, so 12,000 take
+4.6 MB).
 `near` is measured, not chosen: the `quantile` of the calibration split's captions' cosine with
 their nearest anchor, so that unseen captions worded as the benchmark's are left alone.
 """
@@ -25,6 +28,11 @@ from mlct.generate.text_anchors import TextAnchors, int8_rows, save_text_anchors
 
 SIZE = 12000
 PULL, SPAN, NEIGHBOURS, QUANTILE = 0.5, 0.2, 5, 0.05
+AGREED_PULL = 1.0
+# What a caption states of its action: its side, angle and mode. Counts, steps and speeds are
+# often left unsaid ("a person hops on the left leg" of a three-hop motion), so they are not
+# part of the signature: two captions that differ only there say the same thing.
+SIGNATURE_KEYS = ("side", "hand", "leg", "angle", "mode")
 
 
 def split_captions(data_dir: str | os.PathLike, split: str) -> list[str]:
@@ -40,16 +48,43 @@ def split_captions(data_dir: str | os.PathLike, split: str) -> list[str]:
     return sorted(c for c in captions if c)
 
 
+def caption_groups(data_dir: str | os.PathLike, split: str, captions: list[str]
+                   ) -> torch.Tensor | None:
+    """(N,) each caption's label signature as a small integer: -1 where its motions' labels
+    say different things or it has none; None without labels.jsonl."""
+    if not (Path(data_dir) / LABELS_FILE).is_file():
+        return None
+    layout = DatasetLayout.existing(data_dir)
+    labels = read_labels(data_dir)
+    said: dict[str, set[tuple]] = {}
+    for name in layout.read_split(split):
+        label = labels.get(name)
+        if label is None or len(label.get("actions", [])) != 1:
+            continue
+        action, concurrent = label["actions"][0], label.get("concurrent") or {}
+        signature = (action["family"], *(str(action.get("params", {}).get(k))
+                                         for k in SIGNATURE_KEYS),
+                     concurrent.get("family"), str(concurrent.get("params", {}).get("hand")))
+        for record in layout.read_texts(name):
+            said.setdefault(record.caption.strip(), set()).add(signature)
+    ids: dict[tuple, int] = {}
+    groups = [ids.setdefault(next(iter(said[c])), len(ids)) if len(said.get(c, ())) == 1
+              else -1 for c in captions]
+    return torch.tensor(groups, dtype=torch.long)
+
+
 def make_text_anchors(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
                       split: str = "train", calibrate: str = "val", size: int = SIZE,
                       pull: float = PULL, span: float = SPAN, neighbours: int = NEIGHBOURS,
-                      quantile: float = QUANTILE, seed: int = 0, log: Any = print
-                      ) -> dict[str, Any]:
+                      quantile: float = QUANTILE, seed: int = 0, log: Any = print,
+                      agreed_pull: float = AGREED_PULL) -> dict[str, Any]:
     """Make the anchors of the model in `model_dir` from `data_dir` and write them there;
     returns what it measured."""
-    if size < neighbours or not 0.0 < quantile < 1.0 or not 0.0 <= pull <= 1.0:
+    if (size < neighbours or not 0.0 < quantile < 1.0 or not 0.0 <= pull <= 1.0
+            or not 0.0 <= agreed_pull <= 1.0):
         raise MlctError(f"size must be >= neighbours ({neighbours}), quantile in (0, 1) and "
-                        f"pull in [0, 1], got {size}, {quantile} and {pull}")
+                        f"pull and agreed pull in [0, 1], got {size}, {quantile}, {pull} and "
+                        f"{agreed_pull}")
     from mlct.text import load_text_encoder
     from mlct.text.cache import CachedTextEncoder
 
@@ -78,8 +113,14 @@ def make_text_anchors(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
             "seed": seed}
     # written once, atomically, when everything is measured: an interrupted run leaves the
     # model's anchors (or their absence) as they were
+    groups = caption_groups(data_dir, split, captions)
+    if groups is not None:
+        info["groups"] = {"signature": ["family", *SIGNATURE_KEYS, "concurrent", "hand"],
+                          "distinct": int(groups.max().item()) + 1,
+                          "mixed": int((groups < 0).sum().item())}
     path = save_text_anchors(model_dir, TextAnchors(stored, round(near, 4), span, pull,
-                                                    neighbours, info), meta["text_encoder"])
+                                                    neighbours, info, groups, agreed_pull),
+                             meta["text_encoder"])
     log(f"text anchors: {len(captions)} captions of '{split}'; near {near:.3f} (the "
         f"{quantile:.0%} quantile of {len(held)} '{calibrate}' captions' nearest cosine); "
         f"{path.stat().st_size / 1e6:.1f} MB; {path}")
