@@ -180,7 +180,8 @@ python "$(dirname "$0")/interpolate_models.py" "$work/model_shortcm" "${soup[@]}
     --alpha 0.7 --out "$work/model"
 cp "$previous/durations.json" "$previous/critic.safetensors" "$work/model/"
 # the text anchors (generate/text_anchors.py): 12,000 one-action captions of the last stage's
-# data, which a prompt worded unlike all of them is pulled towards before sampling (seconds)
+# data, which a prompt worded unlike all of them is pulled towards before sampling, all the
+# way where its 5 nearest captions' motions have one label (seconds)
 mlct train anchors --data "$work/synth_collturns" --model "$work/model"
 rm -rf "$repo/src/mlct/assets/model"
 cp -r "$work/model" "$repo/src/mlct/assets/model"
