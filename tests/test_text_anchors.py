@@ -197,6 +197,23 @@ def test_making_keeps_one_action_captions_and_leaves_the_calibration_split_alone
     assert len(mlct.load(model, backend="torch").text_anchors.vectors) == 5
 
 
+def test_data_without_labels_gives_anchors_without_groups(model_and_data: tuple[Path, Path],
+                                                        tmp_path: Path) -> None:
+    """An imported dataset has no labels.jsonl: every caption is kept and none is grouped, so
+    far prompts are pulled by `pull` alone, as before groups."""
+    from mlct.data.labels import LABELS_FILE
+    from mlct.train.text_anchors import make_text_anchors
+
+    model, data = model_and_data
+    bare, copy = tmp_path / "data", tmp_path / "model"
+    shutil.copytree(data, bare)
+    shutil.copytree(model, copy)
+    (bare / LABELS_FILE).unlink()
+    make_text_anchors(bare, copy, size=50, log=lambda _: None)
+    anchors = mlct.load(copy, backend="torch").text_anchors
+    assert anchors is not None and anchors.groups is None and "groups" not in anchors.info
+
+
 def test_a_run_stopped_before_the_end_leaves_the_models_anchors_as_they_were(
         model_and_data: tuple[Path, Path], tmp_path: Path, monkeypatch) -> None:
     from mlct.train import text_anchors as maker
