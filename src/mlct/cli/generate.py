@@ -70,8 +70,11 @@ def run(args: argparse.Namespace) -> int:
             _show_decisions()
         return generator
 
-    written = generate_files.run(load, request, paths, features=args.features,
-                                 progress=not args.quiet, rig=args.rig)
+    try:
+        written = generate_files.run(load, request, paths, features=args.features,
+                                     progress=not args.quiet, rig=args.rig)
+    finally:
+        _hide_decisions()  # main() may be called again in one process (tests, scripts)
     for path in written:
         print(path)
     return 0
@@ -89,8 +92,19 @@ def _show_decisions() -> None:
     """--verbose: the pipeline's decisions (logger "mlct", e.g. a gait kept going) on stderr."""
     log = logging.getLogger("mlct")
     if not any(isinstance(h, _ToStderr) for h in log.handlers):
+        log._level_before_verbose = log.level  # type: ignore[attr-defined]
         log.addHandler(_ToStderr())
     log.setLevel(logging.INFO)
+
+
+def _hide_decisions() -> None:
+    """Undo _show_decisions: the "mlct" logger as it was before --verbose."""
+    log = logging.getLogger("mlct")
+    shown = [h for h in log.handlers if isinstance(h, _ToStderr)]
+    for handler in shown:
+        log.removeHandler(handler)
+    if shown:
+        log.setLevel(getattr(log, "_level_before_verbose", logging.NOTSET))
 
 
 def _control(args: argparse.Namespace) -> Any:
