@@ -70,6 +70,10 @@ def test_neighbours_that_all_say_the_same_pull_a_far_prompt_further() -> None:
     halfway = torch.tensor([[0.8, 0.0, 0.6]])
     same = TextAnchors(_anchors().vectors, 0.9, 0.2, 0.5, 2, groups=torch.zeros(5, dtype=torch.long))
     assert float(same.weights(halfway)[0][0]) == pytest.approx(0.5)
+    # a pull of 0 leaves unagreed prompts alone and still pulls agreed ones
+    only = TextAnchors(_anchors().vectors, 0.9, 0.2, 0.0, 2, groups=torch.zeros(5, dtype=torch.long))
+    assert float(only.weights(far)[0][0]) == pytest.approx(1.0)
+    assert float(TextAnchors(_anchors().vectors, 0.9, 0.2, 0.0, 2).weights(far)[0][0]) == 0.0
     with pytest.raises(MlctError, match="groups of shape"):
         TextAnchors(_anchors().vectors, 0.9, 0.2, 0.5, 2, groups=torch.zeros(4))
     with pytest.raises(MlctError, match="agreed_pull must be in"):

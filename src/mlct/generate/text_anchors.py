@@ -87,17 +87,17 @@ class TextAnchors:
         """(a (B,), m (B, c)): each row's pull and its neighbours' mean (zeros where a is 0:
         a row near the captions needs no neighbours)."""
         sims = F.normalize(cond.float().cpu(), dim=1) @ self._columns  # (B, N)
-        pull = self.pull * ((self.near - sims.amax(dim=1)) / self.span).clamp(0.0, 1.0)
+        ramp = ((self.near - sims.amax(dim=1)) / self.span).clamp(0.0, 1.0)
+        pull = self.pull * ramp
         mean = torch.zeros(len(sims), self.vectors.shape[1])
-        far = (pull > 0).nonzero().flatten()
+        far = (ramp > 0).nonzero().flatten()
         if len(far):
             top = sims[far].topk(self.neighbours, dim=1).indices  # (F, k)
             mean[far] = self.vectors[top].mean(dim=1)
-            if self.groups is not None and self.pull > 0:
+            if self.groups is not None:
                 groups = self.groups[top]  # (F, k)
                 agreed = (groups >= 0).all(dim=1) & (groups == groups[:, :1]).all(dim=1)
-                pull[far] = torch.where(agreed, pull[far] * (self.agreed_pull / self.pull),
-                                        pull[far])
+                pull[far] = torch.where(agreed, self.agreed_pull * ramp[far], pull[far])
         return pull, mean
 
     def __call__(self, cond: Tensor) -> Tensor:
@@ -143,6 +143,9 @@ def save_text_anchors(model_dir: str | os.PathLike, anchors: TextAnchors, text_e
             "span": anchors.span, "pull": anchors.pull, "neighbours": anchors.neighbours}
     tensors = {"vectors": rows.contiguous(), "scales": scales.contiguous()}
     if anchors.groups is not None:
+        if int(anchors.groups.max()) > torch.iinfo(torch.int16).max:
+            raise MlctError(f"text anchors: {int(anchors.groups.max()) + 1} label groups, more "
+                            f"than the file's int16 holds")
         tensors["groups"] = anchors.groups.to(torch.int16).contiguous()
         info["agreed_pull"] = anchors.agreed_pull
     else:
