@@ -260,3 +260,24 @@ def test_verbose_says_how_each_prompt_is_read(tmp_path, capsys):
     assert main(["generate", text, "--seconds", "4", "--seed", "0", "--backend", "torch",
                  "--candidates", "1", "--out", str(tmp_path / "q.npy")]) == 0
     assert "read as" not in capsys.readouterr().err
+
+
+def test_reading_says_how_generate_reads_a_prompt(pipe) -> None:
+    """pipe.reading: one entry per sample generate() makes of the prompt, each as the text
+    encoder gets it, with the text anchors' pull."""
+    got = pipe.reading("the robot walks forward while clapping, then sits down")
+    assert got == [
+        {"part": "the robot walks forward", "read_as": "a person walks forward", "pull": 0.0,
+         "arms": False},
+        {"part": "the robot sits down", "read_as": "a person sits down", "pull": 0.0,
+         "arms": False},
+        {"part": "the robot claps", "read_as": "a person claps", "pull": 0.0, "arms": True}]
+    far = pipe.reading("a little girl in a party dress twirls all the way round on the spot")
+    assert [p["read_as"] for p in far] == ["a person twirls all the way round on the spot"]
+    assert 0.0 < far[0]["pull"] <= 1.0
+    whole = pipe.reading("a person walks forward, then waves", split_actions=False)
+    assert [p["part"] for p in whole] == ["a person walks forward, then waves"]
+    from mlct.errors import MlctError
+
+    with pytest.raises(MlctError):
+        pipe.reading("   ")

@@ -332,29 +332,44 @@ class MotionGenerator:
             return made
         return Generation([self.plant_feet(m) for m in made])
 
+    def reading(self, text: str, split_actions: bool = True) -> list[dict[str, Any]]:
+        """How generate() reads a prompt, one dict per sample it makes: "part" (the words, as
+        split from the prompt), "read_as" (as the text encoder gets them: compose.plain_subject),
+        "pull" (how far the text anchors move its vector, 0 to 1) and "arms" (True for an arm
+        action done during the rest). A misreading shows here first ("a little girl in a party
+        dress twirls" was once read as "a person dress twirls")."""
+        text = clean_prompt(text)
+        pair = split_concurrent(text) if split_actions else None  # as _made_each makes it
+        body, arms = (text, None) if pair is None else pair
+        parts = [(p, False) for p in (split_actions_of(body) if split_actions else [body])]
+        parts += [(arms, True)] if arms else []
+        out = []
+        for part, is_arms in parts:
+            pull = 0.0
+            if self.text_anchors is not None:
+                pull = float(self.text_anchors.weights(self.encode_text([part]))[0][0])
+            out.append({"part": part, "read_as": plain_subject(part), "pull": round(pull, 3),
+                        "arms": is_arms})
+        return out
+
     def _log_reading(self, texts: Any, split: bool) -> None:
-        """Log how each prompt is read: its parts (a sequence, a body and its arms), each part
-        as the text encoder gets it (compose.plain_subject), and how far the text anchors pull
-        it. A misreading shows here first ("a little girl in a party dress twirls" was once read
-        as "a person dress twirls")."""
+        """--verbose: each prompt's reading() as one line."""
         if not isinstance(texts, (list, tuple)):
             texts = [texts]
         for text in texts:
             if not isinstance(text, str) or not text.strip():
                 continue  # _made refuses it with its own message
-            pair = split_concurrent(text) if split else None  # as _made_each makes it
-            body, arms = (text, None) if pair is None else pair
-            parts = split_actions_of(body) if split else [body]
-
-            def read(part: str) -> str:
-                pull = 0.0
-                if self.text_anchors is not None:
-                    pull = float(self.text_anchors.weights(self.encode_text([part]))[0][0])
-                note = f" (pulled {pull:.2f} towards the training captions)" if pull else ""
-                return f"{plain_subject(part)!r}{note}"
-
-            _LOG.info("%r read as %s%s", text, ", then ".join(read(p) for p in parts),
-                      f"; its arms as {read(arms)}" if arms else "")
+            try:
+                parts = self.reading(text, split)
+            except MlctError:
+                continue  # the same: _made says why
+            said = [f"{p['read_as']!r}" + (f" (pulled {p['pull']:.2f} towards the training "
+                                             f"captions)" if p["pull"] else "")
+                    for p in parts]
+            body = [w for w, p in zip(said, parts) if not p["arms"]]
+            arms = [w for w, p in zip(said, parts) if p["arms"]]
+            _LOG.info("%r read as %s%s", text, ", then ".join(body),
+                      f"; its arms as {arms[0]}" if arms else "")
 
     def _made(self, texts: str | Sequence[str], lengths: Any, seconds: Any, nfe: int | None,
               seed: Any, guidance: float | None, split_actions: bool, control: Any,
