@@ -338,31 +338,22 @@ class MotionGenerator:
         "pull" (how far the text anchors move its vector, 0 to 1) and "arms" (True for an arm
         action done during the rest). A misreading shows here first ("a little girl in a party
         dress twirls" was once read as "a person dress twirls")."""
-        text = clean_prompt(text)
-        pair = split_concurrent(text) if split_actions else None  # as _made_each makes it
-        body, arms = (text, None) if pair is None else pair
-        parts = [(p, False) for p in (split_actions_of(body) if split_actions else [body])]
-        parts += [(arms, True)] if arms else []
-        out = []
-        for part, is_arms in parts:
-            pull = 0.0
-            if self.text_anchors is not None:
-                pull = float(self.text_anchors.weights(self.encode_text([part]))[0][0])
-            out.append({"part": part, "read_as": plain_subject(part), "pull": round(pull, 3),
-                        "arms": is_arms})
-        return out
+        body, arms = parts_as_made(clean_prompt(text), split_actions)
+        parts = body + ([arms] if arms else [])
+        pulls = (self.text_anchors.weights(self.encode_text(parts))[0].tolist()
+                 if self.text_anchors is not None else [0.0] * len(parts))
+        return [{"part": part, "read_as": plain_subject(part), "pull": round(pull, 3),
+                 "arms": k == len(body)} for k, (part, pull) in enumerate(zip(parts, pulls))]
 
     def _log_reading(self, texts: Any, split: bool) -> None:
         """--verbose: each prompt's reading() as one line."""
         if not isinstance(texts, (list, tuple)):
             texts = [texts]
         for text in texts:
-            if not isinstance(text, str) or not text.strip():
-                continue  # _made refuses it with its own message
             try:
                 parts = self.reading(text, split)
             except MlctError:
-                continue  # the same: _made says why
+                continue  # _made refuses it with its own message
             said = [f"{p['read_as']!r}" + (f" (pulled {p['pull']:.2f} towards the training "
                                              f"captions)" if p["pull"] else "")
                     for p in parts]
@@ -559,9 +550,7 @@ class MotionGenerator:
         plans = {}  # text index -> its parts, as generate() would make them
         for i, (text, value) in enumerate(zip(texts, given)):
             if _wants_auto(value):
-                pair = split_concurrent(text) if split_actions else None
-                body = text if pair is None else pair[0]
-                plans[i] = split_actions_of(body) if split_actions else [body]
+                plans[i] = parts_as_made(text, split_actions)[0]
         parts = [p for plan in plans.values() for p in plan]
         vectors = self.encode_text(parts).float().cpu().numpy() if parts else None
         longest = self.max_frames / self.skeleton.fps
@@ -754,6 +743,15 @@ def bundle_networks(config: Config, meta: dict, tensors: dict[str, Tensor]
 # What the pipeline decided beyond the model's own sampling (keep-going); `mlct generate
 # --verbose` prints it.
 _LOG = logging.getLogger("mlct.generate")
+
+
+def parts_as_made(text: str, split: bool) -> tuple[list[str], str | None]:
+    """(the actions made in turn, the arm action made during them or None): how generate()
+    splits a prompt, an arm action done during the rest first (compose.split_concurrent), then
+    the rest's actions (compose.split_actions); (text,), None when not split."""
+    pair = split_concurrent(text) if split else None
+    body, arms = (text, None) if pair is None else pair
+    return (split_actions_of(body) if split else [body]), arms
 # The shortest share of a sequence's part: below it the blend (0.75 s) would be most of the part.
 MIN_PART_SECONDS = 1.0
 DEFAULT_SECONDS = 5.0  # a clip's length when neither the caller nor the prompt gives one

@@ -35,40 +35,46 @@ AGREED_PULL = 1.0
 SIGNATURE_KEYS = ("side", "hand", "leg", "angle", "mode")
 
 
-def split_captions(data_dir: str | os.PathLike, split: str) -> list[str]:
-    """The split's distinct captions, sorted; of one-action motions where labels.jsonl says."""
+def _captions_said(data_dir: str | os.PathLike, split: str) -> dict[str, set[tuple] | None]:
+    """The split's captions of one-action motions (where labels.jsonl says; a motion without a
+    label is kept, nothing says it is not one), each with the signatures of the labels that say
+    it (SIGNATURE_KEYS); None for a caption some unlabelled motion says."""
     layout = DatasetLayout.existing(data_dir)
     labels = read_labels(data_dir) if (Path(data_dir) / LABELS_FILE).is_file() else {}
-    captions: set[str] = set()
-    for name in layout.read_split(split):
-        label = labels.get(name)  # a motion without a label is kept: nothing says it is not one
-        if label is not None and len(label.get("actions", [])) != 1:
-            continue
-        captions.update(record.caption.strip() for record in layout.read_texts(name))
-    return sorted(c for c in captions if c)
-
-
-def caption_groups(data_dir: str | os.PathLike, split: str, captions: list[str]
-                   ) -> torch.Tensor | None:
-    """(N,) each caption's label signature as a small integer: -1 where its motions' labels
-    say different things or it has none; None without labels.jsonl."""
-    if not (Path(data_dir) / LABELS_FILE).is_file():
-        return None
-    layout = DatasetLayout.existing(data_dir)
-    labels = read_labels(data_dir)
-    said: dict[str, set[tuple]] = {}
+    said: dict[str, set[tuple] | None] = {}
     for name in layout.read_split(split):
         label = labels.get(name)
-        if label is None or len(label.get("actions", [])) != 1:
-            continue
-        action, concurrent = label["actions"][0], label.get("concurrent") or {}
-        signature = (action["family"], *(str(action.get("params", {}).get(k))
-                                         for k in SIGNATURE_KEYS),
-                     concurrent.get("family"), str(concurrent.get("params", {}).get("hand")))
+        signature = None
+        if label is not None:
+            if len(label.get("actions", [])) != 1:
+                continue
+            action, concurrent = label["actions"][0], label.get("concurrent") or {}
+            signature = (action["family"], *(str(action.get("params", {}).get(k))
+                                             for k in SIGNATURE_KEYS),
+                         concurrent.get("family"), str(concurrent.get("params", {}).get("hand")))
         for record in layout.read_texts(name):
-            said.setdefault(record.caption.strip(), set()).add(signature)
+            caption = record.caption.strip()
+            if not caption:
+                continue
+            known = said.setdefault(caption, set())
+            if known is not None:
+                said[caption] = None if signature is None else known | {signature}
+    return said
+
+
+def split_captions(data_dir: str | os.PathLike, split: str) -> list[str]:
+    """The split's distinct captions, sorted; of one-action motions where labels.jsonl says."""
+    return sorted(_captions_said(data_dir, split))
+
+
+def caption_groups(said: dict[str, set[tuple] | None], captions: list[str]
+                   ) -> torch.Tensor | None:
+    """(N,) each caption's label signature (_captions_said) as a small integer: -1 where its
+    motions' labels say different things or it has none; None when no caption has a label."""
+    if not any(said.get(c) for c in captions):
+        return None
     ids: dict[tuple, int] = {}
-    groups = [ids.setdefault(next(iter(said[c])), len(ids)) if len(said.get(c, ())) == 1
+    groups = [ids.setdefault(next(iter(said[c])), len(ids)) if len(said.get(c) or ()) == 1
               else -1 for c in captions]
     return torch.tensor(groups, dtype=torch.long)
 
@@ -92,7 +98,8 @@ def make_text_anchors(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
     layout = DatasetLayout.existing(data_dir)
     if calibrate not in layout.splits():
         raise MlctError(f"{data_dir}: no '{calibrate}' split to measure the anchors' reach on")
-    captions = split_captions(data_dir, split)
+    said = _captions_said(data_dir, split)
+    captions = sorted(said)
     held = split_captions(data_dir, calibrate)
     if len(captions) < neighbours or not held:
         raise MlctError(f"{data_dir}: too few captions ({len(captions)} in '{split}', "
@@ -113,7 +120,7 @@ def make_text_anchors(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
             "seed": seed}
     # written once, atomically, when everything is measured: an interrupted run leaves the
     # model's anchors (or their absence) as they were
-    groups = caption_groups(data_dir, split, captions)
+    groups = caption_groups(said, captions)
     if groups is not None:
         info["groups"] = {"signature": ["family", *SIGNATURE_KEYS, "concurrent", "hand"],
                           "distinct": int(groups.max().item()) + 1,
