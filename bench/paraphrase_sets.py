@@ -4,8 +4,9 @@
         [--sets "held-out 5" ...]
 
 Sets (bench/data): the seen paraphrases, held-out 1 to 5 (--sets: only those named). Each
-prompt is made at 4 s (as bench/motion_quality.py's columns) and at the pipeline's default length (what a user gets who
-gives none), the same seeds for every model, scored by the read-outs (motion_quality.judge_prompt).
+prompt is made at 4 s (as bench/motion_quality.py's columns) and at the pipeline's default
+length (what a user gets who gives none), the same seeds for every model, scored by the
+read-outs (motion_quality.judge_prompt).
 Prints per model and set: the pass rate at both lengths and, for the prompts that name a side or
 turn direction, that rate at 4 s; then, for --failures SET (default held-out 3), each prompt
 some model fails in some seed, with every model's pass counts and the checks that failed (how
