@@ -1,53 +1,78 @@
 #!/usr/bin/env bash
-# A candidate one-pass recipe for the bundled model, aimed at issue 14's 3 hours on 2 cores:
+# A one-pass recipe for the bundled model's networks, aimed at issue 14's 3 hours on 2 cores:
 #   bash tools/make_bundled_model_3h.sh [WORK_DIR] [CM_SEED]
-# tools/make_bundled_model.sh grew stage by stage as each change was found (about 7 h 45 min,
-# 107,000 stage-2 steps on four autoencoders). This recipe applies what those stages found
-# from the start, once each, and trains in bfloat16 autocast (the CPU has avx512_bf16: 1.5x
-# the samples/s of float32 for both stages, same validation losses after 400-500 steps;
-# docs/training.md, "A 3-hour recipe"):
-# - the autoencoder in two parts: 10,000 plain steps, then 5,000 with the latent noise, the
-#   hold past an action's end and the root's integrated path in its loss (trained with all of
-#   them from step 0 it drew no clap, wave or punch: reconstructions 0.582, claps 0.14);
-# - stage 2 once, with the side-contrasted text ('minilm+sides') and on the captioned-richly,
-#   oversampled data (everyday captions, single claps, waves and turns listed 3x) from step 0,
-#   one cosine schedule (30,000 steps, lr 4e-4);
-# - the decoder alone with twice the latent noise (3,000 steps, encoder frozen), then the
-#   duration model and the best-of-N critic.
+# tools/make_bundled_model.sh grew stage by stage as each change was found (~13.5 h, ~130,000
+# stage-2 steps on six autoencoders). This recipe (version 2, 2026-11-28) applies what those
+# stages found from the start, once each, in bfloat16 autocast, and keeps both cores busy:
+# - the data and every caption set the bundle's last stage saw (everyday, short and colloquial
+#   captions; claps, waves, turns and spins oversampled), made first;
+# - the autoencoder in two parts on both cores: 10,000 plain steps, then 5,000 with the latent
+#   noise, the hold past an action's end and the root's integrated path (with all of them from
+#   step 0 it drew no clap, wave or punch: docs/training.md, "A 3-hour recipe");
+# - then two lanes, one thread each: stage 2 on the body's 3 tokens with the side-contrasted
+#   text and the last stage's captions from step 0; beside it, the arm pair copied from the
+#   body's (body encoder frozen, twice the latent noise: docs/training.md, "An arm pair started
+#   from the body's own pair") and its decoders trained longer on the same latents;
+# - stage 2 grown onto the 6 tokens, on both cores; the durations, the critic, the text anchors.
+# Version 1 (commit eb34d51 and before: no arm pair, 30,000 stage-2 steps on one core) took
+# 3.2 h of trainings and made a weaker model (docs/training.md, "The 3-hour recipe, finished").
 # Resumable: run it again with the same WORK_DIR and each stage continues from its last
 # checkpoint. Unlike make_bundled_model.sh it does not replace src/mlct/assets/model: it writes
-# WORK_DIR/model, to be measured against the bundle first.
+# WORK_DIR/model, to be measured against the bundle first. Step counts may be overridden for a
+# smoke run (AE_STEPS, NOISE_STEPS, ARM_STEPS, ARMDEC_STEPS, CM_STEPS, CM6_STEPS, MOTIONS).
 set -euo pipefail
 work="${1:-mlct-bundled-3h}"
 seed="${2:-0}"
 source "$(dirname "$0")/recipe_stage.sh"
+precision=(train.ae.precision=bf16)
 stamp data
-[ -f "$work/synth/synth.json" ] || mlct data synth --out "$work/synth" --num 4000 --seed 0 --workers 2
+[ -f "$work/synth/synth.json" ] || mlct data synth --out "$work/synth" --num "${MOTIONS:-4000}" \
+    --seed 0 --workers 2 --quiet
 [ -f "$work/synth_rich/synth.json" ] || mlct data rephrase "$work/synth" --out "$work/synth_rich"
 [ -f "$work/synth_focus/synth.json" ] || mlct data oversample "$work/synth_rich" \
     --out "$work/synth_focus" --families clap,wave,turn --times 3
+[ -f "$work/synth_short/synth.json" ] || mlct data rephrase "$work/synth_focus" \
+    --out "$work/synth_short" --vocabulary short --per-motion 2
+[ -f "$work/synth_coll/synth.json" ] || mlct data rephrase "$work/synth_short" \
+    --out "$work/synth_coll" --vocabulary colloquial --per-motion 3 --seed 1
+[ -f "$work/synth_collturns/synth.json" ] || mlct data oversample "$work/synth_coll" \
+    --out "$work/synth_collturns" --families turn,spin --times 3
 stamp autoencoder
-stage run ae --config small train.ae.precision=bf16
+stage run ae --config small "train.ae.max_steps=${AE_STEPS:-10000}" "${precision[@]}"
 stamp autoencoder, noisy latent
 stage noise ae --init "$work/run" ae.latent_noise=0.1 ae.hold_extension=0.5 \
-    ae.trajectory_weight=1.0 train.ae.max_steps=5000 train.ae.lr=3e-4 train.ae.precision=bf16
-stamp stage 2
-DATA="$work/synth_focus" AE="$work/noise" stage cm cm --config small \
-    text.encoder=minilm+sides train.cm.max_steps=30000 train.cm.lr=4e-4 "train.cm.seed=$seed" \
-    train.cm.precision=bf16
-[ -f "$work/model_cm/config.json" ] || mlct export "$work/cm" --out "$work/model_cm" --half
-stamp decoder
-# the decoder alone, twice the latent noise (docs/training.md, "Damped later cycles"); the
-# encoder is frozen, so stage 2's latents keep their meaning
-stage dnoise ae --init "$work/model_cm" ae.freeze_encoder=true ae.trajectory_weight=1.0 \
-    ae.latent_noise=0.2 ae.hold_extension=0.5 train.ae.max_steps=3000 train.ae.lr=1e-4 \
-    train.ae.precision=bf16
-if [ ! -f "$work/model/critic.safetensors" ]; then
+    ae.trajectory_weight=1.0 "train.ae.max_steps=${NOISE_STEPS:-5000}" train.ae.lr=3e-4 \
+    "${precision[@]}"
+stamp two lanes: stage 2 on 3 tokens, the arm pair beside it
+# one thread each: two one-thread trainings side by side use the 2 cores better than one on two
+# (docs/training.md, "Threads")
+(
+    export OMP_NUM_THREADS=1
+    stage arms ae --init "$work/noise" ae.n_tokens=6 ae.arm_tokens=3 ae.arm_channels=128 \
+        ae.arm_init=body ae.freeze_encoder=true ae.latent_noise=0.2 \
+        "train.ae.max_steps=${ARM_STEPS:-10000}" train.ae.lr=1e-3 "${precision[@]}"
+    # both encoders frozen (an --init of the same token count is no growth): the latents stay
+    stage armdec ae --init "$work/arms" ae.freeze_encoder=true \
+        "train.ae.max_steps=${ARMDEC_STEPS:-10000}" train.ae.lr=5e-4 "${precision[@]}"
+) > "$work/arm_lane.log" 2>&1 &
+arm_lane=$!
+OMP_NUM_THREADS=1 DATA="$work/synth_collturns" AE="$work/noise" stage cm cm --config small \
+    text.encoder=minilm+sides "train.cm.max_steps=${CM_STEPS:-18000}" train.cm.lr=4e-4 \
+    "train.cm.seed=$seed" train.cm.precision=bf16
+wait "$arm_lane" || { echo "the arm lane failed: $work/arm_lane.log" >&2; exit 1; }
+# float32, so that the grown stage 2 does not start from weights rounded to float16
+[ -f "$work/model_cm/config.json" ] || mlct export "$work/cm" --out "$work/model_cm"
+stamp stage 2 on 6 tokens
+AE="$work/armdec" DATA="$work/synth_collturns" stage cm6 cm --init "$work/model_cm" \
+    text.encoder=minilm+sides "train.cm.max_steps=${CM6_STEPS:-12000}" train.cm.lr=2e-4 \
+    "train.cm.seed=$((seed + 31))" train.cm.precision=bf16
+if [ ! -f "$work/model/text_anchors.safetensors" ]; then
     rm -rf "$work/model"
-    mlct export "$work/cm" --out "$work/model" --half --decoder-from "$work/dnoise"
-    stamp durations and critic
+    mlct export "$work/cm6" --out "$work/model" --half --decoder-from "$work/armdec"
+    stamp durations, critic, text anchors
     mlct train durations --data "$work/synth" --model "$work/model"
     mlct train critic --data "$work/synth_rich" --model "$work/model" --samples 8
+    mlct train anchors --data "$work/synth_collturns" --model "$work/model"
 fi
 stamp done
 echo "$work/model"
