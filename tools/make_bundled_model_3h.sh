@@ -64,7 +64,7 @@ wait "$arm_lane" || { echo "the arm lane failed: $work/arm_lane.log" >&2; exit 1
 [ -f "$work/model_cm/config.json" ] || mlct export "$work/cm" --out "$work/model_cm"
 stamp stage 2 on 6 tokens
 AE="$work/armdec" DATA="$work/synth_collturns" stage cm6 cm --init "$work/model_cm" \
-    text.encoder=minilm+sides "train.cm.max_steps=${CM6_STEPS:-12000}" train.cm.lr=2e-4 \
+    text.encoder=minilm+sides "train.cm.max_steps=${CM6_STEPS:-10000}" train.cm.lr=2e-4 \
     "train.cm.seed=$((seed + 31))" train.cm.precision=bf16
 if [ ! -f "$work/model/text_anchors.safetensors" ]; then
     rm -rf "$work/model"
