@@ -19,12 +19,18 @@ def test_recipe_parses(script):
 
 def _stage(tmp_path: Path, env: str, args: str) -> str:
     """Run `stage ARGS` with a stand-in `mlct` that prints its arguments."""
+    return _stage_shell(tmp_path, f"{env} stage {args}")
+
+
+def _stage_shell(tmp_path: Path, command: str) -> str:
+    """Run COMMAND after sourcing recipe_stage.sh, with a stand-in `mlct` that prints its
+    arguments."""
     fake = tmp_path / "bin"
     fake.mkdir(exist_ok=True)
     (fake / "mlct").write_text('#!/usr/bin/env bash\necho "mlct $*"\n')
     (fake / "mlct").chmod(0o755)
     script = (f'set -euo pipefail; export PATH="{fake}:$PATH"; work="{tmp_path}/w"; '
-              f'source "{TOOLS}/recipe_stage.sh"; {env} stage {args}')
+              f'source "{TOOLS}/recipe_stage.sh"; {command}')
     return subprocess.run(["bash", "-c", script], check=True, capture_output=True,
                           text=True).stdout.strip()
 
@@ -224,3 +230,19 @@ def test_interpolate_models_mixes_what_differs_and_refuses_bad_input(tmp_path):
                          capture_output=True, text=True)
     assert run.returncode == 2 and "no model.safetensors" in run.stderr
     assert "Traceback" not in run.stderr
+
+
+def test_caption_sets_made_once_in_order(tmp_path):
+    """recipe_stage.sh caption_sets: the benchmark, then each caption set from the one before;
+    a second call, with every set present, makes nothing."""
+    w = tmp_path / "w"
+    first = _stage_shell(tmp_path, "caption_sets 12").splitlines()
+    assert [line.split()[2] for line in first] == ["synth", "rephrase", "oversample", "rephrase",
+                                                   "rephrase", "oversample"]
+    assert f"--out {w}/synth --num 12" in first[0]
+    assert f"{w}/synth_coll --out {w}/synth_collturns --families turn,spin" in first[-1]
+    for name in ("synth", "synth_rich", "synth_focus", "synth_short", "synth_coll",
+                 "synth_collturns"):
+        (w / name).mkdir(parents=True)
+        (w / name / "synth.json").write_text("{}")
+    assert _stage_shell(tmp_path, "caption_sets 12") == ""

@@ -33,7 +33,7 @@ work="${1:-mlct-bundled}"
 seed="${2:-0}"
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 source "$(dirname "$0")/recipe_stage.sh"
-[ -f "$work/synth/synth.json" ] || mlct data synth --out "$work/synth" --num 4000 --seed 0 --workers 2
+caption_sets 4000  # the data and its caption sets, made once (recipe_stage.sh)
 stage run ae --config small
 stage run cm --config small "train.cm.seed=$seed"
 # The 7,000-step model, float16 as the bundle: the fine-tune starts from what shipped before it.
@@ -53,7 +53,6 @@ for spec in cont1:8000:0 cont2:6000:1 cont3:10000:2; do
 done
 # The same motions, their training captions said in more ways (data/synth/everyday.py), and one
 # more continuation on them.
-[ -f "$work/synth_rich/synth.json" ] || mlct data rephrase "$work/synth" --out "$work/synth_rich"
 DATA="$work/synth_rich" stage rich cm --init "$previous" --ae "$work/run" \
     text.encoder=minilm+sides train.cm.max_steps=6000 train.cm.lr=2e-4 "train.cm.seed=$((seed + 3))"
 [ -f "$work/model_rich/config.json" ] || mlct export "$work/rich" --out "$work/model_rich" --half
@@ -107,8 +106,6 @@ DATA="$work/synth_rich" stage dcont3 cm --init "$previous" --ae "$work/dnoise" \
     "train.cm.seed=$((seed + 13))"
 [ -f "$work/model_dcont3/config.json" ] || mlct export "$work/dcont3" --out "$work/model_dcont3" --half
 previous="$work/model_dcont3"
-[ -f "$work/synth_focus/synth.json" ] || mlct data oversample "$work/synth_rich" \
-    --out "$work/synth_focus" --families clap,wave,turn --times 3
 DATA="$work/synth_focus" stage focus cm --init "$previous" --ae "$work/dnoise" \
     text.encoder=minilm+sides train.cm.max_steps=10000 train.cm.lr=2e-4 \
     "train.cm.seed=$((seed + 14))"
@@ -146,8 +143,6 @@ previous="$work/model_armcm2"
 # training motion of the oversampled data ("a woman waves"; data/synth/short.py), and 6,000
 # stage-2 steps on them (lr 1e-4; 52 min on 2 cores). The model keeps the durations and the
 # critic above: a critic retrained on the short-caption data cost the test captions 0.036.
-[ -f "$work/synth_short/synth.json" ] || mlct data rephrase "$work/synth_focus" \
-    --out "$work/synth_short" --vocabulary short --per-motion 2
 AE="$work/armdec" DATA="$work/synth_short" stage shortcm cm --init "$previous" \
     text.encoder=minilm+sides train.cm.max_steps=6000 train.cm.lr=1e-4 train.cm.precision=bf16 \
     "train.cm.seed=$((seed + 33))"
@@ -161,10 +156,6 @@ AE="$work/armdec" DATA="$work/synth_short" stage shortcm cm --init "$previous" \
 # started from (tools/interpolate_models.py with the runs as TUNED: a uniform model soup, then
 # WiSE-FT; docs/training.md, "Three seeds of the colloquial stage"): the gain on unseen
 # phrasings with less of one seed's luck, the turns' size kept.
-[ -f "$work/synth_coll/synth.json" ] || mlct data rephrase "$work/synth_short" \
-    --out "$work/synth_coll" --vocabulary colloquial --per-motion 3 --seed 1
-[ -f "$work/synth_collturns/synth.json" ] || mlct data oversample "$work/synth_coll" \
-    --out "$work/synth_collturns" --families turn,spin --times 3
 soup=()
 for offset in 44 45 46; do  # run 44 keeps the name it had when it ran alone
     name=collcm; [ "$offset" = 44 ] || name="collcm$offset"

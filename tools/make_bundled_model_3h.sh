@@ -24,25 +24,14 @@ set -euo pipefail
 work="${1:-mlct-bundled-3h}"
 seed="${2:-0}"
 source "$(dirname "$0")/recipe_stage.sh"
-precision=(train.ae.precision=bf16)
 stamp data
-[ -f "$work/synth/synth.json" ] || mlct data synth --out "$work/synth" --num "${MOTIONS:-4000}" \
-    --seed 0 --workers 2 --quiet
-[ -f "$work/synth_rich/synth.json" ] || mlct data rephrase "$work/synth" --out "$work/synth_rich"
-[ -f "$work/synth_focus/synth.json" ] || mlct data oversample "$work/synth_rich" \
-    --out "$work/synth_focus" --families clap,wave,turn --times 3
-[ -f "$work/synth_short/synth.json" ] || mlct data rephrase "$work/synth_focus" \
-    --out "$work/synth_short" --vocabulary short --per-motion 2
-[ -f "$work/synth_coll/synth.json" ] || mlct data rephrase "$work/synth_short" \
-    --out "$work/synth_coll" --vocabulary colloquial --per-motion 3 --seed 1
-[ -f "$work/synth_collturns/synth.json" ] || mlct data oversample "$work/synth_coll" \
-    --out "$work/synth_collturns" --families turn,spin --times 3
+caption_sets "${MOTIONS:-4000}"
 stamp autoencoder
-stage run ae --config small "train.ae.max_steps=${AE_STEPS:-10000}" "${precision[@]}"
+stage run ae --config small "train.ae.max_steps=${AE_STEPS:-10000}" train.ae.precision=bf16
 stamp autoencoder, noisy latent
 stage noise ae --init "$work/run" ae.latent_noise=0.1 ae.hold_extension=0.5 \
     ae.trajectory_weight=1.0 "train.ae.max_steps=${NOISE_STEPS:-5000}" train.ae.lr=3e-4 \
-    "${precision[@]}"
+    train.ae.precision=bf16
 stamp two lanes: stage 2 on 3 tokens, the arm pair beside it
 # one thread each: two one-thread trainings side by side use the 2 cores better than one on two
 # (docs/training.md, "Threads")
@@ -50,10 +39,10 @@ stamp two lanes: stage 2 on 3 tokens, the arm pair beside it
     export OMP_NUM_THREADS=1
     stage arms ae --init "$work/noise" ae.n_tokens=6 ae.arm_tokens=3 ae.arm_channels=128 \
         ae.arm_init=body ae.freeze_encoder=true ae.latent_noise=0.2 \
-        "train.ae.max_steps=${ARM_STEPS:-10000}" train.ae.lr=1e-3 "${precision[@]}"
+        "train.ae.max_steps=${ARM_STEPS:-10000}" train.ae.lr=1e-3 train.ae.precision=bf16
     # both encoders frozen (an --init of the same token count is no growth): the latents stay
     stage armdec ae --init "$work/arms" ae.freeze_encoder=true \
-        "train.ae.max_steps=${ARMDEC_STEPS:-10000}" train.ae.lr=5e-4 "${precision[@]}"
+        "train.ae.max_steps=${ARMDEC_STEPS:-10000}" train.ae.lr=5e-4 train.ae.precision=bf16
 ) > "$work/arm_lane.log" 2>&1 &
 arm_lane=$!
 OMP_NUM_THREADS=1 DATA="$work/synth_collturns" AE="$work/noise" stage cm cm --config small \
