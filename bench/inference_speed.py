@@ -4,10 +4,11 @@
                                     [--backends torch,onnx,onnx-int8,torch-compiled,cuda-graphs]
                                     [--threads N] [--runs 20] [--json OUT.json]
 
-Models: the bundled small consistency model ("small CM"); the paper-size networks of the
-humanml3d preset ("paper CM"); the latent diffusion baseline at both sizes ("... LDM": 50 DDIM
-steps, classifier-free guidance as one batch of 2 per step). Paper-size and LDM networks get
-seeded random weights: the time does not depend on the values. Text encoder: the bundled MiniLM.
+Models: the bundled small consistency model ("small CM"; --small-model DIR times another
+bundle in its place); the paper-size networks of the humanml3d preset ("paper CM"); the latent
+diffusion baseline at both sizes ("... LDM": 50 DDIM steps, classifier-free guidance as one
+batch of 2 per step). Paper-size and LDM networks get seeded random weights: the time does not
+depend on the values. Text encoder: the bundled MiniLM.
 
 Per model, backend, dtype and NFE, at batch 1 and 196 frames: text (encoder run), sampling and
 decoding each timed on their own (mlct.eval.aits.time_inference, medians over --runs after
@@ -53,6 +54,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 MODELS = {  # label: (preset, sampler, NFEs; for DDIM the step count)
@@ -116,6 +118,9 @@ def read_bandwidth(nbytes: int, device: Any) -> float:
     return 4 * n / _best_time(lambda: buf.sum(), reps, _syncer(device))
 
 
+SMALL_MODEL_ENV = "MLCT_BENCH_SMALL_MODEL"  # --small-model, for the child processes
+
+
 def bundle_in_memory(preset: str, sampler: str) -> tuple[dict[str, Any], dict[str, Any]]:
     """The bundled model for the small CM; otherwise a preset's networks with seeded random
     weights, as mlct.generate.bundle.read_bundle returns a bundle: (meta, tensors)."""
@@ -127,7 +132,7 @@ def bundle_in_memory(preset: str, sampler: str) -> tuple[dict[str, Any], dict[st
     from mlct.generate.pipeline import bundled_model_dir
 
     if (preset, sampler) == ("small", "consistency"):
-        return read_bundle(bundled_model_dir())
+        return read_bundle(os.environ.get(SMALL_MODEL_ENV) or bundled_model_dir())
     config = load_config(preset)
     torch.manual_seed(0)
     ae, den = build_autoencoder(config, FEATURE_DIM), build_denoiser(config, TEXT_DIM)
@@ -696,8 +701,13 @@ def main() -> None:
                         help="seconds a throughput size may take (default 15; --quick: 1)")
     parser.add_argument("--ablations", type=int, default=0, metavar="REPS",
                         help="instead: each optimization on and off, REPS interleaved runs")
+    parser.add_argument("--small-model", default=None, metavar="DIR",
+                        help="the bundle timed as the small CM (default: the bundled model), to "
+                             "time a candidate before it is shipped")
     parser.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.small_model:  # children read it too: each model is timed in its own process
+        os.environ[SMALL_MODEL_ENV] = str(Path(args.small_model).resolve())
     if args.child:
         print(json.dumps(run_model(json.loads(args.child))))
         return
