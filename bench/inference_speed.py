@@ -121,6 +121,13 @@ def read_bandwidth(nbytes: int, device: Any) -> float:
 SMALL_MODEL_ENV = "MLCT_BENCH_SMALL_MODEL"  # --small-model, for the child processes
 
 
+def small_model_dir() -> Path:
+    """The bundle timed as the small CM: --small-model's, else the bundled model."""
+    from mlct.generate.pipeline import bundled_model_dir
+
+    return Path(os.environ.get(SMALL_MODEL_ENV) or bundled_model_dir())
+
+
 def bundle_in_memory(preset: str, sampler: str) -> tuple[dict[str, Any], dict[str, Any]]:
     """The bundled model for the small CM; otherwise a preset's networks with seeded random
     weights, as mlct.generate.bundle.read_bundle returns a bundle: (meta, tensors)."""
@@ -129,10 +136,8 @@ def bundle_in_memory(preset: str, sampler: str) -> tuple[dict[str, Any], dict[st
     from mlct.generate.bundle import ENCODER_PREFIXES, read_bundle
     from mlct.config import load_config
     from mlct.nn.build import build_autoencoder, build_denoiser
-    from mlct.generate.pipeline import bundled_model_dir
-
     if (preset, sampler) == ("small", "consistency"):
-        return read_bundle(os.environ.get(SMALL_MODEL_ENV) or bundled_model_dir())
+        return read_bundle(small_model_dir())
     config = load_config(preset)
     torch.manual_seed(0)
     ae, den = build_autoencoder(config, FEATURE_DIM), build_denoiser(config, TEXT_DIM)
@@ -524,7 +529,7 @@ def machine(device: str) -> dict[str, Any]:
 
 
 def quality_bf16() -> dict[str, float]:
-    """Joints of the bundled model in bfloat16 against float32: 8 prompts, 196 frames, 5 NFE."""
+    """Joints of the small CM in bfloat16 against float32: 8 prompts, 196 frames, 5 NFE."""
     import torch
 
     import mlct
@@ -532,7 +537,7 @@ def quality_bf16() -> dict[str, float]:
 
     out = []
     for dtype in ("float32", "bfloat16"):
-        gen = mlct.load(dtype=dtype)
+        gen = mlct.load(small_model_dir(), dtype=dtype)
         cond = gen.encode_text(TEXTS[:8])
         feats = gen.decode(gen.sample_latents(cond, 5, seed=list(range(8))), [FRAMES] * 8)
         out.append(torch.stack([recover_from_ric(torch.from_numpy(f)) for f in feats]))

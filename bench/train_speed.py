@@ -4,7 +4,8 @@
                                 [--steps 5] [--device cpu|cuda] [--precision auto fp32 bf16]
 
 A preset may carry config overrides after colons, to time a size no preset has beside one that
-does: `--presets small small:denoiser.width=192:denoiser.layers=4`.
+does: `--presets small small:denoiser.width=192:denoiser.layers=3` (the skip transformer
+needs an odd layer count).
 
 Each (preset, stage) runs in its own process on synthetic batches of the real shapes (motion
 crops of 196 frames, 263-d features, 384-d text embeddings), so the figures are the model's and
