@@ -72,6 +72,34 @@ def test_recipe_time_counts_training_and_skips_pauses(tmp_path):
     assert "cm/cm" in out and "3.0" in out
 
 
+def test_val_curves_puts_runs_side_by_side(tmp_path):
+    """tools/val_curves.py: a row per validated step, the last validation of a replayed step
+    wins, "-" where a run did not validate; a folder of two stages' logs is an error."""
+    a = tmp_path / "a" / "cm"
+    b = tmp_path / "b" / "cm"
+    for run, lines in ((a, [{"step": 0, "val_loss": 9.0, "val_denoise": 1.0},
+                            {"step": 500, "loss": 5.0},  # a training line: not a row
+                            {"step": 500, "val_loss": 8.0, "val_denoise": 0.9},
+                            {"step": 500, "val_loss": 7.5, "val_denoise": 0.8}]),  # resumed
+                       (b, [{"step": 0, "val_loss": 9.0, "val_denoise": 1.0},
+                            {"step": 250, "val_loss": 8.5, "val_denoise": 0.95}])):
+        run.mkdir(parents=True)
+        (run / "log.jsonl").write_text("\n".join(json.dumps(r) for r in lines) + "\n")
+    out = subprocess.run([sys.executable, str(TOOLS / "val_curves.py"), str(tmp_path / "a"),
+                          str(b / "log.jsonl"), "--labels", "base", "change", "--parts",
+                          "denoise", "--every", "250"],
+                         check=True, capture_output=True, text=True).stdout.splitlines()
+    rows = {line.split()[0]: line.split()[1:] for line in out[2:]}
+    assert rows == {"0": ["9.000/1.000", "9.000/1.000"], "250": ["-", "8.500/0.950"],
+                    "500": ["7.500/0.800", "-"]}
+    assert "[0] base" in out[0] and "[1] change" in out[0]
+    (tmp_path / "a" / "ae").mkdir()
+    (tmp_path / "a" / "ae" / "log.jsonl").write_text("")
+    bad = subprocess.run([sys.executable, str(TOOLS / "val_curves.py"), str(tmp_path / "a")],
+                         capture_output=True, text=True)
+    assert bad.returncode != 0 and "expected one log.jsonl" in bad.stderr
+
+
 def test_self_samples_adds_passing_samples_and_leaves_the_source_alone(tmp_path):
     """tools/self_samples.py: a hard-linked copy whose train split and labels gain the model's
     own samples that pass their motion's read-outs; the source's files keep their bytes."""
