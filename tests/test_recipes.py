@@ -73,14 +73,14 @@ def test_recipe_time_counts_training_and_skips_pauses(tmp_path):
 
 
 def test_val_curves_puts_runs_side_by_side(tmp_path):
-    """tools/val_curves.py: a row per validated step, the last validation of a replayed step
+    """tools/val_curves.py: a row per validated step, the later of two lines for one step
     wins, "-" where a run did not validate; a folder of two stages' logs is an error."""
     a = tmp_path / "a" / "cm"
     b = tmp_path / "b" / "cm"
     for run, lines in ((a, [{"step": 0, "val_loss": 9.0, "val_denoise": 1.0},
                             {"step": 500, "loss": 5.0},  # a training line: not a row
                             {"step": 500, "val_loss": 8.0, "val_denoise": 0.9},
-                            {"step": 500, "val_loss": 7.5, "val_denoise": 0.8}]),  # resumed
+                            {"step": 500, "val_loss": 7.5, "val_denoise": 0.8}]),  # again
                        (b, [{"step": 0, "val_loss": 9.0, "val_denoise": 1.0},
                             {"step": 250, "val_loss": 8.5, "val_denoise": 0.95}])):
         run.mkdir(parents=True)

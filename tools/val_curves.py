@@ -32,8 +32,8 @@ def find_log(path: Path) -> Path:
 
 
 def validation_points(log: Path, parts: list[str]) -> dict[int, list[float]]:
-    """step -> [val_loss, val_<part>...] for every validation line of one log (the last wins:
-    a resumed run validates a replayed step again)."""
+    """step -> [val_loss, val_<part>...] for every validation line of one log; should a step
+    appear twice (logs joined by hand), the later line wins."""
     points: dict[int, list[float]] = {}
     for line in log.read_text().splitlines():
         if not line.strip():
