@@ -400,7 +400,8 @@ def test_actions_are_split_as_in_python(page):
              "a man power walks", "a person side shuffles to the right"]
     for name in ("quality_prompts.json", "quality_prompts_heldout.json",
                  "quality_prompts_heldout2.json", "quality_prompts_heldout3.json",
-                 "quality_prompts_heldout4.json", "quality_prompts_heldout5.json"):
+                 "quality_prompts_heldout4.json", "quality_prompts_heldout5.json",
+                 "quality_prompts_heldout6.json"):
         data = json.loads((HERE.parent / "bench" / "data" / name).read_text())
         texts += [item["text"] for items in data.values() if isinstance(items, list)
                   for item in items if isinstance(item, dict) and "text" in item]
