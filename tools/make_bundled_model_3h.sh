@@ -2,7 +2,7 @@
 # A one-pass recipe for the bundled model's networks, aimed at issue 14's 3 hours on 2 cores:
 #   bash tools/make_bundled_model_3h.sh [WORK_DIR] [CM_SEED]
 # tools/make_bundled_model.sh grew stage by stage as each change was found (~13.5 h, ~130,000
-# stage-2 steps on six autoencoders). This recipe (version 3, 2026-11-28) applies what those
+# stage-2 steps on six autoencoders). This recipe (version 4, 2026-11-28) applies what those
 # stages found from the start, once each, in bfloat16 autocast, and keeps both cores busy:
 # - the data and every caption set the bundle's last stage saw (everyday, short and colloquial
 #   captions; claps, waves, turns and spins oversampled), made first;
@@ -16,7 +16,9 @@
 # - stage 2 grown onto the 6 tokens, on both cores; the durations, the critic, the text anchors.
 # Both stage 2s run without the denoiser's dropout (version 3): a short stage 2 under-fits, and
 # without it the test captions went 0.804 -> 0.916, the named side 0.820 -> 0.922, at 1.19x a step
-# (docs/training.md, "Stage 2 without dropout").
+# (docs/training.md, "Stage 2 without dropout"). Stage 2 on 3 tokens takes 28,000 steps
+# (version 4): the arm lane beside it takes ~71 min, so stage 2's thread had ~25 idle minutes
+# at 18,000 steps; 28,000 fill them (docs/training.md, "Version 4").
 # Version 1 (commit eb34d51 and before: no arm pair, 30,000 stage-2 steps on one core) took
 # 3.2 h of trainings and made a weaker model (docs/training.md, "The 3-hour recipe, finished").
 # Resumable: run it again with the same WORK_DIR and each stage continues from its last
@@ -54,7 +56,7 @@ arm_lane=$!
 # shellcheck disable=SC2086  # DENOISER is a list of overrides, split on purpose
 OMP_NUM_THREADS=1 DATA="$work/synth_collturns" AE="$work/noise" stage cm cm --config small \
     ${DENOISER:-} text.encoder=minilm+sides denoiser.dropout=0.0 \
-    "train.cm.max_steps=${CM_STEPS:-18000}" train.cm.lr=4e-4 \
+    "train.cm.max_steps=${CM_STEPS:-28000}" train.cm.lr=4e-4 \
     "train.cm.seed=$seed" train.cm.precision=bf16
 wait "$arm_lane" || { echo "the arm lane failed: $work/arm_lane.log" >&2; exit 1; }
 # float32, so that the grown stage 2 does not start from weights rounded to float16
