@@ -17,8 +17,8 @@
 # Both stage 2s run without the denoiser's dropout (version 3): a short stage 2 under-fits, and
 # without it the test captions went 0.804 -> 0.916, the named side 0.820 -> 0.922, at 1.19x a step
 # (docs/training.md, "Stage 2 without dropout"). Stage 2 on 3 tokens takes 28,000 steps
-# (version 4): the arm lane beside it takes ~71 min, so stage 2's thread had ~25 idle minutes
-# at 18,000 steps; 28,000 fill them (docs/training.md, "Version 4").
+# (version 4): the arm lane beside it takes 64-71 min, so stage 2's thread had ~25 idle minutes
+# at 18,000 steps; 28,000 fill them (65 min measured; docs/training.md, "Version 4").
 # Version 1 (commit eb34d51 and before: no arm pair, 30,000 stage-2 steps on one core) took
 # 3.2 h of trainings and made a weaker model (docs/training.md, "The 3-hour recipe, finished").
 # Resumable: run it again with the same WORK_DIR and each stage continues from its last
