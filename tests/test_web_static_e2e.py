@@ -636,7 +636,9 @@ def test_a_gait_goes_on_past_the_window_and_anything_else_is_refused(page, refer
     gap = np.abs(np.float32(got[2]).reshape(300, 22, 3) - expected).max(-1)  # planted
     assert len(expected) == 300 and (gap <= 2e-3).mean() > 0.99 and gap.max() < 0.01
     walked = np.linalg.norm(expected[-1, 0, [0, 2]] - expected[0, 0, [0, 2]])
-    assert walked > 10.0  # ~1.3 m/s for 15 s, not 5 m and standing
+    # walking to the end, not 5 m and standing: ~1.3 m/s for 15 s on the bundle of 2026-11-27,
+    # 10.0 m at 0.65-0.87 m/s (every 1.5 s) on the slower-walking one of 2026-11-28
+    assert walked > 7.5
     error = page.evaluate("async () => { try { await window.mlct.model.generate({text: 'a person"
                           " jumps for 15 seconds', nfe: 5, seed: 0}); return ''; } catch (e)"
                           " { return e.message; } }")
