@@ -6,8 +6,8 @@
 # and the text anchors), with stage 2 seeded CM_SEED (default 0); 1 h 53 min from an empty
 # folder on this repository's 2-vCPU host, timed with seed 1 (docs/training.md, "Version 4").
 # The bundle shipped is seed 0 (the rule that chose it and the seed spread: docs/training.md,
-# "The bundle becomes the recipe's model"). Resumable: run it again with the same WORK_DIR after an
-# interruption and each stage continues from its last checkpoint. The result replaces
+# "The bundle becomes the recipe's model"). Resumable: run it again with the same WORK_DIR
+# after an interruption and each stage continues from its last checkpoint. The result replaces
 # src/mlct/assets/model. The bundle before this one (~13.5 h of stages):
 # tools/make_bundled_model_staged.sh.
 set -euo pipefail
