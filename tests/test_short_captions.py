@@ -1,5 +1,6 @@
 """The short caption vocabulary (data/synth/short.py): each action by its bare verb, truthful
-(a side, count or angle left out, never a wrong one), in the benchmark's verbs only, and
+(a side, count or angle left out, never a wrong one; a bare turn is a quarter turn and a bare
+jump is in place, as the benchmark's captions mean them), in the benchmark's verbs only, and
 `mlct data rephrase --vocabulary short` on top of an already rephrased copy."""
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import numpy as np
 import pytest
 
 from mlct.data.captions import VERB_FORMS
+from mlct.data.labels import read_labels
 from mlct.data.layout import DatasetLayout
 from mlct.data.synth.rephrase import rephrase_dataset
 from mlct.data.synth.short import SHORT
@@ -45,6 +47,20 @@ def test_short_captions_name_no_wrong_side_or_count(family: str) -> None:
             # the left side in the benchmark's words, which name it (counts may be said)
             assert all(re.search(r"\bleft\b", c) for c in caps), said
             assert not re.search(r"\bright\b", said), said
+            continue
+        if family == "turn" and params["angle"] != 90:
+            # only a quarter turn goes without its size; the others keep the benchmark's words
+            assert not any(re.fullmatch(rf"[a-z ]+ (turns|is turning) (to the )?{side}\.", c)
+                           for c in caps), said
+            continue
+        if family == "jump" and params["mode"] == "forward":
+            # a bare "jumps" is in place; a forward jump says so
+            assert all(re.search(r"\b(forward|ahead)\b", c) for c in caps), said
+            continue
+        if family == "jump":  # in place: the count may be said, and only the right one
+            wrong = {1: r"twice|two|three|[23]", 2: r"once|three|[13]", 3: r"once|twice|two|[12]"}
+            assert not re.search(rf"\b({wrong[params['count']]})\b", said), said
+            assert not re.search(r"\b(forward|ahead)\b", said), said
             continue
         assert not re.search(r"\b(twice|three|four|five|degrees|once|\d)\b", said), said
         if family in DIRECTIONS:  # a direction is said, the right one
@@ -90,12 +106,16 @@ def test_rephrase_short_on_a_rephrased_copy_records_both_steps(tmp_path: Path) -
                                vocabulary="short")
     rich, out = DatasetLayout.existing(tmp_path / "rich"), DatasetLayout.existing(tmp_path / "short")
     train = rich.read_split("train")
+    labels = read_labels(tmp_path / "short")
     assert summary == {"motions": len(train), "captions": 2 * len(train)}
     for name in train:
         old = [t.caption for t in rich.read_texts(name)]
         new = [t.caption for t in out.read_texts(name)]
         assert new[: len(old)] == old and len(new) == len(old) + 2
-        assert not any(re.search(r"\bdegrees\b", c) for c in new[len(old):]), new
+        # degrees are said only where the benchmark's words name a turn other than a quarter one
+        other_turn = any(a["family"] == "turn" and a["params"]["angle"] != 90
+                         for a in labels[name]["actions"])
+        assert other_turn or not any(re.search(r"\bdegrees\b", c) for c in new[len(old):]), new
     steps = json.loads((tmp_path / "short" / "synth.json").read_text())["rephrased"]
     assert [s["vocabulary"] for s in steps] == ["everyday", "short"]
     with pytest.raises(MlctError, match="vocabulary must be one of"):

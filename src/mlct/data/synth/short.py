@@ -20,7 +20,7 @@ from collections.abc import Callable
 
 from mlct.data.captions import VERB_FORMS
 from mlct.data.synth.everyday import ALL_SUBJECTS
-from mlct.data.synth.text import BENCHMARK, FAMILIES, Rng, Vocabulary, _pick
+from mlct.data.synth.text import BENCHMARK, FAMILIES, Rng, Vocabulary, _pick, _times
 
 
 _FIXED: dict[str, tuple[str, ...]] = {
@@ -70,15 +70,24 @@ def _sided(family: str) -> Callable[[dict, Rng], str]:
     return phrase
 
 
+# A bare "jumps" means jumping in place, as a bare "kicks" means the right leg; a forward jump
+# keeps the benchmark's words, which say "forward". Said of both (version 4 of the recipe and
+# before), it was a blend to the model: "a person jumps twice" landed over 0.5 m ahead in 4 seeds
+# of 5 (bench/readme_examples.py). The count may be said: "jumps twice" is still short.
 def _jump(p: dict, rng: Rng) -> str:
     if p["mode"] == "forward":
-        return _pick(rng, ("<jump>", "<jump> forward"))
-    return _pick(rng, ("<jump>", "<jump>", "<jump> up"))
+        return BENCHMARK.phrases["jump"](p, rng)
+    return _pick(rng, ("<jump>", "<jump>", "<jump> up", f"<jump> {_times(p['count'], rng)}"))
 
 
 # A direction is not a handedness: a turn, spin, circle or side step is said short, with its
-# side.
+# side. A turn said without its size is a quarter turn, as in the benchmark's captions; other
+# sizes keep the benchmark's words, which name them. Said of every size (version 4 and before),
+# "a person turns left" became a 40-180 degree blend the critic cut to 40-60 degrees in 3 seeds
+# of 5 (bench/turn_sizes.py).
 def _turn(p: dict, rng: Rng) -> str:
+    if p["angle"] != 90:
+        return BENCHMARK.phrases["turn"](p, rng)
     return _pick(rng, (f"<turn> {p['side']}", f"<turn> to the {p['side']}"))
 
 
