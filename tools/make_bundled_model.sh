@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Remake the bundled model (docs/model_card.md) from scratch, on a CPU:
 #   bash tools/make_bundled_model.sh [WORK_DIR] [CM_SEED]
-# The bundle is what the one-pass recipe makes (tools/make_bundled_model_3h.sh, version 4: the
+# The bundle is what the one-pass recipe makes (tools/make_bundled_model_3h.sh, version 5: the
 # data, the autoencoder and its arm pair, stage 2 on 3 then 6 tokens, the durations, the critic
 # and the text anchors), with stage 2 seeded CM_SEED (default 0); 1 h 53 min from an empty
 # folder on this repository's 2-vCPU host, timed with seed 1 (docs/training.md, "Version 4").
@@ -22,7 +22,7 @@ path, seed = sys.argv[1], int(sys.argv[2])
 config = json.load(open(path))
 config["decoder_from"] = "armdec (tools/make_bundled_model_3h.sh)"
 config["recipe"] = {"script": "tools/make_bundled_model.sh",
-                    "stages": "tools/make_bundled_model_3h.sh, version 4", "cm_seed": seed}
+                    "stages": "tools/make_bundled_model_3h.sh, version 5", "cm_seed": seed}
 json.dump(config, open(path, "w"), indent=2)
 PY
 rm -rf "$repo/src/mlct/assets/model"
