@@ -2,7 +2,7 @@
 # A one-pass recipe for the bundled model's networks, aimed at issue 14's 3 hours on 2 cores:
 #   bash tools/make_bundled_model_3h.sh [WORK_DIR] [CM_SEED]
 # tools/make_bundled_model.sh grew stage by stage as each change was found (~13.5 h, ~130,000
-# stage-2 steps on six autoencoders). This recipe (version 4, 2026-11-28) applies what those
+# stage-2 steps on six autoencoders). This recipe (version 5, 2026-11-28) applies what those
 # stages found from the start, once each, in bfloat16 autocast, and keeps both cores busy:
 # - the data and every caption set the bundle's last stage saw (everyday, short and colloquial
 #   captions; claps, waves, turns and spins oversampled), made first;
@@ -19,7 +19,9 @@
 # (docs/training.md, "Stage 2 without dropout"). Stage 2 on 3 tokens takes 28,000 steps
 # (version 4): the arm lane beside it takes 64-71 min, so stage 2's thread had ~25 idle minutes
 # at 18,000 steps; 28,000 fill them (65 min measured; docs/training.md, "Version 4").
-# Version 1 (commit eb34d51 and before: no arm pair, 30,000 stage-2 steps on one core) took
+# Version 5 changes only the short captions (a bare turn is a quarter turn, a bare jump is in
+# place: docs/training.md, "Version 5"). Version 1 (commit eb34d51 and before: no arm pair,
+# 30,000 stage-2 steps on one core) took
 # 3.2 h of trainings and made a weaker model (docs/training.md, "The 3-hour recipe, finished").
 # Resumable: run it again with the same WORK_DIR and each stage continues from its last
 # checkpoint. Unlike make_bundled_model.sh it does not replace src/mlct/assets/model: it writes
