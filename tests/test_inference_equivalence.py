@@ -87,8 +87,9 @@ def test_bfloat16_pipeline_stays_within_stated_tolerance(bundle):
     meta, tensors = bundle
     gen = MotionGenerator(meta, tensors, dtype="bfloat16")
     assert gen.denoiser.backbone.middle_block.linear1.weight.dtype == torch.bfloat16
-    cond = MotionGenerator(meta, tensors).encode_text(CAPTIONS).float()
-    got, want = joints(gen, cond), joints(reference(meta, tensors), cond)
+    ref = reference(meta, tensors)
+    cond = ref.encode_text(CAPTIONS).float()
+    got, want = joints(gen, cond), joints(ref, cond)
     dev, pose = deviation_mm(got, want), deviation_mm(got, want, pose=True)
     assert float(dev.mean()) < 15.0 and float(dev.max()) < 100.0
     assert float(pose.mean()) < 2.0 and float(pose.max()) < 100.0

@@ -21,8 +21,8 @@
 # at 18,000 steps; 28,000 fill them (65 min measured; docs/training.md, "Version 4").
 # Version 5 changes only the short captions (a bare turn is a quarter turn, a bare jump is in
 # place: docs/training.md, "Version 5"). Version 1 (commit eb34d51 and before: no arm pair,
-# 30,000 stage-2 steps on one core) took
-# 3.2 h of trainings and made a weaker model (docs/training.md, "The 3-hour recipe, finished").
+# 30,000 stage-2 steps on one core) took 3.2 h of trainings and made a weaker model
+# (docs/training.md, "The 3-hour recipe, finished").
 # Resumable: run it again with the same WORK_DIR and each stage continues from its last
 # checkpoint. Unlike make_bundled_model.sh it does not replace src/mlct/assets/model: it writes
 # WORK_DIR/model, to be measured against the bundle first. Step counts may be overridden for a
