@@ -3,7 +3,7 @@
     python bench/paraphrase_sets.py [--models bundled DIR ...] [--seeds 5] [--failures SET]
         [--sets "held-out 5" ...]
 
-Sets (bench/data): the seen paraphrases, held-out 1 to 6 (--sets: only those named). Each
+Sets (bench/data): the seen paraphrases, held-out 1 to 7 (--sets: only those named). Each
 prompt is made at 4 s (as bench/motion_quality.py's columns) and at the pipeline's default
 length (what a user gets who gives none), the same seeds for every model, scored by the
 read-outs (motion_quality.judge_prompt).

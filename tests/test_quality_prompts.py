@@ -40,16 +40,17 @@ def test_the_three_action_prompts_split_into_their_actions_with_judgeable_labels
 SETS_IN_ORDER = ("quality_prompts.json", "quality_prompts_heldout.json",
                  "quality_prompts_heldout2.json", "quality_prompts_heldout3.json",
                  "quality_prompts_heldout4.json", "quality_prompts_heldout5.json",
-                 "quality_prompts_heldout6.json")
+                 "quality_prompts_heldout6.json", "quality_prompts_heldout7.json")
 
 
 @pytest.mark.parametrize("name, fewest", [("quality_prompts_heldout3.json", 45),
                                           ("quality_prompts_heldout4.json", 42),
                                           ("quality_prompts_heldout5.json", 42),
-                                          ("quality_prompts_heldout6.json", 42)])
+                                          ("quality_prompts_heldout6.json", 42),
+                                          ("quality_prompts_heldout7.json", 42)])
 def test_a_late_held_out_set_covers_every_family_with_judgeable_labels(name: str,
                                                                       fewest: int) -> None:
-    """Held-out sets 3 to 6: two prompts or more per family, none repeating a set before it,
+    """Held-out sets 3 to 7: two prompts or more per family, none repeating a set before it,
     each one action the read-outs can judge."""
     prompts = json.loads((DATA / name).read_text())["paraphrases"]
     families = Counter(p["actions"][0]["family"] for p in prompts)
