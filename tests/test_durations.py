@@ -239,6 +239,25 @@ def test_auto_seconds_come_from_the_text():
         pipe.generate("a person jumps", seconds="soon")
 
 
+def test_a_far_prompt_is_timed_as_the_text_anchors_pull_it():
+    """The duration model reads the vector the network samples from: a wording unlike every
+    caption, pulled towards the circle walks, gets a circle walk's length, not the 5 s floor
+    that cut its circle off at ~250 degrees when the raw vector was read."""
+    pipe = mlct.load(backend="torch")
+    text = "walk around in a circle going anticlockwise"
+    raw = pipe.encode_text([text])
+    pulled = pipe.sampling_text(raw)
+    assert pipe.text_anchors.weights(raw)[0][0].item() > 0.5  # far: the anchors move it
+    durations = pipe.durations
+    as_pulled = durations.clip_seconds(pulled.numpy())
+    assert as_pulled - durations.clip_seconds(raw.numpy()) > 1.0
+    assert pipe.auto_seconds([text])[0] == pytest.approx(as_pulled)
+    assert as_pulled > 6.0 and pipe.default_seconds([text])[0] == pytest.approx(as_pulled)
+    near = "a person walks in a circle"  # a caption's wording: not moved, timed as before
+    assert pipe.auto_seconds([near])[0] == pytest.approx(
+        durations.clip_seconds(pipe.encode_text([near]).numpy()))
+
+
 def test_auto_seconds_need_a_duration_model(tmp_path):
     folder = tmp_path / "m"
     shutil.copytree(bundled_model_dir(), folder)

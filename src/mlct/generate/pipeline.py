@@ -266,6 +266,14 @@ class MotionGenerator:
                 found[i] = feats
         return found  # type: ignore[return-value]
 
+    def duration_vectors(self, texts: Sequence[str]) -> np.ndarray:
+        """(B, c) the vectors the duration model reads: the text as the network samples from it
+        (sampling_text), so that a prompt worded unlike every caption is timed as the motion
+        it is pulled towards is made. Read raw, "walk around in a circle going anticlockwise"
+        got 4.1 s and its circle was cut off at the 5 s floor (~250 degrees); pulled, 6.9 s
+        (docs/model_card.md, "Durations read the pulled text")."""
+        return self.sampling_text(self.encode_text(list(texts))).float().cpu().numpy()
+
     def sampling_text(self, cond: Tensor) -> Tensor:
         """The text vectors (B, c) the network samples from: a prompt worded unlike every
         training caption pulled towards the nearest ones by the model's text anchors
@@ -552,7 +560,7 @@ class MotionGenerator:
             if _wants_auto(value):
                 plans[i] = parts_as_made(text, split_actions)[0]
         parts = [p for plan in plans.values() for p in plan]
-        vectors = self.encode_text(parts).float().cpu().numpy() if parts else None
+        vectors = self.duration_vectors(parts) if parts else None
         longest = self.max_frames / self.skeleton.fps
         start = 0
         for i, plan in plans.items():  # one text-encoder call for all of them
@@ -567,8 +575,7 @@ class MotionGenerator:
         (DurationModel.part_seconds), at least MIN_PART_SECONDS."""
         if not _wants_auto(list(seconds)):
             return list(seconds)
-        natural = self._duration_model().part_seconds(
-            self.encode_text(list(prompts)).float().cpu().numpy())
+        natural = self._duration_model().part_seconds(self.duration_vectors(prompts))
         return [max(float(n), MIN_PART_SECONDS) if _wants_auto(s) else s
                 for s, n in zip(seconds, natural)]
 
@@ -598,7 +605,7 @@ class MotionGenerator:
         """Each part's frames of a sequence of `frames`: its share by how long its action takes
         and its place in the sequence (durations.py; equal when the model has no duration
         model), at least MIN_PART_SECONDS where the total allows."""
-        weights = (self.durations.part_weights(self.encode_text(list(parts)).float().cpu().numpy(),
+        weights = (self.durations.part_weights(self.duration_vectors(parts),
                                                frames / self.skeleton.fps, MIN_PART_SECONDS)
                    if self.durations else np.ones(len(parts)))
         return split_frames(weights, frames, self.frames_for(MIN_PART_SECONDS))
@@ -625,7 +632,7 @@ class MotionGenerator:
                 and frames[i] / fps >= MIN_PART_SECONDS]
         if not todo:
             return
-        vectors = self.encode_text([out[i].text for i in todo]).float().cpu().numpy()
+        vectors = self.duration_vectors([out[i].text for i in todo])
         natural = [self.durations.clip_seconds(vector[None]) for vector in vectors]
         blend = blend_frames(fps)
         # every prompt's first takes in a few large batches (generate/batch_plan.py)
