@@ -155,10 +155,13 @@ def _jump(p: dict, rng: Rng) -> str:
 
 def _hop(p: dict, rng: Rng) -> str:
     s, t = p["leg"], _times(p["count"], rng)
-    other = "right" if s == "left" else "left"
+    # the negated form names the hopping foot, never the raised one: "without putting the right
+    # foot down" of a left hop is read near "hops on the right foot" (cosine 0.67 against 0.35,
+    # the side-contrast encoder counts side words, not whose foot), and with it in the captions
+    # every recipe model hopped on the right when asked for the left (bench/sided_prompts.py)
     return _pick(rng, (f"<hop> {t} on {_one(s, 'leg', rng)}",
                        f"<hop> on {_one(s, 'foot', rng)} {t}",
-                       f"<hop> {t} without putting the {other} foot down",
+                       f"<hop> {t} on the {s} foot without putting the other one down",
                        f"<balance> on the {s} foot alone and <hop> {t}"))
 
 
