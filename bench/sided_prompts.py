@@ -7,7 +7,7 @@ The benchmark's "named side" figure averages every sided caption, so a model tha
 with its right leg can still pass it (left kicks are a twentieth of the sided captions). Here
 each family's side is asked on its own in the benchmark's plainest words ("a person kicks with
 the left leg"), at the pipeline's default length, the same seeds for every model, and scored by
-the read-outs (motion_quality.judge_prompt). Prints, per model, the passes of each prompt and
+the read-outs (motion_quality.prompt_passes). Prints, per model, the passes of each prompt and
 the families whose left or right side passes fewer than half of its seeds.
 """
 
@@ -17,7 +17,7 @@ import argparse
 from pathlib import Path
 
 import mlct
-from motion_quality import judge_prompt
+from motion_quality import prompt_passes
 
 # (family, the side's key, the prompt with {side}, other fixed params)
 PROMPTS = [
@@ -35,25 +35,11 @@ PROMPTS = [
 SIDES = ("left", "right")
 
 
-def items() -> list[tuple[str, dict]]:
-    """(prompt, action) for every family and side."""
-    return [(text.format(side=side), {"family": family, "params": {key: side, **fixed}})
+def items() -> list[dict]:
+    """One hand-written prompt per family and side, as motion_quality's sets hold them."""
+    return [{"text": text.format(side=side),
+             "actions": [{"family": family, "params": {key: side, **fixed}}]}
             for family, key, text, fixed in PROMPTS for side in SIDES]
-
-
-def passes(pipe, seeds: int) -> list[int]:
-    """How many of `seeds` samples of each prompt pass all its checks."""
-    prompts = items()
-    texts = [text for text, _ in prompts]
-    seconds = pipe.default_seconds(texts)
-    counts = [0] * len(prompts)
-    for seed in range(seeds):
-        made = pipe.generate(texts, seconds=seconds, seed=seed * 100_000)
-        for i, ((_, action), motion) in enumerate(zip(prompts, made)):
-            _, results = judge_prompt(motion.joints, [action],
-                                      motion.joints.shape[0] / pipe.skeleton.fps)
-            counts[i] += all(ok for _, ok in results)
-    return counts
 
 
 def main() -> None:
@@ -62,14 +48,17 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=5)
     args = parser.parse_args()
     prompts = items()
-    table = {name: passes(mlct.load(None if name == "bundled" else Path(name)), args.seeds)
-             for name in args.models}
+    texts = [p["text"] for p in prompts]
+    table = {}
+    for name in args.models:
+        pipe = mlct.load(None if name == "bundled" else Path(name))
+        table[name] = prompt_passes(pipe, prompts, pipe.default_seconds(texts), args.seeds)
     print(f"{args.seeds} seeds at the default length; passes per prompt, models in the order "
           f"{', '.join(args.models)}")
-    for i, (text, _) in enumerate(prompts):
+    for i, text in enumerate(texts):
         print(f"  {' | '.join(f'{table[m][i]}/{args.seeds}' for m in args.models)}  {text}")
     for name, counts in table.items():
-        weak = [text for (text, _), n in zip(prompts, counts) if 2 * n < args.seeds]
+        weak = [text for text, n in zip(texts, counts) if 2 * n < args.seeds]
         print(f"{name}: all {sum(counts) / (len(counts) * args.seeds):.3f}; a side under half "
               f"its seeds: {len(weak)}{' (' + '; '.join(weak) + ')' if weak else ''}")
 

@@ -20,7 +20,9 @@
 # (version 4): the arm lane beside it takes 64-71 min, so stage 2's thread had ~25 idle minutes
 # at 18,000 steps; 28,000 fill them (65 min measured; docs/training.md, "Version 4").
 # Version 5 changes only the short captions (a bare turn is a quarter turn, a bare jump is in
-# place: docs/training.md, "Version 5"). Version 1 (commit eb34d51 and before: no arm pair,
+# place: docs/training.md, "Version 5"). Since it shipped, one colloquial hop form names the
+# hopping foot, not the raised one (docs/training.md, "A hop's raised foot named in the
+# captions"): this script now makes that data, which the bundle did not see; version 6 tries it. Version 1 (commit eb34d51 and before: no arm pair,
 # 30,000 stage-2 steps on one core) took 3.2 h of trainings and made a weaker model
 # (docs/training.md, "The 3-hour recipe, finished").
 # Resumable: run it again with the same WORK_DIR and each stage continues from its last
