@@ -13,7 +13,8 @@ TOOLS = Path(__file__).resolve().parents[1] / "tools"
 
 @pytest.mark.parametrize("script", ["make_bundled_model.sh", "make_bundled_model_3h.sh",
                                     "make_bundled_model_staged.sh",
-                                    "make_bundled_model_gpu.sh"])
+                                    "make_bundled_model_gpu.sh",
+                                    "make_bundled_model_3h_stage2.sh"])
 def test_recipe_parses(script):
     subprocess.run(["bash", "-n", str(TOOLS / script)], check=True)
 
@@ -275,3 +276,31 @@ def test_caption_sets_made_once_in_order(tmp_path):
         (w / name).mkdir(parents=True)
         (w / name / "synth.json").write_text("{}")
     assert _stage_shell(tmp_path, "caption_sets 12") == ""
+
+
+def test_autoencoder_from_bundle_gives_the_recipes_stage_one_runs(tmp_path):
+    """tools/autoencoder_from_bundle.py: `armdec` is the bundle's whole autoencoder, and `noise`
+    encodes the body's 3 tokens exactly as the 6-token encoder's first 3: the latents the
+    recipe's 3-token stage 2 read."""
+    import torch
+
+    from mlct.generate.bundle import bundle_autoencoder_state, read_bundle
+    from mlct.train.stages import find_autoencoder, load_frozen_autoencoder
+
+    bundle = Path(__file__).resolve().parents[1] / "src" / "mlct" / "assets" / "model"
+    subprocess.run([sys.executable, str(TOOLS / "autoencoder_from_bundle.py"), str(bundle),
+                    str(tmp_path)], check=True, capture_output=True)
+    cpu = torch.device("cpu")
+    six, norm, meta6 = load_frozen_autoencoder(find_autoencoder(tmp_path, tmp_path / "armdec"), cpu)
+    three, _, meta3 = load_frozen_autoencoder(find_autoencoder(tmp_path, tmp_path / "noise"), cpu)
+    _, tensors = read_bundle(bundle)
+    shipped = bundle_autoencoder_state(tensors, bundle)
+    assert all(torch.equal(value, shipped[key].float()) for key, value in six.state_dict().items())
+    assert torch.equal(norm.mean, tensors["norm.mean"].float())
+    assert (meta6["config"]["ae"]["n_tokens"], meta3["config"]["ae"]["n_tokens"]) == (6, 3)
+    assert meta3["config"]["ae"]["arm_tokens"] == 0
+    motion = torch.randn(3, 120, meta6["feature_dim"], generator=torch.Generator().manual_seed(0))
+    lengths = torch.tensor([120, 80, 40])
+    body = three.encode(motion, lengths).z
+    assert body.shape[1] == 3
+    assert torch.equal(body, six.encode(motion, lengths).z[:, :3])
