@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
 # Remake the bundled model (docs/model_card.md) from scratch, on a CPU:
 #   bash tools/make_bundled_model.sh [WORK_DIR] [CM_SEED]
-# The bundle is what the one-pass recipe makes (tools/make_bundled_model_3h.sh, version 5: the
-# data, the autoencoder and its arm pair, stage 2 on 3 then 6 tokens, the durations, the critic
-# and the text anchors), with stage 2 seeded CM_SEED (default 0); 1 h 53 min from an empty
-# folder on this repository's 2-vCPU host, timed with seed 1 (docs/training.md, "Version 4").
-# The bundle shipped is seed 0 (the rule that chose it and the seed spread: docs/training.md,
-# "The bundle becomes the recipe's model"). Resumable: run it again with the same WORK_DIR
-# after an interruption and each stage continues from its last checkpoint. The result replaces
+# The bundle is what the one-pass recipe makes (tools/make_bundled_model_3h.sh, version 6: the
+# data, the autoencoder and its arm pair, stage 2 (3 x 192) on 3 then 6 tokens, the durations,
+# the critic and the text anchors), with stage 2 seeded CM_SEED (default 0); 1 h 53 min from an
+# empty folder on this repository's 2-vCPU host, timed with seed 1 of version 4, whose stage 2
+# was the larger 5 x 256 (docs/training.md, "Version 4"). The bundle shipped is seed 0, chosen by
+# the rule in docs/training.md ("Version 6"); its stage 2 ran on version 5's stage 1, written
+# back from that bundle (tools/make_bundled_model_3h_stage2.sh), which this script remakes.
+# Resumable: run it again with the same WORK_DIR after an interruption and each stage
+# continues from its last checkpoint. The result replaces
 # src/mlct/assets/model. The bundle before this one (~13.5 h of stages):
 # tools/make_bundled_model_staged.sh.
 set -euo pipefail
@@ -22,7 +24,7 @@ path, seed = sys.argv[1], int(sys.argv[2])
 config = json.load(open(path))
 config["decoder_from"] = "armdec (tools/make_bundled_model_3h.sh)"
 config["recipe"] = {"script": "tools/make_bundled_model.sh",
-                    "stages": "tools/make_bundled_model_3h.sh, version 5", "cm_seed": seed}
+                    "stages": "tools/make_bundled_model_3h.sh, version 6", "cm_seed": seed}
 json.dump(config, open(path, "w"), indent=2)
 PY
 rm -rf "$repo/src/mlct/assets/model"

@@ -6,12 +6,15 @@
 # autoencoder back as the recipe's `noise` (3 body tokens) and `armdec` (6 tokens) runs, and the
 # recipe's lines from "two lanes" on follow with the arm lane already done. WORK_DIR needs the
 # caption sets (caption_sets in tools/recipe_stage.sh makes them if absent). The stage-2 lines
-# below are the recipe's, unchanged (keep them in step). DENOISER as in the recipe.
+# below are the recipe's, unchanged (keep them in step). DENOISER as in the recipe (default:
+# version 6's 3 x 192). The bundle of version 6 was made so, on version 5's bundle:
+#   bash tools/make_bundled_model_3h_stage2.sh V5_BUNDLE WORK 0
 set -euo pipefail
 bundle="$1"
 work="$2"
 seed="${3:-0}"
 source "$(dirname "$0")/recipe_stage.sh"
+VERSION_6_DENOISER="denoiser.width=192 denoiser.ff_dim=768 denoiser.layers=3"
 stamp data
 caption_sets "${MOTIONS:-4000}"
 [ -f "$work/armdec/ae/checkpoints/latest" ] ||
@@ -19,7 +22,7 @@ caption_sets "${MOTIONS:-4000}"
 stamp stage 2 on 3 tokens
 # shellcheck disable=SC2086  # DENOISER is a list of overrides, split on purpose
 AE="$work/noise" DATA="$work/synth_collturns" stage cm cm --config small \
-    ${DENOISER:-} text.encoder=minilm+sides denoiser.dropout=0.0 \
+    ${DENOISER:-$VERSION_6_DENOISER} text.encoder=minilm+sides denoiser.dropout=0.0 \
     "train.cm.max_steps=${CM_STEPS:-28000}" train.cm.lr=4e-4 \
     "train.cm.seed=$seed" train.cm.precision=bf16
 [ -f "$work/model_cm/config.json" ] || mlct export "$work/cm" --out "$work/model_cm"
