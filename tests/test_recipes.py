@@ -304,3 +304,18 @@ def test_autoencoder_from_bundle_gives_the_recipes_stage_one_runs(tmp_path):
     body = three.encode(motion, lengths).z
     assert body.shape[1] == 3
     assert torch.equal(body, six.encode(motion, lengths).z[:, :3])
+
+
+def test_stage_two_defaults_to_version_six_denoiser_and_takes_another(tmp_path):
+    """stage2_on_body (tools/recipe_stage.sh), shared by the recipe and its stage-2-only form:
+    version 6's 3 x 192 unless DENOISER names another size."""
+    w = tmp_path / "w"
+    plain = _stage_shell(tmp_path, "stage2_on_body 1")
+    assert plain.startswith(f"mlct train cm --data {w}/synth_collturns --out {w}/cm "
+                            f"--ae {w}/noise --config small denoiser.width=192 "
+                            f"denoiser.ff_dim=768 denoiser.layers=3 ")
+    assert "train.cm.seed=1 " in plain
+    other = _stage_shell(tmp_path, 'DENOISER="denoiser.width=256 denoiser.layers=5" '
+                                   "stage2_on_body 0")
+    assert "denoiser.width=256 denoiser.layers=5 text.encoder" in other
+    assert "width=192" not in other

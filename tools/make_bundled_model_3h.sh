@@ -38,7 +38,6 @@ set -euo pipefail
 work="${1:-mlct-bundled-3h}"
 seed="${2:-0}"
 source "$(dirname "$0")/recipe_stage.sh"
-VERSION_6_DENOISER="denoiser.width=192 denoiser.ff_dim=768 denoiser.layers=3"
 stamp data
 caption_sets "${MOTIONS:-4000}"
 stamp autoencoder
@@ -60,26 +59,8 @@ stamp two lanes: stage 2 on 3 tokens, the arm pair beside it
         "train.ae.max_steps=${ARMDEC_STEPS:-10000}" train.ae.lr=5e-4 train.ae.precision=bf16
 ) > "$work/arm_lane.log" 2>&1 &
 arm_lane=$!
-# shellcheck disable=SC2086  # DENOISER is a list of overrides, split on purpose
-OMP_NUM_THREADS=1 DATA="$work/synth_collturns" AE="$work/noise" stage cm cm --config small \
-    ${DENOISER:-$VERSION_6_DENOISER} text.encoder=minilm+sides denoiser.dropout=0.0 \
-    "train.cm.max_steps=${CM_STEPS:-28000}" train.cm.lr=4e-4 \
-    "train.cm.seed=$seed" train.cm.precision=bf16
+OMP_NUM_THREADS=1 stage2_on_body "$seed"
 wait "$arm_lane" || { echo "the arm lane failed: $work/arm_lane.log" >&2; exit 1; }
-# float32, so that the grown stage 2 does not start from weights rounded to float16
-[ -f "$work/model_cm/config.json" ] || mlct export "$work/cm" --out "$work/model_cm"
-stamp stage 2 on 6 tokens
-AE="$work/armdec" DATA="$work/synth_collturns" stage cm6 cm --init "$work/model_cm" \
-    text.encoder=minilm+sides denoiser.dropout=0.0 "train.cm.max_steps=${CM6_STEPS:-10000}" \
-    train.cm.lr=2e-4 \
-    "train.cm.seed=$((seed + 31))" train.cm.precision=bf16
-if [ ! -f "$work/model/text_anchors.safetensors" ]; then
-    rm -rf "$work/model"
-    mlct export "$work/cm6" --out "$work/model" --half --decoder-from "$work/armdec"
-    stamp durations, critic, text anchors
-    mlct train durations --data "$work/synth" --model "$work/model"
-    mlct train critic --data "$work/synth_rich" --model "$work/model" --samples 8
-    mlct train anchors --data "$work/synth_collturns" --model "$work/model"
-fi
+stage2_on_all "$seed"
 stamp done
 echo "$work/model"

@@ -33,3 +33,34 @@ caption_sets() {
     [ -f "$work/synth_collturns/synth.json" ] || mlct data oversample "$work/synth_coll" \
         --out "$work/synth_collturns" --families turn,spin --times 3
 }
+# The one-pass recipe's stage 2 (tools/make_bundled_model_3h.sh, and its stage-2-only form
+# tools/make_bundled_model_3h_stage2.sh), given $work/noise and $work/armdec.
+# stage2_on_body SEED: on the body's 3 tokens, from step 0 on every caption set. DENOISER: the
+# denoiser's size as config overrides, by default version 6's 3 x 192.
+VERSION_6_DENOISER="denoiser.width=192 denoiser.ff_dim=768 denoiser.layers=3"
+stage2_on_body() {
+    # shellcheck disable=SC2086  # DENOISER is a list of overrides, split on purpose
+    DATA="$work/synth_collturns" AE="$work/noise" stage cm cm --config small \
+        ${DENOISER:-$VERSION_6_DENOISER} text.encoder=minilm+sides denoiser.dropout=0.0 \
+        "train.cm.max_steps=${CM_STEPS:-28000}" train.cm.lr=4e-4 \
+        "train.cm.seed=$1" train.cm.precision=bf16
+}
+# stage2_on_all SEED: grown onto all 6 tokens, exported with the arm pair's decoder, then the
+# durations, the critic and the text anchors; $work/model
+stage2_on_all() {
+    local seed="$1"
+    # float32, so that the grown stage 2 does not start from weights rounded to float16
+    [ -f "$work/model_cm/config.json" ] || mlct export "$work/cm" --out "$work/model_cm"
+    stamp stage 2 on 6 tokens
+    AE="$work/armdec" DATA="$work/synth_collturns" stage cm6 cm --init "$work/model_cm" \
+        text.encoder=minilm+sides denoiser.dropout=0.0 "train.cm.max_steps=${CM6_STEPS:-10000}" \
+        train.cm.lr=2e-4 "train.cm.seed=$((seed + 31))" train.cm.precision=bf16
+    if [ ! -f "$work/model/text_anchors.safetensors" ]; then
+        rm -rf "$work/model"
+        mlct export "$work/cm6" --out "$work/model" --half --decoder-from "$work/armdec"
+        stamp durations, critic, text anchors
+        mlct train durations --data "$work/synth" --model "$work/model"
+        mlct train critic --data "$work/synth_rich" --model "$work/model" --samples 8
+        mlct train anchors --data "$work/synth_collturns" --model "$work/model"
+    fi
+}
