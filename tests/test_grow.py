@@ -224,3 +224,36 @@ def test_an_arm_pair_started_from_the_body_draws_the_arms_as_the_old_pair() -> N
     with pytest.raises(MlctError, match="arm_channels"):
         add_arm_pair(old.state_dict(), narrow.state_dict(), narrow.body_columns,
                      narrow.arm_columns)
+
+
+def test_a_narrower_decoder_trains_on_the_frozen_encoder_and_serves_the_old_stage_two(
+        conv_model: tuple[Path, Path, str], tmp_path: Path) -> None:
+    """`train ae --init MODEL ae.freeze_encoder=true ae.decoder_channels=8`: the encoder loads
+    and stays as shipped, the decoder is 8 channels wide and starts fresh; the model's stage 2
+    exported with it (`--decoder-from`) generates, its latents unchanged."""
+    import mlct
+    from mlct.generate.bundle import read_bundle
+    from mlct.train.export import export_run
+
+    model, data, cache = conv_model
+    run = tmp_path / "narrow"
+    train("ae", data, run, None, progress=False, init=model,
+          overrides=[cache, "ae.freeze_encoder=true", "ae.decoder_channels=8",
+                     "train.ae.lr=1e-2", "train.ae.max_steps=3"])
+    ckpt = load_checkpoint(latest_checkpoint(run / "ae" / "checkpoints"), with_state=False)
+    after = ckpt.module_state("ae")
+    assert ckpt.meta["config"]["ae"]["decoder_channels"] == 8
+    assert after["decoder.1.weight"].shape[:2] == (8, 8)  # the first conv after the upsampling
+    assert after["encoder.0.weight"].shape[0] == 16  # the encoder keeps its width
+    _, before = read_bundle(model)
+    encoder = [k for k in before if k.startswith("ae_encoder.")]
+    assert encoder and all(torch.equal(after[k[len("ae_encoder."):]], before[k])
+                           for k in encoder)
+    # the old model's stage 2 (the tiny run's cm) with the narrow decoder
+    exported = export_run(model.parent / "run", tmp_path / "narrow_model", decoder_from=run)
+    motion = mlct.load(exported).generate("a person walks forward", seconds=2.0, seed=0)
+    assert torch.isfinite(torch.as_tensor(motion.joints)).all()
+    with pytest.raises(MlctError, match="keep ae.n_tokens"):
+        train("ae", data, tmp_path / "bad", None, progress=False, init=model,
+              overrides=[cache, "ae.decoder_channels=8", "ae.n_tokens=3",
+                         "train.ae.max_steps=1"])

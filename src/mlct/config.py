@@ -74,6 +74,12 @@ class AutoencoderConfig(_Section):
     # by a pair of their own, arm_channels wide (0 = one pair for everything; nn/conv_autoencoder.py)
     arm_tokens: int = Field(0, ge=0)
     arm_channels: int = Field(64, ge=1)
+    # conv only: the decoders' widths, when narrower than their encoders' (0 = channels and
+    # arm_channels). Why: at batch 1 the decoder's time is its channels (2.7 ms at 128 / 128,
+    # 0.95 at 64 / 64; docs/performance.md "What a narrower decoder would buy"); trained on a
+    # frozen encoder (freeze_encoder), the latents and the stage 2 on them stay as they are.
+    decoder_channels: int = Field(0, ge=0)
+    arm_decoder_channels: int = Field(0, ge=0)
     # an arm pair added by `train ae --init MODEL` starts "fresh" or as a copy of the model's
     # own pair restricted to the arms' columns, "body" (nn/grow.py arm_pair_from_body)
     arm_init: Literal["fresh", "body"] = "fresh"

@@ -26,6 +26,8 @@ def build_autoencoder(config: Config, feature_dim: int) -> AnyAutoencoder:
                 latent_dim=ae.latent_dim, levels=ae.levels, channels=ae.channels,
                 max_len=config.data.max_motion_length, arm_tokens=ae.arm_tokens,
                 arm_channels=ae.arm_channels, bottleneck=ae.bottleneck,
+                decoder_channels=ae.decoder_channels,
+                arm_decoder_channels=ae.arm_decoder_channels,
                 temporal=ae.temporal,
                 arm_columns=arm_feature_columns(feature_dim) if ae.arm_tokens else None)
         except ValueError as error:

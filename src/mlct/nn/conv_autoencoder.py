@@ -125,6 +125,8 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         arm_columns: list[int] | None = None,
         bottleneck: int = 0,
         temporal: bool = False,
+        decoder_channels: int = 0,
+        arm_decoder_channels: int = 0,
     ) -> None:
         if channels < 1 or arm_channels < 1:
             raise ValueError("channels and arm_channels must be >= 1")
@@ -166,11 +168,15 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         # the body's encoder sees every feature (the arms' swing keeps time with the gait); only
         # its decoder is limited to the body's columns
         self.encoder, self.to_tokens = self._encoder(feature_dim, channels, n_enc)
-        self.from_tokens, self.decoder = self._decoder(body_tokens, channels, len(body))
+        # a decoder may be narrower than its encoder (ae.decoder_channels; 0 = as wide)
+        self.from_tokens, self.decoder = self._decoder(body_tokens, decoder_channels or channels,
+                                                       len(body))
         if arm_tokens:
             self.arm_encoder, self.arm_to_tokens = self._encoder(len(arm), arm_channels,
                                                                  arm_tokens)
-            self.arm_from_tokens, self.arm_decoder = self._decoder(arm_tokens, arm_channels,
+            self.arm_from_tokens, self.arm_decoder = self._decoder(arm_tokens,
+                                                                   arm_decoder_channels
+                                                                   or arm_channels,
                                                                    len(arm))
 
     def _encoder(self, features: int, channels: int, tokens: int) -> tuple[nn.Module, nn.Module]:

@@ -48,8 +48,11 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
     if not {"mean", "std"} <= ckpt.module_state("norm").keys():
         raise MlctError(f"{found}: holds no normalization (norm.mean, norm.std)")
     ae = ckpt.module_state("ae")
+    config = ckpt.meta["config"]
     if decoder_from is not None:
-        ae = _same_encoder(ae, decoder_from)
+        ae, widths = _same_encoder(ae, decoder_from)
+        # a decoder narrower than its encoder (ae.decoder_channels): the bundle builds it so
+        config = {**config, "ae": {**config["ae"], **widths}}
     decoder = {k: v for k, v in ae.items() if not k.startswith(ENCODER_PREFIXES)}
     target = strip_prefix(ckpt.tensors, "target")
     if stage == "cm":
@@ -70,7 +73,7 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
         tensors = {k: (v.half() if v.is_floating_point() and not k.startswith("norm.") else v)
                    for k, v in tensors.items()}
     meta = {"format": BUNDLE_FORMAT, "version": BUNDLE_VERSION, "sampler": sampler.name,
-            "step": ckpt.meta["step"], "config": ckpt.meta["config"],
+            "step": ckpt.meta["step"], "config": config,
             "feature_dim": ckpt.meta["feature_dim"], "skeleton": ckpt.meta["skeleton"],
             "text_encoder": ckpt.meta["text_encoder"], "text_dim": ckpt.meta["text_dim"]}
     if decoder_from is not None:
@@ -90,15 +93,20 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
     return out
 
 
-def _same_encoder(ae: dict, decoder_from: str | os.PathLike) -> dict:
+def _same_encoder(ae: dict, decoder_from: str | os.PathLike) -> tuple[dict, dict]:
     """The autoencoder state of decoder_from (a run, its ae/ stage or a checkpoint), checked to
-    hold exactly the encoder of `ae`."""
+    hold exactly the encoder of `ae`, and its decoders' widths (ae.decoder_channels,
+    ae.arm_decoder_channels)."""
     path = Path(decoder_from)
     for checkpoints in (path / "ae" / "checkpoints", path / "checkpoints"):
         if checkpoints.is_dir() and (found := latest_checkpoint(checkpoints)) is not None:
             path = found
             break
-    other = load_checkpoint(path, with_state=False).module_state("ae")
+    other_checkpoint = load_checkpoint(path, with_state=False)
+    other = other_checkpoint.module_state("ae")
+    other_ae = other_checkpoint.meta.get("config", {}).get("ae", {})
+    widths = {key: int(other_ae.get(key, 0))
+              for key in ("decoder_channels", "arm_decoder_channels")}
     encoder = [k for k in ae if k.startswith(ENCODER_PREFIXES)]
     # equal up to float16 storage: an --init from a --half bundle starts from rounded weights
     if not encoder or any(k not in other or other[k].shape != ae[k].shape
@@ -108,4 +116,4 @@ def _same_encoder(ae: dict, decoder_from: str | os.PathLike) -> dict:
         raise MlctError(f"{decoder_from}: its encoder is not the run's, so the denoiser's "
                         f"latents would mean nothing to its decoder; train it with "
                         f"ae.freeze_encoder=true from this model (--init)")
-    return other
+    return other, widths

@@ -284,6 +284,19 @@ def _adds_arm_pair(old: dict[str, Any], new: Config) -> bool:
     return True
 
 
+def _narrows_decoder(old: dict[str, Any], new: Config) -> bool:
+    """Does `train ae --init` give the model decoders of other widths (ae.decoder_channels,
+    ae.arm_decoder_channels)? Those start fresh; the encoders load as they were."""
+    width = {key: int(old["ae"].get(key, 0)) or int(old["ae"].get(base, 0))
+             for key, base in (("decoder_channels", "channels"),
+                               ("arm_decoder_channels", "arm_channels"))}
+    a = new.ae
+    return ((a.decoder_channels or a.channels) != width["decoder_channels"]
+            # an arm pair on both sides (one added by --init is nn/grow.py's, not this)
+            or bool(a.arm_tokens and int(old["ae"].get("arm_tokens", 0)))
+            and (a.arm_decoder_channels or a.arm_channels) != width["arm_decoder_channels"])
+
+
 def _record_growth(config: Config, old_n: int) -> Config:
     """An autoencoder --init from a model with fewer latent tokens grows it (nn/grow.py): its
     config says from how many, so a resumed run freezes the same encoder rows (0 when the
@@ -343,6 +356,11 @@ class InitialWeights:
     def load_into(self, stage: Stage) -> None:
         weights = self.weights
         old_n, new_n = int(self.config["ae"]["n_tokens"]), stage.config.ae.n_tokens
+        narrow = isinstance(stage, AutoencoderStage) and _narrows_decoder(self.config,
+                                                                         stage.config)
+        if narrow and new_n != old_n:
+            raise MlctError("a decoder of another width (ae.decoder_channels) starts fresh on "
+                            "the model's latent: keep ae.n_tokens")
         if isinstance(stage, AutoencoderStage) and _adds_arm_pair(self.config, stage.config):
             from mlct.nn.grow import add_arm_pair  # the new tokens are an arm pair's
 
@@ -362,6 +380,13 @@ class InitialWeights:
             network = stage.model if isinstance(stage, AutoencoderStage) else stage.denoiser
             weights = grow_tokens(weights, network.state_dict(), old_n, new_n,
                                   stage.config.ae.latent_dim)
+        if narrow:
+            from mlct.generate.bundle import ENCODER_PREFIXES
+
+            own = stage.model.state_dict()
+            # the encoders' weights load; the decoders (other shapes) keep their fresh start
+            weights = {**own, **{k: v for k, v in weights.items()
+                                 if k.startswith(ENCODER_PREFIXES)}}
         try:
             if isinstance(stage, AutoencoderStage):
                 stage.model.load_state_dict(weights)
