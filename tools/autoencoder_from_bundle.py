@@ -21,6 +21,7 @@ import torch
 
 from mlct.config import config_from_dict
 from mlct.generate.bundle import bundle_autoencoder_state, read_bundle
+from mlct.motion.features import arm_feature_columns
 from mlct.nn.build import build_autoencoder
 from mlct.train.checkpoint import save_checkpoint
 
@@ -48,7 +49,9 @@ def main(model_dir: str, out: str) -> None:
                       grown_from=0)
     model = build_autoencoder(config_from_dict(body, "body"), meta["feature_dim"])
     state = model.state_dict()
-    rows = build_autoencoder(config_from_dict(config, "whole"), meta["feature_dim"]).body_columns
+    # the body decoder's output rows: every feature but the arm pair's (as the 6-token model)
+    arms = set(arm_feature_columns(meta["feature_dim"]))
+    rows = [f for f in range(meta["feature_dim"]) if f not in arms]
     for key, value in state.items():
         source = whole[key]
         if source.shape == value.shape:
