@@ -229,7 +229,8 @@ def test_an_arm_pair_started_from_the_body_draws_the_arms_as_the_old_pair() -> N
 def test_a_narrower_decoder_trains_on_the_frozen_encoder_and_serves_the_old_stage_two(
         conv_model: tuple[Path, Path, str], tmp_path: Path) -> None:
     """`train ae --init MODEL ae.freeze_encoder=true ae.decoder_channels=8`: the encoder loads
-    and stays as shipped, the decoder is 8 channels wide and starts fresh; the model's stage 2
+    and stays as shipped, the decoder is 8 channels wide (the model's, pruned: nn/narrow.py,
+    tested in test_narrow.py); the model's stage 2
     exported with it (`--decoder-from`) generates, its latents unchanged."""
     import mlct
     from mlct.generate.bundle import read_bundle

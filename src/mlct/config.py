@@ -80,6 +80,9 @@ class AutoencoderConfig(_Section):
     # frozen encoder (freeze_encoder), the latents and the stage 2 on them stay as they are.
     decoder_channels: int = Field(0, ge=0)
     arm_decoder_channels: int = Field(0, ge=0)
+    # how such a narrower decoder starts under `train ae --init`: "prune" = the model's own
+    # decoder with its weakest channels removed (nn/narrow.py), "fresh" = new weights
+    decoder_init: Literal["prune", "fresh"] = "prune"
     # an arm pair added by `train ae --init MODEL` starts "fresh" or as a copy of the model's
     # own pair restricted to the arms' columns, "body" (nn/grow.py arm_pair_from_body)
     arm_init: Literal["fresh", "body"] = "fresh"

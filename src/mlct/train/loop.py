@@ -286,7 +286,8 @@ def _adds_arm_pair(old: dict[str, Any], new: Config) -> bool:
 
 def _narrows_decoder(old: dict[str, Any], new: Config) -> bool:
     """Does `train ae --init` give the model decoders of other widths (ae.decoder_channels,
-    ae.arm_decoder_channels)? Those start fresh; the encoders load as they were."""
+    ae.arm_decoder_channels)? Those start pruned or fresh (ae.decoder_init); the encoders load
+    as they were."""
     width = {key: int(old["ae"].get(key, 0)) or int(old["ae"].get(base, 0))
              for key, base in (("decoder_channels", "channels"),
                                ("arm_decoder_channels", "arm_channels"))}
@@ -384,7 +385,11 @@ class InitialWeights:
             from mlct.generate.bundle import ENCODER_PREFIXES
 
             own = stage.model.state_dict()
-            # the encoders' weights load; the decoders (other shapes) keep their fresh start
+            if stage.config.ae.decoder_init == "prune":  # the model's decoders, cut narrower
+                from mlct.nn.narrow import narrow_decoders
+
+                own = narrow_decoders(weights, own)
+            # the encoders' weights load; the decoders (other shapes) are fresh or pruned
             weights = {**own, **{k: v for k, v in weights.items()
                                  if k.startswith(ENCODER_PREFIXES)}}
         try:
