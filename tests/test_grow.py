@@ -86,6 +86,7 @@ def test_train_ae_grows_the_latent_with_the_old_tokens_frozen(
     resumed run keeps them frozen; `train cm --init MODEL --ae RUN` grows the denoiser, and
     the exported model generates with 3 tokens."""
     import mlct
+    from mlct.cli import main
     from mlct.generate.bundle import read_bundle
     from mlct.train.export import export_run
 
@@ -227,12 +228,14 @@ def test_an_arm_pair_started_from_the_body_draws_the_arms_as_the_old_pair() -> N
 
 
 def test_a_narrower_decoder_trains_on_the_frozen_encoder_and_serves_the_old_stage_two(
-        conv_model: tuple[Path, Path, str], tmp_path: Path) -> None:
+        conv_model: tuple[Path, Path, str], tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
     """`train ae --init MODEL ae.freeze_encoder=true ae.decoder_channels=8`: the encoder loads
     and stays as shipped, the decoder is 8 channels wide (the model's, pruned: nn/narrow.py,
     tested in test_narrow.py); the model's stage 2
     exported with it (`--decoder-from`) generates, its latents unchanged."""
     import mlct
+    from mlct.cli import main
     from mlct.generate.bundle import read_bundle
     from mlct.train.export import export_run
 
@@ -254,6 +257,29 @@ def test_a_narrower_decoder_trains_on_the_frozen_encoder_and_serves_the_old_stag
     exported = export_run(model.parent / "run", tmp_path / "narrow_model", decoder_from=run)
     motion = mlct.load(exported).generate("a person walks forward", seconds=2.0, seed=0)
     assert torch.isfinite(torch.as_tensor(motion.joints)).all()
+    # the same decoder swapped into the model itself (`mlct convert MODEL --decoder-from RUN
+    # --out DIR`): every other tensor as stored, the decoder's widths in its config, and the
+    # same motion as the stage-2 run exported with it
+    swapped = tmp_path / "swapped"
+    assert main(["convert", str(model), "--decoder-from", str(run), "--out", str(swapped)]) == 0
+    _, changed = read_bundle(swapped)
+    assert set(changed) == set(before)
+    assert all(torch.equal(changed[k], before[k]) for k in before if not k.startswith("decoder."))
+    assert changed["decoder.decoder.1.weight"].shape[:2] == (8, 8)
+    assert mlct.load(swapped).config.ae.decoder_channels == 8
+    again = mlct.load(swapped).generate("a person walks forward", seconds=2.0, seed=0)
+    assert torch.allclose(torch.as_tensor(again.joints), torch.as_tensor(motion.joints),
+                          atol=1e-4)
+    assert main(["convert", str(model), "--decoder-from", str(run)]) == 2  # no --out
+    assert "give it --out DIR" in capsys.readouterr().err
+    other = tmp_path / "other_encoder"
+    train("ae", data, other, load_config("tiny"), progress=False,  # the model's shapes
+          overrides=[cache, "ae.architecture=conv", "ae.channels=16", "ae.latent_dim=8",
+                     "train.ae.max_steps=1"])
+    assert main(["convert", str(model), "--decoder-from", str(other), "--out",
+                 str(tmp_path / "refused")]) == 2
+    assert "its encoder is not the run's" in capsys.readouterr().err
+    assert not (tmp_path / "refused").exists()
     with pytest.raises(MlctError, match="keep ae.n_tokens"):
         train("ae", data, tmp_path / "bad", None, progress=False, init=model,
               overrides=[cache, "ae.decoder_channels=8", "ae.n_tokens=3",

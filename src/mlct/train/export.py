@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
 import torch
-from safetensors.torch import save_file
+from safetensors.torch import load_file, save_file
 
 from mlct.errors import MlctError
 from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION, ENCODER_KEY, ENCODER_PREFIXES
@@ -117,3 +118,52 @@ def _same_encoder(ae: dict, decoder_from: str | os.PathLike) -> tuple[dict, dict
                         f"latents would mean nothing to its decoder; train it with "
                         f"ae.freeze_encoder=true from this model (--init)")
     return other, widths
+
+
+def bundle_with_decoder(model_dir: str | os.PathLike, decoder_from: str | os.PathLike,
+                        out: str | os.PathLike, onnx: bool = False) -> Path:
+    """`mlct convert MODEL_DIR --decoder-from RUN --out DIR`: a copy of the bundle whose decoder
+    is RUN's (an autoencoder trained on the bundle's frozen encoder, `train ae --init MODEL_DIR
+    ae.freeze_encoder=true`, perhaps narrower: ae.decoder_channels), everything else as it was:
+    the denoiser, the critic, the durations and the text anchors read only the text and the
+    latents, whose meaning the frozen encoder keeps. `export --decoder-from` does the same
+    from a stage-2 run; this needs only the model. The decoder is stored in the bundle's own
+    precision (float16 for a --half bundle)."""
+    from mlct.generate.bundle import BUNDLE_FILES, CONFIG, OPTIONAL_FILES, WEIGHTS, read_bundle
+    from mlct.io import check_writable_dir
+
+    model_dir, out = Path(model_dir), Path(out)
+    _, tensors = read_bundle(model_dir)  # a bundle, or one line saying what is wrong
+    if out.exists() and out.resolve() == model_dir.resolve():
+        raise MlctError(f"{out} is the model itself: give --out a new directory")
+    check_writable_dir(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise MlctError(f"{out} exists and is not empty; give --out a new or empty directory")
+    encoder = strip_prefix(tensors, ENCODER_KEY)
+    if not encoder:
+        raise MlctError(f"{model_dir}: this model ships no autoencoder encoder (exported by an "
+                        f"older mlct), so no decoder can be checked against it")
+    ae, widths = _same_encoder(encoder, decoder_from)
+    raw = load_file(str(model_dir / WEIGHTS))  # as stored: float16 where the bundle is --half
+    stored = next(v.dtype for k, v in raw.items() if k.startswith("decoder."))
+    kept = {k: v for k, v in raw.items() if not k.startswith("decoder.")}
+    decoder = {f"decoder.{k}": v.to(stored) for k, v in ae.items()
+               if not k.startswith(ENCODER_PREFIXES)}
+    meta = json.loads((model_dir / CONFIG).read_text(encoding="utf-8"))
+    meta["config"] = {**meta["config"], "ae": {**meta["config"]["ae"], **widths}}
+    meta["decoder_from"] = str(decoder_from)
+    with atomic_dir(out) as tmp:
+        save_file({k: v.contiguous() for k, v in {**kept, **decoder}.items()},
+                  str(tmp / WEIGHTS), metadata={"format": BUNDLE_FORMAT})
+        umask = os.umask(0)
+        os.umask(umask)
+        (tmp / WEIGHTS).chmod(0o666 & ~umask)  # safetensors writes it private (0600)
+        (tmp / CONFIG).write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+        for name in BUNDLE_FILES + OPTIONAL_FILES:
+            if name not in (CONFIG, WEIGHTS) and (model_dir / name).is_file():
+                shutil.copy2(model_dir / name, tmp / name)
+        if onnx:
+            (tmp / ONNX_DIR).mkdir()
+            write_onnx_graphs(tmp, tmp / ONNX_DIR)
+    return out
+
