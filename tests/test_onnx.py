@@ -81,6 +81,11 @@ def test_text_embeddings_match_the_torch_encoder(backends) -> None:
     ours = onnx_gen.text_encoder.encode(texts)
     spec = onnx_gen.meta["text_encoder"]  # the bundled model's: 'minilm+sides' contrasts sides
     torch.testing.assert_close(ours, load_text_encoder(spec).encode(texts), rtol=0, atol=1e-5)
+    # ... by ONNX Runtime's fused operators: one Attention per layer (write_minilm_graph)
+    import onnx
+
+    ops = [node.op_type for node in onnx.load(str(onnx_gen.graphs.text_encoder)).graph.node]
+    assert ops.count("Attention") == 6 and "Softmax" not in ops
     # the same graph serves "minilm+tokens": the token slots are filled around it
     tokens = OnnxMiniLMEncoder(onnx_gen.graphs.text_encoder, "minilm+tokens")
     torch.testing.assert_close(tokens.encode(texts), load_text_encoder("minilm+tokens").encode(

@@ -90,7 +90,7 @@ _DIGESTS: dict[tuple[str, int, int], str] = {}
 
 
 def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike,
-                      int8: bool = False) -> Path:
+                      int8: bool = False, fused_text: bool = True) -> Path:
     """Write the ONNX graphs of the bundle in model_dir into the (empty) directory `into`,
     each checked against its torch module on a probe; returns `into`.
 
@@ -99,7 +99,9 @@ def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike,
     CPU thread, joints a few mm from float32's on average (docs/performance.md, "Blockwise
     int8"; tests/test_onnx.py bounds them). The decoder stays float32 (its convolutions ran 3x
     slower quantized), and so does the text encoder: quantized, it was 2x faster but moved the
-    joints 27 mm on average, as a slightly different sentence would."""
+    joints 27 mm on average, as a slightly different sentence would.
+    fused_text: the text encoder with ONNX Runtime's fused transformer operators
+    (minilm_onnx.write_minilm_graph); False keeps standard operators (the browser page)."""
     model_dir, into = Path(model_dir), Path(into)
     meta, tensors = read_bundle(model_dir)
     spec = check_onnx_spec(meta["text_encoder"])  # before any work
@@ -122,7 +124,7 @@ def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike,
     free = {0: "batch", 1: "frames"}
     export_graph(DecoderGraph(ae), (latent, valid), into / DECODER, *DECODER_IO,
                  {"latent": batch, "valid": free, "features": free})
-    write_minilm_graph(spec, into / TEXT_ENCODER)
+    write_minilm_graph(spec, into / TEXT_ENCODER, fused=fused_text)
     with torch.no_grad():  # the graphs against the modules, on other sizes than traced
         x3, t3, text3 = (torch.cat([v, v[:1]]) for v in (x, t, text))
         _check(into / DENOISER, {"x_t": x3, "t": t3, "text": text3}, denoiser(x3, t3, text3))

@@ -13,6 +13,7 @@ post-LayerNorm layers, no pooler (sentence embeddings are mean-pooled by the cal
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -124,14 +125,21 @@ class _SelfAttention(nn.Module):
         self.value = _Dense(c.hidden_size, c.hidden_size)
 
     def forward(self, x: Tensor, keep: Tensor) -> Tensor:
-        """x (B, L, D), keep (B, 1, 1, L) bool: True where a key is a real token."""
+        """x (B, L, D), keep (B, 1, 1, L): bool, True where a key is a real token; or float,
+        an additive bias (0 for a real token, -10000 for padding) for the attention written
+        out (BertModel.explicit_attention)."""
         b, n, d = x.shape
 
         def split(t: Tensor) -> Tensor:  # (B, L, D) -> (B, H, L, D / H)
             return t.view(b, n, self.heads, d // self.heads).transpose(1, 2)
 
-        out = F.scaled_dot_product_attention(split(self.query(x)), split(self.key(x)),
-                                             split(self.value(x)), attn_mask=keep)
+        if keep.dtype == torch.bool:
+            out = F.scaled_dot_product_attention(split(self.query(x)), split(self.key(x)),
+                                                 split(self.value(x)), attn_mask=keep)
+        else:  # softmax(q k^T / sqrt(d_head) + bias) v, operator by operator
+            scores = split(self.query(x)) @ split(self.key(x)).transpose(-1, -2)
+            scores = scores / math.sqrt(d // self.heads) + keep
+            out = scores.softmax(dim=-1) @ split(self.value(x))
         return out.transpose(1, 2).reshape(b, n, d)
 
 
@@ -198,12 +206,19 @@ class BertModel(nn.Module):
         self.config = config
         self.embeddings = _Embeddings(config)
         self.encoder = _Layers(config)
+        # The attention as separate operators with an additive padding mask, the form ONNX
+        # Runtime's transformer optimizer recognises and fuses into one Attention operator per
+        # layer (text/minilm_onnx.py); the same function as scaled_dot_product_attention's
+        # up to float rounding. Off, torch runs its fused kernel.
+        self.explicit_attention = False
 
     def forward(self, ids: Tensor, mask: Tensor) -> Tensor:
         if ids.shape[1] > self.config.max_position_embeddings:
             raise ValueError(f"{ids.shape[1]} tokens; the model has "
                              f"{self.config.max_position_embeddings} positions")
         keep = mask.bool()[:, None, None, :]  # broadcast over heads and queries
+        if self.explicit_attention:  # -10000 for a padding key: exp() of it is 0 in float32
+            keep = (1.0 - keep.float()) * -10000.0
         x = self.embeddings(ids)
         for layer in self.encoder.layer:
             x = layer(x, keep)

@@ -240,7 +240,8 @@ def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
         copy_vendor_files(tmp / "vendor", vendor)  # first: the likeliest to fail (network)
         folder = tmp / MODEL_DIR
         (tmp / "float32").mkdir()
-        graphs = write_onnx_graphs(model_dir, tmp / "float32")
+        # standard operators only: ONNX Runtime Web runs the page's graphs
+        graphs = write_onnx_graphs(model_dir, tmp / "float32", fused_text=False)
         folder.mkdir()
         if denoiser == "int8":
             quantize_int8(graphs / GRAPHS["denoiser"], folder / GRAPHS["denoiser"],
