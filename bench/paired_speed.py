@@ -1,0 +1,115 @@
+"""Batch-1 latency of several models (or graph variants) side by side, taking turns in one process.
+
+Why: on a shared 2-core host the quick bench's medians of one model move by 30 % from one run to
+the next (docs/performance.md), more than a decoder swap or a fused text graph changes, so a
+comparison of two separate runs says nothing. Here every model runs one round, then the next,
+for several rounds; each round reports every model's median, and the ratios are taken within a
+round (paired), so the host's drift cancels.
+
+    python bench/paired_speed.py --models bundled /path/to/model [bundled:unfused-text] \\
+        --rounds 8 --calls 30 --threads 2
+
+MODEL is a model directory or "bundled"; ":unfused-text" runs it with the text encoder graph
+of standard ONNX operators (write_minilm_graph(fused=False)) instead of the fused one. Per call,
+as bench/inference_speed.py times them: warm = what generate() runs for a caption already
+encoded (text memo, anchors' pull, sample_features: 5 steps and the decoder, 196 frames);
+text = the text encoder on a new sentence; cold = warm + text. The onnx backend, float32.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from inference_speed import FRAMES, TEXTS  # noqa: E402  (the same prompts and length)
+
+
+def load(spec: str, folder: Path) -> Any:
+    """The onnx-backend generator of a model spec (see the module docstring)."""
+    import mlct
+    from mlct.generate.onnx_bundle import ONNX_DIR, TEXT_ENCODER, convert_to_onnx
+    from mlct.generate.pipeline import bundled_model_dir
+    from mlct.text.minilm_onnx import write_minilm_graph
+
+    name, _, variant = spec.partition(":")
+    if variant not in ("", "unfused-text"):
+        raise SystemExit(f"unknown variant {variant!r} of {name}; the one there is: unfused-text")
+    model = bundled_model_dir() if name == "bundled" else Path(name)
+    out = convert_to_onnx(model, folder, read_only=name == "bundled")
+    if variant:
+        import json
+
+        spec_name = json.loads((out / "config.json").read_text())["text_encoder"]
+        write_minilm_graph(spec_name, out / ONNX_DIR / TEXT_ENCODER, fused=False)
+    return mlct.load(out, backend="onnx")  # ONNX Runtime threads follow torch's
+
+
+def warm_ms(gen: Any, calls: int, offset: int) -> float:
+    """Median ms of generate()'s work for a caption already encoded (bench/inference_speed.py's
+    time_pipeline)."""
+    times = []
+    for i in range(calls):
+        text = TEXTS[(offset + i) % len(TEXTS)]
+        start = time.perf_counter()
+        cond = gen.sampling_text(gen.encode_text([text]))
+        gen.sample_features(cond, 5, [i], None, [FRAMES])
+        times.append(time.perf_counter() - start)
+    return statistics.median(times) * 1000.0
+
+
+def text_ms(gen: Any, calls: int, offset: int) -> float:
+    """Median ms of the text encoder on a sentence it has not memoised (encode, not the memo)."""
+    times = []
+    for i in range(calls):
+        text = TEXTS[(offset + i) % len(TEXTS)]
+        start = time.perf_counter()
+        gen.text_encoder.encode([text])
+        times.append(time.perf_counter() - start)
+    return statistics.median(times) * 1000.0
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--models", nargs="+", required=True)
+    parser.add_argument("--rounds", type=int, default=8)
+    parser.add_argument("--calls", type=int, default=30)
+    parser.add_argument("--threads", type=int, default=2)
+    args = parser.parse_args()
+    import torch
+
+    torch.set_num_threads(args.threads)
+    root = Path(tempfile.mkdtemp(prefix="mlct-paired-"))
+    gens = {spec: load(spec, root / f"m{i}") for i, spec in enumerate(args.models)}
+    for gen in gens.values():  # the text memo, the sampler graph (built at the second call)
+        warm_ms(gen, len(TEXTS) + 2, 0)
+        text_ms(gen, 4, 0)
+    rounds: dict[str, list[tuple[float, float]]] = {spec: [] for spec in gens}
+    for r in range(args.rounds):
+        for spec, gen in gens.items():
+            rounds[spec].append((warm_ms(gen, args.calls, r), text_ms(gen, args.calls, r)))
+    first = args.models[0]
+    print(f"batch 1, {FRAMES} frames, 5 NFE, onnx backend, {args.threads} threads; "
+          f"{args.rounds} rounds of {args.calls} calls, the models taking turns; ms")
+    print(f"{'model':<44} {'warm med':>8} {'range':>13} {'text med':>8} {'cold med':>8} "
+          f"{'warm/first':>10} {'cold/first':>10}")
+    for spec, values in rounds.items():
+        warm = [w for w, _ in values]
+        cold = [w + t for w, t in values]
+        base_warm = [w for w, _ in rounds[first]]
+        base_cold = [w + t for w, t in rounds[first]]
+        warm_ratio = statistics.median(a / b for a, b in zip(warm, base_warm))
+        cold_ratio = statistics.median(a / b for a, b in zip(cold, base_cold))
+        print(f"{spec[-44:]:<44} {statistics.median(warm):8.2f} "
+              f"{min(warm):6.2f}-{max(warm):<6.2f} {statistics.median(t for _, t in values):8.2f} "
+              f"{statistics.median(cold):8.2f} {warm_ratio:10.3f} {cold_ratio:10.3f}")
+    print("(ratios: the median over rounds of each round's ratio to the first model)")
+
+
+if __name__ == "__main__":
+    main()
