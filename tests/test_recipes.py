@@ -14,7 +14,8 @@ TOOLS = Path(__file__).resolve().parents[1] / "tools"
 @pytest.mark.parametrize("script", ["make_bundled_model.sh", "make_bundled_model_3h.sh",
                                     "make_bundled_model_staged.sh",
                                     "make_bundled_model_gpu.sh",
-                                    "make_bundled_model_3h_stage2.sh"])
+                                    "make_bundled_model_3h_stage2.sh",
+                                    "make_bundled_model_narrow_decoder.sh"])
 def test_recipe_parses(script):
     subprocess.run(["bash", "-n", str(TOOLS / script)], check=True)
 

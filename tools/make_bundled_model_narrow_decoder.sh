@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# A bundle's decoders replaced by narrower ones trained on its frozen encoder (version 7):
+#   bash tools/make_bundled_model_narrow_decoder.sh MODEL_DIR WORK_DIR [CHANNELS]
+# tools/autoencoder_from_bundle.py writes MODEL_DIR's autoencoder back as a run (`armdec`);
+# `train ae --init` starts both decoders CHANNELS wide (default 96) as MODEL_DIR's own with their
+# weakest channels removed (ae.decoder_init=prune, nn/narrow.py) and trains them with the
+# encoder frozen, so the denoiser's latents keep their meaning; `mlct convert --decoder-from`
+# then writes the bundle with them, its denoiser, critic, durations and text anchors unchanged.
+# Why: at batch 1 the decoder's time is its channels (docs/performance.md, "Narrower decoders,
+# pruned from the bundle's"). Version 7 was made so, on version 6's bundle (25 min on 2 cores):
+#   bash tools/make_bundled_model_narrow_decoder.sh src/mlct/assets/model WORK 96
+set -euo pipefail
+bundle="$1"
+work="$2"
+channels="${3:-96}"
+source "$(dirname "$0")/recipe_stage.sh"
+stamp data
+caption_sets "${MOTIONS:-4000}"
+[ -f "$work/armdec/ae/checkpoints/latest" ] ||  # resumable: each step skipped once done
+    python "$(dirname "$0")/autoencoder_from_bundle.py" "$bundle" "$work"
+stamp "decoders at $channels channels"
+OMP_NUM_THREADS="${THREADS:-2}" stage "narrow$channels" ae --init "$work/armdec" \
+    ae.freeze_encoder=true ae.decoder_channels="$channels" ae.arm_decoder_channels="$channels" \
+    train.ae.max_steps=8000 train.ae.lr=5e-4 train.ae.precision=bf16
+[ -f "$work/model/config.json" ] ||
+    mlct convert "$bundle" --decoder-from "$work/narrow$channels" --out "$work/model"
+stamp done
+echo "$work/model"
