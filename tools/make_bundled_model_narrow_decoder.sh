@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
-# A bundle's decoders replaced by narrower ones trained on its frozen encoder (version 7):
+# A bundle's decoders replaced by narrower ones trained on its frozen encoder:
 #   bash tools/make_bundled_model_narrow_decoder.sh MODEL_DIR WORK_DIR [CHANNELS]
 # tools/autoencoder_from_bundle.py writes MODEL_DIR's autoencoder back as a run (`armdec`);
 # `train ae --init` starts both decoders CHANNELS wide (default 96) as MODEL_DIR's own with their
 # weakest channels removed (ae.decoder_init=prune, nn/narrow.py) and trains them with the
 # encoder frozen, so the denoiser's latents keep their meaning; `mlct convert --decoder-from`
 # then writes the bundle with them, its denoiser, critic, durations and text anchors unchanged.
+# DATA=DIR trains on that benchmark instead of making one in WORK_DIR.
 # Why: at batch 1 the decoder's time is its channels (docs/performance.md, "Narrower decoders,
-# pruned from the bundle's"). Version 7 was made so, on version 6's bundle (25 min on 2 cores):
+# pruned from the bundle's"). The 96 / 96 candidate ("version 7", not shipped: its walks stop
+# where version 6's go on, so 2 of 48 gaits asked for 12 s were refused; docs/training.md,
+# "Version 7, a 96 / 96 decoder") was made so, on version 6's bundle (25 min on 2 cores):
 #   bash tools/make_bundled_model_narrow_decoder.sh src/mlct/assets/model WORK 96
 set -euo pipefail
 bundle="$1"
@@ -15,7 +18,7 @@ work="$2"
 channels="${3:-96}"
 source "$(dirname "$0")/recipe_stage.sh"
 stamp data
-caption_sets "${MOTIONS:-4000}"
+[ -n "${DATA:-}" ] || caption_sets "${MOTIONS:-4000}"  # DATA=DIR: a benchmark made before
 [ -f "$work/armdec/ae/checkpoints/latest" ] ||  # resumable: each step skipped once done
     python "$(dirname "$0")/autoencoder_from_bundle.py" "$bundle" "$work"
 stamp "decoders at $channels channels"
