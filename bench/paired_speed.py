@@ -10,7 +10,10 @@ round (paired), so the host's drift cancels.
         --rounds 8 --calls 30 --threads 2
 
 MODEL is a model directory or "bundled"; ":unfused-text" runs it with the text encoder graph
-of standard ONNX operators (write_minilm_graph(fused=False)) instead of the fused one. Per call,
+of standard ONNX operators (write_minilm_graph(fused=False)) instead of the fused one;
+":whole-grid" with a decoder graph that convolves every grid cell whatever the clip's length
+(as before nn/conv_autoencoder.py's DECODE_MARGIN). --frames sets the clip's length (196: 9.8 s,
+the bench's; 100: 5 s, generate()'s default). Per call,
 as bench/inference_speed.py times them: warm = what generate() runs for a caption already
 encoded (text memo, anchors' pull, sample_features: 5 steps and the decoder, 196 frames);
 text = the text encoder on a new sentence; cold = warm + text. The onnx backend, float32.
@@ -37,12 +40,20 @@ def load(spec: str, folder: Path) -> Any:
     from mlct.generate.pipeline import bundled_model_dir
     from mlct.text.minilm_onnx import write_minilm_graph
 
+    import mlct.nn.conv_autoencoder as conv
+
     name, _, variant = spec.partition(":")
-    if variant not in ("", "unfused-text"):
-        raise SystemExit(f"unknown variant {variant!r} of {name}; the one there is: unfused-text")
+    if variant not in ("", "unfused-text", "whole-grid"):
+        raise SystemExit(f"unknown variant {variant!r} of {name}: unfused-text or whole-grid")
     model = bundled_model_dir() if name == "bundled" else Path(name)
-    out = convert_to_onnx(model, folder, read_only=name == "bundled")
-    if variant:
+    margin = conv.DECODE_MARGIN
+    if variant == "whole-grid":  # the graph is traced with the margin as a constant
+        conv.DECODE_MARGIN = 10**6
+    try:
+        out = convert_to_onnx(model, folder, read_only=name == "bundled")
+    finally:
+        conv.DECODE_MARGIN = margin
+    if variant == "unfused-text":
         import json
 
         spec_name = json.loads((out / "config.json").read_text())["text_encoder"]
@@ -50,7 +61,7 @@ def load(spec: str, folder: Path) -> Any:
     return mlct.load(out, backend="onnx")  # ONNX Runtime threads follow torch's
 
 
-def warm_ms(gen: Any, calls: int, offset: int) -> float:
+def warm_ms(gen: Any, calls: int, offset: int, frames: int = FRAMES) -> float:
     """Median ms of generate()'s work for a caption already encoded (bench/inference_speed.py's
     time_pipeline)."""
     times = []
@@ -58,7 +69,7 @@ def warm_ms(gen: Any, calls: int, offset: int) -> float:
         text = TEXTS[(offset + i) % len(TEXTS)]
         start = time.perf_counter()
         cond = gen.sampling_text(gen.encode_text([text]))
-        gen.sample_features(cond, 5, [i], None, [FRAMES])
+        gen.sample_features(cond, 5, [i], None, [frames])
         times.append(time.perf_counter() - start)
     return statistics.median(times) * 1000.0
 
@@ -80,6 +91,7 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=8)
     parser.add_argument("--calls", type=int, default=30)
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--frames", type=int, default=FRAMES)
     args = parser.parse_args()
     import torch
 
@@ -87,14 +99,15 @@ def main() -> None:
     root = Path(tempfile.mkdtemp(prefix="mlct-paired-"))
     gens = {spec: load(spec, root / f"m{i}") for i, spec in enumerate(args.models)}
     for gen in gens.values():  # the text memo, the sampler graph (built at the second call)
-        warm_ms(gen, len(TEXTS) + 2, 0)
+        warm_ms(gen, len(TEXTS) + 2, 0, args.frames)
         text_ms(gen, 4, 0)
     rounds: dict[str, list[tuple[float, float]]] = {spec: [] for spec in gens}
     for r in range(args.rounds):
         for spec, gen in gens.items():
-            rounds[spec].append((warm_ms(gen, args.calls, r), text_ms(gen, args.calls, r)))
+            rounds[spec].append((warm_ms(gen, args.calls, r, args.frames),
+                                 text_ms(gen, args.calls, r)))
     first = args.models[0]
-    print(f"batch 1, {FRAMES} frames, 5 NFE, onnx backend, {args.threads} threads; "
+    print(f"batch 1, {args.frames} frames, 5 NFE, onnx backend, {args.threads} threads; "
           f"{args.rounds} rounds of {args.calls} calls, the models taking turns; ms")
     print(f"{'model':<44} {'warm med':>8} {'range':>13} {'text med':>8} {'cold med':>8} "
           f"{'warm/first':>10} {'cold/first':>10}")

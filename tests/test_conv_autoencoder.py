@@ -210,3 +210,35 @@ def test_temporal_tokens_each_hold_their_own_stretch_of_time() -> None:
     with pytest.raises(ValueError, match="temporal tokens go without"):
         ConvMotionAutoencoder(D, n_tokens=3, latent_dim=16, max_len=96, temporal=True,
                               bottleneck=8)
+
+
+@pytest.mark.parametrize("temporal", [False, True])
+def test_a_short_clip_decodes_only_its_cells_and_the_same_frames(temporal: bool) -> None:
+    """decode() runs the convolutions over the cells t frames need plus DECODE_MARGIN; the
+    frames are those of the whole grid (the margin covers the receptive field: bitwise on this
+    repository's CPUs, float rounding allowed here), and one cell less of margin would change
+    them (the check can fail)."""
+    import mlct.nn.conv_autoencoder as conv
+
+    torch.manual_seed(0)
+    kwargs = {"temporal": True} if temporal else {"arm_tokens": 1, "arm_channels": 16,
+                                                  "arm_columns": [3, 4, 5, 10]}
+    ae = ConvMotionAutoencoder(20, "plain", n_tokens=3, latent_dim=8, channels=16, max_len=196,
+                               **kwargs).eval()
+    z = torch.rand(2, 3, 8) * 2 - 1
+    with torch.no_grad():
+        whole = ae.decode(z, torch.tensor([196, 196]), 196)
+        for t in (1, 7, 8, 9, 60, 100, 150, 190, 196):
+            lengths = torch.tensor([t, max(1, t // 2)])
+            cut = ae.decode(z, lengths, t)
+            masked = whole[:, :t].masked_fill(~lengths_to_mask(lengths, t)[..., None], 0.0)
+            torch.testing.assert_close(cut, masked, rtol=0, atol=1e-6, msg=str(t))
+        seen = []
+        conv.DECODE_MARGIN = 1
+        try:
+            for t in (60, 100):
+                gap = (ae.decode(z, torch.tensor([t, t]), t) - whole[:, :t]).abs().max()
+                seen.append(bool(gap < 1e-6))
+        finally:
+            conv.DECODE_MARGIN = 2
+        assert not all(seen)

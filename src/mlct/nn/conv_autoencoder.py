@@ -50,6 +50,11 @@ from mlct.nn.autoencoder import Latent, LatentAutoencoder, latent_of_tokens
 from mlct.nn.masks import lengths_to_mask
 
 FACTOR = 8  # three stride-2 stages
+# Grid cells past a clip's last one that still reach its frames through the decoder's
+# convolutions (3 x 2 of kernel 3 after each 2x upsampling, then one more): with 2 more the
+# frames are bitwise those of the whole grid, with 1 they differ by up to 1.1
+# (tests/test_conv_autoencoder.py)
+DECODE_MARGIN = 2
 
 
 def _stage(channels: int, down: bool) -> list[nn.Module]:
@@ -230,19 +235,26 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         self._check_lengths(lengths, t)
         # (B, T, F) views of the stacks' (B, F, coarse * 8): joined and ordered along the last
         # axis, which is the memory's fastest one when the stacks run channels-last (inference)
+        # the convolutions run over the grid cells the t frames need and DECODE_MARGIN more (their
+        # receptive field), not over all of max_len: a 5 s clip costs ~0.6 of a 9.8 s one
+        # (t + 7) // 8, not -(-t // 8): traced into a graph, // truncates, and of a negative
+        # number that is not the floor
+        cells = min(self.coarse, (t + FACTOR - 1) // FACTOR + DECODE_MARGIN)
         if not self.arm_tokens:
-            out = self._decode_part(z, self.from_tokens, self.decoder).transpose(1, 2)
+            out = self._decode_part(z, self.from_tokens, self.decoder, cells).transpose(1, 2)
         else:
             k = self.n_tokens - self.arm_tokens
-            parts = (self._decode_part(z[:, :k], self.from_tokens, self.decoder).transpose(1, 2),
-                     self._decode_part(z[:, k:], self.arm_from_tokens,
-                                       self.arm_decoder).transpose(1, 2))
+            parts = (self._decode_part(z[:, :k], self.from_tokens, self.decoder,
+                                       cells).transpose(1, 2),
+                     self._decode_part(z[:, k:], self.arm_from_tokens, self.arm_decoder,
+                                       cells).transpose(1, 2))
             out = torch.cat([parts[p][..., a:b] for p, a, b in self.feature_runs], dim=2)
         out = out[:, :t]  # (B, T, D)
         valid = lengths_to_mask(lengths.to(z.device), t)  # (B, T)
         return out.masked_fill(~valid.unsqueeze(-1), 0.0)  # padded frames exactly 0
 
-    def _decode_part(self, z: Tensor, linear: nn.Module, convs: nn.Module) -> Tensor:
-        """z (B, k, d) -> (B, F, coarse * 8)."""
+    def _decode_part(self, z: Tensor, linear: nn.Module, convs: nn.Module,
+                     cells: int | None = None) -> Tensor:
+        """z (B, k, d) -> (B, F, cells * 8): the first `cells` grid cells (default all)."""
         h = linear(z.flatten(1)).view(z.shape[0], -1, self.coarse)
-        return convs(h)
+        return convs(h if cells is None else h[:, :, :cells])
