@@ -80,11 +80,7 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
     if decoder_from is not None:
         meta["decoder_from"] = str(decoder_from)
     with atomic_dir(out) as tmp:
-        save_file({k: v.contiguous() for k, v in tensors.items()}, str(tmp / "model.safetensors"),
-                  metadata={"format": BUNDLE_FORMAT})
-        umask = os.umask(0)
-        os.umask(umask)
-        (tmp / "model.safetensors").chmod(0o666 & ~umask)  # safetensors writes it private (0600)
+        _save_weights(tmp / "model.safetensors", tensors)
         (tmp / "config.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
         np.save(tmp / "Mean.npy", ckpt.tensors["norm.mean"].numpy())
         np.save(tmp / "Std.npy", ckpt.tensors["norm.std"].numpy())
@@ -121,14 +117,14 @@ def _same_encoder(ae: dict, decoder_from: str | os.PathLike) -> tuple[dict, dict
 
 
 def bundle_with_decoder(model_dir: str | os.PathLike, decoder_from: str | os.PathLike,
-                        out: str | os.PathLike, onnx: bool = False) -> Path:
+                        out: str | os.PathLike) -> Path:
     """`mlct convert MODEL_DIR --decoder-from RUN --out DIR`: a copy of the bundle whose decoder
     is RUN's (an autoencoder trained on the bundle's frozen encoder, `train ae --init MODEL_DIR
     ae.freeze_encoder=true`, perhaps narrower: ae.decoder_channels), everything else as it was:
     the denoiser, the critic, the durations and the text anchors read only the text and the
     latents, whose meaning the frozen encoder keeps. `export --decoder-from` does the same
     from a stage-2 run; this needs only the model. The decoder is stored in the bundle's own
-    precision (float16 for a --half bundle)."""
+    precision (float16 for a --half bundle). ONNX graphs: `convert_to_onnx(out)` after."""
     from mlct.generate.bundle import BUNDLE_FILES, CONFIG, OPTIONAL_FILES, WEIGHTS, read_bundle
     from mlct.io import check_writable_dir
 
@@ -153,17 +149,19 @@ def bundle_with_decoder(model_dir: str | os.PathLike, decoder_from: str | os.Pat
     meta["config"] = {**meta["config"], "ae": {**meta["config"]["ae"], **widths}}
     meta["decoder_from"] = str(decoder_from)
     with atomic_dir(out) as tmp:
-        save_file({k: v.contiguous() for k, v in {**kept, **decoder}.items()},
-                  str(tmp / WEIGHTS), metadata={"format": BUNDLE_FORMAT})
-        umask = os.umask(0)
-        os.umask(umask)
-        (tmp / WEIGHTS).chmod(0o666 & ~umask)  # safetensors writes it private (0600)
+        _save_weights(tmp / WEIGHTS, {**kept, **decoder})
         (tmp / CONFIG).write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
         for name in BUNDLE_FILES + OPTIONAL_FILES:
             if name not in (CONFIG, WEIGHTS) and (model_dir / name).is_file():
                 shutil.copy2(model_dir / name, tmp / name)
-        if onnx:
-            (tmp / ONNX_DIR).mkdir()
-            write_onnx_graphs(tmp, tmp / ONNX_DIR)
     return out
+
+
+def _save_weights(path: Path, tensors: dict[str, torch.Tensor]) -> None:
+    """A bundle's model.safetensors, readable as the user's umask allows."""
+    save_file({k: v.contiguous() for k, v in tensors.items()}, str(path),
+              metadata={"format": BUNDLE_FORMAT})
+    umask = os.umask(0)
+    os.umask(umask)
+    path.chmod(0o666 & ~umask)  # safetensors writes it private (0600)
 
