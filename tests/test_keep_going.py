@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mlct.generate.keep_going import (ground_speed, keep_going, moving_stretch, names_an_end,
-                                      retime, segment_count, stops_early)
+from mlct.generate.keep_going import (ground_speed, is_gait, keep_going, moving_stretch,
+                                      names_an_end, retime, segment_count, stops_early)
 from mlct.motion.skeleton import HUMANML3D
 
 FPS = HUMANML3D.fps
@@ -280,3 +280,22 @@ def test_the_takes_seeds_wrap_at_the_largest_seed(generator):
 
     made = generator.generate("a person jogs forward", seconds=8.0, seed=MAX_SEED)[0]
     assert made.seed == MAX_SEED and made.joints.shape[0] == 160 and len(made.seams) >= 1
+
+
+def test_a_walk_that_stops_before_its_natural_length_is_a_gait_by_its_steps():
+    """A decoder may end a walk's clip before the duration model's natural length (the 96 / 96
+    decoder stopped "a person walks forward" at 4.3 s of 5.0): judged over its moving stretch,
+    it is a gait when its feet alternate there, and it is kept going; the same root path with
+    the feet moving together (no steps) is not."""
+    from mlct.generate.keep_going import foot_swaps
+
+    walk = walker(9.0, stop_at=4.0)
+    assert foot_swaps(walk[10:76], HUMANML3D) >= 4
+    assert is_gait(walk, FPS, natural_seconds=4.99, skeleton=HUMANML3D)
+    assert stops_early(walk, FPS, natural_seconds=4.99, skeleton=HUMANML3D)
+    shuffle = walk.copy()
+    for side in (HUMANML3D.foot_left, HUMANML3D.foot_right):
+        for joint in side:
+            shuffle[:, joint, 1] = walk[:, joint, 1].min()  # both feet on the floor throughout
+    assert foot_swaps(shuffle, HUMANML3D) == 0
+    assert not is_gait(shuffle, FPS, natural_seconds=4.99, skeleton=HUMANML3D)

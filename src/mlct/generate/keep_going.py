@@ -49,6 +49,9 @@ STEADY_SHARE = 0.6
 MAX_TURN_RATE = 90.0
 MIN_STRAIGHTNESS = 0.7  # net over path ground travel per second: going somewhere (straightness)
 MOVING_SHARE = 0.5  # a segment's moving stretch: frames at at least this share of its speed
+# Steps (the lower foot changing side) a gait cut short must take through its moving stretch: a
+# walk takes ~2 a second, a long jump's feet move together
+MIN_STEPS = 4
 # The last seam may retime the motion by up to this share of its length, so that it can be placed
 # where the two takes' gaits are in phase; each 1 % of retiming costs as much as 1 mm of mean
 # pose difference (MAX_WARP 5 %: within the benchmark's own tempo range, 1/1.15-1.15).
@@ -117,9 +120,40 @@ def stops_early(joints: np.ndarray, fps: float, natural_seconds: float,
 def _gait_pace(joints: np.ndarray, speed: np.ndarray, fps: float, natural_seconds: float,
                skeleton: Skeleton) -> float | None:
     """The median ground speed over the natural stretch when the motion is a gait (is_gait),
-    else None; `speed` is ground_speed(joints, fps)."""
+    else None; `speed` is ground_speed(joints, fps).
+
+    A motion that fails only because it stops before the natural stretch ends (a decoder may
+    end a walk's clip a few tenths of a second before the duration model's length, and the
+    slowing down reads as an unsteady pace) is judged again over its moving stretch, if its
+    feet alternate through it (MIN_STEPS): a long jump's burst, cut where it lands, is as
+    steady, but its feet move together (docs/training.md, "Version 7, a 96 / 96 decoder")."""
     lead = int(round(0.5 * fps))
     end = min(int(round((natural_seconds - 0.5) * fps)), len(joints))
+    pace = _pace_over(joints, speed, fps, lead, end, skeleton)
+    if pace is None:
+        stop = moving_stretch(joints, fps)[1]
+        if lead < stop < end and foot_swaps(joints[lead:stop], skeleton) >= MIN_STEPS:
+            pace = _pace_over(joints, speed, fps, lead, stop, skeleton)
+    return pace
+
+
+def foot_swaps(joints: np.ndarray, skeleton: Skeleton, hysteresis: float = 0.03) -> int:
+    """How often the lower foot changes side (eval/readouts.py's foot_swaps, on any skeleton):
+    a change counts once the other foot is lower by more than `hysteresis` m."""
+    joints = np.asarray(joints)
+    left = joints[:, list(skeleton.foot_left), 1].min(axis=1)
+    right = joints[:, list(skeleton.foot_right), 1].min(axis=1)
+    swaps, lower = 0, 0  # -1: the left foot is the lower, 1: the right, 0: not yet known
+    for d in left - right:
+        now = -1 if d < -hysteresis else 1 if d > hysteresis else lower
+        swaps += lower != 0 and now != lower
+        lower = now
+    return int(swaps)
+
+
+def _pace_over(joints: np.ndarray, speed: np.ndarray, fps: float, lead: int, end: int,
+               skeleton: Skeleton) -> float | None:
+    """_gait_pace's test over frames [lead, end)."""
     stretch = speed[lead:end]
     if len(stretch) < fps:  # under a second of it: no gait to judge
         return None
@@ -362,4 +396,5 @@ def portable_rules() -> dict:
             "stopped_share": STOPPED_SHARE, "smooth_seconds": SMOOTH_SECONDS,
             "steady_share": STEADY_SHARE, "max_turn_rate": MAX_TURN_RATE,
             "min_straightness": MIN_STRAIGHTNESS, "moving_share": MOVING_SHARE,
+            "min_steps": MIN_STEPS,
             "max_warp": MAX_WARP, "warp_cost": WARP_COST}

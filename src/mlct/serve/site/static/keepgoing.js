@@ -57,11 +57,38 @@ export class KeepGoing {
     return (Math.abs(angle[angle.length - 1] - angle[0]) * 180 / Math.PI) * this.fps / Math.max(angle.length - 1, 1);
   }
 
-  // _gait_pace: the median ground speed over the natural stretch of a gait, else null
+  // _gait_pace: the median ground speed over the natural stretch of a gait, else null; a motion
+  // that stops before that stretch ends is judged again over its moving stretch when its feet
+  // alternate through it (min_steps)
   gaitPace(joints, frames, speed, natural) {
-    const r = this.rules;
     const lead = pyRound(0.5 * this.fps);
     const end = Math.min(pyRound((natural - 0.5) * this.fps), frames);
+    let pace = this.paceOver(joints, speed, lead, end);
+    if (pace === null) {
+      const stop = this.movingStretch(joints, frames)[1];
+      if (lead < stop && stop < end && this.footSwaps(joints, lead, stop) >= this.rules.min_steps) {
+        pace = this.paceOver(joints, speed, lead, stop);
+      }
+    }
+    return pace;
+  }
+
+  // foot_swaps: how often the lower foot changes side, over frames [from, to)
+  footSwaps(joints, from, to, hysteresis = 0.03) {
+    const low = (feet, t) => Math.min(...feet.map((j) => joints[(t * this.J + j) * 3 + 1]));
+    let swaps = 0, lower = 0;
+    for (let t = from; t < to; t++) {
+      const d = low(this.skeleton.foot_left, t) - low(this.skeleton.foot_right, t);
+      const now = d < -hysteresis ? -1 : d > hysteresis ? 1 : lower;
+      if (lower !== 0 && now !== lower) swaps += 1;
+      lower = now;
+    }
+    return swaps;
+  }
+
+  // _pace_over: gaitPace's test over frames [lead, end)
+  paceOver(joints, speed, lead, end) {
+    const r = this.rules;
     const stretch = speed.slice(lead, Math.max(lead, end));
     if (stretch.length < this.fps) return null;
     const later = stretch.slice(Math.floor(stretch.length / 2));
