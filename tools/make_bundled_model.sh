@@ -12,28 +12,21 @@
 # continues from its last checkpoint. The result replaces
 # src/mlct/assets/model. The bundle before this one (~13.5 h of stages):
 # tools/make_bundled_model_staged.sh.
-# Version 7 (the bundle since 2026-11-29, later) is version 6 with its decoders pruned to 96 / 96
-# channels and trained 8,000 steps on the frozen encoder (tools/make_bundled_model_narrow_decoder.sh,
-# 25 min), the last step here.
 set -euo pipefail
 work="${1:-mlct-bundled}"
 seed="${2:-0}"
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$(dirname "$0")/make_bundled_model_3h.sh" "$work" "$seed"
-DATA="$work/synth" bash "$(dirname "$0")/make_bundled_model_narrow_decoder.sh" "$work/model" \
-    "$work/v7" 96
 # where the weights came from, said in the bundle's config instead of this machine's paths
-python - "$work/v7/model/config.json" "$seed" <<'PY'
+python - "$work/model/config.json" "$seed" <<'PY'
 import json, sys
 path, seed = sys.argv[1], int(sys.argv[2])
 config = json.load(open(path))
-config["decoder_from"] = ("narrow96 (tools/make_bundled_model_narrow_decoder.sh, 96 channels, "
-                          "pruned from version 6's)")
+config["decoder_from"] = "armdec (tools/make_bundled_model_3h.sh)"
 config["recipe"] = {"script": "tools/make_bundled_model.sh",
-                    "stages": "tools/make_bundled_model_3h.sh, version 6", "cm_seed": seed,
-                    "version": 7, "decoders": "tools/make_bundled_model_narrow_decoder.sh, 96 / 96"}
+                    "stages": "tools/make_bundled_model_3h.sh, version 6", "cm_seed": seed}
 json.dump(config, open(path, "w"), indent=2)
 PY
 rm -rf "$repo/src/mlct/assets/model"
-cp -r "$work/v7/model" "$repo/src/mlct/assets/model"
+cp -r "$work/model" "$repo/src/mlct/assets/model"
 echo "$repo/src/mlct/assets/model"
