@@ -32,6 +32,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from mlct.motion import gait
 from mlct.motion.skeleton import HUMANML3D
 
 FPS = HUMANML3D.fps
@@ -263,14 +264,7 @@ def _foot_heights(joints: np.ndarray) -> dict[str, np.ndarray]:
 def foot_swaps(joints: np.ndarray, hysteresis: float = 0.03) -> int:
     """How often the lower foot changes side; a change counts once the other foot is lower by
     more than `hysteresis` m, so two feet planted side by side do not flicker."""
-    heights = _foot_heights(as_joints(joints))
-    difference = heights["left"] - heights["right"]  # < 0: the left foot is the lower
-    swaps, lower = 0, None
-    for d in difference:
-        now = "left" if d < -hysteresis else "right" if d > hysteresis else lower
-        swaps += lower is not None and now != lower
-        lower = now
-    return int(swaps)
+    return gait.foot_swaps(as_joints(joints), HUMANML3D, hysteresis)
 
 
 def foot_travel(joints: np.ndarray) -> dict[str, float]:
