@@ -256,11 +256,6 @@ def knee_clearance(joints: np.ndarray) -> dict[str, float]:
 
 # ---------------------------------------------------------------------------- feet
 
-def _foot_heights(joints: np.ndarray) -> dict[str, np.ndarray]:
-    """Per side, (T,) height of the foot's lowest point (ankle or toe)."""
-    return {s: joints[:, list(FOOT[s]), 1].min(axis=1) for s in SIDES}
-
-
 def foot_swaps(joints: np.ndarray, hysteresis: float = 0.03) -> int:
     """How often the lower foot changes side; a change counts once the other foot is lower by
     more than `hysteresis` m, so two feet planted side by side do not flicker."""
