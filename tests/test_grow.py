@@ -194,6 +194,41 @@ def test_train_ae_adds_an_arm_pair_keeping_the_encoder_and_the_body(
               overrides=[cache, "ae.n_tokens=4", "ae.arm_tokens=1", "train.ae.max_steps=1"])
 
 
+def test_a_narrower_body_decoder_trains_beside_a_frozen_arm_decoder(
+        conv_model: tuple[Path, Path, str], tmp_path: Path) -> None:
+    """`ae.freeze_arm_decoder=true` with `ae.decoder_channels=8`: the body's decoder narrows
+    and learns, the arm pair's decoder (and every encoder) stays exactly as loaded; without
+    an arm pair the option is refused."""
+    model, data, cache = conv_model
+    arms = tmp_path / "arms"
+    train("ae", data, arms, None, progress=False, init=model,
+          overrides=[cache, "ae.n_tokens=3", "ae.arm_tokens=1", "ae.arm_channels=8",
+                     "ae.freeze_encoder=true", "train.ae.lr=1e-2", "train.ae.max_steps=2"])
+    run = tmp_path / "narrow_body"
+    train("ae", data, run, None, progress=False, init=arms,
+          overrides=[cache, "ae.freeze_encoder=true", "ae.freeze_arm_decoder=true",
+                     "ae.decoder_channels=8", "train.ae.lr=1e-2", "train.ae.max_steps=3"])
+
+    def weights(path: Path) -> dict[str, torch.Tensor]:
+        return load_checkpoint(latest_checkpoint(path / "ae" / "checkpoints"),
+                               with_state=False).module_state("ae")
+
+    before, after = weights(arms), weights(run)
+    frozen = [k for k in before if k.startswith(("arm_decoder.", "arm_from_tokens.",
+                                                 "encoder.", "arm_encoder."))]
+    assert any(k.startswith("arm_decoder.") for k in frozen)
+    assert all(torch.equal(after[k], before[k]) for k in frozen)
+    assert after["decoder.1.weight"].shape[:2] == (8, 8)  # the body's, narrowed
+    from mlct.nn.narrow import narrow_decoders  # where the narrowed decoder started
+
+    start = narrow_decoders(before, after)
+    assert not torch.equal(after["decoder.1.weight"], start["decoder.1.weight"])  # it learned
+    with pytest.raises(MlctError, match="freeze_arm_decoder needs an arm pair"):
+        train("ae", data, tmp_path / "no_arms", None, progress=False, init=model,
+              overrides=[cache, "ae.freeze_encoder=true", "ae.freeze_arm_decoder=true",
+                         "train.ae.max_steps=1"])
+
+
 def test_an_arm_pair_started_from_the_body_draws_the_arms_as_the_old_pair() -> None:
     """`ae.arm_init=body` (nn/grow.py arm_pair_from_body): the arm pair is the old pair
     restricted to the arms' columns, so on a motion whose other features are zero (the mean

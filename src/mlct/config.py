@@ -101,6 +101,10 @@ class AutoencoderConfig(_Section):
     # Decoder-only training (train/stages.py): the encoder's weights stay as loaded (--init), so
     # a stage-2 model trained on its latents stays valid with the new decoder.
     freeze_encoder: bool = False
+    # Keep the arm pair's decoder as loaded (--init) too, while a narrower body decoder trains
+    # (ae.decoder_channels). Why: trained along, the arm decoder drifted and claps fell from
+    # 0.98 to 0.93 of the read-outs (docs/performance.md "A narrower body decoder").
+    freeze_arm_decoder: bool = False
     # Fraction of each batch whose decoding target runs past the clip, the last pose held still
     # for a random number of frames: teaches the decoder what to draw after an action ends.
     hold_extension: float = Field(0.0, ge=0.0, le=1.0)

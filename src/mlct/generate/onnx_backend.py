@@ -21,8 +21,8 @@ from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
 from mlct.generate.onnx_bundle import DECODER_IO, DENOISER_IO, OnnxGraphs, read_onnx
-from mlct.generate.onnx_sampler import (consistency_feeds, fixed_batch, run_steps,
-                                        sampler_model, step_coefficients)
+from mlct.generate.onnx_sampler import (COEFFICIENTS, INPUTS, consistency_feeds, fixed_batch,
+                                        run_steps, sampler_model, step_coefficients)
 from mlct.generate.pipeline import MotionGenerator, generators_for
 from mlct.generate.samplers import ConsistencySampler
 from mlct.nn.build import latent_clamp
@@ -117,6 +117,7 @@ class OnnxMotionGenerator(MotionGenerator):
         self._fused: dict[int, Any] = {}  # step count -> its sampler graph (bytes, or None)
         self._sessions: dict[tuple[int, int], Any] = {}  # (step count, threads) -> session
         self._calls: dict[int, int] = {}  # step count -> sample_features calls with it
+        self._coefficients: dict[int, dict[str, np.ndarray]] = {}  # step count -> its times, coef
         self.torch_min_batch = TORCH_MIN_BATCH
         self._tensors = tensors  # the torch networks of large batches are built from them
         self._torch_networks: tuple[Any, Any] | None = None
@@ -163,15 +164,24 @@ class OnnxMotionGenerator(MotionGenerator):
             return super().sample_features(cond, nfe, seed, guidance, lengths)
         feeds = self._feeds(cond, nfe, seed)
         feeds["text"] = _array(cond.float())
-        feeds["valid"] = lengths_to_mask(torch.tensor(list(lengths)), max(lengths)).numpy()
-        wanted = {i.name for i in session.get_inputs()}  # times and coef are the graph's own
-        (features,) = session.run(["features"], {k: v for k, v in feeds.items() if k in wanted})
+        feeds["valid"] = np.arange(max(lengths)) < np.array(lengths)[:, None]  # (B, T)
+        # times and coef are the graph's own constants
+        (features,) = session.run(["features"], {k: feeds[k] for k in INPUTS
+                                                  if k not in COEFFICIENTS})
         return [features[i, :n] for i, n in enumerate(lengths)]
 
     def _feeds(self, cond: Tensor, nfe: int | None, seed: int | Sequence[int] | None
                ) -> dict[str, np.ndarray]:
         shape = (cond.shape[0], *self.ae.latent_shape)
-        return consistency_feeds(self.sampler, shape, generators_for(seed), self.check_nfe(nfe))
+        steps = self.check_nfe(nfe)
+        return consistency_feeds(self.sampler, shape, generators_for(seed), steps,
+                                 self._step_coefficients(steps))
+
+    def _step_coefficients(self, steps: int) -> dict[str, np.ndarray]:
+        """step_coefficients of this step count, computed once."""
+        if steps not in self._coefficients:
+            self._coefficients[steps] = step_coefficients(self.sampler, steps)
+        return self._coefficients[steps]
 
     def _sampler_session(self, steps: int, batch: int) -> Any:
         """The sampler graph's session for `steps` steps at this batch size (one thread for a
@@ -192,7 +202,7 @@ class OnnxMotionGenerator(MotionGenerator):
                                   clamp=self.clamp,
                                   latent_scale=self.config.schedule.latent_scale,
                                   mean=self.mean.numpy(), std=self.std.numpy(),
-                                  coefficients=step_coefficients(self.sampler, steps))
+                                  coefficients=self._step_coefficients(steps))
             self._fused[steps] = model.SerializeToString()
         graph = self._fused.get(steps)
         if graph is None:

@@ -37,6 +37,7 @@ from mlct.diffusion.consistency import c_out, c_skip
 from mlct.diffusion.samplers import Generators, draw_noise
 
 INPUTS = ("x", "noise", "text", "times", "coef", "valid")
+COEFFICIENTS = ("times", "coef")  # inputs, or constants when sampler_model gets them
 OUTPUTS = ("features", "latent")
 
 
@@ -167,18 +168,21 @@ def _renamed_initializers(graph: object, prefix: str) -> list:
     return out
 
 
-def consistency_feeds(sampler: Any, shape: Sequence[int], generator: Generators, steps: int
+def consistency_feeds(sampler: Any, shape: Sequence[int], generator: Generators, steps: int,
+                      coefficients: dict[str, np.ndarray] | None = None
                       ) -> dict[str, np.ndarray]:
     """x, noise, times and coef (above) of a run of the ConsistencySampler `sampler`: its times,
     its coefficient functions, and the noise drawn as sample_latents and sample_consistency draw
-    it (x_T, then one draw per re-noising, from the same generators in the same order)."""
+    it (x_T, then one draw per re-noising, from the same generators in the same order).
+    coefficients: step_coefficients(sampler, steps), when the caller kept them (they are the
+    same for every call with this step count; computing them is ~30 torch operations)."""
     shape = tuple(shape)
     x = sampler.noise(shape, generator)
-    times = sampler.times(steps)  # (K,)
-    noise = torch.zeros((steps, *shape))
-    for k in range(1, steps):
-        noise[k - 1] = draw_noise(shape, generator, times)
-    return {"x": x.numpy(), "noise": noise.numpy(), **step_coefficients(sampler, steps)}
+    noise = np.zeros((steps, *shape), np.float32)
+    for k in range(1, steps):  # float32 on the CPU, as the times the torch sampler passes
+        noise[k - 1] = draw_noise(shape, generator, x).numpy()
+    return {"x": x.numpy(), "noise": noise,
+            **(coefficients or step_coefficients(sampler, steps))}
 
 
 def step_coefficients(sampler: Any, steps: int) -> dict[str, np.ndarray]:

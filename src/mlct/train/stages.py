@@ -29,6 +29,9 @@ from mlct.nn.masks import lengths_to_mask
 from mlct.io import prefixed
 from mlct.train.checkpoint import Checkpoint, latest_checkpoint, load_checkpoint
 
+# the conv autoencoder's arm-pair decoder (ae.freeze_arm_decoder)
+ARM_DECODER_PREFIXES = ("arm_from_tokens.", "arm_decoder.")
+
 
 def schedule_of(config: Config) -> VPSchedule:
     return VPSchedule(beta_min=config.schedule.beta_min, beta_max=config.schedule.beta_max)
@@ -127,6 +130,12 @@ class AutoencoderStage(Stage):
                     parameter.requires_grad_(False)
             if config.ae.grown_from and not added:
                 self._train_new_token_rows(config.ae.grown_from)
+        if config.ae.freeze_arm_decoder:
+            if not config.ae.arm_tokens:
+                raise MlctError("ae.freeze_arm_decoder needs an arm pair (ae.arm_tokens > 0)")
+            for name, parameter in self.model.named_parameters():
+                if name.startswith(ARM_DECODER_PREFIXES):
+                    parameter.requires_grad_(False)
 
     def _train_new_token_rows(self, old_n: int) -> None:
         """A grown latent (nn/grow.py) under a frozen encoder: the new tokens' encoder rows
