@@ -12,7 +12,9 @@ round (paired), so the host's drift cancels.
 MODEL is a model directory or "bundled"; ":unfused-text" runs it with the text encoder graph
 of standard ONNX operators (write_minilm_graph(fused=False)) instead of the fused one;
 ":whole-grid" with a decoder graph that convolves every grid cell whatever the clip's length
-(as before nn/conv_autoencoder.py's DECODE_MARGIN). --frames sets the clip's length (196: 9.8 s,
+(as before nn/conv_autoencoder.py's DECODE_MARGIN); ":one-graph" with batch 1's steps and
+decoder in one sampler graph on one thread (as before onnx_backend.DECODE_APART). --frames sets
+the clip's length (196: 9.8 s,
 the bench's; 100: 5 s, generate()'s default). Per call,
 as bench/inference_speed.py times them: warm = what generate() runs for a caption already
 encoded (text memo, anchors' pull, sample_features: 5 steps and the decoder, 196 frames);
@@ -43,8 +45,9 @@ def load(spec: str, folder: Path) -> Any:
     import mlct.nn.conv_autoencoder as conv
 
     name, _, variant = spec.partition(":")
-    if variant not in ("", "unfused-text", "whole-grid"):
-        raise SystemExit(f"unknown variant {variant!r} of {name}: unfused-text or whole-grid")
+    if variant not in ("", "unfused-text", "whole-grid", "one-graph"):
+        raise SystemExit(f"unknown variant {variant!r} of {name}: unfused-text, whole-grid or "
+                         f"one-graph")
     model = bundled_model_dir() if name == "bundled" else Path(name)
     margin = conv.DECODE_MARGIN
     if variant == "whole-grid":  # the graph is traced with the margin as a constant
@@ -58,7 +61,9 @@ def load(spec: str, folder: Path) -> Any:
 
         spec_name = json.loads((out / "config.json").read_text())["text_encoder"]
         write_minilm_graph(spec_name, out / ONNX_DIR / TEXT_ENCODER, fused=False)
-    return mlct.load(out, backend="onnx")  # ONNX Runtime threads follow torch's
+    gen = mlct.load(out, backend="onnx")  # ONNX Runtime threads follow torch's
+    gen.decode_apart = variant != "one-graph"
+    return gen
 
 
 def warm_ms(gen: Any, calls: int, offset: int, frames: int = FRAMES) -> float:

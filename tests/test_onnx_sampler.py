@@ -110,12 +110,34 @@ def test_batch_one_runs_on_one_thread_and_larger_batches_on_all(backends) -> Non
         assert gap(want, got) < JOINTS_M
     threads = {key: s.get_session_options().intra_op_num_threads
                for key, s in onnx_gen._sessions.items()}
-    # one graph, a session per thread count; batch 1's with its batch dimension fixed
-    assert threads == {(2, 1, True): 1, (2, 2, False): 2}
-    fixed = onnx_gen._sessions[(2, 1, True)]
-    assert [i.shape[0] for i in fixed.get_inputs() if i.name in ("x", "text", "valid")] == [1] * 3
+    # a session per thread count; batch 1's with its batch dimension fixed and its steps
+    # apart from the decoder, which runs in its own session on both threads
+    assert threads == {(2, 1, True, True): 1, (2, 2, False, False): 2}
+    assert onnx_gen.ae.session.get_session_options().intra_op_num_threads == 2
+    fixed = onnx_gen._sessions[(2, 1, True, True)]
+    assert [i.shape[0] for i in fixed.get_inputs() if i.name in ("x", "text")] == [1] * 2
+    assert [o.name for o in fixed.get_outputs()] == ["latent"]
     # the step times and coefficients are the graph's constants, not inputs
-    assert not {"times", "coef"} & {i.name for i in fixed.get_inputs()}
+    assert not {"times", "coef", "valid"} & {i.name for i in fixed.get_inputs()}
+
+
+def test_decoding_apart_gives_the_one_graph_features(backends) -> None:
+    """Batch 1's steps in a graph of their own and the decoder in its session: the same
+    arithmetic as the sampler graph that holds both (onnx_backend.DECODE_APART)."""
+    from mlct.generate.onnx_backend import OnnxMotionGenerator
+
+    folder = Path(backends[1].graphs.denoiser).parent.parent
+    features = []
+    for apart in (True, False):
+        gen = OnnxMotionGenerator.load(folder, threads=2)
+        gen.decode_apart = apart
+        cond = gen.encode_text(TEXTS[:1])
+        for _ in range(2):  # the second call builds the graph
+            got = gen.sample_features(cond, 3, [4], None, [70])
+        assert [key[3] for key in gen._sessions] == [apart]
+        features.append(got[0])
+    assert features[0].shape == (70, features[1].shape[1])
+    np.testing.assert_allclose(features[0], features[1], rtol=0, atol=1e-5)
 
 
 def test_a_large_graph_keeps_all_threads_at_batch_one(backends, monkeypatch) -> None:

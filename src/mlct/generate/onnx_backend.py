@@ -90,6 +90,10 @@ ONE_THREAD_MAX_BYTES = 32_000_000
 # docs/performance.md, "Large batches go to torch"). The motions are the same within float
 # rounding (tests/test_onnx_sampler.py). None: never.
 TORCH_MIN_BATCH: int | None = 32
+# A batch that runs its sampler graph on one thread (above) runs the steps alone there and the
+# decoder in its own session on all `threads`: the steps' products on 4 tokens lose to a second
+# thread's wake-ups, the decoder's convolutions over up to 200 frames gain from it. FIGURES
+DECODE_APART = True
 
 
 class OnnxMotionGenerator(MotionGenerator):
@@ -119,10 +123,13 @@ class OnnxMotionGenerator(MotionGenerator):
         self._calls: dict[int, int] = {}  # step count -> sample_features calls with it
         self._coefficients: dict[int, dict[str, np.ndarray]] = {}  # step count -> its times, coef
         self.torch_min_batch = TORCH_MIN_BATCH
+        self.decode_apart = DECODE_APART
+        self._steps_only: dict[int, bytes] = {}  # step count -> its graph without the decoder
         self._tensors = tensors  # the torch networks of large batches are built from them
         self._torch_networks: tuple[Any, Any] | None = None
         super().__init__(meta, tensors, "cpu", "float32")
         self.clamp = latent_clamp(self.config)
+        self._mean, self._std = self.mean.numpy(), self.std.numpy()  # float32, as the graph's
 
     def _networks(self, tensors: dict[str, Tensor]) -> tuple[OnnxDecoder, OnnxDenoiser]:
         return (OnnxDecoder(self.graphs.decoder, self.threads),
@@ -158,16 +165,24 @@ class OnnxMotionGenerator(MotionGenerator):
         (onnx_sampler.py), built in memory at the second call with it (one-off commands never
         pay the build, a server or a batch loop does once) when `fused` and the onnx package is
         installed; otherwise sample_latents, then the decoder."""
-        session = (self._sampler_session(self.check_nfe(nfe), cond.shape[0])
-                   if self.fused and not self._large(cond.shape[0]) else None)
-        if session is None:
+        chosen = (self._sampler_session(self.check_nfe(nfe), cond.shape[0])
+                  if self.fused and not self._large(cond.shape[0]) else None)
+        if chosen is None:
             return super().sample_features(cond, nfe, seed, guidance, lengths)
+        session, apart = chosen
         feeds = self._feeds(cond, nfe, seed)
         feeds["text"] = _array(cond.float())
         feeds["valid"] = np.arange(max(lengths)) < np.array(lengths)[:, None]  # (B, T)
-        # times and coef are the graph's own constants
-        (features,) = session.run(["features"], {k: feeds[k] for k in INPUTS
-                                                  if k not in COEFFICIENTS})
+        if not apart:
+            # times and coef are the graph's own constants
+            (features,) = session.run(["features"], {k: feeds[k] for k in INPUTS
+                                                      if k not in COEFFICIENTS})
+        else:  # the steps on one thread, then the decoder on all (the graph's own arithmetic)
+            (latent,) = session.run(["latent"], {k: feeds[k] for k in ("x", "noise", "text")})
+            (inputs, outputs) = DECODER_IO
+            (normalized,) = self.ae.session.run(list(outputs), dict(zip(inputs, (
+                latent / np.float32(self.config.schedule.latent_scale), feeds["valid"]))))
+            features = normalized * self._std + self._mean
         return [features[i, :n] for i, n in enumerate(lengths)]
 
     def _feeds(self, cond: Tensor, nfe: int | None, seed: int | Sequence[int] | None
@@ -183,11 +198,12 @@ class OnnxMotionGenerator(MotionGenerator):
             self._coefficients[steps] = step_coefficients(self.sampler, steps)
         return self._coefficients[steps]
 
-    def _sampler_session(self, steps: int, batch: int) -> Any:
-        """The sampler graph's session for `steps` steps at this batch size (one thread for a
-        small batch of a small graph, else `threads`), or None: not a consistency model, the
-        first call with this step count, MAX_SAMPLER_GRAPHS built already, or no onnx package
-        to build the graph with."""
+    def _sampler_session(self, steps: int, batch: int) -> tuple[Any, bool] | None:
+        """The sampler graph's session for `steps` steps at this batch size, and whether it
+        leaves the decoding to the decoder's session (_decodes_apart); or None: not a
+        consistency model, the first call with this step count, MAX_SAMPLER_GRAPHS built
+        already, or no onnx package to build the graph with. A small batch of a small graph
+        runs on one thread, anything else on `threads`."""
         if not isinstance(self.sampler, ConsistencySampler):
             return None
         self._calls[steps] = self._calls.get(steps, 0) + 1
@@ -198,23 +214,35 @@ class OnnxMotionGenerator(MotionGenerator):
             except ImportError:
                 self._fused[steps] = None
                 return None
-            model = sampler_model(self.graphs.denoiser, self.graphs.decoder, steps,
-                                  clamp=self.clamp,
-                                  latent_scale=self.config.schedule.latent_scale,
-                                  mean=self.mean.numpy(), std=self.std.numpy(),
-                                  coefficients=self._step_coefficients(steps))
-            self._fused[steps] = model.SerializeToString()
+            self._fused[steps] = self._sampler_graph(steps, with_decoder=True)
         graph = self._fused.get(steps)
         if graph is None:
             return None
         small = batch <= ONE_THREAD_MAX_BATCH and len(graph) <= ONE_THREAD_MAX_BYTES
-        threads = 1 if small else self.threads
-        key = (steps, int(threads or torch.get_num_threads()), batch == 1)
+        threads = 1 if small else int(self.threads or torch.get_num_threads())
+        apart = small and self.decode_apart and self.ae_threads > 1
+        if apart and steps not in self._steps_only:
+            self._steps_only[steps] = self._sampler_graph(steps, with_decoder=False)
+        key = (steps, threads, batch == 1, apart)
         if key not in self._sessions:
+            chosen = self._steps_only[steps] if apart else graph
             # batch 1, the size a person waits on, gets a graph of fixed shapes (fewer operators)
-            self._sessions[key] = session_from_bytes(fixed_batch(graph, 1) if batch == 1
-                                                     else graph, key[1])
-        return self._sessions[key]
+            self._sessions[key] = session_from_bytes(fixed_batch(chosen, 1) if batch == 1
+                                                     else chosen, threads)
+        return self._sessions[key], apart
+
+    def _sampler_graph(self, steps: int, with_decoder: bool) -> bytes:
+        """onnx_sampler.sampler_model of this model and step count, serialized."""
+        return sampler_model(self.graphs.denoiser,
+                             self.graphs.decoder if with_decoder else None, steps,
+                             clamp=self.clamp, latent_scale=self.config.schedule.latent_scale,
+                             mean=self._mean, std=self._std,
+                             coefficients=self._step_coefficients(steps)).SerializeToString()
+
+    @property
+    def ae_threads(self) -> int:
+        """The decoder session's intra-op threads."""
+        return int(self.threads or torch.get_num_threads())
 
     @property
     def text_encoder(self) -> TextEncoder:

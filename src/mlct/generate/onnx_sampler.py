@@ -41,12 +41,14 @@ COEFFICIENTS = ("times", "coef")  # inputs, or constants when sampler_model gets
 OUTPUTS = ("features", "latent")
 
 
-def sampler_model(denoiser: str | os.PathLike, decoder: str | os.PathLike, steps: int, *,
-                  clamp: float | None, latent_scale: float, mean: np.ndarray, std: np.ndarray,
+def sampler_model(denoiser: str | os.PathLike, decoder: str | os.PathLike | None, steps: int,
+                  *, clamp: float | None, latent_scale: float, mean: np.ndarray, std: np.ndarray,
                   coefficients: dict[str, np.ndarray] | None = None) -> Any:
     """The sampler graph of `steps` steps (above), an onnx.ModelProto, from denoiser.onnx
     (x_t, t, text -> f) and decoder.onnx (latent, valid -> features); the clamp, latent_scale
-    and the feature mean and std are the bundle's, baked in as constants.
+    and the feature mean and std are the bundle's, baked in as constants. decoder None: the
+    steps alone (inputs x, noise, text and the coefficients; output latent), for a caller that
+    decodes in a session of its own (onnx_backend.py: the decoder on more threads).
 
     coefficients: step_coefficients' times and coef, baked in as constants instead of inputs
     (they depend on the step count alone): ONNX Runtime then folds the denoiser's time terms
@@ -54,7 +56,7 @@ def sampler_model(denoiser: str | os.PathLike, decoder: str | os.PathLike, steps
     import onnx
     from onnx import TensorProto, helper, numpy_helper
 
-    den, dec = onnx.load(str(denoiser)), onnx.load(str(decoder))
+    den = onnx.load(str(denoiser))
     f32 = TensorProto.FLOAT
 
     def const(name: str, value: np.ndarray) -> onnx.NodeProto:
@@ -93,27 +95,31 @@ def sampler_model(denoiser: str | os.PathLike, decoder: str | os.PathLike, steps
                       helper.make_node("Mul", [p + "sigma", p + "noise"], [p + "sn"]),
                       helper.make_node("Add", [p + "ax", p + "sn"], [p + "x"])]
             x = p + "x"
-    nodes += [const("latent_scale", np.array(latent_scale, np.float32)),
-              helper.make_node("Div", ["latent", "latent_scale"], ["ae_latent"])]
-    nodes += _renamed(dec.graph, "dec/", {"latent": "ae_latent", "valid": "valid"})
-    nodes += [const("std", np.asarray(std, np.float32)), const("mean", np.asarray(mean,
-                                                                                  np.float32)),
-              helper.make_node("Mul", ["dec/" + dec.graph.output[0].name, "std"], ["scaled"]),
-              helper.make_node("Add", ["scaled", "mean"], ["features"])]
     latent = helper.make_tensor_value_info
     n, d = (int(v.dim_value) for v in den.graph.input[0].type.tensor_type.shape.dim[1:])
     c = int(den.graph.input[2].type.tensor_type.shape.dim[1].dim_value)
-    feature_dim = int(np.asarray(mean).shape[-1])
     inputs = [latent("x", f32, ["batch", n, d]), latent("noise", f32, ["steps", "batch", n, d]),
               latent("text", f32, ["batch", c]), latent("times", f32, ["steps"]),
-              latent("coef", f32, ["steps", 4]), latent("valid", TensorProto.BOOL,
-                                                        ["batch", "frames"])]
+              latent("coef", f32, ["steps", 4])]
+    outputs = [latent("latent", f32, ["batch", n, d])]
+    initializers = _renamed_initializers(den.graph, "den/")
+    if decoder is not None:
+        dec = onnx.load(str(decoder))
+        nodes += [const("latent_scale", np.array(latent_scale, np.float32)),
+                  helper.make_node("Div", ["latent", "latent_scale"], ["ae_latent"])]
+        nodes += _renamed(dec.graph, "dec/", {"latent": "ae_latent", "valid": "valid"})
+        nodes += [const("std", np.asarray(std, np.float32)),
+                  const("mean", np.asarray(mean, np.float32)),
+                  helper.make_node("Mul", ["dec/" + dec.graph.output[0].name, "std"],
+                                   ["scaled"]),
+                  helper.make_node("Add", ["scaled", "mean"], ["features"])]
+        inputs.append(latent("valid", TensorProto.BOOL, ["batch", "frames"]))
+        feature_dim = int(np.asarray(mean).shape[-1])
+        outputs.insert(0, latent("features", f32, ["batch", "frames", feature_dim]))
+        initializers = _renamed_initializers(dec.graph, "dec/") + initializers
     graph = helper.make_graph(
         nodes, "mlct_sampler", [i for i in inputs if i.name not in (coefficients or {})],
-        [latent("features", f32, ["batch", "frames", feature_dim]),
-         latent("latent", f32, ["batch", n, d])],
-        initializer=_renamed_initializers(dec.graph, "dec/")
-        + _renamed_initializers(den.graph, "den/"))
+        outputs, initializer=initializers)
     model = helper.make_model(graph, opset_imports=list(den.opset_import),
                               producer_name="mlct")
     model.ir_version = den.ir_version
