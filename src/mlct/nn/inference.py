@@ -219,6 +219,70 @@ def is_conv_chain(chain: nn.Module) -> bool:
     return convs > 0
 
 
+class UpsampledConv1d(nn.Module):
+    """conv(nearest_upsample_x2(x)) of a Conv1d of kernel 3, stride 1, padding 1, computed at
+    x's rate: 2/3 of the products, and no upsampled copy of x.
+
+    Frame 2i of the upsampled x is x_i and so is frame 2i + 1, so output 2i is
+    w0 x_(i-1) + (w1 + w2) x_i and output 2i + 1 is (w0 + w1) x_i + w2 x_(i+1): two kernels of
+    2 taps. One convolution of kernel 2 with both kernels' outputs stacked (2 C_out channels),
+    over x padded by one frame each side, gives them at L + 1 positions: the even outputs are
+    the first half's positions 0..L-1, the odd ones the second half's 1..L; interleaved, they
+    are the 2L frames. Why: in the conv decoder's graph (the onnx backend) the three
+    convolutions after an upsampling are a third of its products, and ONNX Runtime has no
+    such fusion of its own (docs/performance.md, "The decoder's upsampling folded")."""
+
+    def __init__(self, conv: nn.Conv1d) -> None:
+        super().__init__()
+        if not folds_upsampling(conv):
+            raise ValueError("UpsampledConv1d takes an ungrouped Conv1d of kernel 3, stride 1, "
+                             "padding 1, dilation 1")
+        w = conv.weight.detach()  # (C_out, C_in, 3)
+        bias = conv.bias.detach() if conv.bias is not None else w.new_zeros(w.shape[0])
+        even = torch.stack([w[..., 0], w[..., 1] + w[..., 2]], dim=-1)  # x_(i-1), x_i
+        odd = torch.stack([w[..., 0] + w[..., 1], w[..., 2]], dim=-1)  # x_i, x_(i+1)
+        self.weight = nn.Parameter(torch.cat([even, odd]), requires_grad=False)
+        self.bias = nn.Parameter(torch.cat([bias, bias]), requires_grad=False)
+
+    def forward(self, x: Tensor) -> Tensor:
+        """x (B, C_in, L) -> (B, C_out, 2L)."""
+        y = F.conv1d(x, self.weight, self.bias, padding=1)  # (B, 2 C_out, L + 1)
+        half = y.shape[1] // 2
+        return torch.stack([y[:, :half, :-1], y[:, half:, 1:]], dim=-1).flatten(2)
+
+
+def folds_upsampling(conv: nn.Module) -> bool:
+    """Whether UpsampledConv1d can take this layer after a nearest x2 upsampling."""
+    return (isinstance(conv, nn.Conv1d) and conv.kernel_size == (3,) and conv.stride == (1,)
+            and conv.padding == (1,) and conv.dilation == (1,) and conv.groups == 1
+            and conv.padding_mode == "zeros")
+
+
+def fold_upsampling(module: nn.Module) -> nn.Module:
+    """Replace, in place, every nearest x2 nn.Upsample followed by a Conv1d that
+    UpsampledConv1d takes (inside an nn.Sequential) by one UpsampledConv1d: the same function
+    (tests/test_inference_equivalence.py); the ONNX decoder graph is written this way."""
+    for name, child in module.named_children():
+        if not isinstance(child, nn.Sequential):
+            fold_upsampling(child)
+            continue
+        layers, out = list(child), []
+        i = 0
+        while i < len(layers):
+            layer = layers[i]
+            if (isinstance(layer, nn.Upsample) and layer.mode == "nearest" and layer.size is None
+                    and layer.scale_factor in (2, 2.0) and i + 1 < len(layers)
+                    and folds_upsampling(layers[i + 1])):
+                out.append(UpsampledConv1d(layers[i + 1]))
+                i += 2
+            else:
+                out.append(fold_upsampling(layer))
+                i += 1
+        if len(out) != len(layers):
+            setattr(module, name, nn.Sequential(*out))
+    return module
+
+
 def for_inference(module: nn.Module, dtype: str | torch.dtype = "float32",
                   prepack: bool = True, channels_last: bool = True) -> nn.Module:
     """Swap `module`'s encoder layers, linears and conv stacks for the fast ones, in place;
