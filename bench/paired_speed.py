@@ -9,16 +9,18 @@ round (paired), so the host's drift cancels.
     python bench/paired_speed.py --models bundled /path/to/model [bundled:unfused-text] \\
         --rounds 8 --calls 30 --threads 2
 
-MODEL is a model directory or "bundled"; ":unfused-text" runs it with the text encoder graph
-of standard ONNX operators (write_minilm_graph(fused=False)) instead of the fused one;
-":whole-grid" with a decoder graph that convolves every grid cell whatever the clip's length
-(as before nn/conv_autoencoder.py's DECODE_MARGIN); ":one-graph" with batch 1's steps and
-decoder in one sampler graph on one thread (as before onnx_backend.DECODE_APART). --frames sets
-the clip's length (196: 9.8 s,
-the bench's; 100: 5 s, generate()'s default). Per call,
-as bench/inference_speed.py times them: warm = what generate() runs for a caption already
-encoded (text memo, anchors' pull, sample_features: 5 steps and the decoder, 196 frames);
-text = the text encoder on a new sentence; cold = warm + text. The onnx backend, float32.
+MODEL is a model directory or "bundled", optionally with variants after a colon, joined by
+"+" (bundled:one-graph+matmul-add-fusion), each as the graphs were before a change:
+"unfused-text" the text encoder of standard ONNX operators (write_minilm_graph(fused=False))
+instead of the fused one; "whole-grid" a decoder that convolves every grid cell whatever the
+clip's length (before nn/conv_autoencoder.py's DECODE_MARGIN); "one-graph" batch 1's steps and
+decoder in one sampler graph on one thread (before onnx_backend.DECODE_APART);
+"matmul-add-fusion" ONNX Runtime's MatMulAddFusion on (before onnx_io.DISABLED_OPTIMIZERS).
+--frames sets the clip's length (196: 9.8 s, the bench's; 100: 5 s, generate()'s default).
+Per call, as bench/inference_speed.py times them: warm = what generate() runs for a caption
+already encoded (text memo, anchors' pull, sample_features: 5 steps and the decoder, 196
+frames); text = the text encoder on a new sentence; cold = warm + text. The onnx backend,
+float32.
 """
 
 from __future__ import annotations
@@ -35,34 +37,43 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from inference_speed import FRAMES, TEXTS  # noqa: E402  (the same prompts and length)
 
 
-def load(spec: str, folder: Path) -> Any:
+VARIANTS = ("unfused-text", "whole-grid", "one-graph", "matmul-add-fusion")
+
+
+def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
     """The onnx-backend generator of a model spec (see the module docstring)."""
     import mlct
+    import mlct.nn.conv_autoencoder as conv
+    import mlct.onnx_io as onnx_io
     from mlct.generate.onnx_bundle import ONNX_DIR, TEXT_ENCODER, convert_to_onnx
     from mlct.generate.pipeline import bundled_model_dir
     from mlct.text.minilm_onnx import write_minilm_graph
 
-    import mlct.nn.conv_autoencoder as conv
-
     name, _, variant = spec.partition(":")
-    if variant not in ("", "unfused-text", "whole-grid", "one-graph"):
-        raise SystemExit(f"unknown variant {variant!r} of {name}: unfused-text, whole-grid or "
-                         f"one-graph")
+    chosen = set(variant.split("+")) if variant else set()
+    if chosen - set(VARIANTS):
+        raise SystemExit(f"unknown variant {variant!r} of {name}: one or more of {VARIANTS}, "
+                         f"joined by +")
     model = bundled_model_dir() if name == "bundled" else Path(name)
-    margin = conv.DECODE_MARGIN
-    if variant == "whole-grid":  # the graph is traced with the margin as a constant
+    # the variants' switches, as they were before each change; restored on the way out
+    margin, disabled = conv.DECODE_MARGIN, onnx_io.DISABLED_OPTIMIZERS
+    if "whole-grid" in chosen:  # the graph is traced with the margin as a constant
         conv.DECODE_MARGIN = 10**6
+    if "matmul-add-fusion" in chosen:  # every session is made (below) with it on
+        onnx_io.DISABLED_OPTIMIZERS = ()
     try:
         out = convert_to_onnx(model, folder, read_only=name == "bundled")
-    finally:
-        conv.DECODE_MARGIN = margin
-    if variant == "unfused-text":
-        import json
+        if "unfused-text" in chosen:
+            import json
 
-        spec_name = json.loads((out / "config.json").read_text())["text_encoder"]
-        write_minilm_graph(spec_name, out / ONNX_DIR / TEXT_ENCODER, fused=False)
-    gen = mlct.load(out, backend="onnx")  # ONNX Runtime threads follow torch's
-    gen.decode_apart = variant != "one-graph"
+            spec_name = json.loads((out / "config.json").read_text())["text_encoder"]
+            write_minilm_graph(spec_name, out / ONNX_DIR / TEXT_ENCODER, fused=False)
+        gen = mlct.load(out, backend="onnx")  # ONNX Runtime threads follow torch's
+        gen.decode_apart = "one-graph" not in chosen
+        warm_ms(gen, len(TEXTS) + 2, 0, frames)  # the text memo and the sampler graph's
+        text_ms(gen, 4, 0)  # sessions, made here under the switches
+    finally:
+        conv.DECODE_MARGIN, onnx_io.DISABLED_OPTIMIZERS = margin, disabled
     return gen
 
 
@@ -102,10 +113,7 @@ def main() -> None:
 
     torch.set_num_threads(args.threads)
     root = Path(tempfile.mkdtemp(prefix="mlct-paired-"))
-    gens = {spec: load(spec, root / f"m{i}") for i, spec in enumerate(args.models)}
-    for gen in gens.values():  # the text memo, the sampler graph (built at the second call)
-        warm_ms(gen, len(TEXTS) + 2, 0, args.frames)
-        text_ms(gen, 4, 0)
+    gens = {spec: load(spec, root / f"m{i}", args.frames) for i, spec in enumerate(args.models)}
     rounds: dict[str, list[tuple[float, float]]] = {spec: [] for spec in gens}
     for r in range(args.rounds):
         for spec, gen in gens.items():

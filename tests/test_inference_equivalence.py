@@ -215,25 +215,3 @@ def test_for_inference_swaps_conv_stacks_only_for_the_cpu_kernels():
     assert isinstance(fast["other"], nn.Sequential)  # a ReLU: not a stack it can run
     with pytest.raises(ValueError, match="ChannelsLastConvs takes"):
         ChannelsLastConvs(net["other"], torch.float32)
-
-
-def test_an_upsampling_folded_into_its_convolution_is_the_same_function():
-    """fold_upsampling (the ONNX decoder graph's form): nearest x2 then a kernel-3 conv, as one
-    convolution at the input's rate; other layers (a dilated conv after an upsampling) stay."""
-    from mlct.nn.inference import UpsampledConv1d, fold_upsampling
-
-    torch.manual_seed(1)
-    chain = nn.Sequential(nn.Upsample(scale_factor=2, mode="nearest"),
-                          nn.Conv1d(16, 12, 3, padding=1), nn.GELU(),
-                          nn.Upsample(scale_factor=2, mode="nearest"),
-                          nn.Conv1d(12, 7, 3, padding=2, dilation=2)).eval()
-    net = nn.ModuleDict({"dec": chain})
-    folded = fold_upsampling(copy.deepcopy(net))
-    assert [type(m) for m in folded["dec"]] == [UpsampledConv1d, nn.GELU, nn.Upsample,
-                                                nn.Conv1d]
-    for frames in (1, 5, 24):  # one frame: both neighbours are padding
-        x = torch.randn(3, 16, frames)
-        with torch.no_grad():
-            torch.testing.assert_close(folded["dec"](x), chain(x), atol=1e-5, rtol=1e-5)
-    with pytest.raises(ValueError, match="UpsampledConv1d takes"):
-        UpsampledConv1d(nn.Conv1d(4, 4, 3, padding=1, stride=2))

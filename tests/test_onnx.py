@@ -155,11 +155,6 @@ def test_conv_decoder_with_its_own_arm_pair(tmp_path) -> None:
     a = torch_gen.generate(TEXTS[:2], lengths=[64, 9], nfe=2, seed=1)
     b = onnx_gen.generate(TEXTS[:2], lengths=[64, 9], nfe=2, seed=1)
     assert largest_gap(a, b) < JOINTS_M
-    # every upsampling is folded into the convolution after it (nn/inference.py)
-    import onnx
-
-    ops = [node.op_type for node in onnx.load(str(onnx_gen.graphs.decoder)).graph.node]
-    assert "Resize" not in ops and ops.count("Conv") == 2 * 7
 
 
 # --- bad input: one line naming the problem and the fix ----------------------------------------

@@ -57,6 +57,15 @@ def export_graph(module: nn.Module, args: tuple[torch.Tensor, ...], path: str | 
     return path
 
 
+# ONNX Runtime graph rewrites left out of every session. MatMulAddFusion turns a MatMul + Add
+# into a Gemm, which takes 2-d inputs only, so around each product of a (B, S, d) input it puts
+# a Reshape before and after: 160 of the bundled model's 580 operators in its 5-step batch-1
+# sampler graph. Without it: 480 operators (and BiasGelu fused in their place), and the warm
+# batch-1 call (5 NFE, 196 frames, 2 threads) 3 % faster, paired in one run: 5.49 -> 5.29 ms
+# median (bench/paired_speed.py :matmul-add-fusion; docs/performance.md, "Fewer operators").
+DISABLED_OPTIMIZERS: tuple[str, ...] = ("MatMulAddFusion",)
+
+
 def onnxruntime_module() -> Any:
     """The onnxruntime module; MlctError saying how to install it when it is missing."""
     try:
@@ -92,7 +101,8 @@ def session(path: str | os.PathLike | bytes, threads: int | None = None
     try:
         model = path if isinstance(path, bytes) else str(path)
         return ort.InferenceSession(model, sess_options=options,
-                                    providers=["CPUExecutionProvider"])
+                                    providers=["CPUExecutionProvider"],
+                                    disabled_optimizers=list(DISABLED_OPTIMIZERS))
     except Exception as error:  # noqa: BLE001 - onnxruntime raises its own kinds
         name = "a graph built in memory" if isinstance(path, bytes) else path
         raise MlctError(f"{name}: ONNX Runtime cannot load this graph ({first_line(error)})"

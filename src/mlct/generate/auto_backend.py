@@ -124,7 +124,6 @@ def default_graph_dir(path: Path, int8: bool = False) -> Path:
     key.update((path / CONFIG).read_bytes())
     key.update(f"mlct-onnx {ONNX_VERSION} torch {torch.__version__}".encode())
     key.update(b" text encoder with fused attention")  # not the older, unfused graphs
-    key.update(b" decoder upsampling folded")  # nor those with Resize nodes
     if int8:
         key.update(b" int8 denoiser, blockwise, small products float32")  # not older graphs
     return default_cache_dir() / "onnx" / key.hexdigest()[:24]

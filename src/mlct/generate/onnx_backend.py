@@ -92,7 +92,10 @@ ONE_THREAD_MAX_BYTES = 32_000_000
 TORCH_MIN_BATCH: int | None = 32
 # A batch that runs its sampler graph on one thread (above) runs the steps alone there and the
 # decoder in its own session on all `threads`: the steps' products on 4 tokens lose to a second
-# thread's wake-ups, the decoder's convolutions over up to 200 frames gain from it. FIGURES
+# thread's wake-ups, the decoder's convolutions over up to 200 frames gain from it: warm 5.44
+# -> 5.29 ms paired (5 NFE, 196 frames, 2 threads; bench/paired_speed.py :one-graph). Alone, the
+# decoder on two threads took 2.15 against 2.68 ms; in the pipeline the gain is smaller, as its
+# weights come back to the cache after the steps (docs/performance.md, "The decoder apart").
 DECODE_APART = True
 
 

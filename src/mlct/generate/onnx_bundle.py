@@ -18,8 +18,6 @@ MODEL_DIR/onnx/ holds
 
 from __future__ import annotations
 
-import copy
-
 import hashlib
 import json
 import os
@@ -38,7 +36,7 @@ from mlct.generate.bundle import BUNDLE_FILES, CONFIG, OPTIONAL_FILES, WEIGHTS, 
 from mlct.generate.pipeline import bundle_networks, bundled_model_dir
 from mlct.io import atomic_dir, check_writable_dir, read_format_json
 from mlct.nn.autoencoder import LatentAutoencoder
-from mlct.nn.inference import fold_upsampling, for_inference
+from mlct.nn.inference import for_inference
 from mlct.onnx_io import OPSET, export_graph, onnxruntime_module, session
 from mlct.text.minilm_onnx import check_onnx_spec, write_minilm_graph
 
@@ -124,10 +122,7 @@ def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike,
     valid = torch.arange(frames)[None, :] < torch.tensor([frames, frames // 2])[:, None]
     latent = torch.rand(2, n, d, generator=probe) * 2 - 1
     free = {0: "batch", 1: "frames"}
-    # each nearest upsampling folded into the convolution after it (same function, 2/3 of
-    # those products); checked below against the decoder as trained
-    folded = fold_upsampling(copy.deepcopy(ae))
-    export_graph(DecoderGraph(folded), (latent, valid), into / DECODER, *DECODER_IO,
+    export_graph(DecoderGraph(ae), (latent, valid), into / DECODER, *DECODER_IO,
                  {"latent": batch, "valid": free, "features": free})
     write_minilm_graph(spec, into / TEXT_ENCODER, fused=fused_text)
     with torch.no_grad():  # the graphs against the modules, on other sizes than traced
