@@ -12,21 +12,30 @@
 # continues from its last checkpoint. The result replaces
 # src/mlct/assets/model. The bundle before this one (~13.5 h of stages):
 # tools/make_bundled_model_staged.sh.
+# Version 7 (since 2026-11-29, later) is version 6 with the body's decoder narrowed to 96
+# channels and retrained on the frozen encoder, the arm pair's decoder kept
+# (tools/make_bundled_model_narrow_decoder.sh, 96 frozen: 18 min more; 0.90x the warm time;
+# docs/training.md, "Version 7"); the script ends with that step.
 set -euo pipefail
 work="${1:-mlct-bundled}"
 seed="${2:-0}"
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$(dirname "$0")/make_bundled_model_3h.sh" "$work" "$seed"
+DATA="$work/synth" bash "$(dirname "$0")/make_bundled_model_narrow_decoder.sh" "$work/model" \
+    "$work/narrow" 96 frozen
 # where the weights came from, said in the bundle's config instead of this machine's paths
-python - "$work/model/config.json" "$seed" <<'PY'
+python - "$work/narrow/model/config.json" "$seed" <<'PY'
 import json, sys
 path, seed = sys.argv[1], int(sys.argv[2])
 config = json.load(open(path))
-config["decoder_from"] = "armdec (tools/make_bundled_model_3h.sh)"
+config["decoder_from"] = ("tools/make_bundled_model_narrow_decoder.sh bundled WORK 96 frozen "
+                          "(version 6's encoder and arm decoder, a 96-channel body decoder)")
 config["recipe"] = {"script": "tools/make_bundled_model.sh",
-                    "stages": "tools/make_bundled_model_3h.sh, version 6", "cm_seed": seed}
+                    "stages": "tools/make_bundled_model_3h.sh, version 6, then "
+                              "tools/make_bundled_model_narrow_decoder.sh 96 frozen (version 7)",
+                    "cm_seed": seed}
 json.dump(config, open(path, "w"), indent=2)
 PY
 rm -rf "$repo/src/mlct/assets/model"
-cp -r "$work/model" "$repo/src/mlct/assets/model"
+cp -r "$work/narrow/model" "$repo/src/mlct/assets/model"
 echo "$repo/src/mlct/assets/model"
