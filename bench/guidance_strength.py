@@ -7,7 +7,7 @@ For each seed, "a person walks forward" (120 frames) is made with guidance and w
 projection, one candidate, the same seed), and the mean distance of the root from the path's
 waypoints with guidance is divided by that without. Printed per model: the mean, median and
 standard error of that ratio. 1 means guidance did nothing; the test asks for a 6-seed mean
-under 0.75, and one seed's ratio ranges from about 0.2 to 1.6, so compare models on 30 seeds.
+under 1, and one seed's ratio ranges from about 0.2 to 1.6, so compare models on 30 seeds.
 Guidance needs the torch backend (its gradients run through the torch decoder).
 """
 

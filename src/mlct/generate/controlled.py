@@ -54,9 +54,12 @@ class ControlMethod:
     # guidance: gradient steps on x0 per sampling step, and on the last step's x0 (not
     # re-noised). 2 and 4 since the decoder trained with latent noise 0.2: with 1 and 2 guidance
     # kept 0.93 of plain sampling's waypoint error on tests/test_control.py's walk, with 2 and 4
-    # 0.46 (the model before: 0.64 and 0.43; docs/control.md).
-    iterations: int = 2
-    final_iterations: int = 4
+    # 0.46 (the model before: 0.64 and 0.43; docs/control.md). 4 and 8 since version 7's
+    # narrower body decoder, under which 2 and 4 did nothing: over 30 seeds (bench/
+    # guidance_strength.py's measure) 1.01 of the error at 2 and 4, 0.55 at 4 and 8; version 6
+    # 0.73 and 0.55.
+    iterations: int = 4
+    final_iterations: int = 8
     step: float = 0.9  # guidance: a Gauss-Newton-like step, a fraction of the way to zero error
     reach_seconds: float = REACH_SECONDS
     lock_feet: bool = True  # feet that stood in the model's motion stand after the correction
