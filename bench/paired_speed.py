@@ -15,7 +15,9 @@ MODEL is a model directory or "bundled", optionally with variants after a colon,
 instead of the fused one; "whole-grid" a decoder that convolves every grid cell whatever the
 clip's length (before nn/conv_autoencoder.py's DECODE_MARGIN); "one-graph" batch 1's steps and
 decoder in one sampler graph on one thread (before onnx_backend.DECODE_APART);
-"matmul-add-fusion" ONNX Runtime's MatMulAddFusion on (before onnx_io.DISABLED_OPTIMIZERS).
+"matmul-add-fusion" ONNX Runtime's MatMulAddFusion on (before onnx_io.DISABLED_OPTIMIZERS);
+"one-decoder" the decoder apart as one session on all threads, not its halves side by side
+(before onnx_backend.DECODE_HALVES).
 --frames sets the clip's length (196: 9.8 s, the bench's; 100: 5 s, generate()'s default).
 Per call, as bench/inference_speed.py times them: warm = what generate() runs for a caption
 already encoded (text memo, anchors' pull, sample_features: 5 steps and the decoder, 196
@@ -37,7 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from inference_speed import FRAMES, TEXTS  # noqa: E402  (the same prompts and length)
 
 
-VARIANTS = ("unfused-text", "whole-grid", "one-graph", "matmul-add-fusion")
+VARIANTS = ("unfused-text", "whole-grid", "one-graph", "matmul-add-fusion", "one-decoder")
 
 
 def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
@@ -70,6 +72,7 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
             write_minilm_graph(spec_name, out / ONNX_DIR / TEXT_ENCODER, fused=False)
         gen = mlct.load(out, backend="onnx")  # ONNX Runtime threads follow torch's
         gen.decode_apart = "one-graph" not in chosen
+        gen.decode_halves = "one-decoder" not in chosen
         warm_ms(gen, len(TEXTS) + 2, 0, frames)  # the text memo and the sampler graph's
         text_ms(gen, 4, 0)  # sessions, made here under the switches
     finally:

@@ -155,6 +155,23 @@ def test_conv_decoder_with_its_own_arm_pair(tmp_path) -> None:
     a = torch_gen.generate(TEXTS[:2], lengths=[64, 9], nfe=2, seed=1)
     b = onnx_gen.generate(TEXTS[:2], lengths=[64, 9], nfe=2, seed=1)
     assert largest_gap(a, b) < JOINTS_M
+    # batch 1 on two threads: the steps apart, then the decoder's halves side by side
+    # (onnx_decoder_halves.py), operator for operator the whole decoder's arithmetic
+    from mlct.generate.onnx_backend import OnnxMotionGenerator
+
+    features = {}
+    for halves in (False, True):  # the last generator, the halves', is compared with torch
+        gen = OnnxMotionGenerator.load(model, threads=2)
+        gen.decode_halves = halves
+        cond = gen.encode_text(TEXTS[:1])
+        for _ in range(2):  # the second call builds the sampler graph
+            features[halves] = gen.sample_features(cond, 2, [5], None, [37])[0]
+        assert (gen._halves is not None and gen._halves is not False) == halves
+    assert features[True].shape == (37, features[False].shape[1])
+    np.testing.assert_allclose(features[True], features[False], rtol=0, atol=1e-5)
+    want = torch_gen.generate(TEXTS[:1], lengths=[37], nfe=2, seed=5, candidates=1)
+    got = gen.generate(TEXTS[:1], lengths=[37], nfe=2, seed=5, candidates=1)
+    assert largest_gap(want, got) < JOINTS_M
 
 
 # --- bad input: one line naming the problem and the fix ----------------------------------------

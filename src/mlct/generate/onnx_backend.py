@@ -21,6 +21,7 @@ from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
 from mlct.generate.onnx_bundle import DECODER_IO, DENOISER_IO, OnnxGraphs, read_onnx
+from mlct.generate.onnx_decoder_halves import DecoderHalves
 from mlct.generate.onnx_sampler import (COEFFICIENTS, INPUTS, consistency_feeds, fixed_batch,
                                         run_steps, sampler_model, step_coefficients)
 from mlct.generate.pipeline import MotionGenerator, generators_for
@@ -97,6 +98,11 @@ TORCH_MIN_BATCH: int | None = 32
 # decoder on two threads took 2.15 against 2.68 ms; in the pipeline the gain is smaller, as its
 # weights come back to the cache after the steps (docs/performance.md, "The decoder apart").
 DECODE_APART = True
+# ... and a decoder with an arm pair runs its two halves side by side, one core each
+# (onnx_decoder_halves.py): the bundled model's warm call 4.02 ms against 4.34 with the decoder
+# as one session on two threads and 4.29 with the one-thread graph of steps and decoder (5 NFE,
+# 196 frames, paired; bench/paired_speed.py :one-decoder, :one-graph).
+DECODE_HALVES = True
 
 
 class OnnxMotionGenerator(MotionGenerator):
@@ -127,6 +133,8 @@ class OnnxMotionGenerator(MotionGenerator):
         self._coefficients: dict[int, dict[str, np.ndarray]] = {}  # step count -> its times, coef
         self.torch_min_batch = TORCH_MIN_BATCH
         self.decode_apart = DECODE_APART
+        self.decode_halves = DECODE_HALVES
+        self._halves: DecoderHalves | None | bool = False  # False: not made yet
         self._steps_only: dict[int, bytes] = {}  # step count -> its graph without the decoder
         self._tensors = tensors  # the torch networks of large batches are built from them
         self._torch_networks: tuple[Any, Any] | None = None
@@ -182,9 +190,14 @@ class OnnxMotionGenerator(MotionGenerator):
                                                       if k not in COEFFICIENTS})
         else:  # the steps on one thread, then the decoder on all (the graph's own arithmetic)
             (latent,) = session.run(["latent"], {k: feeds[k] for k in ("x", "noise", "text")})
-            (inputs, outputs) = DECODER_IO
-            (normalized,) = self.ae.session.run(list(outputs), dict(zip(inputs, (
-                latent / np.float32(self.config.schedule.latent_scale), feeds["valid"]))))
+            latent = latent / np.float32(self.config.schedule.latent_scale)
+            halves = self._decoder_halves() if cond.shape[0] == 1 else None
+            if halves is not None:  # body and arm pair side by side, one core each
+                normalized = halves(latent, feeds["valid"])
+            else:
+                (inputs, outputs) = DECODER_IO
+                (normalized,) = self.ae.session.run(list(outputs), dict(zip(inputs, (
+                    latent, feeds["valid"]))))
             features = normalized * self._std + self._mean
         return [features[i, :n] for i, n in enumerate(lengths)]
 
@@ -233,6 +246,15 @@ class OnnxMotionGenerator(MotionGenerator):
             self._sessions[key] = session_from_bytes(fixed_batch(chosen, 1) if batch == 1
                                                      else chosen, threads)
         return self._sessions[key], apart
+
+    def _decoder_halves(self) -> DecoderHalves | None:
+        """The decoder cut in its two halves (onnx_decoder_halves.py), made on first use; None
+        without an arm pair, without the onnx package, or with `decode_halves` off."""
+        if not self.decode_halves:
+            return None
+        if self._halves is False:
+            self._halves = DecoderHalves.of(self.graphs.decoder)
+        return self._halves
 
     def _sampler_graph(self, steps: int, with_decoder: bool) -> bytes:
         """onnx_sampler.sampler_model of this model and step count, serialized."""

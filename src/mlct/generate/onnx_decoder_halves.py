@@ -1,0 +1,92 @@
+"""The conv decoder's two halves (body and arm pair) run at once, one core each (issue 17).
+
+At batch 1 the decoder's convolutions over 200 frames and 96-128 channels split badly across
+threads inside one operator: ONNX Runtime on two threads decoded the bundled model's 196 frames
+in 1.55 ms against 1.80 on one, and its parallel executor, which could run the two independent
+halves side by side, took 1.90 ms. The halves are independent until their columns are put back in
+feature order, so here each runs in a session of its own on one thread, the arm pair's in a
+worker thread while the caller's thread runs the body's (ONNX Runtime releases the GIL while it
+runs): 1.14 ms (docs/performance.md, "The decoder's halves side by side").
+
+The three graphs are cut out of decoder.onnx itself (onnx.utils.Extractor), at the outputs of
+each half's last convolution: the body's half, the arm pair's half, and the join (the columns
+in feature order, the frames past each length set to 0). So the arithmetic is the decoder's own,
+operator for operator (tests/test_onnx_sampler.py).
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import numpy as np
+
+from mlct.generate.onnx_bundle import DECODER_IO
+from mlct.generate.onnx_sampler import fixed_batch
+from mlct.onnx_io import session_from_bytes
+
+# the stacks' module names, as the exporter writes them into the node names
+BODY, ARMS = "/decoder/", "/arm_decoder/"
+
+
+def half_outputs(graph: Any) -> tuple[str, str] | None:
+    """The outputs of the body's and the arm pair's last convolutions in a decoder graph (an
+    onnx.ModelProto), or None when it has no arm pair."""
+    last: dict[str, str] = {}
+    for node in graph.graph.node:
+        if node.op_type == "Conv":
+            for part in (BODY, ARMS):
+                if node.name.startswith(part):
+                    last[part] = node.output[0]
+    if set(last) != {BODY, ARMS}:
+        return None
+    return last[BODY], last[ARMS]
+
+
+class DecoderHalves:
+    """decoder.onnx as three batch-1 sessions, its halves run side by side (above); call it
+    with (latent (1, n, d), valid (1, T) bool) for the normalized features (1, T, D)."""
+
+    def __init__(self, decoder: str | os.PathLike, graph: Any, outputs: tuple[str, str]) -> None:
+        from onnx.shape_inference import infer_shapes
+        from onnx.utils import Extractor
+
+        (latent, valid), (features,) = DECODER_IO
+        extractor = Extractor(infer_shapes(graph))  # it cuts at values whose types it knows
+        body, arms = outputs
+        self.names = (body, arms)
+        cut = {"body": extractor.extract_model([latent, valid], [body]),
+               "arms": extractor.extract_model([latent, valid], [arms]),
+               "join": extractor.extract_model([body, arms, valid], [features])}
+        self.sessions = {name: session_from_bytes(fixed_batch(model.SerializeToString(), 1), 1)
+                         for name, model in cut.items()}
+        self.inputs = {name: [i.name for i in s.get_inputs()]
+                       for name, s in self.sessions.items()}
+        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mlct-decoder")
+
+    @classmethod
+    def of(cls, decoder: str | os.PathLike) -> DecoderHalves | None:
+        """The halves of the decoder graph at `decoder`, or None: no arm pair, or no onnx
+        package to cut the graph with."""
+        try:
+            import onnx
+        except ImportError:
+            return None
+        graph = onnx.load(str(decoder))
+        outputs = half_outputs(graph)
+        return None if outputs is None else cls(decoder, graph, outputs)
+
+    def _run(self, name: str, feeds: dict[str, np.ndarray]) -> np.ndarray:
+        session = self.sessions[name]
+        (out,) = session.run(None, {k: feeds[k] for k in self.inputs[name]})
+        return out
+
+    def __call__(self, latent: np.ndarray, valid: np.ndarray) -> np.ndarray:
+        (latent_name, valid_name), _ = DECODER_IO
+        feeds = {latent_name: latent, valid_name: valid}
+        arms = self._worker.submit(self._run, "arms", feeds)
+        body = self._run("body", feeds)
+        body_name, arms_name = self.names
+        return self._run("join", {body_name: body, arms_name: arms.result(),
+                                  valid_name: valid})
