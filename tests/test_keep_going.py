@@ -287,7 +287,7 @@ def test_a_walk_that_stops_before_its_natural_length_is_a_gait_by_its_steps():
     decoder stopped "a person walks forward" at 4.3 s of 5.0): judged over its moving stretch,
     it is a gait when its feet alternate there, and it is kept going; the same root path with
     the feet moving together (no steps) is not."""
-    from mlct.generate.keep_going import foot_swaps
+    from mlct.motion.gait import foot_swaps
 
     walk = walker(9.0, stop_at=4.0)
     assert foot_swaps(walk[10:76], HUMANML3D) >= 4

@@ -32,6 +32,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from mlct.motion import gait
 from mlct.motion.skeleton import HUMANML3D
 
 FPS = HUMANML3D.fps
@@ -255,22 +256,10 @@ def knee_clearance(joints: np.ndarray) -> dict[str, float]:
 
 # ---------------------------------------------------------------------------- feet
 
-def _foot_heights(joints: np.ndarray) -> dict[str, np.ndarray]:
-    """Per side, (T,) height of the foot's lowest point (ankle or toe)."""
-    return {s: joints[:, list(FOOT[s]), 1].min(axis=1) for s in SIDES}
-
-
 def foot_swaps(joints: np.ndarray, hysteresis: float = 0.03) -> int:
     """How often the lower foot changes side; a change counts once the other foot is lower by
     more than `hysteresis` m, so two feet planted side by side do not flicker."""
-    heights = _foot_heights(as_joints(joints))
-    difference = heights["left"] - heights["right"]  # < 0: the left foot is the lower
-    swaps, lower = 0, None
-    for d in difference:
-        now = "left" if d < -hysteresis else "right" if d > hysteresis else lower
-        swaps += lower is not None and now != lower
-        lower = now
-    return int(swaps)
+    return gait.foot_swaps(as_joints(joints), HUMANML3D, hysteresis)
 
 
 def foot_travel(joints: np.ndarray) -> dict[str, float]:

@@ -29,6 +29,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from mlct.generate.long_motion import _decompose, chain_segments, heading
+from mlct.motion.gait import foot_swaps
 from mlct.motion.skeleton import Skeleton
 
 # A count or a distance in the prompt: the action ends when it is done.
@@ -135,20 +136,6 @@ def _gait_pace(joints: np.ndarray, speed: np.ndarray, fps: float, natural_second
         if lead < stop < end and foot_swaps(joints[lead:stop], skeleton) >= MIN_STEPS:
             pace = _pace_over(joints, speed, fps, lead, stop, skeleton)
     return pace
-
-
-def foot_swaps(joints: np.ndarray, skeleton: Skeleton, hysteresis: float = 0.03) -> int:
-    """How often the lower foot changes side (eval/readouts.py's foot_swaps, on any skeleton):
-    a change counts once the other foot is lower by more than `hysteresis` m."""
-    joints = np.asarray(joints)
-    left = joints[:, list(skeleton.foot_left), 1].min(axis=1)
-    right = joints[:, list(skeleton.foot_right), 1].min(axis=1)
-    swaps, lower = 0, 0  # -1: the left foot is the lower, 1: the right, 0: not yet known
-    for d in left - right:
-        now = -1 if d < -hysteresis else 1 if d > hysteresis else lower
-        swaps += lower != 0 and now != lower
-        lower = now
-    return int(swaps)
 
 
 def _pace_over(joints: np.ndarray, speed: np.ndarray, fps: float, lead: int, end: int,
