@@ -1,7 +1,7 @@
 """Inference speed: AITS split, throughput, peak memory, and the machine's limit (issues 6, 17).
 
     python bench/inference_speed.py [--quick] [--device cpu|cuda] [--dtypes float32,bfloat16]
-                                    [--backends torch,onnx,onnx-int8,torch-compiled,cuda-graphs]
+                                    [--backends torch,onnx,onnx-spinning,onnx-int8,...]
                                     [--threads N] [--runs 20] [--json OUT.json]
 
 Models: the bundled small consistency model ("small CM"; --small-model DIR times another
@@ -31,7 +31,9 @@ Backends: torch, eager PyTorch through mlct.nn.inference's layers, in every dtyp
 ONNX Runtime backend (CPU, float32; the model is written to a temporary directory and converted
 first, untimed); onnx-int8, the same converted with `mlct convert --onnx --int8` (the
 denoiser's MatMuls dynamically quantized to int8; `--backend onnx-int8`, not the default:
-docs/performance.md);
+docs/performance.md); onnx-spinning, the onnx backend with batch 1's steps on two threads that
+spin within the run (what it does by itself on a machine of 4 cores or more:
+onnx_backend.SPARE_CORES_FOR_SPINNING);
 torch-compiled (only when named: compiling takes minutes per model and batch size), the
 denoiser backbone and decoder under torch.compile with plain (unpacked) products, which inductor
 can lower. The limit is the model's, whichever backend runs it.
@@ -384,9 +386,11 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
         gen.encode_text([""])
     elif spec["backend"] == "torch-compiled" and device.type == "cuda":
         _compile_for_cuda(gen)
-    if spec["backend"] in ("onnx", "onnx-int8"):
+    if spec["backend"] in ONNX_BACKENDS:
         folder = tempfile.mkdtemp(prefix="mlct-bench-onnx-")
         gen = onnx_generator(preset, sampler, folder, int8=spec["backend"] == "onnx-int8")
+        if spec["backend"] == "onnx-spinning":  # what a machine of 4 cores or more runs
+            gen.spinning_steps = True
         gen.encode_text([""])
     elif spec["backend"] == "torch-compiled" and device.type == "cpu":
         # inductor cannot lower the packed products
@@ -434,7 +438,7 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
                                       costs[part]["bytes"] / bandwidth[part])
                           for part, times in (("step", steps), ("decode", 1)))
             row["limit_motions_per_s"] = b / limit_s
-    if spec["backend"] in ("onnx", "onnx-int8"):
+    if spec["backend"] in ONNX_BACKENDS:
         import shutil
 
         shutil.rmtree(folder, ignore_errors=True)
@@ -777,7 +781,8 @@ def main() -> None:
         _write_json(args.json, {"machine": info, "results": results})
 
 
-BACKENDS = ("torch", "torch-compiled", "onnx", "onnx-int8", "cuda-graphs")
+BACKENDS = ("torch", "torch-compiled", "onnx", "onnx-spinning", "onnx-int8", "cuda-graphs")
+ONNX_BACKENDS = ("onnx", "onnx-spinning", "onnx-int8")
 
 
 def _backends(text: str | None, device: str, parser: argparse.ArgumentParser) -> list[str]:

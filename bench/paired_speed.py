@@ -17,7 +17,9 @@ clip's length (before nn/conv_autoencoder.py's DECODE_MARGIN); "one-graph" batch
 decoder in one sampler graph on one thread (before onnx_backend.DECODE_APART);
 "matmul-add-fusion" ONNX Runtime's MatMulAddFusion on (before onnx_io.DISABLED_OPTIMIZERS);
 "one-decoder" the decoder apart as one session on all threads, not its halves side by side
-(before onnx_backend.DECODE_HALVES).
+(before onnx_backend.DECODE_HALVES); "spinning-steps" / "one-thread-steps" batch 1's steps on
+two threads spinning within the run / on one thread, whatever the machine's core count
+(onnx_backend.SPARE_CORES_FOR_SPINNING decides otherwise).
 --frames sets the clip's length (196: 9.8 s, the bench's; 100: 5 s, generate()'s default).
 Per call, as bench/inference_speed.py times them: warm = what generate() runs for a caption
 already encoded (text memo, anchors' pull, sample_features: 5 steps and the decoder, 196
@@ -39,7 +41,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from inference_speed import FRAMES, TEXTS  # noqa: E402  (the same prompts and length)
 
 
-VARIANTS = ("unfused-text", "whole-grid", "one-graph", "matmul-add-fusion", "one-decoder")
+VARIANTS = ("unfused-text", "whole-grid", "one-graph", "matmul-add-fusion", "one-decoder",
+            "spinning-steps", "one-thread-steps")
 
 
 def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
@@ -73,6 +76,8 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
         gen = mlct.load(out, backend="onnx")  # ONNX Runtime threads follow torch's
         gen.decode_apart = "one-graph" not in chosen
         gen.decode_halves = "one-decoder" not in chosen
+        if chosen & {"spinning-steps", "one-thread-steps"}:
+            gen.spinning_steps = "spinning-steps" in chosen
         warm_ms(gen, len(TEXTS) + 2, 0, frames)  # the text memo and the sampler graph's
         text_ms(gen, 4, 0)  # sessions, made here under the switches
     finally:

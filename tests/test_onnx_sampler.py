@@ -103,6 +103,7 @@ def test_batch_one_runs_on_one_thread_and_larger_batches_on_all(backends) -> Non
     # as the fixture's pair: the walk of 196 frames may otherwise be remade as chained takes
     # (generate/keep_going.py) on this side only (it was, with the weights of 2026-11-27)
     onnx_gen.keep_going = False
+    onnx_gen.spinning_steps = False  # as on a machine of fewer than 4 cores (below: 4 or more)
     for texts, lengths in ((TEXTS[:1], [50]), (TEXTS, LENGTHS)):
         want = torch_gen.generate(texts, lengths=lengths, nfe=2, seed=7, candidates=1)
         for _ in range(2):
@@ -119,6 +120,34 @@ def test_batch_one_runs_on_one_thread_and_larger_batches_on_all(backends) -> Non
     assert [o.name for o in fixed.get_outputs()] == ["latent"]
     # the step times and coefficients are the graph's constants, not inputs
     assert not {"times", "coef", "valid"} & {i.name for i in fixed.get_inputs()}
+
+
+def test_spinning_steps_run_on_two_threads_that_stop_with_the_run(backends, monkeypatch
+                                                                   ) -> None:
+    """On a machine of 4 cores or more (onnx_backend.SPARE_CORES_FOR_SPINNING) batch 1's steps
+    run on two threads spinning within the run only; the motion is the same."""
+    import mlct.generate.onnx_backend as onnx_backend
+
+    torch_gen, _ = backends
+    folder = Path(backends[1].graphs.denoiser).parent.parent
+    made = {}
+    for cores in (2, 8):
+        monkeypatch.setattr(onnx_backend.os, "cpu_count", lambda cores=cores: cores)
+        gen = onnx_backend.OnnxMotionGenerator.load(folder, threads=2)
+        gen.keep_going = False
+        for _ in range(2):  # the second call builds the graph
+            made[cores] = gen.generate(TEXTS[:1], lengths=[50], nfe=2, seed=7, candidates=1)
+        ((key, session),) = gen._sessions.items()
+        options = session.get_session_options()
+        spinning = cores >= onnx_backend.SPARE_CORES_FOR_SPINNING
+        assert key[1] == options.intra_op_num_threads == (2 if spinning else 1)
+        assert options.get_session_config_entry("session.intra_op.allow_spinning") == (
+            "1" if spinning else "0")
+        if spinning:
+            assert options.get_session_config_entry("session.force_spinning_stop") == "1"
+    assert gap(made[2], made[8]) < 1e-4
+    want = torch_gen.generate(TEXTS[:1], lengths=[50], nfe=2, seed=7, candidates=1)
+    assert gap(want, made[8]) < JOINTS_M
 
 
 def test_decoding_apart_gives_the_one_graph_features(backends) -> None:

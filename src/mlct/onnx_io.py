@@ -76,15 +76,18 @@ def onnxruntime_module() -> Any:
     return onnxruntime
 
 
-def session(path: str | os.PathLike | bytes, threads: int | None = None
-            ) -> onnxruntime.InferenceSession:
+def session(path: str | os.PathLike | bytes, threads: int | None = None,
+            spin_within_run: bool = False) -> onnxruntime.InferenceSession:
     """An ONNX Runtime CPU session of the graph at path, every graph optimization on.
 
     threads: intra-op threads; None follows torch.get_num_threads(), so one knob
     (torch.set_num_threads, OMP_NUM_THREADS) sets both backends alike. The threads sleep
     between operators instead of spinning (ONNX Runtime's default): on a 2-core machine busy
     with other work, the bundled model's warm batch-1 median at 2 threads was 116 ms spinning
-    and 35 ms not (1 thread: 20 and 21 ms; docs/performance.md)."""
+    and 35 ms not (1 thread: 20 and 21 ms; docs/performance.md).
+    spin_within_run: the threads spin between operators during a run and stop when it ends
+    (`session.force_spinning_stop`), so they take no core between calls: for a graph of many
+    small operators on spare cores (onnx_backend.py, the batch-1 steps)."""
     ort = onnxruntime_module()
     options = ort.SessionOptions()
     options.intra_op_num_threads = int(threads or torch.get_num_threads())
@@ -92,7 +95,10 @@ def session(path: str | os.PathLike | bytes, threads: int | None = None
     options.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
     options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
     options.log_severity_level = 3  # errors only: no notes on stderr
-    options.add_session_config_entry("session.intra_op.allow_spinning", "0")
+    options.add_session_config_entry("session.intra_op.allow_spinning",
+                                     "1" if spin_within_run else "0")
+    if spin_within_run:
+        options.add_session_config_entry("session.force_spinning_stop", "1")
     # int8 weights dequantized in the graph (export-web's 'int8-weights' text encoder) are
     # computed as written, in float32, as ONNX Runtime Web computes them: left on, the native
     # build fuses DequantizeLinear + MatMul into MatMulNBits, whose arithmetic moved MiniLM's
@@ -109,6 +115,7 @@ def session(path: str | os.PathLike | bytes, threads: int | None = None
                         ) from None
 
 
-def session_from_bytes(model: bytes, threads: int | None = None) -> onnxruntime.InferenceSession:
+def session_from_bytes(model: bytes, threads: int | None = None, spin_within_run: bool = False
+                       ) -> onnxruntime.InferenceSession:
     """session() of a serialized graph held in memory."""
-    return session(model, threads)
+    return session(model, threads, spin_within_run)
