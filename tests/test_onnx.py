@@ -86,6 +86,9 @@ def test_text_embeddings_match_the_torch_encoder(backends) -> None:
 
     ops = [node.op_type for node in onnx.load(str(onnx_gen.graphs.text_encoder)).graph.node]
     assert ops.count("Attention") == 6 and "Softmax" not in ops
+    # its threads spin within a run and stop with it (onnx_io.session's spin_within_run)
+    options = onnx_gen.text_encoder.session.get_session_options()
+    assert options.get_session_config_entry("session.force_spinning_stop") == "1"
     # the same graph serves "minilm+tokens": the token slots are filled around it
     tokens = OnnxMiniLMEncoder(onnx_gen.graphs.text_encoder, "minilm+tokens")
     torch.testing.assert_close(tokens.encode(texts), load_text_encoder("minilm+tokens").encode(

@@ -83,7 +83,10 @@ class OnnxMiniLMEncoder(MiniLMEncoder):
         self._load_tokenizer(bundled_minilm_path(), name, "cpu", batch_size,
                              token_slots_of(name))
         self.graph = Path(graph)
-        self.session = session(self.graph, threads)
+        # its threads spin between operators within a run and stop with it: a new sentence 3.04
+        # against 3.70 ms sleeping, 2 threads, quiet (docs/performance.md, "Spinning within the
+        # run"); with other work on the cores two threads lose either way (~3 % more spinning)
+        self.session = session(self.graph, threads, spin_within_run=True)
 
     def _run(self, ids: Tensor, mask: Tensor) -> tuple[Tensor, Tensor]:
         pooled, states = self.session.run(list(OUTPUTS), {"ids": ids.numpy(),
