@@ -32,8 +32,8 @@ ONNX Runtime backend (CPU, float32; the model is written to a temporary director
 first, untimed); onnx-int8, the same converted with `mlct convert --onnx --int8` (the
 denoiser's MatMuls dynamically quantized to int8; `--backend onnx-int8`, not the default:
 docs/performance.md); onnx-spinning, the onnx backend with batch 1's steps on two threads that
-spin within the run (what it does by itself on a machine of 4 cores or more:
-onnx_backend.SPARE_CORES_FOR_SPINNING);
+spin within the run (what it does by itself where two logical CPUs stay free beside them:
+onnx_io.spare_cores);
 torch-compiled (only when named: compiling takes minutes per model and batch size), the
 denoiser backbone and decoder under torch.compile with plain (unpacked) products, which inductor
 can lower. The limit is the model's, whichever backend runs it.

@@ -19,7 +19,7 @@ decoder in one sampler graph on one thread (before onnx_backend.DECODE_APART);
 "one-decoder" the decoder apart as one session on all threads, not its halves side by side
 (before onnx_backend.DECODE_HALVES); "spinning-steps" / "one-thread-steps" batch 1's steps on
 two threads spinning within the run / on one thread, whatever the machine's core count
-(onnx_backend.SPARE_CORES_FOR_SPINNING decides otherwise).
+(onnx_io.spare_cores decides otherwise).
 --frames sets the clip's length (196: 9.8 s, the bench's; 100: 5 s, generate()'s default).
 Per call, as bench/inference_speed.py times them: warm = what generate() runs for a caption
 already encoded (text memo, anchors' pull, sample_features: 5 steps and the decoder, 196

@@ -86,9 +86,22 @@ def test_text_embeddings_match_the_torch_encoder(backends) -> None:
 
     ops = [node.op_type for node in onnx.load(str(onnx_gen.graphs.text_encoder)).graph.node]
     assert ops.count("Attention") == 6 and "Softmax" not in ops
-    # its threads spin within a run and stop with it (onnx_io.session's spin_within_run)
+    # its threads spin within a run and stop with it where cores are to spare (onnx_io)
+    from mlct.onnx_io import spare_cores
+
     options = onnx_gen.text_encoder.session.get_session_options()
-    assert options.get_session_config_entry("session.force_spinning_stop") == "1"
+    count = options.intra_op_num_threads
+    spinning = count > 1 and spare_cores(count)
+    assert options.get_session_config_entry("session.intra_op.allow_spinning") == (
+        "1" if spinning else "0")
+    import mlct.onnx_io as onnx_io
+
+    for cores, spins in ((2, "0"), (8, "1")):  # two threads: spinning from 4 logical CPUs
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(onnx_io.os, "cpu_count", lambda cores=cores: cores)
+            encoder = OnnxMiniLMEncoder(onnx_gen.graphs.text_encoder, spec, threads=2)
+        options = encoder.session.get_session_options()
+        assert options.get_session_config_entry("session.intra_op.allow_spinning") == spins
     # the same graph serves "minilm+tokens": the token slots are filled around it
     tokens = OnnxMiniLMEncoder(onnx_gen.graphs.text_encoder, "minilm+tokens")
     torch.testing.assert_close(tokens.encode(texts), load_text_encoder("minilm+tokens").encode(

@@ -124,22 +124,23 @@ def test_batch_one_runs_on_one_thread_and_larger_batches_on_all(backends) -> Non
 
 def test_spinning_steps_run_on_two_threads_that_stop_with_the_run(backends, monkeypatch
                                                                    ) -> None:
-    """On a machine of 4 cores or more (onnx_backend.SPARE_CORES_FOR_SPINNING) batch 1's steps
-    run on two threads spinning within the run only; the motion is the same."""
+    """Where two logical CPUs stay free beside them (onnx_io.spare_cores: 4 or more here) batch
+    1's steps run on two threads spinning within the run only; the motion is the same."""
     import mlct.generate.onnx_backend as onnx_backend
+    import mlct.onnx_io as onnx_io
 
     torch_gen, _ = backends
     folder = Path(backends[1].graphs.denoiser).parent.parent
     made = {}
     for cores in (2, 8):
-        monkeypatch.setattr(onnx_backend.os, "cpu_count", lambda cores=cores: cores)
+        monkeypatch.setattr(onnx_io.os, "cpu_count", lambda cores=cores: cores)
         gen = onnx_backend.OnnxMotionGenerator.load(folder, threads=2)
         gen.keep_going = False
         for _ in range(2):  # the second call builds the graph
             made[cores] = gen.generate(TEXTS[:1], lengths=[50], nfe=2, seed=7, candidates=1)
         ((key, session),) = gen._sessions.items()
         options = session.get_session_options()
-        spinning = cores >= onnx_backend.SPARE_CORES_FOR_SPINNING
+        spinning = cores >= 4
         assert key[1] == options.intra_op_num_threads == (2 if spinning else 1)
         assert options.get_session_config_entry("session.intra_op.allow_spinning") == (
             "1" if spinning else "0")

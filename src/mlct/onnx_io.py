@@ -76,6 +76,15 @@ def onnxruntime_module() -> Any:
     return onnxruntime
 
 
+def spare_cores(threads: int) -> bool:
+    """Does the machine keep at least two logical CPUs free beside `threads` busy ones? Where it
+    does, a session's threads may spin within a run (session's spin_within_run); where it does
+    not, spinning threads fight other work for the cores: with the test suite running beside on
+    a 2-core machine, MiniLM took 8.2 ms spinning within the run against 4.1 sleeping
+    (docs/performance.md, "Spinning within the run")."""
+    return (os.cpu_count() or 1) >= threads + 2
+
+
 def session(path: str | os.PathLike | bytes, threads: int | None = None,
             spin_within_run: bool = False) -> onnxruntime.InferenceSession:
     """An ONNX Runtime CPU session of the graph at path, every graph optimization on.

@@ -29,7 +29,7 @@ from mlct.generate.samplers import ConsistencySampler
 from mlct.nn.build import latent_clamp
 from mlct.nn.inference import weight_dtype
 from mlct.nn.masks import lengths_to_mask
-from mlct.onnx_io import onnxruntime_module, session, session_from_bytes
+from mlct.onnx_io import onnxruntime_module, session, session_from_bytes, spare_cores
 from mlct.text.base import TextEncoder
 
 
@@ -103,15 +103,14 @@ DECODE_APART = True
 # as one session on two threads and 4.29 with the one-thread graph of steps and decoder (5 NFE,
 # 196 frames, paired; bench/paired_speed.py :one-decoder, :one-graph).
 DECODE_HALVES = True
-# On a machine of at least this many cores, batch 1's steps run on two threads that spin
-# between operators within the run and stop when it ends (onnx_io.session's spin_within_run):
-# without the wake-ups, a second thread pays for the steps' small products: warm 4.12 against
-# 5.02 ms on this repository's 2-core host when nothing else runs (paired; bench/paired_speed.py
-# :spinning-steps). With other work on the cores, two threads lose whether they spin or sleep
-# (steps and decoder with 2 busy processes beside: 6.9 ms on one thread, 9.9 spinning, 9.6
-# sleeping; with 1: 10.3, 12.8, 12.4), so a 2-core machine keeps the steps on one thread and
-# one with cores to spare spins (docs/performance.md, "Spinning within the run").
-SPARE_CORES_FOR_SPINNING = 4
+# Where two logical CPUs stay free beside them (onnx_io.spare_cores), batch 1's steps run on
+# two threads that spin between operators within the run and stop when it ends (onnx_io
+# session's spin_within_run): without the wake-ups, a second thread pays for the steps' small
+# products: warm 4.12 against 5.02 ms on this repository's 2-core host when nothing else runs
+# (paired; bench/paired_speed.py :spinning-steps). With other work on the cores, two threads
+# lose whether they spin or sleep (steps and decoder with the test suite running beside: 5.0 ms
+# on one thread, 8.1 spinning within the run, 5.6 sleeping), so a machine without cores to
+# spare keeps the steps on one thread (docs/performance.md, "Spinning within the run").
 
 
 class OnnxMotionGenerator(MotionGenerator):
@@ -143,7 +142,7 @@ class OnnxMotionGenerator(MotionGenerator):
         self.torch_min_batch = TORCH_MIN_BATCH
         self.decode_apart = DECODE_APART
         self.decode_halves = DECODE_HALVES
-        self.spinning_steps: bool | None = None  # None: SPARE_CORES_FOR_SPINNING decides
+        self.spinning_steps: bool | None = None  # None: _spinning_steps decides
         self._halves: DecoderHalves | None | bool = False  # False: not made yet
         self._steps_only: dict[int, bytes] = {}  # step count -> its graph without the decoder
         self._tensors = tensors  # the torch networks of large batches are built from them
@@ -248,7 +247,7 @@ class OnnxMotionGenerator(MotionGenerator):
         threads = 1 if small else int(self.threads or torch.get_num_threads())
         apart = small and self.decode_apart and self.ae_threads > 1
         spin = apart and self._spinning_steps()
-        if spin:  # two threads spinning within the run (SPARE_CORES_FOR_SPINNING)
+        if spin:  # two threads spinning within the run (_spinning_steps)
             threads = 2
         if apart and steps not in self._steps_only:
             self._steps_only[steps] = self._sampler_graph(steps, with_decoder=False)
@@ -262,11 +261,11 @@ class OnnxMotionGenerator(MotionGenerator):
 
     def _spinning_steps(self) -> bool:
         """Do batch 1's steps run on two threads that spin within the run (`spinning_steps`;
-        None: when the machine has SPARE_CORES_FOR_SPINNING cores or more and `threads` >= 2)?"""
+        None: when `threads` >= 2 and the machine has two logical CPUs to spare beside them,
+        onnx_io.spare_cores)?"""
         if self.spinning_steps is not None:
             return self.spinning_steps
-        return (self.ae_threads >= 2
-                and (os.cpu_count() or 1) >= SPARE_CORES_FOR_SPINNING)
+        return self.ae_threads >= 2 and spare_cores(2)
 
     def _decoder_halves(self) -> DecoderHalves | None:
         """The decoder cut in its two halves (onnx_decoder_halves.py), made on first use; None
