@@ -75,7 +75,12 @@ class DecoderHalves:
             return None
         graph = onnx.load(str(decoder))
         outputs = half_outputs(graph)
-        return None if outputs is None else cls(decoder, graph, outputs)
+        if outputs is None:
+            return None
+        try:
+            return cls(decoder, graph, outputs)
+        except ValueError:  # a graph the cut does not fit (Extractor): the whole decoder runs
+            return None
 
     def _run(self, name: str, feeds: dict[str, np.ndarray]) -> np.ndarray:
         session = self.sessions[name]
