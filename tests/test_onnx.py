@@ -188,6 +188,21 @@ def test_conv_decoder_with_its_own_arm_pair(tmp_path) -> None:
     want = torch_gen.generate(TEXTS[:1], lengths=[37], nfe=2, seed=5, candidates=1)
     got = gen.generate(TEXTS[:1], lengths=[37], nfe=2, seed=5, candidates=1)
     assert largest_gap(want, got) < JOINTS_M
+    # a forked child (multiprocessing on Linux) decodes too: it gets a worker thread of its own
+    import multiprocessing
+
+    if "fork" in multiprocessing.get_all_start_methods():
+        _FORKED.update(gen=gen, cond=gen.encode_text(TEXTS[:1]))
+        with multiprocessing.get_context("fork").Pool(1) as pool:
+            child = pool.apply_async(_sample_in_child, (37,)).get(60)
+        np.testing.assert_allclose(child, features[True], rtol=0, atol=1e-5)
+
+
+_FORKED: dict = {}  # what a forked child inherits (a generator does not pickle)
+
+
+def _sample_in_child(frames: int) -> np.ndarray:
+    return _FORKED["gen"].sample_features(_FORKED["cond"], 2, [5], None, [frames])[0]
 
 
 # --- bad input: one line naming the problem and the fix ----------------------------------------

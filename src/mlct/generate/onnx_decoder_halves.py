@@ -63,7 +63,8 @@ class DecoderHalves:
                          for name, model in cut.items()}
         self.inputs = {name: [i.name for i in s.get_inputs()]
                        for name, s in self.sessions.items()}
-        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mlct-decoder")
+        self._worker: ThreadPoolExecutor | None = None
+        self._pid = 0  # the process the worker thread belongs to
 
     @classmethod
     def of(cls, decoder: str | os.PathLike) -> DecoderHalves | None:
@@ -87,10 +88,18 @@ class DecoderHalves:
         (out,) = session.run(None, {k: feeds[k] for k in self.inputs[name]})
         return out
 
+    def _pool(self) -> ThreadPoolExecutor:
+        """The worker thread, made anew in a forked child (a fork copies the pool, not its
+        thread: work handed to the copy would never run)."""
+        if self._worker is None or self._pid != os.getpid():
+            self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mlct-decoder")
+            self._pid = os.getpid()
+        return self._worker
+
     def __call__(self, latent: np.ndarray, valid: np.ndarray) -> np.ndarray:
         (latent_name, valid_name), _ = DECODER_IO
         feeds = {latent_name: latent, valid_name: valid}
-        arms = self._worker.submit(self._run, "arms", feeds)
+        arms = self._pool().submit(self._run, "arms", feeds)
         body = self._run("body", feeds)
         body_name, arms_name = self.names
         return self._run("join", {body_name: body, arms_name: arms.result(),
