@@ -86,7 +86,7 @@ def spare_cores(threads: int) -> bool:
 
 
 def session(path: str | os.PathLike | bytes, threads: int | None = None,
-            spin_within_run: bool = False) -> onnxruntime.InferenceSession:
+            spin_within_run: bool | None = None) -> onnxruntime.InferenceSession:
     """An ONNX Runtime CPU session of the graph at path, every graph optimization on.
 
     threads: intra-op threads; None follows torch.get_num_threads(), so one knob
@@ -95,11 +95,16 @@ def session(path: str | os.PathLike | bytes, threads: int | None = None,
     with other work, the bundled model's warm batch-1 median at 2 threads was 116 ms spinning
     and 35 ms not (1 thread: 20 and 21 ms; docs/performance.md).
     spin_within_run: the threads spin between operators during a run and stop when it ends
-    (`session.force_spinning_stop`), so they take no core between calls: for a graph of many
-    small operators on spare cores (onnx_backend.py, the batch-1 steps)."""
+    (`session.force_spinning_stop`), so they take no core between calls; None: when there are
+    threads to wake and cores to spare (spare_cores). Measured on 2 quiet cores, spinning
+    within the run against sleeping: MiniLM 3.04 / 3.70 ms, the paper-size model's 5 steps and
+    decoder 50.4 / 57.1 ms (docs/performance.md, "Spinning within the run")."""
     ort = onnxruntime_module()
     options = ort.SessionOptions()
     options.intra_op_num_threads = int(threads or torch.get_num_threads())
+    if spin_within_run is None:
+        count = options.intra_op_num_threads
+        spin_within_run = count > 1 and spare_cores(count)
     options.inter_op_num_threads = 1
     options.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
     options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
@@ -124,7 +129,7 @@ def session(path: str | os.PathLike | bytes, threads: int | None = None,
                         ) from None
 
 
-def session_from_bytes(model: bytes, threads: int | None = None, spin_within_run: bool = False
-                       ) -> onnxruntime.InferenceSession:
+def session_from_bytes(model: bytes, threads: int | None = None,
+                       spin_within_run: bool | None = None) -> onnxruntime.InferenceSession:
     """session() of a serialized graph held in memory."""
     return session(model, threads, spin_within_run)

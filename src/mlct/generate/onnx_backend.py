@@ -255,8 +255,9 @@ class OnnxMotionGenerator(MotionGenerator):
         if key not in self._sessions:
             chosen = self._steps_only[steps] if apart else graph
             # batch 1, the size a person waits on, gets a graph of fixed shapes (fewer operators)
+            # (spin False: on one thread, or no cores to spare; onnx_io.session decides then)
             self._sessions[key] = session_from_bytes(fixed_batch(chosen, 1) if batch == 1
-                                                     else chosen, threads, spin)
+                                                     else chosen, threads, spin or None)
         return self._sessions[key], apart
 
     def _spinning_steps(self) -> bool:

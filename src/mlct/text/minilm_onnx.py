@@ -15,7 +15,7 @@ import torch
 from torch import Tensor
 
 from mlct.errors import MlctError
-from mlct.onnx_io import export_graph, session, spare_cores
+from mlct.onnx_io import export_graph, session
 from mlct.text.encoders import MINILM_SPECS, bundled_minilm_path, token_slots_of
 from mlct.text.minilm import MiniLMEncoder
 
@@ -84,11 +84,8 @@ class OnnxMiniLMEncoder(MiniLMEncoder):
                              token_slots_of(name))
         self.graph = Path(graph)
         # where cores are to spare its threads spin between operators within a run and stop
-        # with it: a new sentence 3.04 against 3.70 ms sleeping, 2 threads of a quiet machine
-        # (docs/performance.md, "Spinning within the run")
-        count = int(threads or torch.get_num_threads())
-        self.session = session(self.graph, threads, spin_within_run=count > 1
-                               and spare_cores(count))
+        # with it (onnx_io.session): a new sentence 3.04 against 3.70 ms sleeping
+        self.session = session(self.graph, threads)
 
     def _run(self, ids: Tensor, mask: Tensor) -> tuple[Tensor, Tensor]:
         pooled, states = self.session.run(list(OUTPUTS), {"ids": ids.numpy(),
