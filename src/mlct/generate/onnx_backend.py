@@ -96,7 +96,8 @@ TORCH_MIN_BATCH: int | None = 32
 # thread's wake-ups, the decoder's convolutions over up to 200 frames gain from it: warm 5.44
 # -> 5.29 ms paired (5 NFE, 196 frames, 2 threads; bench/paired_speed.py :one-graph). Alone, the
 # decoder on two threads took 2.15 against 2.68 ms; in the pipeline the gain is smaller, as its
-# weights come back to the cache after the steps (docs/performance.md, "The decoder apart").
+# weights come back to the cache after the steps (docs/performance.md, "Around the sampler
+# graph").
 DECODE_APART = True
 # ... and a decoder with an arm pair runs its two halves side by side, one core each
 # (onnx_decoder_halves.py): the bundled model's warm call 4.02 ms against 4.34 with the decoder
@@ -136,7 +137,8 @@ class OnnxMotionGenerator(MotionGenerator):
         self.graphs, self.threads = graphs, threads
         self.fused = fused
         self._fused: dict[int, Any] = {}  # step count -> its sampler graph (bytes, or None)
-        self._sessions: dict[tuple[int, int], Any] = {}  # (step count, threads) -> session
+        # (step count, threads, batch 1, steps apart from the decoder) -> session
+        self._sessions: dict[tuple[int, int, bool, bool], Any] = {}
         self._calls: dict[int, int] = {}  # step count -> sample_features calls with it
         self._coefficients: dict[int, dict[str, np.ndarray]] = {}  # step count -> its times, coef
         self.torch_min_batch = TORCH_MIN_BATCH
@@ -225,7 +227,7 @@ class OnnxMotionGenerator(MotionGenerator):
 
     def _sampler_session(self, steps: int, batch: int) -> tuple[Any, bool] | None:
         """The sampler graph's session for `steps` steps at this batch size, and whether it
-        leaves the decoding to the decoder's session (_decodes_apart); or None: not a
+        leaves the decoding to the decoder's session (DECODE_APART); or None: not a
         consistency model, the first call with this step count, MAX_SAMPLER_GRAPHS built
         already, or no onnx package to build the graph with. A small batch of a small graph
         runs on one thread, anything else on `threads`."""
