@@ -62,7 +62,8 @@ def export_graph(module: nn.Module, args: tuple[torch.Tensor, ...], path: str | 
 # a Reshape before and after: 160 of the bundled model's 580 operators in its 5-step batch-1
 # sampler graph. Without it: 480 operators (and BiasGelu fused in their place), and the warm
 # batch-1 call (5 NFE, 196 frames, 2 threads) 3 % faster, paired in one run: 5.49 -> 5.29 ms
-# median (bench/paired_speed.py :matmul-add-fusion; docs/performance.md, "Fewer operators").
+# median (bench/paired_speed.py :matmul-add-fusion; docs/performance.md, "Around the sampler
+# graph").
 DISABLED_OPTIMIZERS: tuple[str, ...] = ("MatMulAddFusion",)
 
 

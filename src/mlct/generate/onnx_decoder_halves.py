@@ -6,12 +6,12 @@ in 1.55 ms against 1.80 on one, and its parallel executor, which could run the t
 halves side by side, took 1.90 ms. The halves are independent until their columns are put back in
 feature order, so here each runs in a session of its own on one thread, the arm pair's in a
 worker thread while the caller's thread runs the body's (ONNX Runtime releases the GIL while it
-runs): 1.14 ms (docs/performance.md, "The decoder's halves side by side").
+runs): 1.14 ms (docs/performance.md, "Version 7, and the decoder's halves side by side").
 
 The three graphs are cut out of decoder.onnx itself (onnx.utils.Extractor), at the outputs of
 each half's last convolution: the body's half, the arm pair's half, and the join (the columns
 in feature order, the frames past each length set to 0). So the arithmetic is the decoder's own,
-operator for operator (tests/test_onnx_sampler.py).
+operator for operator (tests/test_onnx.py, the arm-pair model).
 """
 
 from __future__ import annotations
