@@ -103,7 +103,8 @@ class AutoencoderConfig(_Section):
     freeze_encoder: bool = False
     # Keep the arm pair's decoder as loaded (--init) too, while a narrower body decoder trains
     # (ae.decoder_channels). Why: trained along, the arm decoder drifted and claps fell from
-    # 0.98 to 0.93 of the read-outs (docs/performance.md "A narrower body decoder").
+    # 0.98 to 0.93 of the read-outs (docs/training.md, "Version 7, a 96-channel body decoder
+    # beside version 6's arm decoder").
     freeze_arm_decoder: bool = False
     # Fraction of each batch whose decoding target runs past the clip, the last pose held still
     # for a random number of frames: teaches the decoder what to draw after an action ends.

@@ -59,6 +59,14 @@ def _remove_empty(folders: list[Path]) -> None:
             return
 
 
+def readable_by_umask(path: Path) -> None:
+    """Give a file written private (0600: mkstemp, safetensors) an ordinary file's permissions,
+    0666 less the user's umask."""
+    umask = os.umask(0)
+    os.umask(umask)
+    path.chmod(0o666 & ~umask)
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
     """Yield a temporary path beside `path`; on success it replaces `path`, on error it is removed.
@@ -75,10 +83,7 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
     os.close(fd)
     tmp_path = Path(tmp)
-    # mkstemp makes the file private (0600); the result is an ordinary file under the umask.
-    umask = os.umask(0)
-    os.umask(umask)
-    tmp_path.chmod(0o666 & ~umask)
+    readable_by_umask(tmp_path)  # mkstemp makes the file private (0600)
     try:
         yield tmp_path
         _fsync(tmp_path)

@@ -132,7 +132,7 @@ def _gait_pace(joints: np.ndarray, speed: np.ndarray, fps: float, natural_second
     end = min(int(round((natural_seconds - 0.5) * fps)), len(joints))
     pace = _pace_over(joints, speed, fps, lead, end, skeleton)
     if pace is None:
-        stop = moving_stretch(joints, fps)[1]
+        stop = moving_stretch(joints, fps, speed)[1]
         if lead < stop < end and foot_swaps(joints[lead:stop], skeleton) >= MIN_STEPS:
             pace = _pace_over(joints, speed, fps, lead, stop, skeleton)
     return pace
@@ -173,9 +173,11 @@ def floor_height(joints: np.ndarray, skeleton: Skeleton) -> float:
     return float(np.median(np.asarray(joints)[:, feet, 1].min(axis=1)))
 
 
-def moving_stretch(joints: np.ndarray, fps: float) -> tuple[int, int]:
-    """[first, last) frames of a segment that move at MOVING_SHARE of its median moving speed."""
-    speed = ground_speed(joints, fps)
+def moving_stretch(joints: np.ndarray, fps: float, speed: np.ndarray | None = None
+                   ) -> tuple[int, int]:
+    """[first, last) frames of a segment that move at MOVING_SHARE of its median moving speed;
+    speed: ground_speed(joints, fps), when the caller has it."""
+    speed = ground_speed(joints, fps) if speed is None else speed
     moving = speed[speed >= MOVING_SPEED]
     if len(moving) == 0:
         return 0, len(joints)

@@ -246,8 +246,8 @@ class OnnxMotionGenerator(MotionGenerator):
         if graph is None:
             return None
         small = batch <= ONE_THREAD_MAX_BATCH and len(graph) <= ONE_THREAD_MAX_BYTES
-        threads = 1 if small else int(self.threads or torch.get_num_threads())
-        apart = small and self.decode_apart and self.ae_threads > 1
+        threads = 1 if small else self.thread_count
+        apart = small and self.decode_apart and self.thread_count > 1
         spin = apart and self._spinning_steps()
         if spin:  # two threads spinning within the run (_spinning_steps)
             threads = 2
@@ -268,7 +268,7 @@ class OnnxMotionGenerator(MotionGenerator):
         onnx_io.spare_cores)?"""
         if self.spinning_steps is not None:
             return self.spinning_steps
-        return self.ae_threads >= 2 and spare_cores(2)
+        return self.thread_count >= 2 and spare_cores(2)
 
     def _decoder_halves(self) -> DecoderHalves | None:
         """The decoder cut in its two halves (onnx_decoder_halves.py), made on first use; None
@@ -288,8 +288,8 @@ class OnnxMotionGenerator(MotionGenerator):
                              coefficients=self._step_coefficients(steps)).SerializeToString()
 
     @property
-    def ae_threads(self) -> int:
-        """The decoder session's intra-op threads."""
+    def thread_count(self) -> int:
+        """`threads`, or torch's when None: the decoder's and any multi-threaded graph's."""
         return int(self.threads or torch.get_num_threads())
 
     @property

@@ -45,10 +45,11 @@ def half_outputs(graph: Any) -> tuple[str, str] | None:
 
 
 class DecoderHalves:
-    """decoder.onnx as three batch-1 sessions, its halves run side by side (above); call it
-    with (latent (1, n, d), valid (1, T) bool) for the normalized features (1, T, D)."""
+    """A decoder graph (onnx.ModelProto) as three batch-1 sessions, its halves run side by side
+    (above), cut at `outputs` (half_outputs); call it with (latent (1, n, d), valid (1, T)
+    bool) for the normalized features (1, T, D)."""
 
-    def __init__(self, decoder: str | os.PathLike, graph: Any, outputs: tuple[str, str]) -> None:
+    def __init__(self, graph: Any, outputs: tuple[str, str]) -> None:
         from onnx.shape_inference import infer_shapes
         from onnx.utils import Extractor
 
@@ -79,7 +80,7 @@ class DecoderHalves:
         if outputs is None:
             return None
         try:
-            return cls(decoder, graph, outputs)
+            return cls(graph, outputs)
         except ValueError:  # a graph the cut does not fit (Extractor): the whole decoder runs
             return None
 

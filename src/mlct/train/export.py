@@ -16,7 +16,7 @@ from mlct.errors import MlctError
 from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION, ENCODER_KEY, ENCODER_PREFIXES
 from mlct.generate.onnx_bundle import ONNX_DIR, write_onnx_graphs
 from mlct.generate.samplers import sampler_for_stage
-from mlct.io import atomic_dir, strip_prefix
+from mlct.io import atomic_dir, readable_by_umask, strip_prefix
 from mlct.train.checkpoint import latest_checkpoint, load_checkpoint
 
 META_KEYS = ("step", "config", "feature_dim", "skeleton", "text_encoder", "text_dim")
@@ -161,7 +161,4 @@ def _save_weights(path: Path, tensors: dict[str, torch.Tensor]) -> None:
     """A bundle's model.safetensors, readable as the user's umask allows."""
     save_file({k: v.contiguous() for k, v in tensors.items()}, str(path),
               metadata={"format": BUNDLE_FORMAT})
-    umask = os.umask(0)
-    os.umask(umask)
-    path.chmod(0o666 & ~umask)  # safetensors writes it private (0600)
-
+    readable_by_umask(path)
