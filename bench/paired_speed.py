@@ -18,8 +18,11 @@ decoder in one sampler graph on one thread (before onnx_backend.DECODE_APART);
 "matmul-add-fusion" ONNX Runtime's MatMulAddFusion on (before onnx_io.DISABLED_OPTIMIZERS);
 "one-decoder" the decoder apart as one session on all threads, not its halves side by side
 (before onnx_backend.DECODE_HALVES); "spinning-steps" / "one-thread-steps" batch 1's steps on
-two threads spinning within the run / on one thread, whatever the machine's core count
-(onnx_io.spare_cores decides otherwise).
+two threads spinning within the run / on one thread, whatever the machine's load (onnx_io.spin_now
+decides otherwise); "static-spinning" the steps and the text encoder spinning by the machine's
+size alone (onnx_io.spare_cores: 4 logical CPUs or more), not by how idle it is now.
+--busy N runs N busy loops beside the rounds (started after loading), the load spin_now is to
+see: `--busy 1` on 2 cores is a machine with one core taken.
 --frames sets the clip's length (196: 9.8 s, the bench's; 100: 5 s, generate()'s default).
 Per call, as bench/inference_speed.py times them: warm = what generate() runs for a caption
 already encoded (text memo, anchors' pull, sample_features: 5 steps and the decoder, 196
@@ -31,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -42,7 +46,7 @@ from inference_speed import FRAMES, TEXTS  # noqa: E402  (the same prompts and l
 
 
 VARIANTS = ("unfused-text", "whole-grid", "one-graph", "matmul-add-fusion", "one-decoder",
-            "spinning-steps", "one-thread-steps")
+            "spinning-steps", "one-thread-steps", "static-spinning")
 
 
 def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
@@ -78,6 +82,10 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
         gen.decode_halves = "one-decoder" not in chosen
         if chosen & {"spinning-steps", "one-thread-steps"}:
             gen.spinning_steps = "spinning-steps" in chosen
+        if "static-spinning" in chosen:
+            if gen.spinning_steps is None:
+                gen.spinning_steps = gen.thread_count >= 2 and onnx_io.spare_cores(2)
+            gen.text_encoder.spinning = onnx_io.spare_cores(gen.text_encoder.threads)
         warm_ms(gen, len(TEXTS) + 2, 0, frames)  # the text memo and the sampler graph's
         text_ms(gen, 4, 0)  # sessions, made here under the switches
     finally:
@@ -116,6 +124,8 @@ def main() -> None:
     parser.add_argument("--calls", type=int, default=30)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--frames", type=int, default=FRAMES)
+    parser.add_argument("--busy", type=int, default=0, metavar="N",
+                        help="busy loops running beside the rounds")
     args = parser.parse_args()
     import torch
 
@@ -123,13 +133,20 @@ def main() -> None:
     root = Path(tempfile.mkdtemp(prefix="mlct-paired-"))
     gens = {spec: load(spec, root / f"m{i}", args.frames) for i, spec in enumerate(args.models)}
     rounds: dict[str, list[tuple[float, float]]] = {spec: [] for spec in gens}
-    for r in range(args.rounds):
-        for spec, gen in gens.items():
-            rounds[spec].append((warm_ms(gen, args.calls, r, args.frames),
-                                 text_ms(gen, args.calls, r)))
+    busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
+            for _ in range(args.busy)]
+    try:
+        for r in range(args.rounds):
+            for spec, gen in gens.items():
+                rounds[spec].append((warm_ms(gen, args.calls, r, args.frames),
+                                     text_ms(gen, args.calls, r)))
+    finally:
+        for loop in busy:
+            loop.kill()
     first = args.models[0]
     print(f"batch 1, {args.frames} frames, 5 NFE, onnx backend, {args.threads} threads; "
-          f"{args.rounds} rounds of {args.calls} calls, the models taking turns; ms")
+          f"{args.rounds} rounds of {args.calls} calls, the models taking turns; ms"
+          + (f"; {args.busy} busy loop(s) beside" if args.busy else ""))
     print(f"{'model':<44} {'warm med':>8} {'range':>13} {'text med':>8} {'cold med':>8} "
           f"{'warm/first':>10} {'cold/first':>10}")
     for spec, values in rounds.items():

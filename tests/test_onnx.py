@@ -86,26 +86,62 @@ def test_text_embeddings_match_the_torch_encoder(backends) -> None:
 
     ops = [node.op_type for node in onnx.load(str(onnx_gen.graphs.text_encoder)).graph.node]
     assert ops.count("Attention") == 6 and "Softmax" not in ops
-    # its threads spin within a run and stop with it where cores are to spare (onnx_io)
-    from mlct.onnx_io import spare_cores
-
-    options = onnx_gen.text_encoder.session.get_session_options()
-    count = options.intra_op_num_threads
-    spinning = count > 1 and spare_cores(count)
-    assert options.get_session_config_entry("session.intra_op.allow_spinning") == (
-        "1" if spinning else "0")
+    # its threads spin within a run and stop with it while the machine is idle beside them
+    # (onnx_io.spin_now), and sleep while other processes keep its CPUs busy
     import mlct.onnx_io as onnx_io
 
-    for cores, spins in ((2, "0"), (8, "1")):  # two threads: spinning from 4 logical CPUs
+    encoder = OnnxMiniLMEncoder(onnx_gen.graphs.text_encoder, spec, threads=2)
+
+    def spins() -> str:
+        options = encoder.session.get_session_options()
+        assert options.intra_op_num_threads == 2
+        if options.get_session_config_entry("session.intra_op.allow_spinning") == "0":
+            return "0"
+        assert options.get_session_config_entry("session.force_spinning_stop") == "1"
+        return "1"
+
+    # others' load in logical CPUs (None: the machine does not say), the machine's CPUs
+    for others, cores, want in ((0.05, 2, "1"), (1.0, 2, "0"), (0.05, 2, "1"), (None, 2, "0"),
+                                (None, 8, "1"), (6.5, 8, "0"), (5.0, 8, "1")):
         with pytest.MonkeyPatch.context() as patch:
             patch.setattr(onnx_io.os, "cpu_count", lambda cores=cores: cores)
-            encoder = OnnxMiniLMEncoder(onnx_gen.graphs.text_encoder, spec, threads=2)
-        options = encoder.session.get_session_options()
-        assert options.get_session_config_entry("session.intra_op.allow_spinning") == spins
+            patch.setattr(onnx_io, "OTHER_LOAD", lambda others=others: others)
+            assert spins() == want, (others, cores)
+            got = encoder.encode(texts[:2])  # the same vectors whichever session ran
+        torch.testing.assert_close(got, ours[:2], rtol=0, atol=1e-5)
+    assert set(encoder._sessions) == {False, True}  # each kind made once, then kept
     # the same graph serves "minilm+tokens": the token slots are filled around it
     tokens = OnnxMiniLMEncoder(onnx_gen.graphs.text_encoder, "minilm+tokens")
     torch.testing.assert_close(tokens.encode(texts), load_text_encoder("minilm+tokens").encode(
         texts), rtol=0, atol=1e-4)
+
+
+def test_other_load_is_the_machines_busy_time_less_this_process(monkeypatch) -> None:
+    """onnx_io.OtherLoad: other processes' logical CPUs over the last window of at least
+    LOAD_WINDOW_S, read again only when one has passed; None until two readings, and where the
+    machine says nothing."""
+    import mlct.onnx_io as onnx_io
+
+    clock = [100.0]
+    monkeypatch.setattr(onnx_io.time, "monotonic", lambda: clock[0])
+    # (busy seconds of all CPUs since boot, this process's CPU seconds)
+    readings = iter([(50.0, 10.0), (50.9, 10.5), (51.1, 10.5), (51.5, 11.0)])
+    load = onnx_io.OtherLoad(lambda: next(readings))
+    assert load() is None  # one reading: no window yet
+    clock[0] += 1.0  # 0.9 s busy, 0.5 of them this process's: 0.4 CPUs elsewhere
+    assert load() == pytest.approx(0.4)
+    clock[0] += onnx_io.LOAD_WINDOW_S / 2  # within the window: the last figure, no reading
+    assert load() == pytest.approx(0.4)
+    clock[0] += onnx_io.LOAD_WINDOW_S  # 0.2 s busy over 1.5 windows, none of it ours
+    assert load() == pytest.approx(0.2 / (1.5 * onnx_io.LOAD_WINDOW_S))
+    clock[0] += 1.0  # the ticks' rounding: this process counted more than the machine
+    assert load() == 0.0
+    assert onnx_io.OtherLoad(lambda: None)() is None
+    if Path("/proc/stat").exists():  # the real reader: busy time only grows
+        first = onnx_io._cpu_seconds()
+        sum(i * i for i in range(200_000))
+        second = onnx_io._cpu_seconds()
+        assert second[0] >= first[0] and second[1] >= first[1]
 
 
 def test_chained_prompt_and_batch_independence(backends) -> None:

@@ -29,7 +29,7 @@ from mlct.generate.samplers import ConsistencySampler
 from mlct.nn.build import latent_clamp
 from mlct.nn.inference import weight_dtype
 from mlct.nn.masks import lengths_to_mask
-from mlct.onnx_io import onnxruntime_module, session, session_from_bytes, spare_cores
+from mlct.onnx_io import onnxruntime_module, session, session_from_bytes, spin_now
 from mlct.text.base import TextEncoder
 
 
@@ -264,11 +264,11 @@ class OnnxMotionGenerator(MotionGenerator):
 
     def _spinning_steps(self) -> bool:
         """Do batch 1's steps run on two threads that spin within the run (`spinning_steps`;
-        None: when `threads` >= 2 and the machine has two logical CPUs to spare beside them,
-        onnx_io.spare_cores)?"""
+        None: when `threads` >= 2 and the machine has two idle logical CPUs for them now,
+        onnx_io.spin_now)? Asked at every call: both sessions are small."""
         if self.spinning_steps is not None:
             return self.spinning_steps
-        return self.thread_count >= 2 and spare_cores(2)
+        return self.thread_count >= 2 and spin_now(2)
 
     def _decoder_halves(self) -> DecoderHalves | None:
         """The decoder cut in its two halves (onnx_decoder_halves.py), made on first use; None

@@ -15,7 +15,7 @@ import torch
 from torch import Tensor
 
 from mlct.errors import MlctError
-from mlct.onnx_io import export_graph, session
+from mlct.onnx_io import export_graph, session, spin_now
 from mlct.text.encoders import MINILM_SPECS, bundled_minilm_path, token_slots_of
 from mlct.text.minilm import MiniLMEncoder
 
@@ -83,9 +83,29 @@ class OnnxMiniLMEncoder(MiniLMEncoder):
         self._load_tokenizer(bundled_minilm_path(), name, "cpu", batch_size,
                              token_slots_of(name))
         self.graph = Path(graph)
-        # where cores are to spare its threads spin between operators within a run and stop
-        # with it (onnx_io.session): a new sentence 3.04 against 3.70 ms sleeping
-        self.session = session(self.graph, threads)
+        self.threads = int(threads or torch.get_num_threads())
+        # None: spin within a run while the machine is idle beside it (onnx_io.spin_now); a
+        # bool forces the choice (bench/paired_speed.py compares them)
+        self.spinning: bool | None = None
+        self._sessions: dict[bool, Any] = {}
+        self._session(self._spin())  # now: a graph ONNX Runtime cannot load is said at load
+
+    @property
+    def session(self) -> Any:
+        """The graph's session for the next run: its threads spin between operators within
+        the run and stop with it while the machine has idle CPUs for them, and sleep otherwise
+        (a new sentence 3.04 against 3.70 ms sleeping on 2 quiet cores; 2x slower spinning
+        beside other work). Each kind is made on first use: a machine whose load changes pays
+        a second copy of the weights (~100 MB) once."""
+        return self._session(self._spin())
+
+    def _spin(self) -> bool:
+        return self.spinning if self.spinning is not None else spin_now(self.threads)
+
+    def _session(self, spin: bool) -> Any:
+        if spin not in self._sessions:
+            self._sessions[spin] = session(self.graph, self.threads, spin)
+        return self._sessions[spin]
 
     def _run(self, ids: Tensor, mask: Tensor) -> tuple[Tensor, Tensor]:
         pooled, states = self.session.run(list(OUTPUTS), {"ids": ids.numpy(),
