@@ -20,7 +20,9 @@ decoder in one sampler graph on one thread (before onnx_backend.DECODE_APART);
 (before onnx_backend.DECODE_HALVES); "spinning-steps" / "one-thread-steps" batch 1's steps on
 two threads spinning within the run / on one thread, whatever the machine's load (onnx_io.spin_now
 decides otherwise); "static-spinning" the steps and the text encoder spinning by the machine's
-size alone (onnx_io.spare_cores: 4 logical CPUs or more), not by how idle it is now.
+size alone (onnx_io.spare_cores: 4 logical CPUs or more), not by how idle it is now;
+"unfused-attention" the sampler graph's attentions as torch.onnx wrote them (before
+onnx_backend.FUSE_ATTENTION).
 --busy N runs N busy loops beside the rounds (started after loading), the load spin_now is to
 see: `--busy 1` on 2 cores is a machine with one core taken.
 --frames sets the clip's length (196: 9.8 s, the bench's; 100: 5 s, generate()'s default).
@@ -46,7 +48,8 @@ from inference_speed import FRAMES, TEXTS  # noqa: E402  (the same prompts and l
 
 
 VARIANTS = ("unfused-text", "whole-grid", "one-graph", "matmul-add-fusion", "one-decoder",
-            "spinning-steps", "one-thread-steps", "static-spinning")
+            "spinning-steps", "one-thread-steps", "static-spinning",
+            "unfused-attention")
 
 
 def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
@@ -80,6 +83,7 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
         gen = mlct.load(out, backend="onnx")  # ONNX Runtime threads follow torch's
         gen.decode_apart = "one-graph" not in chosen
         gen.decode_halves = "one-decoder" not in chosen
+        gen.fuse_attention = "unfused-attention" not in chosen
         if chosen & {"spinning-steps", "one-thread-steps"}:
             gen.spinning_steps = "spinning-steps" in chosen
         if "static-spinning" in chosen:

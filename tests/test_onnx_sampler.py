@@ -225,3 +225,45 @@ def test_a_large_batch_is_run_by_the_torch_networks_with_the_same_motions(backen
     never.keep_going, never.torch_min_batch = False, None
     assert gap(want, never.generate(texts, lengths=lengths, nfe=3, seed=2, candidates=1)) < JOINTS_M
     assert never._torch_networks is None
+
+
+def test_the_fused_attention_computes_what_the_exported_one_does(backends) -> None:
+    """onnx_attention.fuse_attention: every denoiser block's attention becomes one
+    com.microsoft Attention node in the sampler graph, with the same latents; a block whose
+    attention reads a mask is not that pattern and is left as it is."""
+    import onnx
+    from onnx import TensorProto, helper
+
+    from mlct.generate.onnx_attention import fuse_attention
+    from mlct.generate.onnx_backend import OnnxMotionGenerator
+
+    folder = Path(backends[1].graphs.denoiser).parent.parent
+    latents, counts = [], []
+    for fused in (True, False):
+        gen = OnnxMotionGenerator.load(folder, threads=2)  # the steps apart, on one thread
+        gen.fuse_attention, gen.spinning_steps = fused, False
+        cond = gen.encode_text(TEXTS[:1])
+        for _ in range(2):  # the second call builds the graph
+            gen.sample_features(cond, 3, [5], None, [40])
+        graph = onnx.ModelProto.FromString(gen._steps_only[3]).graph
+        counts.append(sum(node.op_type == "Attention" for node in graph.node))
+        session, apart = gen._sampler_session(3, 1)
+        feeds = gen._feeds(cond, 3, [5])
+        feeds["text"] = cond.numpy()
+        (latent,) = session.run(["latent"], {k: feeds[k] for k in ("x", "noise", "text")})
+        latents.append(latent)
+    layers = gen.config.denoiser.layers
+    assert counts == [3 * layers, 0]  # every block of every step; none unfused
+    np.testing.assert_allclose(latents[0], latents[1], rtol=0, atol=1e-5)
+    assert np.abs(latents[0]).max() > 0.1
+
+    model = onnx.load(str(gen.graphs.denoiser))
+    softmax = next(node for node in model.graph.node if node.op_type == "Softmax")
+    model.graph.input.append(helper.make_tensor_value_info("mask", TensorProto.BOOL, None))
+    model.graph.initializer.append(helper.make_tensor("minus", TensorProto.FLOAT, [], [-1e4]))
+    where = helper.make_node("Where", ["mask", softmax.input[0], "minus"], ["masked"])
+    model.graph.node.insert(list(model.graph.node).index(softmax), where)
+    softmax.input[0] = "masked"
+    assert fuse_attention(model, gen.config.denoiser.heads) == layers - 1
+    kinds = [node.op_type for node in model.graph.node]
+    assert kinds.count("Attention") == layers - 1 and kinds.count("Softmax") == 1

@@ -104,6 +104,9 @@ DECODE_APART = True
 # as one session on two threads and 4.29 with the one-thread graph of steps and decoder (5 NFE,
 # 196 frames, paired; bench/paired_speed.py :one-decoder, :one-graph).
 DECODE_HALVES = True
+# The sampler graph's denoiser attentions as ONNX Runtime's fused Attention operator
+# (onnx_attention.py): per step 40 standard operators per block become one.
+FUSE_ATTENTION = True
 # Where two logical CPUs stay free beside them (onnx_io.spare_cores), batch 1's steps run on
 # two threads that spin between operators within the run and stop when it ends (onnx_io
 # session's spin_within_run): without the wake-ups, a second thread pays for the steps' small
@@ -145,6 +148,8 @@ class OnnxMotionGenerator(MotionGenerator):
         self.decode_apart = DECODE_APART
         self.decode_halves = DECODE_HALVES
         self.spinning_steps: bool | None = None  # None: _spinning_steps decides
+        # the sampler graph's attentions as ONNX Runtime's fused operator (onnx_attention.py)
+        self.fuse_attention = FUSE_ATTENTION
         self._halves: DecoderHalves | None | bool = False  # False: not made yet
         self._steps_only: dict[int, bytes] = {}  # step count -> its graph without the decoder
         self._tensors = tensors  # the torch networks of large batches are built from them
@@ -285,7 +290,9 @@ class OnnxMotionGenerator(MotionGenerator):
                              self.graphs.decoder if with_decoder else None, steps,
                              clamp=self.clamp, latent_scale=self.config.schedule.latent_scale,
                              mean=self._mean, std=self._std,
-                             coefficients=self._step_coefficients(steps)).SerializeToString()
+                             coefficients=self._step_coefficients(steps),
+                             attention_heads=self.config.denoiser.heads
+                             if self.fuse_attention else None).SerializeToString()
 
     @property
     def thread_count(self) -> int:

@@ -35,6 +35,7 @@ import torch
 
 from mlct.diffusion.consistency import c_out, c_skip
 from mlct.diffusion.samplers import Generators, draw_noise
+from mlct.generate.onnx_attention import fuse_attention
 
 INPUTS = ("x", "noise", "text", "times", "coef", "valid")
 COEFFICIENTS = ("times", "coef")  # inputs, or constants when sampler_model gets them
@@ -43,7 +44,8 @@ OUTPUTS = ("features", "latent")
 
 def sampler_model(denoiser: str | os.PathLike, decoder: str | os.PathLike | None, steps: int,
                   *, clamp: float | None, latent_scale: float, mean: np.ndarray, std: np.ndarray,
-                  coefficients: dict[str, np.ndarray] | None = None) -> Any:
+                  coefficients: dict[str, np.ndarray] | None = None,
+                  attention_heads: int | None = None) -> Any:
     """The sampler graph of `steps` steps (above), an onnx.ModelProto, from denoiser.onnx
     (x_t, t, text -> f) and decoder.onnx (latent, valid -> features); the clamp, latent_scale
     and the feature mean and std are the bundle's, baked in as constants. decoder None: the
@@ -52,11 +54,15 @@ def sampler_model(denoiser: str | os.PathLike, decoder: str | os.PathLike | None
 
     coefficients: step_coefficients' times and coef, baked in as constants instead of inputs
     (they depend on the step count alone): ONNX Runtime then folds the denoiser's time terms
-    (its sinusoid and time projections) into constants once, not per call."""
+    (its sinusoid and time projections) into constants once, not per call.
+    attention_heads: the denoiser's head count; given, its self-attentions become ONNX
+    Runtime's fused Attention operator (onnx_attention.py), a graph only ONNX Runtime runs."""
     import onnx
     from onnx import TensorProto, helper, numpy_helper
 
     den = onnx.load(str(denoiser))
+    if attention_heads is not None:
+        fuse_attention(den, attention_heads)
     f32 = TensorProto.FLOAT
 
     def const(name: str, value: np.ndarray) -> onnx.NodeProto:
