@@ -208,13 +208,13 @@ class OnnxMotionGenerator(MotionGenerator):
             (latent,) = session.run(["latent"], {k: feeds[k] for k in ("x", "noise", "text")})
             latent = latent / np.float32(self.config.schedule.latent_scale)
             halves = self._decoder_halves() if cond.shape[0] == 1 else None
-            if halves is not None:  # body and arm pair side by side, one core each
-                normalized = halves(latent, feeds["valid"])
+            if halves is not None:  # body and arm pair side by side, one core each; the
+                features = halves(latent, feeds["valid"])  # normalization undone in the join
             else:
                 (inputs, outputs) = DECODER_IO
                 (normalized,) = self.ae.session.run(list(outputs), dict(zip(inputs, (
                     latent, feeds["valid"]))))
-            features = normalized * self._std + self._mean
+                features = normalized * self._std + self._mean
         return [features[i, :n] for i, n in enumerate(lengths)]
 
     def _feeds(self, cond: Tensor, nfe: int | None, seed: int | Sequence[int] | None
@@ -281,7 +281,7 @@ class OnnxMotionGenerator(MotionGenerator):
         if not self.decode_halves:
             return None
         if self._halves is False:
-            self._halves = DecoderHalves.of(self.graphs.decoder)
+            self._halves = DecoderHalves.of(self.graphs.decoder, self._mean, self._std)
         return self._halves
 
     def _sampler_graph(self, steps: int, with_decoder: bool) -> bytes:

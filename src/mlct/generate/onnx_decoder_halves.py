@@ -47,9 +47,12 @@ def half_outputs(graph: Any) -> tuple[str, str] | None:
 class DecoderHalves:
     """A decoder graph (onnx.ModelProto) as three batch-1 sessions, its halves run side by side
     (above), cut at `outputs` (half_outputs); call it with (latent (1, n, d), valid (1, T)
-    bool) for the normalized features (1, T, D)."""
+    bool) for the normalized features (1, T, D), or, given the features' `mean` and `std`
+    (D,), the features in real units: the join graph undoes the normalization, one pass less
+    over the frames in numpy."""
 
-    def __init__(self, graph: Any, outputs: tuple[str, str]) -> None:
+    def __init__(self, graph: Any, outputs: tuple[str, str], mean: np.ndarray | None = None,
+                 std: np.ndarray | None = None) -> None:
         from onnx.shape_inference import infer_shapes
         from onnx.utils import Extractor
 
@@ -60,6 +63,8 @@ class DecoderHalves:
         cut = {"body": extractor.extract_model([latent, valid], [body]),
                "arms": extractor.extract_model([latent, valid], [arms]),
                "join": extractor.extract_model([body, arms, valid], [features])}
+        if mean is not None and std is not None:
+            _denormalize(cut["join"], features, mean, std)
         self.sessions = {name: session_from_bytes(fixed_batch(model.SerializeToString(), 1), 1)
                          for name, model in cut.items()}
         # the heavier half (more weights) on the caller's thread, the other handed over: the
@@ -72,9 +77,10 @@ class DecoderHalves:
         self._pid = 0  # the process the worker thread belongs to
 
     @classmethod
-    def of(cls, decoder: str | os.PathLike) -> DecoderHalves | None:
-        """The halves of the decoder graph at `decoder`, or None: no arm pair, or no onnx
-        package to cut the graph with."""
+    def of(cls, decoder: str | os.PathLike, mean: np.ndarray | None = None,
+           std: np.ndarray | None = None) -> DecoderHalves | None:
+        """The halves of the decoder graph at `decoder` (mean, std: as the constructor's), or
+        None: no arm pair, or no onnx package to cut the graph with."""
         try:
             import onnx
         except ImportError:
@@ -84,7 +90,7 @@ class DecoderHalves:
         if outputs is None:
             return None
         try:
-            return cls(graph, outputs)
+            return cls(graph, outputs, mean, std)
         except ValueError:  # a graph the cut does not fit (Extractor): the whole decoder runs
             return None
 
@@ -110,6 +116,20 @@ class DecoderHalves:
         body_name, arms_name = self.names
         return self._run("join", {body_name: out["body"], arms_name: out["arms"],
                                   valid_name: valid})
+
+
+def _denormalize(join: Any, features: str, mean: np.ndarray, std: np.ndarray) -> None:
+    """Make the join graph's output `features` * std + mean, in place."""
+    from onnx import helper, numpy_helper
+
+    for node in join.graph.node:
+        node.output[:] = [name if name != features else "normalized" for name in node.output]
+    join.graph.initializer.extend([
+        numpy_helper.from_array(np.asarray(std, np.float32), "feature_std"),
+        numpy_helper.from_array(np.asarray(mean, np.float32), "feature_mean")])
+    join.graph.node.extend([
+        helper.make_node("Mul", ["normalized", "feature_std"], ["scaled"]),
+        helper.make_node("Add", ["scaled", "feature_mean"], [features])])
 
 
 def _weight_bytes(model: Any) -> int:
