@@ -22,8 +22,7 @@ two threads spinning within the run / on one thread, whatever the machine's load
 decides otherwise); "static-spinning" the steps and the text encoder spinning by the machine's
 size alone (onnx_io.spare_cores: 4 logical CPUs or more), not by how idle it is now;
 "unfused-attention" the sampler graph's attentions as torch.onnx wrote them (before
-onnx_backend.FUSE_ATTENTION); "summed-condition" the denoiser exported with its condition's
-terms summed before padding (before onnx_bundle.PAD_TERMS_APART).
+onnx_backend.FUSE_ATTENTION).
 --busy N runs N busy loops beside the rounds (started after loading), the load spin_now is to
 see: `--busy 1` on 2 cores is a machine with one core taken.
 --frames sets the clip's length (196: 9.8 s, the bench's; 100: 5 s, generate()'s default).
@@ -50,14 +49,13 @@ from inference_speed import FRAMES, TEXTS  # noqa: E402  (the same prompts and l
 
 VARIANTS = ("unfused-text", "whole-grid", "one-graph", "matmul-add-fusion", "one-decoder",
             "spinning-steps", "one-thread-steps", "static-spinning",
-            "unfused-attention", "summed-condition")
+            "unfused-attention")
 
 
 def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
     """The onnx-backend generator of a model spec (see the module docstring)."""
     import mlct
     import mlct.nn.conv_autoencoder as conv
-    import mlct.generate.onnx_bundle as onnx_bundle
     import mlct.onnx_io as onnx_io
     from mlct.generate.onnx_bundle import ONNX_DIR, TEXT_ENCODER, convert_to_onnx
     from mlct.generate.pipeline import bundled_model_dir
@@ -71,8 +69,6 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
     model = bundled_model_dir() if name == "bundled" else Path(name)
     # the variants' switches, as they were before each change; restored on the way out
     margin, disabled = conv.DECODE_MARGIN, onnx_io.DISABLED_OPTIMIZERS
-    apart = onnx_bundle.PAD_TERMS_APART
-    onnx_bundle.PAD_TERMS_APART = "summed-condition" not in chosen  # read when converting
     if "whole-grid" in chosen:  # the graph is traced with the margin as a constant
         conv.DECODE_MARGIN = 10**6
     if "matmul-add-fusion" in chosen:  # every session is made (below) with it on
@@ -98,7 +94,6 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
         text_ms(gen, 4, 0)  # sessions, made here under the switches
     finally:
         conv.DECODE_MARGIN, onnx_io.DISABLED_OPTIMIZERS = margin, disabled
-        onnx_bundle.PAD_TERMS_APART = apart
     return gen
 
 

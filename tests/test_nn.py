@@ -203,18 +203,6 @@ def test_denoiser_shape_and_dependence_on_t_and_text() -> None:
         den(x, t, text[:, :10])
 
 
-def test_condition_terms_padded_apart_give_the_same_numbers() -> None:
-    """pad_terms_apart (what the onnx export writes) pads the time and text terms apart and
-    adds them: the same output, to the bit, as padding their sum."""
-    den = _den().eval()
-    g = torch.Generator().manual_seed(3)
-    x, text = torch.randn(2, 3, 32, generator=g), torch.randn(2, 24, generator=g)
-    t = torch.tensor([0.3, 0.8])
-    summed = den(x, t, text)
-    den.pad_terms_apart = True
-    assert torch.equal(den(x, t, text), summed)
-
-
 def test_condition_on_every_token_reaches_the_latent_tokens_without_attention() -> None:
     # With attention zeroed out, a latent token can learn of the text only if the condition
     # is added to it directly: the authors' layout (condition token only) then ignores the text.

@@ -47,9 +47,6 @@ TEXT_ENCODER, DENOISER, DECODER = "text_encoder.onnx", "denoiser.onnx", "decoder
 DENOISER_IO = (("x_t", "t", "text"), ("f",))
 DECODER_IO = (("latent", "valid"), ("features",))
 PARITY = 1e-3  # the most a graph's output may differ from the torch module's when written
-# The denoiser exported with its condition's time and text terms padded apart (nn/denoiser.py,
-# pad_terms_apart): 24 fewer operators in the bundled model's 5-step batch-1 sampler graph.
-PAD_TERMS_APART = True
 
 
 @dataclass(frozen=True)
@@ -113,7 +110,6 @@ def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike,
     ae, denoiser = bundle_networks(config, meta, tensors)
     # plain products (no oneDNN packing): the layers that sample in torch, as graph operators
     ae, denoiser = for_inference(ae, prepack=False), for_inference(denoiser, prepack=False)
-    denoiser.pad_terms_apart = PAD_TERMS_APART
     n, d = ae.latent_shape
     probe = torch.Generator().manual_seed(0)
     x = torch.randn(2, n, d, generator=probe)

@@ -105,12 +105,6 @@ class Denoiser(nn.Module):
             self.text_attention = nn.MultiheadAttention(token_dim, text_heads, batch_first=True)
             cond_dim = token_dim * (1 + text_queries)
         self.text_norm = nn.LayerNorm(cond_dim)
-        # The time and text terms padded to the token axis apart, then added: what
-        # generate/onnx_bundle.py exports. In the onnx backend's sampler graph the time part is
-        # then a constant of each step and the text part one value for all steps, so a step
-        # adds the condition with 2 operators a block instead of 4 (docs/performance.md, "The
-        # denoiser's condition, padded apart"); in torch it would be a pad and an add more.
-        self.pad_terms_apart = False
         self.text_proj = nn.ModuleList(nn.Linear(cond_dim, width) for _ in range(layers))
         self.backbone = SkipTransformer(width, layers, heads, ff_dim, dropout, "gelu")
         self.head = nn.Sequential(
@@ -188,13 +182,10 @@ class Denoiser(nn.Module):
             conds = [(a + c).unsqueeze(1) for a, c in zip(time, text)]  # (B, 1, w) broadcast
         else:
             # the authors': one condition per block, on the condition token only (position 0)
-            pad = (0, 0, 0, self.n_tokens)
-            if self.pad_terms_apart:  # the same numbers as padding the sum (below)
-                conds = [F.pad(a.unsqueeze(1), pad) + F.pad(c.unsqueeze(1), pad)
-                         for a, c in zip(time, text)]
-            else:
-                conds = [F.pad((a + c).unsqueeze(1), pad)  # (B, 1+n, w)
-                         for a, c in zip(time, text)]
+            conds = [
+                F.pad((a + c).unsqueeze(1), (0, 0, 0, self.n_tokens))  # (B, 1+n, w)
+                for a, c in zip(time, text)
+            ]
         h = torch.cat([x_t.new_zeros(b, 1, self.width), self.in_proj(x_t)], dim=1)  # (B, 1+n, w)
         h = self.backbone(h + self.pos, cond=conds)  # (B, 1+n, w)
         return self.head(h[:, 1:])  # (B, n, d)
