@@ -145,9 +145,10 @@ def spin_now(threads: int) -> bool:
     that other processes left idle lately hold every thread (OTHER_LOAD, SPIN_SLACK_CPUS), so a
     quiet 2-core machine spins and a busy one of any size does not; spare_cores (the machine's
     size) until the meter has a reading, and where it has none. For sessions kept in both kinds
-    and chosen per run (the batch-1 steps, the text encoder): on 2 quiet cores spinning took
-    0.84x the time of a warm call (docs/performance.md, "Spinning while the machine is idle");
-    under other work, 2x."""
+    and chosen per run (the batch-1 steps, the text encoder): on 2 quiet cores, paired with the
+    rule of the machine's size (which spins nothing there), 0.90x the warm call's time and 0.88x
+    the cold one's (docs/performance.md, "Spinning while the machine is idle, the attention
+    fused"); beside other work spinning takes up to 2x."""
     if threads < 2:
         return False
     others = OTHER_LOAD()

@@ -1,7 +1,7 @@
 """The denoiser's self-attention as ONNX Runtime's fused Attention operator (issue 17).
 
 torch.onnx writes each of the denoiser's attentions (mlct.nn.inference.FastEncoderLayer) as
-~40 standard operators: the packed q/k/v product and its bias, a Reshape to (B, S, 3, H, d), a
+~60 standard operators: the packed q/k/v product and its bias, a Reshape to (B, S, 3, H, d), a
 Transpose, a Split and three Squeezes, the two scaled products around a Softmax, a Transpose and
 a Reshape back, plus the shape arithmetic feeding the Reshapes. On 6 tokens each of them costs
 more to dispatch than to compute. `com.microsoft.Attention` (ONNX Runtime's contrib operator)
@@ -9,7 +9,8 @@ does the same from the block's input, the packed weight (input width, 3 x width:
 columns, heads contiguous in each, as the Reshape splits them) and the bias, with the default
 scale 1 / sqrt(d); the Reshape back to (B, S, width) is its output. The bundled model's one-step
 denoiser graph goes from 406 to 226 operators and 383 to 340 us on one thread; the outputs
-agree to 5e-6 (docs/performance.md, "The denoiser's attention fused").
+agree to 5e-6, the 5-step sampler graph's latents to the bit (docs/performance.md, "Spinning
+while the machine is idle, the attention fused").
 
 Only ONNX Runtime runs the fused operator, so the rewrite is applied in memory to the sampler
 graph of the onnx backend (onnx_sampler.sampler_model), never to denoiser.onnx on disk, which

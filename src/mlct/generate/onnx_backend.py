@@ -105,7 +105,8 @@ DECODE_APART = True
 # 196 frames, paired; bench/paired_speed.py :one-decoder, :one-graph).
 DECODE_HALVES = True
 # The sampler graph's denoiser attentions as ONNX Runtime's fused Attention operator
-# (onnx_attention.py): per step 40 standard operators per block become one.
+# (onnx_attention.py): per step ~60 standard operators per block become one, the warm batch-1
+# call 0.93x (paired, bench/paired_speed.py :unfused-attention).
 FUSE_ATTENTION = True
 # Where two logical CPUs stay free beside them (onnx_io.spare_cores), batch 1's steps run on
 # two threads that spin between operators within the run and stop when it ends (onnx_io
