@@ -113,9 +113,9 @@ def test_batch_one_runs_on_one_thread_and_larger_batches_on_all(backends) -> Non
                for key, s in onnx_gen._sessions.items()}
     # a session per thread count; batch 1's with its batch dimension fixed and its steps
     # apart from the decoder, which runs in its own session on both threads
-    assert threads == {(2, 1, True, True): 1, (2, 2, False, False): 2}
+    assert threads == {(2, 1, True, True, False): 1, (2, 2, False, False, False): 2}
     assert onnx_gen.ae.session.get_session_options().intra_op_num_threads == 2
-    fixed = onnx_gen._sessions[(2, 1, True, True)]
+    fixed = onnx_gen._sessions[(2, 1, True, True, False)]
     assert [i.shape[0] for i in fixed.get_inputs() if i.name in ("x", "text")] == [1] * 2
     assert [o.name for o in fixed.get_outputs()] == ["latent"]
     # the step times and coefficients are the graph's constants, not inputs
@@ -143,7 +143,8 @@ def test_spinning_steps_run_on_two_threads_that_stop_with_the_run(backends, monk
             made[others, cores] = gen.generate(TEXTS[:1], lengths=[50], nfe=2, seed=7,
                                                candidates=1)
         spinning = cores >= 4 if others is None else cores - others >= 1.75
-        key = (2, 2 if spinning else 1, True, True)  # steps, threads, batch 1, apart
+        key = (2, 2 if spinning else 1, True, True, spinning)  # steps, threads, batch 1, apart,
+        # spinning
         options = gen._sessions[key].get_session_options()
         assert options.intra_op_num_threads == key[1]
         assert options.get_session_config_entry("session.intra_op.allow_spinning") == (
@@ -267,3 +268,76 @@ def test_the_fused_attention_computes_what_the_exported_one_does(backends) -> No
     assert fuse_attention(model, gen.config.denoiser.heads) == layers - 1
     kinds = [node.op_type for node in model.graph.node]
     assert kinds.count("Attention") == layers - 1 and kinds.count("Softmax") == 1
+
+
+def test_candidates_sample_through_the_steps_graph_and_decode_through_the_halves(backends
+                                                                                ) -> None:
+    """generate()'s best of N: from the second call with a step count the N latents come from
+    the steps' graph (onnx_backend._steps_session) and a single latent is decoded by the
+    decoder's halves, with the step loop's and the whole decoder's numbers."""
+    from mlct.generate.onnx_backend import OnnxMotionGenerator
+
+    folder = Path(backends[1].graphs.denoiser).parent.parent
+    gen = OnnxMotionGenerator.load(folder, threads=2)
+    gen.spinning_steps = False
+    rows = gen.encode_text(TEXTS[:1]).repeat_interleave(4, dim=0)
+    loop = gen.sample_latents(rows, 3, [1, 2, 3, 4])  # the first call: the step loop
+    assert not gen._steps_only
+    graph = gen.sample_latents(rows, 3, [1, 2, 3, 4])
+    assert 3 in gen._steps_only and any(key[:4] == (3, 2, False, True) for key in gen._sessions)
+    np.testing.assert_allclose(graph.numpy(), loop.numpy(), rtol=0, atol=1e-5)
+    one = gen.sample_latents(rows[:1], 3, [7])  # batch 1: the one-thread steps session
+    assert (3, 1, True, True, False) in gen._sessions
+    np.testing.assert_allclose(one.numpy(), gen._latents(None, rows[:1], 3, [7]).numpy(),
+                               rtol=0, atol=1e-5)  # the same latent by the step loop
+    whole = gen.decode(one, [37])  # the first single decode: the whole decoder
+    assert gen._halves is False
+    halves = gen.decode(one, [37])
+    assert gen._halves not in (None, False)
+    np.testing.assert_allclose(halves[0], whole[0], rtol=0, atol=1e-4)
+    assert halves[0].shape == (37, whole[0].shape[1])
+
+
+def test_generate_runs_its_torch_work_on_one_thread_and_gives_the_threads_back(backends,
+                                                                              monkeypatch
+                                                                              ) -> None:
+    """onnx_backend.TORCH_GLUE_THREADS: inside generate() the critic (torch) sees one torch
+    thread, the torch networks of a large batch all of them; afterwards torch has its own
+    count again. The motions do not depend on it."""
+    from mlct.generate import critic as critic_module
+    from mlct.generate.onnx_backend import OnnxMotionGenerator
+    from mlct.generate.pipeline import MotionGenerator as TorchGenerator
+
+    folder = Path(backends[1].graphs.denoiser).parent.parent
+    gen = OnnxMotionGenerator.load(folder, threads=2)
+    gen.keep_going = False
+    seen: dict[str, list[int]] = {"critic": [], "torch networks": []}
+    best = critic_module.Critic.best
+
+    def counting_best(self, *args, **kwargs):
+        seen["critic"].append(torch.get_num_threads())
+        return best(self, *args, **kwargs)
+
+    torch_latents = TorchGenerator.sample_latents
+
+    def counting_latents(self, *args, **kwargs):
+        seen["torch networks"].append(torch.get_num_threads())
+        return torch_latents(self, *args, **kwargs)
+
+    monkeypatch.setattr(critic_module.Critic, "best", counting_best)
+    monkeypatch.setattr(TorchGenerator, "sample_latents", counting_latents)
+    previous = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        made = {}
+        for glue in (1, None):
+            gen.torch_glue_threads = glue
+            made[glue] = gen.generate(TEXTS[:1], lengths=[40], nfe=2, seed=3, candidates=4)
+            assert torch.get_num_threads() == 2
+        assert seen["critic"] == [1, 2] and seen["torch networks"] == []
+        assert gap(made[1], made[None]) < 1e-5
+        gen.torch_glue_threads, gen.torch_min_batch = 1, 4  # 4 candidates: a "large" batch
+        gen.generate(TEXTS[:1], lengths=[40], nfe=2, seed=3, candidates=4)
+        assert seen["torch networks"] == [2] and torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(previous)

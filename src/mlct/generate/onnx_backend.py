@@ -11,7 +11,8 @@ same seed gives the same motion, up to float rounding (tests/test_onnx.py: joint
 from __future__ import annotations
 
 import os
-from typing import Any, Sequence
+from contextlib import contextmanager
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 import torch
@@ -71,6 +72,13 @@ class OnnxDecoder:
         return torch.from_numpy(features)
 
 
+# Torch's threads for the torch work around the graphs in generate(). With more, each small
+# product or joint recovery starts an OpenMP parallel region, after which torch's idle OpenMP
+# threads spin on the cores (libgomp's default, for milliseconds) that the next ONNX Runtime
+# run wants: generate() of the bundled model, 5 s, 2 threads, best of 8 took 17.2 ms with 2
+# torch threads and 12.7 with 1 (0.75x paired), best of 1 7.1 and 5.6 (docs/performance.md,
+# "Torch's spinning threads"). The torch networks of a large batch keep all `threads`.
+TORCH_GLUE_THREADS = 1
 # Sampler graphs a generator builds at most: each session holds its own copy of the denoiser's
 # and the decoder's weights (20 MB for the bundled model, ~180 MB at paper size); step counts
 # beyond the first ones used run the step loop.
@@ -121,7 +129,10 @@ FUSE_ATTENTION = True
 class OnnxMotionGenerator(MotionGenerator):
     """A loaded model whose text encoder, denoiser and decoder are ONNX graphs (CPU, float32).
 
-    threads: ONNX Runtime's intra-op threads per graph; None follows torch.get_num_threads()."""
+    threads: ONNX Runtime's intra-op threads per graph; None: torch.get_num_threads() when
+    loaded. The torch work around the graphs in generate() (the critic, the joints, the feet:
+    small tensors) runs on one torch thread, so that no OpenMP thread of torch's spins on a
+    core the graphs' threads want (TORCH_GLUE_THREADS, `torch_glue_threads`)."""
 
     backend = "onnx"
 
@@ -138,11 +149,11 @@ class OnnxMotionGenerator(MotionGenerator):
         if not float32:
             raise MlctError(f"the onnx backend runs float32 graphs; dtype {dtype!r} is the "
                             f"torch backend's (--backend torch)")
-        self.graphs, self.threads = graphs, threads
+        self.graphs, self.threads = graphs, int(threads or torch.get_num_threads())
         self.fused = fused
         self._fused: dict[int, Any] = {}  # step count -> its sampler graph (bytes, or None)
-        # (step count, threads, batch 1, steps apart from the decoder) -> session
-        self._sessions: dict[tuple[int, int, bool, bool], Any] = {}
+        # (step count, threads, batch 1, steps apart from the decoder, spinning) -> session
+        self._sessions: dict[tuple[int, int, bool, bool, bool], Any] = {}
         self._calls: dict[int, int] = {}  # step count -> sample_features calls with it
         self._coefficients: dict[int, dict[str, np.ndarray]] = {}  # step count -> its times, coef
         self.torch_min_batch = TORCH_MIN_BATCH
@@ -151,7 +162,9 @@ class OnnxMotionGenerator(MotionGenerator):
         self.spinning_steps: bool | None = None  # None: _spinning_steps decides
         # the sampler graph's attentions as ONNX Runtime's fused operator (onnx_attention.py)
         self.fuse_attention = FUSE_ATTENTION
+        self.torch_glue_threads: int | None = TORCH_GLUE_THREADS  # None: torch's, untouched
         self._halves: DecoderHalves | None | bool = False  # False: not made yet
+        self._single_decodes = 0  # decode() calls with one latent
         self._steps_only: dict[int, bytes] = {}  # step count -> its graph without the decoder
         self._tensors = tensors  # the torch networks of large batches are built from them
         self._torch_networks: tuple[Any, Any] | None = None
@@ -182,10 +195,21 @@ class OnnxMotionGenerator(MotionGenerator):
         the noise and coefficients once (onnx_sampler.consistency_feeds), then one denoiser
         call and a few numpy operations per step. A large batch goes to the torch networks."""
         if not isinstance(self.sampler, ConsistencySampler) or self._large(cond.shape[0]):
-            return super().sample_latents(cond, nfe, seed, guidance)
+            with torch_threads(self.threads if self._large(cond.shape[0]) else None):
+                return super().sample_latents(cond, nfe, seed, guidance)
+        session = self._steps_session(self.check_nfe(nfe), cond.shape[0]) if self.fused else None
+        return self._latents(session, cond, nfe, seed)
+
+    def _latents(self, session: Any | None, cond: Tensor, nfe: int | None,
+                 seed: int | Sequence[int] | None) -> Tensor:
+        """x_0 of a consistency model by the steps' session, or by the step loop when None."""
         feeds = self._feeds(cond, nfe, seed)
-        return torch.from_numpy(run_steps(self.denoiser.session, feeds, _array(cond.float()),
-                                          self.clamp))
+        text = _array(cond.float())
+        if session is None:
+            return torch.from_numpy(run_steps(self.denoiser.session, feeds, text, self.clamp))
+        (latent,) = session.run(["latent"], {"x": feeds["x"], "noise": feeds["noise"],
+                                             "text": text})
+        return torch.from_numpy(latent)
 
     def sample_features(self, cond: Tensor, nfe: int | None, seed: int | Sequence[int] | None,
                         guidance: float | None, lengths: Sequence[int]) -> list[np.ndarray]:
@@ -195,6 +219,9 @@ class OnnxMotionGenerator(MotionGenerator):
         installed; otherwise sample_latents, then the decoder."""
         chosen = (self._sampler_session(self.check_nfe(nfe), cond.shape[0])
                   if self.fused and not self._large(cond.shape[0]) else None)
+        if chosen is None and isinstance(self.sampler, ConsistencySampler) \
+                and not self._large(cond.shape[0]):  # the step loop (this call is counted)
+            return self.decode(self._latents(None, cond, nfe, seed), lengths)
         if chosen is None:
             return super().sample_features(cond, nfe, seed, guidance, lengths)
         session, apart = chosen
@@ -242,9 +269,7 @@ class OnnxMotionGenerator(MotionGenerator):
         self._calls[steps] = self._calls.get(steps, 0) + 1
         built = sum(graph is not None for graph in self._fused.values())
         if steps not in self._fused and self._calls[steps] >= 2 and built < MAX_SAMPLER_GRAPHS:
-            try:
-                import onnx  # noqa: F401 - the graph is assembled with it
-            except ImportError:
+            if not _onnx_installed():  # the graph is assembled with the onnx package
                 self._fused[steps] = None
                 return None
             self._fused[steps] = self._sampler_graph(steps, with_decoder=True)
@@ -259,7 +284,7 @@ class OnnxMotionGenerator(MotionGenerator):
             threads = 2
         if apart and steps not in self._steps_only:
             self._steps_only[steps] = self._sampler_graph(steps, with_decoder=False)
-        key = (steps, threads, batch == 1, apart)
+        key = (steps, threads, batch == 1, apart, spin)
         if key not in self._sessions:
             chosen = self._steps_only[steps] if apart else graph
             # batch 1, the size a person waits on, gets a graph of fixed shapes (fewer operators)
@@ -267,6 +292,53 @@ class OnnxMotionGenerator(MotionGenerator):
             self._sessions[key] = session_from_bytes(fixed_batch(chosen, 1) if batch == 1
                                                      else chosen, threads, spin or None)
         return self._sessions[key], apart
+
+    def _steps_session(self, steps: int, batch: int) -> Any | None:
+        """The session of the steps alone (the sampler graph without the decoder) for
+        sample_latents: the best-of-N candidates of generate() (batch N a prompt), guidance,
+        the latents a caller decodes itself. Built at the second call with this step count, as
+        the sampler graph is, and only for a graph of at most ONE_THREAD_MAX_BYTES (a
+        paper-size one keeps the step loop rather than another copy of its weights). None
+        otherwise: then the step loop runs (run_steps), the same arithmetic. Batch 1 runs as
+        sample_features' steps do; a larger batch on `threads` threads, spinning within the run
+        while the machine is idle (onnx_io.spin_now; both kinds are small)."""
+        self._calls[steps] = self._calls.get(steps, 0) + 1
+        if steps not in self._steps_only:
+            if (self._calls[steps] < 2 or len(self._steps_only) >= MAX_SAMPLER_GRAPHS
+                    or not _onnx_installed()):
+                return None
+            self._steps_only[steps] = self._sampler_graph(steps, with_decoder=False)
+        graph = self._steps_only[steps]
+        if len(graph) > ONE_THREAD_MAX_BYTES:
+            return None
+        if batch == 1:
+            spin = self.thread_count > 1 and self._spinning_steps()
+            threads = 2 if spin else 1
+        else:
+            threads = self.thread_count
+            spin = spin_now(threads)
+        key = (steps, threads, batch == 1, True, spin)
+        if key not in self._sessions:
+            self._sessions[key] = session_from_bytes(fixed_batch(graph, 1) if batch == 1
+                                                     else graph, threads, spin)
+        return self._sessions[key]
+
+    def decode(self, z: Tensor, lengths: Sequence[int]) -> list[np.ndarray]:
+        """As the torch backend's; a single latent, from the second one on, through the
+        decoder's halves side by side (onnx_decoder_halves.py), as sample_features decodes one:
+        generate()'s chosen candidate. (Cutting the halves takes ~70 ms: a one-off command's
+        single decode keeps the whole decoder.)"""
+        if z.shape[0] == 1:
+            self._single_decodes += 1
+        halves = self._decoder_halves() if z.shape[0] == 1 and self._single_decodes > 1 \
+            else None
+        if halves is None:
+            with torch_threads(self.threads if self._large(z.shape[0]) else None):
+                return super().decode(z, lengths)
+        latent = _array(z.float()) / np.float32(self.config.schedule.latent_scale)
+        valid = np.arange(max(lengths)) < np.array(lengths)[:, None]
+        features = halves(latent, valid)
+        return [features[i, :n] for i, n in enumerate(lengths)]
 
     def _spinning_steps(self) -> bool:
         """Do batch 1's steps run on two threads that spin within the run (`spinning_steps`;
@@ -297,8 +369,14 @@ class OnnxMotionGenerator(MotionGenerator):
 
     @property
     def thread_count(self) -> int:
-        """`threads`, or torch's when None: the decoder's and any multi-threaded graph's."""
-        return int(self.threads or torch.get_num_threads())
+        """`threads`: the decoder's and any multi-threaded graph's."""
+        return self.threads
+
+    def generate(self, *args: Any, **kwargs: Any) -> Any:
+        """MotionGenerator.generate, its torch work on TORCH_GLUE_THREADS threads (the torch
+        networks of a large batch on `threads`)."""
+        with torch_threads(self.torch_glue_threads):
+            return super().generate(*args, **kwargs)
 
     @property
     def text_encoder(self) -> TextEncoder:
@@ -319,3 +397,26 @@ class OnnxMotionGenerator(MotionGenerator):
         meta, tensors = read_bundle(path)
         return cls(meta, tensors, read_onnx(path, meta["text_encoder"], graphs), device, dtype,
                    threads)
+
+
+def _onnx_installed() -> bool:
+    """Is the onnx package there (the sampler graphs are assembled with it)?"""
+    try:
+        import onnx  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+@contextmanager
+def torch_threads(count: int | None) -> Iterator[None]:
+    """torch.set_num_threads(count) for the block, then back as it was; None: as it is."""
+    before = torch.get_num_threads()
+    if count is None or count == before:
+        yield
+        return
+    torch.set_num_threads(count)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
