@@ -22,14 +22,19 @@ two threads spinning within the run / on one thread, whatever the machine's load
 decides otherwise); "static-spinning" the steps and the text encoder spinning by the machine's
 size alone (onnx_io.spare_cores: 4 logical CPUs or more), not by how idle it is now;
 "unfused-attention" the sampler graph's attentions as torch.onnx wrote them (before
-onnx_backend.FUSE_ATTENTION).
+onnx_backend.FUSE_ATTENTION); "candidates-loop" generate()'s best-of-N latents by the step loop
+and its chosen latent by the whole decoder (before onnx_backend._steps_session and the halves in
+decode()); "torch-glue" the torch work around the graphs on torch's threads (before
+onnx_backend.TORCH_GLUE_THREADS).
+--generate also times generate() itself, as a user calls it: a 5 s motion of a caption seen
+before, the model's best of N candidates, keep-going and planted feet included (column "gen").
 --busy N runs N busy loops beside the rounds (started after loading), the load spin_now is to
 see: `--busy 1` on 2 cores is a machine with one core taken.
 --frames sets the clip's length (196: 9.8 s, the bench's; 100: 5 s, generate()'s default).
-Per call, as bench/inference_speed.py times them: warm = what generate() runs for a caption
-already encoded (text memo, anchors' pull, sample_features: 5 steps and the decoder, 196
-frames); text = the text encoder on a new sentence; cold = warm + text. The onnx backend,
-float32.
+Per call, as bench/inference_speed.py times them: warm = one sample of a caption already
+encoded (text memo, anchors' pull, sample_features: 5 steps and the decoder, 196 frames; the
+paper's AITS, what the issue's targets count); text = the text encoder on a new sentence; cold =
+warm + text. The onnx backend, float32.
 """
 
 from __future__ import annotations
@@ -49,7 +54,7 @@ from inference_speed import FRAMES, TEXTS  # noqa: E402  (the same prompts and l
 
 VARIANTS = ("unfused-text", "whole-grid", "one-graph", "matmul-add-fusion", "one-decoder",
             "spinning-steps", "one-thread-steps", "static-spinning",
-            "unfused-attention")
+            "unfused-attention", "candidates-loop", "torch-glue")
 
 
 def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
@@ -84,6 +89,11 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
         gen.decode_apart = "one-graph" not in chosen
         gen.decode_halves = "one-decoder" not in chosen
         gen.fuse_attention = "unfused-attention" not in chosen
+        if "candidates-loop" in chosen:  # the instance's own methods, as before the change
+            gen._steps_session = lambda steps, batch: None
+            gen._single_decodes = -10**9  # never a second single decode: the whole decoder
+        if "torch-glue" in chosen:
+            gen.torch_glue_threads = None
         if chosen & {"spinning-steps", "one-thread-steps"}:
             gen.spinning_steps = "spinning-steps" in chosen
         if "static-spinning" in chosen:
@@ -110,6 +120,18 @@ def warm_ms(gen: Any, calls: int, offset: int, frames: int = FRAMES) -> float:
     return statistics.median(times) * 1000.0
 
 
+def generate_ms(gen: Any, calls: int, offset: int) -> float:
+    """Median ms of generate() of a 5 s motion of a caption already encoded, the model's
+    defaults otherwise (best of N, keep-going, planted feet)."""
+    times = []
+    for i in range(calls):
+        text = TEXTS[(offset + i) % len(TEXTS)]
+        start = time.perf_counter()
+        gen.generate(text, seconds=5, seed=offset * 1000 + i)
+        times.append(time.perf_counter() - start)
+    return statistics.median(times) * 1000.0
+
+
 def text_ms(gen: Any, calls: int, offset: int) -> float:
     """Median ms of the text encoder on a sentence it has not memoised (encode, not the memo)."""
     times = []
@@ -130,20 +152,27 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=FRAMES)
     parser.add_argument("--busy", type=int, default=0, metavar="N",
                         help="busy loops running beside the rounds")
+    parser.add_argument("--generate", action="store_true",
+                        help="also time generate() of a 5 s motion, the model's defaults")
     args = parser.parse_args()
     import torch
 
     torch.set_num_threads(args.threads)
     root = Path(tempfile.mkdtemp(prefix="mlct-paired-"))
     gens = {spec: load(spec, root / f"m{i}", args.frames) for i, spec in enumerate(args.models)}
-    rounds: dict[str, list[tuple[float, float]]] = {spec: [] for spec in gens}
+    rounds: dict[str, list[tuple[float, float, float]]] = {spec: [] for spec in gens}
+    if args.generate:  # the text memo, the graphs and the halves of generate()'s own path
+        for gen in gens.values():
+            generate_ms(gen, len(TEXTS) + 2, 0)
     busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
             for _ in range(args.busy)]
     try:
         for r in range(args.rounds):
             for spec, gen in gens.items():
                 rounds[spec].append((warm_ms(gen, args.calls, r, args.frames),
-                                     text_ms(gen, args.calls, r)))
+                                     text_ms(gen, args.calls, r),
+                                     generate_ms(gen, args.calls, r) if args.generate
+                                     else float("nan")))
     finally:
         for loop in busy:
             loop.kill()
@@ -152,17 +181,25 @@ def main() -> None:
           f"{args.rounds} rounds of {args.calls} calls, the models taking turns; ms"
           + (f"; {args.busy} busy loop(s) beside" if args.busy else ""))
     print(f"{'model':<44} {'warm med':>8} {'range':>13} {'text med':>8} {'cold med':>8} "
-          f"{'warm/first':>10} {'cold/first':>10}")
+          f"{'warm/first':>10} {'cold/first':>10}"
+          + (f" {'gen med':>8} {'gen/first':>9}" if args.generate else ""))
     for spec, values in rounds.items():
-        warm = [w for w, _ in values]
-        cold = [w + t for w, t in values]
-        base_warm = [w for w, _ in rounds[first]]
-        base_cold = [w + t for w, t in rounds[first]]
+        warm = [w for w, _, _ in values]
+        cold = [w + t for w, t, _ in values]
+        made = [g for _, _, g in values]
+        base_warm = [w for w, _, _ in rounds[first]]
+        base_cold = [w + t for w, t, _ in rounds[first]]
+        base_made = [g for _, _, g in rounds[first]]
         warm_ratio = statistics.median(a / b for a, b in zip(warm, base_warm))
         cold_ratio = statistics.median(a / b for a, b in zip(cold, base_cold))
-        print(f"{spec[-44:]:<44} {statistics.median(warm):8.2f} "
-              f"{min(warm):6.2f}-{max(warm):<6.2f} {statistics.median(t for _, t in values):8.2f} "
-              f"{statistics.median(cold):8.2f} {warm_ratio:10.3f} {cold_ratio:10.3f}")
+        line = (f"{spec[-44:]:<44} {statistics.median(warm):8.2f} "
+                f"{min(warm):6.2f}-{max(warm):<6.2f} "
+                f"{statistics.median(t for _, t, _ in values):8.2f} "
+                f"{statistics.median(cold):8.2f} {warm_ratio:10.3f} {cold_ratio:10.3f}")
+        if args.generate:
+            made_ratio = statistics.median(a / b for a, b in zip(made, base_made))
+            line += f" {statistics.median(made):8.2f} {made_ratio:9.3f}"
+        print(line)
     print("(ratios: the median over rounds of each round's ratio to the first model)")
 
 
