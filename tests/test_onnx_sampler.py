@@ -339,5 +339,17 @@ def test_generate_runs_its_torch_work_on_one_thread_and_gives_the_threads_back(b
         gen.torch_glue_threads, gen.torch_min_batch = 1, 4  # 4 candidates: a "large" batch
         gen.generate(TEXTS[:1], lengths=[40], nfe=2, seed=3, candidates=4)
         assert seen["torch networks"] == [2] and torch.get_num_threads() == 2
+        # calls from several threads at once: the first in saves torch's count, the last one
+        # out gives it back, whatever the order they leave in
+        from mlct.generate.onnx_backend import torch_glue
+
+        first, second = torch_glue(1), torch_glue(1)
+        first.__enter__()
+        second.__enter__()
+        assert torch.get_num_threads() == 1
+        first.__exit__(None, None, None)  # the first out is not the last
+        assert torch.get_num_threads() == 1
+        second.__exit__(None, None, None)
+        assert torch.get_num_threads() == 2
     finally:
         torch.set_num_threads(previous)

@@ -11,6 +11,7 @@ same seed gives the same motion, up to float rounding (tests/test_onnx.py: joint
 from __future__ import annotations
 
 import os
+import threading
 from contextlib import contextmanager
 from typing import Any, Iterator, Sequence
 
@@ -375,7 +376,7 @@ class OnnxMotionGenerator(MotionGenerator):
     def generate(self, *args: Any, **kwargs: Any) -> Any:
         """MotionGenerator.generate, its torch work on TORCH_GLUE_THREADS threads (the torch
         networks of a large batch on `threads`)."""
-        with torch_threads(self.torch_glue_threads):
+        with torch_glue(self.torch_glue_threads):
             return super().generate(*args, **kwargs)
 
     @property
@@ -406,6 +407,32 @@ def _onnx_installed() -> bool:
     except ImportError:
         return False
     return True
+
+
+_GLUE_LOCK = threading.Lock()
+_glue = {"active": 0, "saved": 0}  # generate() calls inside torch_glue, torch's count before
+
+
+@contextmanager
+def torch_glue(count: int | None) -> Iterator[None]:
+    """Torch on `count` threads while any generate() of the onnx backend runs (None: as it is);
+    the first to enter saves torch's count and the last to leave puts it back, so calls from
+    several threads at once leave it as they found it."""
+    if count is None:
+        yield
+        return
+    with _GLUE_LOCK:
+        if _glue["active"] == 0:
+            _glue["saved"] = torch.get_num_threads()
+            torch.set_num_threads(count)
+        _glue["active"] += 1
+    try:
+        yield
+    finally:
+        with _GLUE_LOCK:
+            _glue["active"] -= 1
+            if _glue["active"] == 0:
+                torch.set_num_threads(_glue["saved"])
 
 
 @contextmanager
