@@ -78,7 +78,7 @@ class OnnxDecoder:
 # threads spin on the cores (libgomp's default, for milliseconds) that the next ONNX Runtime
 # run wants: generate() of the bundled model, 5 s, 2 threads, best of 8 took 17.2 ms with 2
 # torch threads and 12.7 with 1 (0.75x paired), best of 1 7.1 and 5.6 (docs/performance.md,
-# "Torch's spinning threads"). The torch networks of a large batch keep all `threads`.
+# "generate()'s own path"). The torch networks of a large batch keep all `threads`.
 TORCH_GLUE_THREADS = 1
 # Sampler graphs a generator builds at most: each session holds its own copy of the denoiser's
 # and the decoder's weights (20 MB for the bundled model, ~180 MB at paper size); step counts
@@ -155,7 +155,7 @@ class OnnxMotionGenerator(MotionGenerator):
         self._fused: dict[int, Any] = {}  # step count -> its sampler graph (bytes, or None)
         # (step count, threads, batch 1, steps apart from the decoder, spinning) -> session
         self._sessions: dict[tuple[int, int, bool, bool, bool], Any] = {}
-        self._calls: dict[int, int] = {}  # step count -> sample_features calls with it
+        self._calls: dict[int, int] = {}  # step count -> sampling calls with it
         self._coefficients: dict[int, dict[str, np.ndarray]] = {}  # step count -> its times, coef
         self.torch_min_batch = TORCH_MIN_BATCH
         self.decode_apart = DECODE_APART
@@ -193,8 +193,10 @@ class OnnxMotionGenerator(MotionGenerator):
                        seed: int | Sequence[int] | None = None, guidance: float | None = None
                        ) -> Tensor:
         """As the torch backend's, for a consistency model without its per-step torch glue:
-        the noise and coefficients once (onnx_sampler.consistency_feeds), then one denoiser
-        call and a few numpy operations per step. A large batch goes to the torch networks."""
+        the noise and coefficients once (onnx_sampler.consistency_feeds), then, from the second
+        call with a step count, the steps' graph in one call (_steps_session), before it one
+        denoiser call and a few numpy operations per step. A large batch goes to the torch
+        networks, on all `threads`."""
         if not isinstance(self.sampler, ConsistencySampler) or self._large(cond.shape[0]):
             with torch_threads(self.threads if self._large(cond.shape[0]) else None):
                 return super().sample_latents(cond, nfe, seed, guidance)
