@@ -91,6 +91,12 @@ def test_text_embeddings_match_the_torch_encoder(backends) -> None:
     import mlct.onnx_io as onnx_io
 
     encoder = OnnxMiniLMEncoder(onnx_gen.graphs.text_encoder, spec, threads=2)
+    made_at_load = set(encoder._sessions)
+    with pytest.MonkeyPatch.context() as patch:  # the first run: the session made at load,
+        patch.setattr(onnx_io, "OTHER_LOAD", lambda: 0.0)  # whatever the load says then
+        patch.setattr(onnx_io.os, "cpu_count", lambda: 2)
+        encoder.encode(texts[:1])
+    assert set(encoder._sessions) == made_at_load
 
     def spins() -> str:
         options = encoder.session.get_session_options()
