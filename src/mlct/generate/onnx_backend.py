@@ -419,7 +419,8 @@ _glue = {"active": 0, "saved": 0}  # generate() calls inside torch_glue, torch's
 def torch_glue(count: int | None) -> Iterator[None]:
     """Torch on `count` threads while any generate() of the onnx backend runs (None: as it is);
     the first to enter saves torch's count and the last to leave puts it back, so calls from
-    several threads at once leave it as they found it."""
+    several threads at once leave it as they found it. The count is the process's: torch work
+    of another thread during a generate() runs on `count` threads too."""
     if count is None:
         yield
         return
