@@ -353,3 +353,26 @@ def test_generate_runs_its_torch_work_on_one_thread_and_gives_the_threads_back(b
         assert torch.get_num_threads() == 2
     finally:
         torch.set_num_threads(previous)
+
+
+def test_the_generators_spinning_reaches_its_steps_and_its_text_encoder(backends) -> None:
+    """OnnxMotionGenerator.spinning: False or True forces the steps' sessions (batch 1 and
+    larger) and the text encoder's, None gives them back to the machine's load."""
+    from mlct.generate.onnx_backend import OnnxMotionGenerator
+
+    folder = Path(backends[1].graphs.denoiser).parent.parent
+    gen = OnnxMotionGenerator.load(folder, threads=2)
+    gen.spinning = False
+    assert gen.text_encoder.spinning is False  # made after: it takes the generator's
+    rows = gen.encode_text(TEXTS[:1]).repeat_interleave(3, dim=0)
+    for _ in range(2):
+        gen.sample_latents(rows, 2, [1, 2, 3])
+        gen.sample_latents(rows[:1], 2, [1])
+    assert {key[4] for key in gen._sessions} == {False}
+    gen.spinning = True
+    assert gen.text_encoder.spinning is True and gen.spinning_steps is True
+    gen.sample_latents(rows, 2, [1, 2, 3])
+    gen.sample_latents(rows[:1], 2, [1])
+    assert (2, 2, False, True, True) in gen._sessions and (2, 2, True, True, True) in gen._sessions
+    gen.spinning = None
+    assert gen.text_encoder.spinning is None and gen.spinning_steps is None

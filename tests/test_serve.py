@@ -411,6 +411,44 @@ def test_concurrent_requests_share_a_batch():
         assert stats["batch_sizes"] == {"1": 1, "5": 1} and stats["largest_batch"] == 5
 
 
+def test_overlapping_requests_keep_the_model_threads_from_spinning(monkeypatch):
+    """serve/batcher.py: while requests overlap (a batch of several, or more waiting) and for
+    OVERLAP_WINDOW_S after, the generator's `spinning` is False; a request alone after that
+    window leaves it to the generator (None). The spinning each call saw is recorded."""
+    import mlct.serve.batcher as batcher
+
+    monkeypatch.setattr(batcher, "OVERLAP_WINDOW_S", 1.5)  # wide: a slow machine stays inside
+    seen: list = []
+
+    class Spinning(FakeGenerator):
+        spinning: bool | None = None
+
+        def generate(self, *args, **kwargs):
+            seen.append(self.spinning)
+            return super().generate(*args, **kwargs)
+
+    gate = threading.Event()
+    generator = Spinning(gate)
+    client = TestClient(create_app(generator, ServeSettings(warmup=False, batch_wait_ms=0)))
+    with client:
+        gate.set()
+        assert client.post("/generate", json=GOOD).status_code == 200  # alone: None
+        gate.clear()
+        generator.entered.clear()
+        head, _ = post_async(client, GOOD)  # held, while two more wait behind it
+        assert generator.entered.wait(5)
+        waiting = [post_async(client, {**GOOD, "seed": i}) for i in range(2)]
+        wait_until(lambda: client.get("/health").json()["queue"]["queued"] == 2)
+        gate.set()
+        for thread, _ in [(head, None), *waiting]:
+            thread.join(5)
+        assert client.post("/generate", json=GOOD).status_code == 200  # within the window
+        time.sleep(1.6)
+        assert client.post("/generate", json=GOOD).status_code == 200  # alone again: None
+    # the held call started alone (the others queued after it), the batch of two overlapped
+    assert seen == [None, None, False, False, None]
+
+
 def queued_behind_one(bodies: list[dict]) -> tuple[list[int], FakeGenerator]:
     """Hold the worker on one request, queue `bodies` behind it, release: their statuses, and
     the fake generator (its calls after the first are the queued bodies' batches)."""

@@ -319,7 +319,8 @@ class OnnxMotionGenerator(MotionGenerator):
             threads = 2 if spin else 1
         else:
             threads = self.thread_count
-            spin = spin_now(threads)
+            spin = (self.spinning_steps if self.spinning_steps is not None
+                    else spin_now(threads)) and threads > 1
         key = (steps, threads, batch == 1, True, spin)
         if key not in self._sessions:
             self._sessions[key] = session_from_bytes(fixed_batch(graph, 1) if batch == 1
@@ -342,6 +343,20 @@ class OnnxMotionGenerator(MotionGenerator):
         valid = np.arange(max(lengths)) < np.array(lengths)[:, None]
         features = halves(latent, valid)
         return [features[i, :n] for i, n in enumerate(lengths)]
+
+    @property
+    def spinning(self) -> bool | None:
+        """Whether the steps' and the text encoder's threads spin within their runs: None (the
+        default) while the machine is idle (onnx_io.spin_now), or forced either way. A server
+        sets False while requests overlap (serve/batcher.py): its own threads then work beside
+        the model's, which the load meter, counting other processes, does not see."""
+        return self.spinning_steps
+
+    @spinning.setter
+    def spinning(self, value: bool | None) -> None:
+        self.spinning_steps = value
+        if self._text_encoder is not None and hasattr(self._text_encoder, "spinning"):
+            self._text_encoder.spinning = value
 
     def _spinning_steps(self) -> bool:
         """Do batch 1's steps run on two threads that spin within the run (`spinning_steps`;
@@ -389,6 +404,7 @@ class OnnxMotionGenerator(MotionGenerator):
 
             self._text_encoder = OnnxMiniLMEncoder(self.graphs.text_encoder,
                                                    self.meta["text_encoder"], self.threads)
+            self._text_encoder.spinning = self.spinning_steps
         return self._text_encoder
 
     @classmethod

@@ -67,6 +67,13 @@ class _Job:
 
 
 _STOP = object()
+# How long after requests last overlapped (a batch of several, or more waiting) the model's
+# threads keep from spinning (the onnx backend's `spinning`). The load meter behind its default
+# counts other processes only, and a server's own threads (HTTP, the responses' export) work
+# beside the model while requests overlap: 4 concurrent clients on 2 cores got 48-52 motions/s
+# with the threads spinning and 55-57 without, while one client's round trip took 20 ms
+# spinning against 25 (bench/serve_latency.py; docs/performance.md, "A server's own threads").
+OVERLAP_WINDOW_S = 1.0
 
 
 class Batcher:
@@ -88,6 +95,7 @@ class Batcher:
         self._lock = threading.Lock()
         self._sizes: Counter[int] = Counter()  # batch size -> model calls of that size
         self._requests = 0
+        self._overlapped = -float("inf")  # perf_counter() when requests last overlapped
 
     def start(self) -> None:
         if self._thread is None:
@@ -178,6 +186,7 @@ class Batcher:
             return
         texts = [text for job in live for text in job.texts]
         started = time.perf_counter()
+        self._spin_unless_overlapping(len(live) > 1 or not self._queue.empty(), started)
         try:
             if live[0].control is not None:  # alone in its batch (_next_batch)
                 motions = self.generator.generate(texts, lengths=live[0].lengths[0],
@@ -219,6 +228,15 @@ class Batcher:
                                          started - job.submitted, elapsed))
             start += len(job.texts)
 
+
+    def _spin_unless_overlapping(self, overlapping: bool, now: float) -> None:
+        """The generator's `spinning` (where it has one, the onnx backend): False within
+        OVERLAP_WINDOW_S of requests overlapping, else None (the machine's load decides)."""
+        if overlapping:
+            self._overlapped = now
+        if hasattr(self.generator, "spinning"):
+            self.generator.spinning = (False if now - self._overlapped < OVERLAP_WINDOW_S
+                                       else None)
 
     def _default_lengths(self, texts: list[str], lengths: list[int]) -> list[int]:
         """Each DEFAULT_LENGTH replaced by the model's default for its text, as the CLI's."""
