@@ -167,6 +167,7 @@ class OnnxMotionGenerator(MotionGenerator):
         self._halves: DecoderHalves | None | bool = False  # False: not made yet
         self._single_decodes = 0  # decode() calls with one latent
         self._steps_only: dict[int, bytes] = {}  # step count -> its graph without the decoder
+        self._onnx: bool | None = None  # is the onnx package there (None: not asked yet)
         self._tensors = tensors  # the torch networks of large batches are built from them
         self._torch_networks: tuple[Any, Any] | None = None
         super().__init__(meta, tensors, "cpu", "float32")
@@ -237,16 +238,20 @@ class OnnxMotionGenerator(MotionGenerator):
                                                       if k not in COEFFICIENTS})
         else:  # the steps on one thread, then the decoder on all (the graph's own arithmetic)
             (latent,) = session.run(["latent"], {k: feeds[k] for k in ("x", "noise", "text")})
-            latent = latent / np.float32(self.config.schedule.latent_scale)
-            halves = self._decoder_halves() if cond.shape[0] == 1 else None
-            if halves is not None:  # body and arm pair side by side, one core each; the
-                features = halves(latent, feeds["valid"])  # normalization undone in the join
-            else:
-                (inputs, outputs) = DECODER_IO
-                (normalized,) = self.ae.session.run(list(outputs), dict(zip(inputs, (
-                    latent, feeds["valid"]))))
-                features = normalized * self._std + self._mean
+            features = self._decoded(latent, feeds["valid"])
         return [features[i, :n] for i, n in enumerate(lengths)]
+
+    def _decoded(self, latent: np.ndarray, valid: np.ndarray) -> np.ndarray:
+        """Features in real units (B, T, D) of sampled latents (B, n, d) by the decoder's
+        session: a single latent's by its halves side by side, one core each, whose join
+        undoes the normalization (onnx_decoder_halves.py)."""
+        latent = latent / np.float32(self.config.schedule.latent_scale)
+        halves = self._decoder_halves() if latent.shape[0] == 1 else None
+        if halves is not None:
+            return halves(latent, valid)
+        (inputs, outputs) = DECODER_IO
+        (normalized,) = self.ae.session.run(list(outputs), dict(zip(inputs, (latent, valid))))
+        return normalized * self._std + self._mean
 
     def _feeds(self, cond: Tensor, nfe: int | None, seed: int | Sequence[int] | None
                ) -> dict[str, np.ndarray]:
@@ -280,21 +285,18 @@ class OnnxMotionGenerator(MotionGenerator):
         if graph is None:
             return None
         small = batch <= ONE_THREAD_MAX_BATCH and len(graph) <= ONE_THREAD_MAX_BYTES
+        if small and self.decode_apart and self.thread_count > 1:
+            if steps not in self._steps_only:
+                self._steps_only[steps] = self._sampler_graph(steps, with_decoder=False)
+            return self._steps_graph_session(steps, batch), True
         threads = 1 if small else self.thread_count
-        apart = small and self.decode_apart and self.thread_count > 1
-        spin = apart and self._spinning_steps()
-        if spin:  # two threads spinning within the run (_spinning_steps)
-            threads = 2
-        if apart and steps not in self._steps_only:
-            self._steps_only[steps] = self._sampler_graph(steps, with_decoder=False)
-        key = (steps, threads, batch == 1, apart, spin)
+        key = (steps, threads, batch == 1, False, False)
         if key not in self._sessions:
-            chosen = self._steps_only[steps] if apart else graph
             # batch 1, the size a person waits on, gets a graph of fixed shapes (fewer operators)
-            # (spin False: on one thread, or no cores to spare; onnx_io.session decides then)
-            self._sessions[key] = session_from_bytes(fixed_batch(chosen, 1) if batch == 1
-                                                     else chosen, threads, spin or None)
-        return self._sessions[key], apart
+            # (spinning: onnx_io.session decides by the machine's size)
+            self._sessions[key] = session_from_bytes(fixed_batch(graph, 1) if batch == 1
+                                                     else graph, threads)
+        return self._sessions[key], False
 
     def _steps_session(self, steps: int, batch: int) -> Any | None:
         """The session of the steps alone (the sampler graph without the decoder) for
@@ -307,22 +309,32 @@ class OnnxMotionGenerator(MotionGenerator):
         while the machine is idle (onnx_io.spin_now; both kinds are small)."""
         self._calls[steps] = self._calls.get(steps, 0) + 1
         if steps not in self._steps_only:
-            if (self._calls[steps] < 2 or len(self._steps_only) >= MAX_SAMPLER_GRAPHS
-                    or not _onnx_installed()):
+            if self._calls[steps] < 2 or len(self._steps_only) >= MAX_SAMPLER_GRAPHS:
+                return None
+            if self._onnx is None:  # asked once: Python does not remember a failed import
+                self._onnx = _onnx_installed()
+            if not self._onnx:
                 return None
             self._steps_only[steps] = self._sampler_graph(steps, with_decoder=False)
-        graph = self._steps_only[steps]
-        if len(graph) > ONE_THREAD_MAX_BYTES:
+        if len(self._steps_only[steps]) > ONE_THREAD_MAX_BYTES:
             return None
+        return self._steps_graph_session(steps, batch)
+
+    def _steps_graph_session(self, steps: int, batch: int) -> Any:
+        """The session of the built steps-only graph at this batch size: batch 1 on one thread,
+        or on two spinning within the run (_spinning_steps); a larger batch on `threads`,
+        spinning while the machine is idle (onnx_io.spin_now) unless `spinning_steps` says."""
         if batch == 1:
             spin = self.thread_count > 1 and self._spinning_steps()
             threads = 2 if spin else 1
         else:
             threads = self.thread_count
-            spin = (self.spinning_steps if self.spinning_steps is not None
-                    else spin_now(threads)) and threads > 1
+            spin = threads > 1 and (self.spinning_steps if self.spinning_steps is not None
+                                    else spin_now(threads))
         key = (steps, threads, batch == 1, True, spin)
         if key not in self._sessions:
+            graph = self._steps_only[steps]
+            # batch 1, the size a person waits on, gets a graph of fixed shapes (fewer operators)
             self._sessions[key] = session_from_bytes(fixed_batch(graph, 1) if batch == 1
                                                      else graph, threads, spin)
         return self._sessions[key]
@@ -334,14 +346,11 @@ class OnnxMotionGenerator(MotionGenerator):
         single decode keeps the whole decoder.)"""
         if z.shape[0] == 1:
             self._single_decodes += 1
-        halves = self._decoder_halves() if z.shape[0] == 1 and self._single_decodes > 1 \
-            else None
-        if halves is None:
+        if z.shape[0] != 1 or self._single_decodes < 2 or self._decoder_halves() is None:
             with torch_threads(self.threads if self._large(z.shape[0]) else None):
                 return super().decode(z, lengths)
-        latent = _array(z.float()) / np.float32(self.config.schedule.latent_scale)
         valid = np.arange(max(lengths)) < np.array(lengths)[:, None]
-        features = halves(latent, valid)
+        features = self._decoded(_array(z.float()), valid)
         return [features[i, :n] for i, n in enumerate(lengths)]
 
     @property

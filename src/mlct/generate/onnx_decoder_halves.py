@@ -71,6 +71,7 @@ class DecoderHalves:
         # worker's wake-up then delays the half that finishes first (version 7: its 128-channel
         # arm half 1.06 ms, the 96-channel body 0.76; the halves 1.26 -> 1.18 ms)
         self.handed_over = min(("body", "arms"), key=lambda name: _weight_bytes(cut[name]))
+        self.kept = "arms" if self.handed_over == "body" else "body"
         self.inputs = {name: [i.name for i in s.get_inputs()]
                        for name, s in self.sessions.items()}
         self._worker: ThreadPoolExecutor | None = None
@@ -110,9 +111,8 @@ class DecoderHalves:
     def __call__(self, latent: np.ndarray, valid: np.ndarray) -> np.ndarray:
         (latent_name, valid_name), _ = DECODER_IO
         feeds = {latent_name: latent, valid_name: valid}
-        kept = "arms" if self.handed_over == "body" else "body"
         other = self._pool().submit(self._run, self.handed_over, feeds)
-        out = {kept: self._run(kept, feeds), self.handed_over: other.result()}
+        out = {self.kept: self._run(self.kept, feeds), self.handed_over: other.result()}
         body_name, arms_name = self.names
         return self._run("join", {body_name: out["body"], arms_name: out["arms"],
                                   valid_name: valid})
