@@ -204,6 +204,90 @@ def test_transformer_decoder_ddim_and_token_condition(tmp_path) -> None:
         assert largest_gap(a, b) < JOINTS_M
 
 
+def test_fused_attention_keeps_a_transformer_decoders_padding(tmp_path) -> None:
+    """onnx_attention.fuse_attention(padded=True): the decoder's masked attentions become
+    ONNX Runtime's Attention with the padding as its mask (in its session and in the sampler
+    graph), the features those of the exported graph, padded frames 0; without `padded` a
+    masked block is left alone."""
+    import onnx
+    import onnxruntime as ort
+
+    from mlct.generate.onnx_attention import fuse_attention
+    from mlct.generate.onnx_backend import OnnxMotionGenerator
+
+    model = convert_to_onnx(random_bundle(tmp_path / "tiny", "consistency", "minilm"))
+    gen = OnnxMotionGenerator.load(model)
+    layers, heads = gen.config.ae.layers, gen.config.ae.heads
+    decoder = onnx.load(str(gen.graphs.decoder))
+    assert fuse_attention(decoder, heads) == 0  # masked: not the plain pattern
+    assert fuse_attention(decoder, heads, padded=True) == layers
+    kinds = [node.op_type for node in decoder.graph.node]
+    assert kinds.count("Attention") == layers and "Softmax" not in kinds
+    exported = ort.InferenceSession(str(gen.graphs.decoder), providers=["CPUExecutionProvider"])
+    fused = ort.InferenceSession(decoder.SerializeToString(), providers=["CPUExecutionProvider"])
+    latent = np.random.default_rng(0).standard_normal((2, *gen.ae.latent_shape))
+    valid = np.arange(64)[None] < np.array([[64], [9]])  # the second mostly padding
+    feeds = {"latent": latent.astype(np.float32), "valid": valid}
+    (want,), (got,) = exported.run(None, feeds), fused.run(None, feeds)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-5)
+    assert np.abs(got[1, :9]).max() > 0.1 and not got[1, 9:].any()
+
+    torch_gen = mlct.load(model)
+    for threads in (1, 2):  # the decoder apart (one thread's steps) or in the sampler graph
+        gen = OnnxMotionGenerator.load(model, threads=threads)
+        gen.keep_going = False
+        for _ in range(2):  # the second call builds the sampler graph
+            got = gen.generate(TEXTS[:2], lengths=[64, 9], nfe=2, seed=1, candidates=1)
+        graph = onnx.ModelProto.FromString(gen._fused[2]).graph
+        assert sum(node.op_type == "Attention" for node in graph.node) >= layers
+        want = torch_gen.generate(TEXTS[:2], lengths=[64, 9], nfe=2, seed=1, candidates=1)
+        assert largest_gap(want, got) < JOINTS_M
+
+
+def test_fused_attention_after_a_blockwise_quantized_product(tmp_path) -> None:
+    """A q/k/v product quantized by blocks (MatMulNBits) stays; what follows it becomes
+    ONNX Runtime's MultiHeadAttention. With float arithmetic in the product (accuracy_level
+    1) the outputs are the exported graph's to float rounding. (The int8 arithmetic of
+    `--int8` rounds each product's input to int8 too, so there float rounding can flip a
+    step of it.)"""
+    import logging
+
+    import onnx
+    import onnxruntime as ort
+    from onnxruntime.quantization.matmul_nbits_quantizer import (
+        DefaultWeightOnlyQuantConfig, MatMulNBitsQuantizer)
+
+    from mlct.generate.onnx_attention import fuse_attention
+    from mlct.generate.onnx_backend import OnnxMotionGenerator
+
+    gen = OnnxMotionGenerator.load(convert_to_onnx(random_bundle(tmp_path / "tiny",
+                                                                 "consistency", "minilm")))
+    logging.getLogger("onnxruntime.quantization.matmul_nbits_quantizer").setLevel(logging.WARNING)
+    quantizer = MatMulNBitsQuantizer(onnx.load(str(gen.graphs.denoiser)),
+                                     algo_config=DefaultWeightOnlyQuantConfig(
+                                         block_size=32, is_symmetric=True, accuracy_level=1,
+                                         bits=8))
+    quantizer.process()
+    quantized = quantizer.model.model
+    fused = onnx.ModelProto()
+    fused.CopyFrom(quantized)
+    layers = gen.config.denoiser.layers
+    assert fuse_attention(fused, gen.config.denoiser.heads) == layers
+    kinds = [node.op_type for node in fused.graph.node]
+    assert kinds.count("MultiHeadAttention") == layers and "Softmax" not in kinds
+    assert kinds.count("MatMulNBits") == sum(node.op_type == "MatMulNBits"
+                                             for node in quantized.graph.node)
+    rng = np.random.default_rng(0)
+    feeds = {"x_t": rng.standard_normal((2, *gen.ae.latent_shape)).astype(np.float32),
+             "t": np.array([500.0, 30.0], np.float32),
+             "text": rng.standard_normal((2, int(gen.meta["text_dim"]))).astype(np.float32)}
+    (want,), (got,) = (ort.InferenceSession(m.SerializeToString(),
+                                            providers=["CPUExecutionProvider"]).run(None, feeds)
+                       for m in (quantized, fused))
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-5)
+    assert np.abs(want).max() > 0.1
+
+
 def test_conv_decoder_with_its_own_arm_pair(tmp_path) -> None:
     """ae.arm_tokens: the body and arm decoders' features put back in order inside the graph."""
     model = convert_to_onnx(random_bundle(
@@ -333,6 +417,14 @@ def test_int8_quantizes_the_denoiser_only_and_moves_the_joints_little(converted,
     for _ in range(2):  # the second call runs the fused sampler graph built from the int8 one
         a = full.generate(TEXTS, seconds=4, seed=3, candidates=1)
         b = small.generate(TEXTS, seconds=4, seed=3, candidates=1)
+    import onnx
+
+    (graph,) = [onnx.ModelProto.FromString(g).graph for g in small._fused.values() if g]
+    kinds = [node.op_type for node in graph.node]  # the int8 products' attentions fused
+    per_pass = sum(node.op_type == "MatMulNBits" for node in onnx.load(
+        str(converted_int8 / ONNX_DIR / "denoiser.onnx")).graph.node)
+    steps = kinds.count("MatMulNBits") // per_pass
+    assert kinds.count("MultiHeadAttention") == steps * small.config.denoiser.layers > 0
     gaps = [np.linalg.norm(x.joints - y.joints, axis=-1) for x, y in zip(a, b)]
     poses = [np.linalg.norm((x.joints - x.joints[:, :1]) - (y.joints - y.joints[:, :1]), axis=-1)
              for x, y in zip(a, b)]

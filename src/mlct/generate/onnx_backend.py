@@ -22,6 +22,7 @@ from torch import Tensor
 from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
+from mlct.generate.onnx_attention import fuse_attention
 from mlct.generate.onnx_bundle import DECODER_IO, DENOISER_IO, OnnxGraphs, read_onnx
 from mlct.generate.onnx_decoder_halves import DecoderHalves
 from mlct.generate.onnx_sampler import (COEFFICIENTS, INPUTS, consistency_feeds, fixed_batch,
@@ -56,10 +57,21 @@ class OnnxDenoiser:
 
 
 class OnnxDecoder:
-    """The AE decoder of decoder.onnx, called as the pipeline calls the torch one."""
+    """The AE decoder of decoder.onnx, called as the pipeline calls the torch one.
+    attention_heads: a transformer decoder's head count; given (and the onnx package there),
+    its attentions run as ONNX Runtime's fused operator, mask and all (onnx_attention.py)."""
 
-    def __init__(self, graph: os.PathLike, threads: int | None = None) -> None:
-        self.session = session(graph, threads)
+    def __init__(self, graph: os.PathLike, threads: int | None = None,
+                 attention_heads: int | None = None) -> None:
+        fused = None
+        if attention_heads is not None and _onnx_installed():
+            import onnx
+
+            model = onnx.load(str(graph))
+            if fuse_attention(model, attention_heads, padded=True):
+                fused = model.SerializeToString()
+        self.session = session(graph, threads) if fused is None else \
+            session_from_bytes(fused, threads)
         shape = self.session.get_inputs()[0].shape  # ["batch", n, d]
         self.latent_shape: tuple[int, int] = (int(shape[1]), int(shape[2]))
 
@@ -161,7 +173,8 @@ class OnnxMotionGenerator(MotionGenerator):
         self.decode_apart = DECODE_APART
         self.decode_halves = DECODE_HALVES
         self.spinning_steps: bool | None = None  # None: _spinning_steps decides
-        # the sampler graph's attentions as ONNX Runtime's fused operator (onnx_attention.py)
+        # the attentions of the sampler graph and of a transformer decoder as ONNX Runtime's
+        # fused operator (onnx_attention.py)
         self.fuse_attention = FUSE_ATTENTION
         self.torch_glue_threads: int | None = TORCH_GLUE_THREADS  # None: torch's, untouched
         self._halves: DecoderHalves | None | bool = False  # False: not made yet
@@ -175,7 +188,7 @@ class OnnxMotionGenerator(MotionGenerator):
         self._mean, self._std = self.mean.numpy(), self.std.numpy()  # float32, as the graph's
 
     def _networks(self, tensors: dict[str, Tensor]) -> tuple[OnnxDecoder, OnnxDenoiser]:
-        return (OnnxDecoder(self.graphs.decoder, self.threads),
+        return (OnnxDecoder(self.graphs.decoder, self.threads, self._decoder_heads()),
                 OnnxDenoiser(self.graphs.denoiser, self.threads))
 
     def _large(self, batch: int) -> bool:
@@ -384,6 +397,12 @@ class OnnxMotionGenerator(MotionGenerator):
             self._halves = DecoderHalves.of(self.graphs.decoder, self._mean, self._std)
         return self._halves
 
+    def _decoder_heads(self) -> int | None:
+        """The transformer decoder's head count, for its fused attention; None: a convolutional
+        decoder (no attention) or `fuse_attention` off."""
+        ae = self.config.ae
+        return ae.heads if self.fuse_attention and ae.architecture == "transformer" else None
+
     def _sampler_graph(self, steps: int, with_decoder: bool) -> bytes:
         """onnx_sampler.sampler_model of this model and step count, serialized."""
         return sampler_model(self.graphs.denoiser,
@@ -392,7 +411,8 @@ class OnnxMotionGenerator(MotionGenerator):
                              mean=self._mean, std=self._std,
                              coefficients=self._step_coefficients(steps),
                              attention_heads=self.config.denoiser.heads
-                             if self.fuse_attention else None).SerializeToString()
+                             if self.fuse_attention else None,
+                             decoder_heads=self._decoder_heads()).SerializeToString()
 
     @property
     def thread_count(self) -> int:

@@ -45,7 +45,7 @@ OUTPUTS = ("features", "latent")
 def sampler_model(denoiser: str | os.PathLike, decoder: str | os.PathLike | None, steps: int,
                   *, clamp: float | None, latent_scale: float, mean: np.ndarray, std: np.ndarray,
                   coefficients: dict[str, np.ndarray] | None = None,
-                  attention_heads: int | None = None) -> Any:
+                  attention_heads: int | None = None, decoder_heads: int | None = None) -> Any:
     """The sampler graph of `steps` steps (above), an onnx.ModelProto, from denoiser.onnx
     (x_t, t, text -> f) and decoder.onnx (latent, valid -> features); the clamp, latent_scale
     and the feature mean and std are the bundle's, baked in as constants. decoder None: the
@@ -56,7 +56,8 @@ def sampler_model(denoiser: str | os.PathLike, decoder: str | os.PathLike | None
     (they depend on the step count alone): ONNX Runtime then folds the denoiser's time terms
     (its sinusoid and time projections) into constants once, not per call.
     attention_heads: the denoiser's head count; given, its self-attentions become ONNX
-    Runtime's fused Attention operator (onnx_attention.py), a graph only ONNX Runtime runs."""
+    Runtime's fused Attention operator (onnx_attention.py), a graph only ONNX Runtime runs.
+    decoder_heads: the same for a transformer decoder's attentions, with their padding mask."""
     import onnx
     from onnx import TensorProto, helper, numpy_helper
 
@@ -111,6 +112,8 @@ def sampler_model(denoiser: str | os.PathLike, decoder: str | os.PathLike | None
     initializers = _renamed_initializers(den.graph, "den/")
     if decoder is not None:
         dec = onnx.load(str(decoder))
+        if decoder_heads is not None:
+            fuse_attention(dec, decoder_heads, padded=True)
         nodes += [const("latent_scale", np.array(latent_scale, np.float32)),
                   helper.make_node("Div", ["latent", "latent_scale"], ["ae_latent"])]
         nodes += _renamed(dec.graph, "dec/", {"latent": "ae_latent", "valid": "valid"})
