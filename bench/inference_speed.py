@@ -25,7 +25,8 @@ here, each the best of 10 or more runs: peak matmul FLOP/s of a large GEMM in th
 threads, and read bandwidth over a buffer the size of each part's weights (cache-resident when
 they fit, as they would be). A part's best time is max(FLOPs / peak, bytes / bandwidth); the
 limit sums the parts (no term for per-operation overhead: that is what the ratio shows). A batch
-of B: B times the FLOPs, the same bytes (the weights are read once per pass).
+of B: B times the FLOPs, the same bytes (the weights are read once per pass). onnx-int8's step
+reads the bytes of its graph's weights (int8, their scales, the float32 products left).
 
 Backends: torch, eager PyTorch through mlct.nn.inference's layers, in every dtype; onnx, the
 ONNX Runtime backend (CPU, float32; the model is written to a temporary directory and converted
@@ -36,7 +37,7 @@ spin within the run (what it does by itself where two logical CPUs stay free bes
 onnx_io.spare_cores);
 torch-compiled (only when named: compiling takes minutes per model and batch size), the
 denoiser backbone and decoder under torch.compile with plain (unpacked) products, which inductor
-can lower. The limit is the model's, whichever backend runs it.
+can lower. The limit is the model's, whichever backend runs it (but for onnx-int8's weight bytes).
 
 Each model runs in its own process, so peak memory is its own. --device cuda runs the networks
 in bfloat16 (not run in this repository's CI; needs a GPU), on the torch backend (eager) and the
@@ -245,6 +246,14 @@ def _weight_bytes(*modules: Any) -> int:
     return sum(p.numel() * p.element_size() for m in modules for p in m.parameters())
 
 
+def _graph_weight_bytes(graph: Any) -> int:
+    """Bytes of an ONNX graph's stored weights (its initializers), as a pass reads them."""
+    import onnx
+    from onnx import numpy_helper
+
+    return sum(numpy_helper.to_array(t).nbytes for t in onnx.load(str(graph)).graph.initializer)
+
+
 def _embedding_bytes(module: Any) -> int:
     """Bytes of module's embedding tables: a pass reads a few of their rows, not all of them
     (MiniLM's word table is 45 of its 86 MB)."""
@@ -394,6 +403,8 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
     if spec["backend"] in ONNX_BACKENDS:
         folder = tempfile.mkdtemp(prefix="mlct-bench-onnx-")
         gen = onnx_generator(preset, sampler, folder, int8=spec["backend"] == "onnx-int8")
+        if spec["backend"] == "onnx-int8":  # its step reads int8 weights and their scales
+            costs["step"]["bytes"] = float(_graph_weight_bytes(gen.graphs.denoiser))
         if spec["backend"] == "onnx-spinning":  # what a machine of 4 cores or more runs
             gen.spinning_steps = True
         gen.encode_text([""])

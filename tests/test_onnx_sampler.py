@@ -178,15 +178,30 @@ def test_decoding_apart_gives_the_one_graph_features(backends) -> None:
 
 
 def test_a_large_graph_keeps_all_threads_at_batch_one(backends, monkeypatch) -> None:
+    """A sampler graph too big for one thread (paper size) runs batch 1 on all threads, which
+    spin within the run while the machine is idle (onnx_io.spin_now, asked at every call; a
+    session of each kind, made when first needed), the same motion either way."""
     import mlct.generate.onnx_backend as onnx_backend
+    import mlct.onnx_io as onnx_io
 
     monkeypatch.setattr(onnx_backend, "ONE_THREAD_MAX_BYTES", 1000)  # every graph is "large"
     onnx_gen = onnx_backend.OnnxMotionGenerator.load(
         Path(backends[1].graphs.denoiser).parent.parent, threads=2)
-    for _ in range(2):
-        onnx_gen.generate(TEXTS[:1], lengths=[50], nfe=2, seed=7, candidates=1)
-    assert [s.get_session_options().intra_op_num_threads
-            for s in onnx_gen._sessions.values()] == [2]
+    onnx_gen.keep_going = False
+    monkeypatch.setattr(onnx_io.os, "cpu_count", lambda: 2)
+    made, kinds = [], []
+    for others in (0.05, 0.05, 1.0, 0.05):  # the first call runs the step loop
+        monkeypatch.setattr(onnx_io, "OTHER_LOAD", lambda others=others: others)
+        made.append(onnx_gen.generate(TEXTS[:1], lengths=[50], nfe=2, seed=7, candidates=1))
+        kinds.append(sorted(key[4] for key in onnx_gen._sessions))
+    assert kinds == [[], [True], [False, True], [False, True]]
+    for key, session in onnx_gen._sessions.items():
+        options = session.get_session_options()
+        assert options.intra_op_num_threads == 2
+        assert options.get_session_config_entry("session.intra_op.allow_spinning") == (
+            "1" if key[4] else "0")
+    for motion in made[1:]:
+        assert gap(made[0], motion) < 1e-4
 
 
 def test_keep_going_gives_the_torch_motions(backends) -> None:

@@ -137,6 +137,11 @@ FUSE_ATTENTION = True
 # lose whether they spin or sleep (steps and decoder with the test suite running beside: 5.0 ms
 # on one thread, 8.1 spinning within the run, 5.6 sleeping), so a machine without cores to
 # spare keeps the steps on one thread (docs/performance.md, "Spinning within the run").
+# Batch 1 of a sampler graph over ONE_THREAD_MAX_BYTES (the paper-size model: 5 steps and the
+# decoder) runs on `threads` that spin within the run while the machine is idle (onnx_io.spin_now,
+# asked at every call; a second session, with its own copy of the weights, is made only when the
+# machine's load changes), or as `spinning_steps` says.
+SPIN_BIG_GRAPH = True
 
 
 class OnnxMotionGenerator(MotionGenerator):
@@ -303,12 +308,17 @@ class OnnxMotionGenerator(MotionGenerator):
                 self._steps_only[steps] = self._sampler_graph(steps, with_decoder=False)
             return self._steps_graph_session(steps, batch), True
         threads = 1 if small else self.thread_count
-        key = (steps, threads, batch == 1, False, False)
+        # batch 1 of a graph too big for one thread (paper size) spins within the run while the
+        # machine is idle, as the small graph's steps do (SPIN_BIG_GRAPH)
+        spin = (batch == 1 and threads > 1 and SPIN_BIG_GRAPH
+                and (self.spinning_steps if self.spinning_steps is not None
+                     else spin_now(threads)))
+        key = (steps, threads, batch == 1, False, spin)
         if key not in self._sessions:
             # batch 1, the size a person waits on, gets a graph of fixed shapes (fewer operators)
-            # (spinning: onnx_io.session decides by the machine's size)
+            # (not spinning: onnx_io.session decides by the machine's size)
             self._sessions[key] = session_from_bytes(fixed_batch(graph, 1) if batch == 1
-                                                     else graph, threads)
+                                                     else graph, threads, spin or None)
         return self._sessions[key], False
 
     def _steps_session(self, steps: int, batch: int) -> Any | None:
