@@ -64,6 +64,8 @@ def main() -> None:
                           backend=backend)
                 for name, int8, backend in (("f32", False, "onnx"),
                                             ("i8", True, "onnx-int8"))]
+        for gen in gens:  # batches of 50: the graphs, not the torch networks that large
+            gen.torch_min_batch = None  # batches are handed to (onnx_backend.TORCH_MIN_BATCH)
         report(f"{len(names)} test captions", *(joints(g, captions, lengths) for g in gens))
         five = [gens[0].frames_for(5.0)] * len(paraphrases)
         report(f"{len(paraphrases)} paraphrases, 5 s", *(joints(g, paraphrases, five)

@@ -9,7 +9,8 @@ round (paired), so the host's drift cancels.
     python bench/paired_speed.py --models bundled /path/to/model [bundled:unfused-text] \\
         --rounds 8 --calls 30 --threads 2
 
-MODEL is a model directory or "bundled", optionally with variants after a colon, joined by
+MODEL is a model directory, "bundled", or "paper" / "paper-int8" (bench/inference_speed.py's
+paper-size networks, seeded random weights, converted in float32 / with --int8), optionally with variants after a colon, joined by
 "+" (bundled:one-graph+matmul-add-fusion), each as the graphs were before a change:
 "unfused-text" the text encoder of standard ONNX operators (write_minilm_graph(fused=False))
 instead of the fused one; "whole-grid" a decoder that convolves every grid cell whatever the
@@ -19,7 +20,9 @@ decoder in one sampler graph on one thread (before onnx_backend.DECODE_APART);
 "one-decoder" the decoder apart as one session on all threads, not its halves side by side
 (before onnx_backend.DECODE_HALVES); "spinning-steps" / "one-thread-steps" batch 1's steps on
 two threads spinning within the run / on one thread, whatever the machine's load (onnx_io.spin_now
-decides otherwise); "static-spinning" the steps and the text encoder spinning by the machine's
+decides otherwise); "sleeping-big-graph" batch 1 of a sampler graph too big for one thread
+(the paper-size model's) on threads that sleep between operators, whatever the machine's load
+(before onnx_backend.SPIN_BIG_GRAPH); "static-spinning" the steps and the text encoder spinning by the machine's
 size alone (onnx_io.spare_cores: 4 logical CPUs or more), not by how idle it is now;
 "unfused-attention" the sampler graph's attentions as torch.onnx wrote them (before
 onnx_backend.FUSE_ATTENTION); "candidates-loop" generate()'s best-of-N latents by the step loop
@@ -49,11 +52,12 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from inference_speed import FRAMES, TEXTS  # noqa: E402  (the same prompts and length)
+from inference_speed import FRAMES, TEXTS, onnx_generator  # noqa: E402  (the same prompts,
+# length and paper-size networks)
 
 
 VARIANTS = ("unfused-text", "whole-grid", "one-graph", "matmul-add-fusion", "one-decoder",
-            "spinning-steps", "one-thread-steps", "static-spinning",
+            "spinning-steps", "one-thread-steps", "sleeping-big-graph", "static-spinning",
             "unfused-attention", "candidates-loop", "torch-glue")
 
 
@@ -71,6 +75,7 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
     if chosen - set(VARIANTS):
         raise SystemExit(f"unknown variant {variant!r} of {name}: one or more of {VARIANTS}, "
                          f"joined by +")
+    paper = name in ("paper", "paper-int8")
     model = bundled_model_dir() if name == "bundled" else Path(name)
     # the variants' switches, as they were before each change; restored on the way out
     margin, disabled = conv.DECODE_MARGIN, onnx_io.DISABLED_OPTIMIZERS
@@ -79,7 +84,12 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
     if "matmul-add-fusion" in chosen:  # every session is made (below) with it on
         onnx_io.DISABLED_OPTIMIZERS = ()
     try:
-        out = convert_to_onnx(model, folder, read_only=name == "bundled")
+        if paper:  # written to folder/model, converted beside it
+            (folder / "model").mkdir(parents=True)
+            out = onnx_generator("humanml3d", "consistency", str(folder / "model"),
+                                 int8=name == "paper-int8").graphs.denoiser.parent.parent
+        else:
+            out = convert_to_onnx(model, folder, read_only=name == "bundled")
         if "unfused-text" in chosen:
             import json
 
@@ -92,6 +102,7 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
         if "candidates-loop" in chosen:  # the instance's own methods, as before the change
             gen._steps_session = lambda steps, batch: None
             gen._single_decodes = -10**9  # never a second single decode: the whole decoder
+        gen.spin_big_graph = "sleeping-big-graph" not in chosen
         if "torch-glue" in chosen:
             gen.torch_glue_threads = None
         if chosen & {"spinning-steps", "one-thread-steps"}:
@@ -180,7 +191,8 @@ def main() -> None:
     print(f"batch 1, {args.frames} frames, 5 NFE, onnx backend, {args.threads} threads; "
           f"{args.rounds} rounds of {args.calls} calls, the models taking turns; ms"
           + (f"; {args.busy} busy loop(s) beside" if args.busy else ""))
-    print(f"{'model':<44} {'warm med':>8} {'range':>13} {'text med':>8} {'cold med':>8} "
+    width = max(44, *map(len, args.models))  # a model's spec whole, however long
+    print(f"{'model':<{width}} {'warm med':>8} {'range':>13} {'text med':>8} {'cold med':>8} "
           f"{'warm/first':>10} {'cold/first':>10}"
           + (f" {'gen med':>8} {'gen/first':>9}" if args.generate else ""))
     for spec, values in rounds.items():
@@ -192,7 +204,7 @@ def main() -> None:
         base_made = [g for _, _, g in rounds[first]]
         warm_ratio = statistics.median(a / b for a, b in zip(warm, base_warm))
         cold_ratio = statistics.median(a / b for a, b in zip(cold, base_cold))
-        line = (f"{spec[-44:]:<44} {statistics.median(warm):8.2f} "
+        line = (f"{spec:<{width}} {statistics.median(warm):8.2f} "
                 f"{min(warm):6.2f}-{max(warm):<6.2f} "
                 f"{statistics.median(t for _, t, _ in values):8.2f} "
                 f"{statistics.median(cold):8.2f} {warm_ratio:10.3f} {cold_ratio:10.3f}")

@@ -127,7 +127,10 @@ DECODE_APART = True
 DECODE_HALVES = True
 # The sampler graph's denoiser attentions as ONNX Runtime's fused Attention operator
 # (onnx_attention.py): per step ~60 standard operators per block become one, the warm batch-1
-# call 0.93x (paired, bench/paired_speed.py :unfused-attention).
+# call 0.93x (paired, bench/paired_speed.py :unfused-attention). The same for a transformer
+# decoder's attentions, with their padding mask, in its session and the sampler graph, and for
+# the int8 denoiser's (MultiHeadAttention after the int8 q/k/v product): the paper-size model's
+# warm call 0.90x in float32, 0.91x with --int8 (paired, :unfused-attention).
 FUSE_ATTENTION = True
 # Where two logical CPUs stay free beside them (onnx_io.spare_cores), batch 1's steps run on
 # two threads that spin between operators within the run and stop when it ends (onnx_io
@@ -140,7 +143,9 @@ FUSE_ATTENTION = True
 # Batch 1 of a sampler graph over ONE_THREAD_MAX_BYTES (the paper-size model: 5 steps and the
 # decoder) runs on `threads` that spin within the run while the machine is idle (onnx_io.spin_now,
 # asked at every call; a second session, with its own copy of the weights, is made only when the
-# machine's load changes), or as `spinning_steps` says.
+# machine's load changes), or as `spinning_steps` says: the paper-size model's warm call 0.91x
+# in float32, 0.84x with --int8 against sleeping threads (paired, bench/paired_speed.py
+# :sleeping-big-graph).
 SPIN_BIG_GRAPH = True
 
 
@@ -181,6 +186,7 @@ class OnnxMotionGenerator(MotionGenerator):
         # the attentions of the sampler graph and of a transformer decoder as ONNX Runtime's
         # fused operator (onnx_attention.py)
         self.fuse_attention = FUSE_ATTENTION
+        self.spin_big_graph = SPIN_BIG_GRAPH
         self.torch_glue_threads: int | None = TORCH_GLUE_THREADS  # None: torch's, untouched
         self._halves: DecoderHalves | None | bool = False  # False: not made yet
         self._single_decodes = 0  # decode() calls with one latent
@@ -310,7 +316,7 @@ class OnnxMotionGenerator(MotionGenerator):
         threads = 1 if small else self.thread_count
         # batch 1 of a graph too big for one thread (paper size) spins within the run while the
         # machine is idle, as the small graph's steps do (SPIN_BIG_GRAPH)
-        spin = (batch == 1 and threads > 1 and SPIN_BIG_GRAPH
+        spin = (batch == 1 and threads > 1 and self.spin_big_graph
                 and (self.spinning_steps if self.spinning_steps is not None
                      else spin_now(threads)))
         key = (steps, threads, batch == 1, False, spin)
