@@ -1,4 +1,4 @@
-"""The denoiser's self-attention as ONNX Runtime's fused Attention operator (issue 17).
+"""The denoiser's and decoder's self-attentions as ONNX Runtime's fused operators (issue 17).
 
 torch.onnx writes each of the denoiser's attentions (mlct.nn.inference.FastEncoderLayer) as
 ~60 standard operators: the packed q/k/v product and its bias, a Reshape to (B, S, 3, H, d), a
@@ -21,6 +21,12 @@ block becomes the same Attention node with a fifth input, the mask as ONNX Runti
 `padded` is for graphs where that cannot happen: the autoencoder's decoder keeps its latent
 tokens in front of every row's keys (nn/autoencoder.py). The paper-size decoder (7 blocks over
 199 tokens) takes 17 ms instead of 25 on 2 threads, its features within 1e-6.
+
+After a q/k/v product in blockwise int8 (MatMulNBits, `mlct convert --onnx --int8`) the Attention
+operator cannot take the weight, so the product stays and the rest becomes a Split into q, k
+and v and `com.microsoft.MultiHeadAttention` (the bias added inside): the same arithmetic after
+the product (1e-5 with float arithmetic in the product; docs/performance.md, "The paper-size
+model: its decoder's attention, the int8 attention, spinning").
 
 Only ONNX Runtime runs the fused operator, so the rewrite is applied in memory to the sampler
 graph and the decoder's session of the onnx backend (onnx_sampler.sampler_model,
@@ -50,9 +56,10 @@ MS_DOMAIN = "com.microsoft"
 def fuse_attention(model: Any, heads: int, padded: bool = False) -> int:
     """Rewrite model (an onnx.ModelProto of denoiser.onnx or decoder.onnx) in place: each
     self-attention block named `<block>/qkv/MatMul`, `<block>/qkv/Add` ... `<block>/Reshape_1`
-    by torch.onnx becomes one com.microsoft Attention node of `heads` heads. padded: blocks
-    with a key padding mask are fused too, with the mask (only where no row can be all padding:
-    above). Returns how many blocks were fused."""
+    by torch.onnx becomes one com.microsoft Attention node of `heads` heads (after an int8
+    product `<block>/qkv/MatMul_Q8`: the product, a Split and a MultiHeadAttention node).
+    padded: blocks with a key padding mask are fused too, with the mask (only where no row can
+    be all padding: above). Returns how many blocks were fused."""
     import numpy as np
     from onnx import TensorProto, helper, numpy_helper
 
