@@ -23,10 +23,12 @@ and bytes = the weights each part reads (every parameter once per network pass; 
 batch 1 are at most ~1 MB and stay in cache, so they are not counted). The machine is measured
 here, each the best of 10 or more runs: peak matmul FLOP/s of a large GEMM in the dtype on all
 threads, and read bandwidth over a buffer the size of each part's weights (cache-resident when
-they fit, as they would be). A part's best time is max(FLOPs / peak, bytes / bandwidth); the
-limit sums the parts (no term for per-operation overhead: that is what the ratio shows). A batch
-of B: B times the FLOPs, the same bytes (the weights are read once per pass). onnx-int8's step
-reads the bytes of its graph's weights (int8, their scales, the float32 products left).
+they fit, as they would be); both again after the model's timings, the better of the two kept
+(a slow spell of the host must not raise the limit). A part's best time is max(FLOPs / peak,
+bytes / bandwidth); the limit sums the parts (no term for per-operation overhead: that is what
+the ratio shows). A batch of B: B times the FLOPs, the same bytes (the weights are read once per
+pass). onnx-int8's step reads the bytes of its graph's weights (int8, their scales, the float32
+products left).
 
 Backends: torch, eager PyTorch through mlct.nn.inference's layers, in every dtype; onnx, the
 ONNX Runtime backend (CPU, float32; the model is written to a temporary directory and converted
@@ -412,14 +414,23 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
         # inductor cannot lower the packed products
         gen = variant(*bundle, "fast", True, dtype=spec["dtype"])
         _compile_for_cpu(gen)
+    # The roofs are measured before and after the timings and the better kept: a slow spell of
+    # the host during one measurement would otherwise raise the limit and flatter the ratio.
     bandwidth = {part: read_bandwidth(int(c["bytes"]), device) for part, c in costs.items()}
-    peak = spec["peak_flops"][spec["dtype"] if device.type == "cpu" else "bfloat16"]
+    peak_dtype = spec["dtype"] if device.type == "cpu" else "bfloat16"
+    peak = spec["peak_flops"][peak_dtype]
     text_peak = spec["peak_flops"]["float32"]  # the text encoder runs in fp32
 
     def best(part: str, times: int = 1) -> float:
         c = costs[part]
         roof = text_peak if part == "text" else peak
         return times * max(c["flops"] / roof, c["bytes"] / bandwidth[part]) * 1000.0
+
+    def limits(row: dict[str, Any]) -> dict[str, Any]:
+        limit_warm = best("step", row["nfe"]) + best("decode")
+        return {"limit_warm_ms": limit_warm, "limit_cold_ms": limit_warm + best("text"),
+                "limit_parts_ms": {"text": best("text"), "step": best("step"),
+                                   "decode": best("decode")}}
 
     rows = []
     chosen = spec.get("nfes") or (5, 50) if spec["quick"] else spec.get("nfes") or nfes
@@ -435,17 +446,21 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
         # at generate()'s default length too: the conv decoder draws only the cells a clip
         # needs (nn/conv_autoencoder.py), so a 5 s clip costs less than 196 frames
         default = time_pipeline(gen, nfe, runs, warmup=2, frames=DEFAULT_FRAMES)
-        limit_warm = best("step", nfe) + best("decode")
         rows.append({"nfe": nfe, "runs": runs, **t, "warm_ms": warm,
                      "cold_ms": warm - t["text_cached_ms"] + t["text_ms"],
                      "warm_default_ms": default,
-                     "cold_default_ms": default - t["text_cached_ms"] + t["text_ms"],
-                     "limit_warm_ms": limit_warm, "limit_cold_ms": limit_warm + best("text"),
-                     "limit_parts_ms": {"text": best("text"), "step": best("step"),
-                                        "decode": best("decode")}})
+                     "cold_default_ms": default - t["text_cached_ms"] + t["text_ms"]})
         print(f"  {spec['model']} {spec['backend']} {spec['dtype']} nfe {nfe}: warm {warm:.1f} ms "
-              f"(limit {limit_warm:.1f} ms)", file=sys.stderr, flush=True)
+              f"(limit so far {limits(rows[-1])['limit_warm_ms']:.1f} ms)", file=sys.stderr,
+              flush=True)
     tput = throughput(gen, spec["throughput_budget_s"], sync)
+    bandwidth = {part: max(bandwidth[part], read_bandwidth(int(c["bytes"]), device))
+                 for part, c in costs.items()}
+    peak = max(peak, peak_matmul_flops(getattr(torch, peak_dtype), device))
+    text_peak = max(text_peak, peak_matmul_flops(torch.float32, device)) \
+        if peak_dtype != "float32" else peak
+    for row in rows:
+        row.update(limits(row))
     steps = gen.check_nfe(None)
     for row in tput:  # the batch's limit: FLOPs grow with B, the weights are read once
         if "motions_per_s" in row:
@@ -463,7 +478,8 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
     return {"model": spec["model"], "dtype": spec["dtype"], "backend": spec["backend"],
             "one_thread_max_batch": ONE_THREAD_MAX_BATCH, "torch_min_batch": TORCH_MIN_BATCH,
             "device": str(device), "threads": torch.get_num_threads(), "aits": rows, "throughput": tput,
-            "costs": costs, "bandwidth_gb_s": {k: v / 1e9 for k, v in bandwidth.items()}}
+            "costs": costs, "bandwidth_gb_s": {k: v / 1e9 for k, v in bandwidth.items()},
+            "peak_gflop_s": {peak_dtype: peak / 1e9, "float32": text_peak / 1e9}}
 
 
 def ablations(reps: int, onnx: bool = False) -> list[dict[str, Any]]:
