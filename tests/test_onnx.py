@@ -262,12 +262,17 @@ def test_fused_attention_after_a_blockwise_quantized_product(tmp_path) -> None:
 
     gen = OnnxMotionGenerator.load(convert_to_onnx(random_bundle(tmp_path / "tiny",
                                                                  "consistency", "minilm")))
-    logging.getLogger("onnxruntime.quantization.matmul_nbits_quantizer").setLevel(logging.WARNING)
     quantizer = MatMulNBitsQuantizer(onnx.load(str(gen.graphs.denoiser)),
                                      algo_config=DefaultWeightOnlyQuantConfig(
                                          block_size=32, is_symmetric=True, accuracy_level=1,
                                          bits=8))
-    quantizer.process()
+    quiet = logging.getLogger("onnxruntime.quantization.matmul_nbits_quantizer")
+    level = quiet.level
+    quiet.setLevel(logging.WARNING)  # it logs every node it looks at
+    try:
+        quantizer.process()
+    finally:
+        quiet.setLevel(level)
     quantized = quantizer.model.model
     fused = onnx.ModelProto()
     fused.CopyFrom(quantized)
