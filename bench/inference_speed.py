@@ -18,9 +18,10 @@ run. Throughput: sample_features of B motions (random seeds) at the default NFE,
 until the next size is predicted to exceed the time budget or the free memory; peak memory is the
 process's max RSS (CPU) or the allocator's peak (CUDA).
 
-The limit: FLOPs counted by torch.utils.flop_counter per part (text, one denoiser step, decoding)
-and bytes = the weights each part reads (every parameter once per network pass; activations at
-batch 1 are at most ~1 MB and stay in cache, so they are not counted). The machine is measured
+The limit: FLOPs counted by torch.utils.flop_counter per part (text: the median over the timed
+captions; one denoiser step; decoding) and bytes = the weights each part reads (every parameter
+once per network pass; activations at batch 1 are at most ~1 MB and stay in cache, so they are
+not counted). The machine is measured
 here, each the best of 10 or more runs: peak matmul FLOP/s of a large GEMM in the dtype on all
 threads, and read bandwidth over a buffer the size of each part's weights (cache-resident when
 they fit, as they would be); both again after the model's timings, the better of the two kept
@@ -55,6 +56,7 @@ import math
 import os
 import platform
 import resource
+import statistics
 import subprocess
 import sys
 import time
@@ -294,7 +296,10 @@ def part_costs(gen: Any) -> dict[str, dict[str, float]]:
     ae = gen.ae
     model = getattr(gen.text_encoder, "model", None)
     return {
-        "text": {"flops": flops(lambda: gen.text_encoder.encode([TEXTS[1]])),
+        # the text encoder's time is a median over TEXTS (a sided one runs with its mirror:
+        # two rows), so its FLOPs are too
+        "text": {"flops": statistics.median(flops(lambda text=text: gen.text_encoder.encode(
+                     [text])) for text in TEXTS),
                  "bytes": _weight_bytes(model) - _embedding_bytes(model)
                  if model is not None else 0.0},
         "step": {"flops": flops(lambda: gen.sample_latents(cond, 1, seed=0)),
