@@ -18,7 +18,7 @@ run. Throughput: sample_features of B motions (random seeds) at the default NFE,
 until the next size is predicted to exceed the time budget or the free memory; peak memory is the
 process's max RSS (CPU) or the allocator's peak (CUDA).
 
-The limit: FLOPs counted by torch.utils.flop_counter per part (text: the median over the timed
+The limit: FLOPs counted by torch.utils.flop_counter per part (text: the median over the bench's
 captions; one denoiser step; decoding) and bytes = the weights each part reads (every parameter
 once per network pass; activations at batch 1 are at most ~1 MB and stay in cache, so they are
 not counted). The machine is measured
