@@ -33,12 +33,12 @@ import io
 import math
 import os
 import tempfile
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import roma
-import torch
+from scipy.spatial.transform import Rotation
 
 from mlct.errors import MlctError, first_line
 from mlct.io import write_text
@@ -83,8 +83,9 @@ def fit_bvh(joints: np.ndarray, skeleton: Skeleton, rig: Rig | None = None,
     axes, scale = bvh_frame(skeleton, rig)
     n_frames = len(fit.root)
     local = axes @ fit.local @ axes.T  # the same turns, seen in the file's frame
-    rotations = torch.from_numpy(local.reshape(-1, 3, 3))
-    euler = roma.rotmat_to_euler(EULER_ORDER, rotations, degrees=True).numpy()
+    with warnings.catch_warnings():  # a joint turned 90 degrees about X: any split is right
+        warnings.filterwarnings("ignore", message="Gimbal lock detected")
+        euler = Rotation.from_matrix(local.reshape(-1, 3, 3)).as_euler(EULER_ORDER, degrees=True)
     euler = np.unwrap(euler.reshape(n_frames, skeleton.n_joints, 3), period=360.0, axis=0)
     children = children_of(skeleton.parents)
     offsets = fit.offsets @ axes.T * scale
@@ -229,7 +230,7 @@ def read_bvh(path: str | os.PathLike) -> BvhClip:
                             f"the header says {n_frames}")
         local_pos = np.array([tuple(k.Position) for k in keys])  # (T, 3)
         quats = np.array([(k.Rotation.x, k.Rotation.y, k.Rotation.z, k.Rotation.w) for k in keys])
-        local_rot = roma.unitquat_to_rotmat(torch.from_numpy(quats)).numpy()  # (T, 3, 3)
+        local_rot = Rotation.from_quat(quats).as_matrix()  # (T, 3, 3)
         parent = parents[i]
         if parent < 0:
             positions[:, i], world[:, i] = local_pos, local_rot

@@ -25,8 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import roma
-import torch
+from scipy.spatial.transform import Rotation
 
 from mlct.errors import MlctError, first_line
 from mlct.io import write_bytes
@@ -190,7 +189,8 @@ def gltf_document(fit: RigFit, names: tuple[str, ...], fps: float, mesh: bool = 
     gltf.scene = 0
 
     times = buffer.add(np.arange(n_frames) / float(fps), "SCALAR", FLOAT, bounds=True)
-    quats = roma.rotmat_to_unitquat(torch.from_numpy(fit.local)).numpy()  # (T, J, 4) xyzw
+    quats = Rotation.from_matrix(fit.local.reshape(-1, 3, 3)).as_quat().reshape(
+        n_frames, n_joints, 4)  # xyzw
     quats *= np.where(quats[..., 3:] < 0, -1.0, 1.0)  # one hemisphere per key...
     for t in range(1, n_frames):  # ...then continuous, so LINEAR never takes the long way
         flip = np.sum(quats[t] * quats[t - 1], axis=-1) < 0
@@ -311,7 +311,8 @@ def read_gltf(path: str | os.PathLike) -> GltfClip:
         elif channel.target.path == "translation":
             translation[:, target] = values
     rotation /= np.linalg.norm(rotation, axis=-1, keepdims=True)
-    matrices = roma.unitquat_to_rotmat(torch.from_numpy(rotation)).numpy()  # xyzw, as glTF
+    matrices = Rotation.from_quat(rotation.reshape(-1, 4)).as_matrix().reshape(
+        rotation.shape[:-1] + (3, 3))  # xyzw, as glTF
     positions = np.empty((n_frames, len(joints), 3))
     world = np.empty((n_frames, len(joints), 3, 3))
     done: set[int] = set()  # glTF lists nodes in no order: each after its parent

@@ -11,7 +11,7 @@ joint positions, and a generated motion's bones stretch by a few millimetres fro
   pelvis, the upper spine) turns them as one rigid group, so their offsets are the group's mean
   shape over the clip (generalized Procrustes) turned onto the rest pose;
 - the root: translated along the input's root trajectory exactly, turned by the least-squares
-  rotation (Kabsch, roma) of its group; a multi-child joint likewise;
+  rotation (Kabsch, `kabsch`) of its group; a multi-child joint likewise;
 - limbs (hip-knee-ankle, shoulder-elbow-wrist) by two-bone inverse kinematics: the knee (elbow)
   lies in the plane of the input's hip, knee and ankle, placed so that the ankle (wrist) lands
   exactly on the input's whenever the fixed-length leg can reach it. So a planted foot stays
@@ -36,8 +36,9 @@ joint positions, and a generated motion's bones stretch by a few millimetres fro
   it leak back to zero with a time constant of TWIST_RELAX_SECONDS: smooth over time, and the
   plain shortest turn wherever nothing flips. Twist never moves a joint.
 
-Rotation math (Kabsch, quaternions, rotation vectors) is roma's; the shortest turn between two
-vectors is mlct.motion.quaternion's `qbetween`. Everything here is in the skeleton's units and
+Rotation math: rotation vectors and quaternions are scipy's (scipy.spatial.transform.Rotation),
+Kabsch over all frames at once is `kabsch`; the shortest turn between two vectors is
+mlct.motion.quaternion's `qbetween`. Everything here is in the skeleton's units and
 its frame (y up, facing +Z); writers convert axes and units (rigs.py).
 """
 
@@ -46,10 +47,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import roma
 import torch
 from scipy.ndimage import uniform_filter1d
-from scipy.signal import lfilter
+from scipy.spatial.transform import Rotation
 
 from mlct.errors import MlctError
 from mlct.motion.quaternion import qbetween, quat_to_matrix
@@ -118,9 +118,17 @@ def forward(parents, order, offsets: np.ndarray, root: np.ndarray,
 
 
 def kabsch(source: np.ndarray, targets: np.ndarray) -> np.ndarray:
-    """(k, 3) vectors and (T, k, 3) targets -> (T, 3, 3) rotations R minimizing |R s - t|^2."""
-    src = torch.from_numpy(np.broadcast_to(source, targets.shape).copy())
-    return roma.rigid_vectors_registration(src, torch.from_numpy(targets)).numpy()
+    """(k, 3) vectors and (T, k, 3) targets -> (T, 3, 3) rotations R minimizing |R s - t|^2.
+
+    Kabsch's solution, all frames at once: R = V diag(1, 1, d) U^T from the SVD U S V^T of the
+    cross-covariance sum_k s t^T, d = det(V U^T) keeping R a rotation. Written out rather than
+    taken from roma (whose import brings torch._dynamo: ~1 s of every export's start) or
+    scipy's Rotation.align_vectors (one frame a call: ~80 us each)."""
+    u, _, vt = np.linalg.svd(np.einsum("ki,tkj->tij", source, targets))
+    v = np.swapaxes(vt, -1, -2)
+    flip = np.where(np.linalg.det(v @ np.swapaxes(u, -1, -2)) < 0, -1.0, 1.0)
+    v[..., 2] *= flip[:, None]
+    return v @ np.swapaxes(u, -1, -2)
 
 
 def swing(current: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -206,11 +214,21 @@ def _twist_angles(local: np.ndarray, axis: np.ndarray, fps: float) -> np.ndarray
     cos = np.trace(step, axis1=-2, axis2=-1) - np.einsum("i,tij,j->t", axis, step, axis)
     delta = np.arctan2(sin, cos)  # the twist nearest to the previous frame's rotation
     keep = float(np.exp(-1.0 / (TWIST_RELAX_SECONDS * fps)))
-    return np.concatenate([[0.0], lfilter([keep], [1.0, -keep], delta)])
+    return np.concatenate([[0.0], _leaky_sum(delta, keep)])
+
+
+def _leaky_sum(x: np.ndarray, keep: float) -> np.ndarray:
+    """y[n] = keep (x[n] + y[n - 1]), y[-1] = 0: scipy.signal.lfilter([keep], [1, -keep], x) as
+    a loop over a clip's frames (microseconds), without scipy.signal's ~0.7 s import."""
+    out, total = np.empty(len(x)), 0.0
+    for n, value in enumerate(x):
+        total = keep * (value + total)
+        out[n] = total
+    return out
 
 
 def _axis_rotation(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
-    return roma.rotvec_to_rotmat(torch.from_numpy(angles[:, None] * axis[None])).numpy()
+    return Rotation.from_rotvec(angles[:, None] * axis[None]).as_matrix()
 
 
 def check_joints(joints: np.ndarray, skeleton: Skeleton, what: str = "rig export") -> np.ndarray:

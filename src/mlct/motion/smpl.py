@@ -32,8 +32,7 @@ import io
 import os
 
 import numpy as np
-import roma
-import torch
+from scipy.spatial.transform import Rotation
 
 from mlct.errors import MlctError
 from mlct.io import write_bytes
@@ -67,7 +66,8 @@ def smpl_params(joints: np.ndarray, skeleton: Skeleton, fps: float) -> dict[str,
     n_frames = len(fit.root)
     local = fit.local.copy()
     local[:, 0] = TO_AMASS @ local[:, 0]  # the global orientation, into AMASS's world
-    rotvec = roma.rotmat_to_rotvec(torch.from_numpy(local)).numpy()  # (T, 22, 3)
+    rotvec = Rotation.from_matrix(local.reshape(-1, 3, 3)).as_rotvec().reshape(
+        n_frames, -1, 3)  # (T, 22, 3)
     poses = np.zeros((n_frames, SMPLH_JOINTS * 3))
     poses[:, :BODY_JOINTS * 3] = rotvec.reshape(n_frames, -1)
     return {
@@ -98,7 +98,8 @@ def smpl_joints(params) -> np.ndarray:
     poses = np.asarray(params["poses"], dtype=np.float64)
     n_frames = len(poses)
     rotvec = poses[:, :BODY_JOINTS * 3].reshape(n_frames, BODY_JOINTS, 3)
-    local = roma.rotvec_to_rotmat(torch.from_numpy(rotvec)).numpy()
+    local = Rotation.from_rotvec(rotvec.reshape(-1, 3)).as_matrix().reshape(
+        n_frames, BODY_JOINTS, 3, 3)
     parents = HUMANML3D.parents
     order = tuple(range(BODY_JOINTS))  # SMPL lists every parent before its children
     positions, _ = forward(parents, order, np.asarray(params["rest_offsets"], np.float64),
