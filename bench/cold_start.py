@@ -9,6 +9,7 @@ also reads torch's libraries from disk, which this does not time). Cases:
     own import sets; compare against these when the machine is busy;
   - the CLI: `mlct generate "a person walks forward" --out x.npy`, through the console script
     next to this interpreter (not a pyenv shim, which adds its own start-up) or --cli;
+  - the same to a rig file, `--out x.bvh` (the rig fit and the BVH writer: their imports too);
   - the Python API's first call: `import mlct; mlct.load().generate([...])`.
 Prints min / median / max seconds per case and whether the median meets the goal.
 """
@@ -27,7 +28,7 @@ from pathlib import Path
 
 GOAL_S = 2.5
 PROMPT = "a person walks forward"
-GOAL_CASES = ("cli generate", "api first call")
+GOAL_CASES = ("cli generate", "cli to .bvh", "api first call")
 
 
 def cli_command(cli: str | None) -> list[str]:
@@ -50,6 +51,8 @@ def cases(out_dir: Path, model: str | None, cli: str | None) -> dict[str, list[s
         "import torch": [sys.executable, "-c", "import torch"],
         "cli generate": [*cli_command(cli), "generate", PROMPT, "--out",
                          str(out_dir / "x.npy"), *model_args],
+        "cli to .bvh": [*cli_command(cli), "generate", PROMPT, "--out",
+                        str(out_dir / "x.bvh"), *model_args],
         "api first call": [sys.executable, "-c", api],
     }
 

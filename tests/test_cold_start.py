@@ -40,3 +40,33 @@ def test_api_and_cli_generate_import_no_heavy_library(tmp_path: Path) -> None:
     heavy = done.stdout.strip().splitlines()[-1]  # after the CLI's line naming the file
     assert heavy == "heavy:", f"imported on the generate path: {heavy}"
     assert (tmp_path / "x.npy").is_file()
+
+
+# A rig file needs the rig fit's scipy (its rotations, a moving average) but not these: roma
+# brought torch._dynamo (~1 s) and the twist's filter scipy.signal (~0.7 s) to every one-off
+# .bvh / .glb / .npz export (docs/performance.md, "Cold start").
+RIG_HEAVY = ("roma", "torch._dynamo", "scipy.signal", "matplotlib", "sentence_transformers")
+
+_RIG_CHILD = """
+import sys
+from mlct.cli import main
+for out in sys.argv[1:]:
+    assert main(["generate", "a person walks forward", "--seconds", "1", "--nfe", "1",
+                 "--out", out, "--quiet"]) == 0
+print("heavy:", *sorted(m for m in {HEAVY} if m in sys.modules))
+"""
+
+
+@pytest.mark.slow
+def test_rig_exports_import_no_heavy_library(tmp_path: Path) -> None:
+    pytest.importorskip("pygltflib")  # the .glb writer's (the export extra)
+    src = str(Path(__file__).resolve().parent.parent / "src")
+    path = os.pathsep.join(p for p in (src, os.environ.get("PYTHONPATH")) if p)
+    env = {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": "1"}
+    outs = [str(tmp_path / f"x.{ext}") for ext in ("bvh", "glb", "npz")]
+    done = subprocess.run([sys.executable, "-c", _RIG_CHILD.format(HEAVY=RIG_HEAVY), *outs],
+                          capture_output=True, text=True, env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    heavy = done.stdout.strip().splitlines()[-1]
+    assert heavy == "heavy:", f"imported on the rig export path: {heavy}"
+    assert all(Path(out).stat().st_size > 0 for out in outs)
