@@ -411,6 +411,8 @@ def converted_int8(tmp_path_factory) -> Path:
 
 def test_int8_quantizes_the_denoiser_only_and_moves_the_joints_little(converted,
                                                                        converted_int8) -> None:
+    import onnx
+
     manifest = json.loads((converted_int8 / ONNX_DIR / MANIFEST).read_text())
     assert manifest["int8"] == ["denoiser"]
     assert "int8" not in json.loads((converted / ONNX_DIR / MANIFEST).read_text())
@@ -422,8 +424,6 @@ def test_int8_quantizes_the_denoiser_only_and_moves_the_joints_little(converted,
     for _ in range(2):  # the second call runs the fused sampler graph built from the int8 one
         a = full.generate(TEXTS, seconds=4, seed=3, candidates=1)
         b = small.generate(TEXTS, seconds=4, seed=3, candidates=1)
-    import onnx
-
     (graph,) = [onnx.ModelProto.FromString(g).graph for g in small._fused.values() if g]
     kinds = [node.op_type for node in graph.node]  # the int8 products' attentions fused
     per_pass = sum(node.op_type == "MatMulNBits" for node in onnx.load(
