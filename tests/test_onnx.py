@@ -204,11 +204,11 @@ def test_transformer_decoder_ddim_and_token_condition(tmp_path) -> None:
         assert largest_gap(a, b) < JOINTS_M
 
 
-def test_fused_attention_keeps_a_transformer_decoders_padding(tmp_path) -> None:
+def test_fused_attention_keeps_a_transformer_decoders_padding(tmp_path, monkeypatch) -> None:
     """onnx_attention.fuse_attention(padded=True): the decoder's masked attentions become
     ONNX Runtime's Attention with the padding as its mask (in its session and in the sampler
     graph), the features those of the exported graph, padded frames 0; without `padded` a
-    masked block is left alone."""
+    masked block is left alone; a graph the rewrite fails on is run as written."""
     import onnx
     import onnxruntime as ort
 
@@ -231,6 +231,18 @@ def test_fused_attention_keeps_a_transformer_decoders_padding(tmp_path) -> None:
     (want,), (got,) = exported.run(None, feeds), fused.run(None, feeds)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-5)
     assert np.abs(got[1, :9]).max() > 0.1 and not got[1, 9:].any()
+
+    import mlct.generate.onnx_backend as onnx_backend
+
+    def cannot(*args, **kwargs):
+        raise ValueError("not this graph")
+
+    with monkeypatch.context() as patch:  # a graph the rewrite fails on loads as written
+        patch.setattr(onnx_backend, "fuse_attention", cannot)
+        plain = OnnxMotionGenerator.load(model).ae
+    lengths = torch.tensor([64, 9])
+    np.testing.assert_allclose(plain.decode(torch.from_numpy(feeds["latent"]), lengths, 64),
+                               want, rtol=0, atol=1e-6)
 
     torch_gen = mlct.load(model)
     for threads in (1, 2):  # the decoder apart (one thread's steps) or in the sampler graph

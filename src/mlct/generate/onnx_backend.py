@@ -63,15 +63,18 @@ class OnnxDecoder:
 
     def __init__(self, graph: os.PathLike, threads: int | None = None,
                  attention_heads: int | None = None) -> None:
-        fused = None
+        self.session = None
         if attention_heads is not None and _onnx_installed():
             import onnx
 
             model = onnx.load(str(graph))
-            if fuse_attention(model, attention_heads, padded=True):
-                fused = model.SerializeToString()
-        self.session = session(graph, threads) if fused is None else \
-            session_from_bytes(fused, threads)
+            try:  # a speed-up only: a graph it cannot rewrite (or run) runs as written
+                if fuse_attention(model, attention_heads, padded=True):
+                    self.session = session_from_bytes(model.SerializeToString(), threads)
+            except (ValueError, MlctError):
+                self.session = None
+        if self.session is None:
+            self.session = session(graph, threads)
         shape = self.session.get_inputs()[0].shape  # ["batch", n, d]
         self.latent_shape: tuple[int, int] = (int(shape[1]), int(shape[2]))
 
