@@ -146,7 +146,9 @@ FUSE_ATTENTION = True
 # Batch 1 of a sampler graph over ONE_THREAD_MAX_BYTES (the paper-size model: 5 steps and the
 # decoder) runs on `threads` that spin within the run while the machine is idle (onnx_io.spin_now,
 # asked at every call; a second session, with its own copy of the weights, is made only when the
-# machine's load changes), or as `spinning_steps` says: the paper-size model's warm call 0.91x
+# machine's load changes: +362 MB of RSS for the paper-size graph in float32, +151 MB with
+# --int8, kept rather than remade at each change, which takes longer than the call), or as
+# `spinning_steps` says: the paper-size model's warm call 0.91x
 # in float32, 0.84x with --int8 against sleeping threads (paired, bench/paired_speed.py
 # :sleeping-big-graph).
 SPIN_BIG_GRAPH = True
