@@ -148,9 +148,8 @@ FUSE_ATTENTION = True
 # asked at every call; a second session, with its own copy of the weights, is made only when the
 # machine's load changes: +362 MB of RSS for the paper-size graph in float32, +151 MB with
 # --int8, kept rather than remade at each change, which takes longer than the call), or as
-# `spinning_steps` says: the paper-size model's warm call 0.91x
-# in float32, 0.84x with --int8 against sleeping threads (paired, bench/paired_speed.py
-# :sleeping-big-graph).
+# `spinning_steps` says: the paper-size model's warm call 0.91x in float32, 0.84x with --int8
+# against sleeping threads (paired, bench/paired_speed.py :sleeping-big-graph).
 SPIN_BIG_GRAPH = True
 
 
