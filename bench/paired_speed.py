@@ -52,8 +52,8 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from inference_speed import FRAMES, TEXTS, onnx_generator  # noqa: E402  (the same prompts,
-# length and paper-size networks)
+# the same prompts, length and paper-size networks
+from inference_speed import FRAMES, TEXTS, onnx_generator  # noqa: E402
 
 
 VARIANTS = ("unfused-text", "whole-grid", "one-graph", "matmul-add-fusion", "one-decoder",
@@ -109,7 +109,7 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
             gen.spinning_steps = "spinning-steps" in chosen
         if "static-spinning" in chosen:
             if gen.spinning_steps is None:
-                gen.spinning_steps = gen.thread_count >= 2 and onnx_io.spare_cores(2)
+                gen.spinning_steps = gen.threads >= 2 and onnx_io.spare_cores(2)
             gen.text_encoder.spinning = onnx_io.spare_cores(gen.text_encoder.threads)
         warm_ms(gen, len(TEXTS) + 2, 0, frames)  # the text memo and the sampler graph's
         text_ms(gen, 4, 0)  # sessions, made here under the switches

@@ -305,7 +305,7 @@ class OnnxMotionGenerator(MotionGenerator):
         self._calls[steps] = self._calls.get(steps, 0) + 1
         built = sum(graph is not None for graph in self._fused.values())
         if steps not in self._fused and self._calls[steps] >= 2 and built < MAX_SAMPLER_GRAPHS:
-            if not _onnx_installed():  # the graph is assembled with the onnx package
+            if not self._has_onnx():  # the graph is assembled with the onnx package
                 self._fused[steps] = None
                 return None
             self._fused[steps] = self._sampler_graph(steps, with_decoder=True)
@@ -313,16 +313,14 @@ class OnnxMotionGenerator(MotionGenerator):
         if graph is None:
             return None
         small = batch <= ONE_THREAD_MAX_BATCH and len(graph) <= ONE_THREAD_MAX_BYTES
-        if small and self.decode_apart and self.thread_count > 1:
+        if small and self.decode_apart and self.threads > 1:
             if steps not in self._steps_only:
                 self._steps_only[steps] = self._sampler_graph(steps, with_decoder=False)
             return self._steps_graph_session(steps, batch), True
-        threads = 1 if small else self.thread_count
+        threads = 1 if small else self.threads
         # batch 1 of a graph too big for one thread (paper size) spins within the run while the
         # machine is idle, as the small graph's steps do (SPIN_BIG_GRAPH)
-        spin = (batch == 1 and threads > 1 and self.spin_big_graph
-                and (self.spinning_steps if self.spinning_steps is not None
-                     else spin_now(threads)))
+        spin = batch == 1 and threads > 1 and self.spin_big_graph and self._spin(threads)
         key = (steps, threads, batch == 1, False, spin)
         if key not in self._sessions:
             # batch 1, the size a person waits on, gets a graph of fixed shapes (fewer operators)
@@ -344,9 +342,7 @@ class OnnxMotionGenerator(MotionGenerator):
         if steps not in self._steps_only:
             if self._calls[steps] < 2 or len(self._steps_only) >= MAX_SAMPLER_GRAPHS:
                 return None
-            if self._onnx is None:  # asked once: Python does not remember a failed import
-                self._onnx = _onnx_installed()
-            if not self._onnx:
+            if not self._has_onnx():
                 return None
             self._steps_only[steps] = self._sampler_graph(steps, with_decoder=False)
         if len(self._steps_only[steps]) > ONE_THREAD_MAX_BYTES:
@@ -358,12 +354,11 @@ class OnnxMotionGenerator(MotionGenerator):
         or on two spinning within the run (_spinning_steps); a larger batch on `threads`,
         spinning while the machine is idle (onnx_io.spin_now) unless `spinning_steps` says."""
         if batch == 1:
-            spin = self.thread_count > 1 and self._spinning_steps()
+            spin = self.threads > 1 and self._spinning_steps()
             threads = 2 if spin else 1
         else:
-            threads = self.thread_count
-            spin = threads > 1 and (self.spinning_steps if self.spinning_steps is not None
-                                    else spin_now(threads))
+            threads = self.threads
+            spin = threads > 1 and self._spin(threads)
         key = (steps, threads, batch == 1, True, spin)
         if key not in self._sessions:
             graph = self._steps_only[steps]
@@ -404,9 +399,12 @@ class OnnxMotionGenerator(MotionGenerator):
         """Do batch 1's steps run on two threads that spin within the run (`spinning_steps`;
         None: when `threads` >= 2 and the machine has two idle logical CPUs for them now,
         onnx_io.spin_now)? Asked at every call: both sessions are small."""
-        if self.spinning_steps is not None:
-            return self.spinning_steps
-        return self.thread_count >= 2 and spin_now(2)
+        return self.threads >= 2 and self._spin(2)
+
+    def _spin(self, threads: int) -> bool:
+        """Do `threads` threads spin within this run: as `spinning_steps` says, or (None) while
+        the machine has idle logical CPUs for them (onnx_io.spin_now)?"""
+        return self.spinning_steps if self.spinning_steps is not None else spin_now(threads)
 
     def _decoder_halves(self) -> DecoderHalves | None:
         """The decoder cut in its two halves (onnx_decoder_halves.py), made on first use; None
@@ -416,6 +414,13 @@ class OnnxMotionGenerator(MotionGenerator):
         if self._halves is False:
             self._halves = DecoderHalves.of(self.graphs.decoder, self._mean, self._std)
         return self._halves
+
+    def _has_onnx(self) -> bool:
+        """Is the onnx package there, asked once per generator (Python does not remember a
+        failed import, and the candidates' path asks at every call)?"""
+        if self._onnx is None:
+            self._onnx = _onnx_installed()
+        return self._onnx
 
     def _decoder_heads(self) -> int | None:
         """The transformer decoder's head count, for its fused attention; None: a convolutional
@@ -433,11 +438,6 @@ class OnnxMotionGenerator(MotionGenerator):
                              attention_heads=self.config.denoiser.heads
                              if self.fuse_attention else None,
                              decoder_heads=self._decoder_heads()).SerializeToString()
-
-    @property
-    def thread_count(self) -> int:
-        """`threads`: the decoder's and any multi-threaded graph's."""
-        return self.threads
 
     def generate(self, *args: Any, **kwargs: Any) -> Any:
         """MotionGenerator.generate, its torch work on TORCH_GLUE_THREADS threads (the torch
