@@ -1,11 +1,18 @@
 """How far the int8 denoiser (backend onnx-int8) moves the joints from float32 ONNX's.
 
-    python bench/int8_joints.py --data SYNTH [--model DIR] [--limit N]
+    python bench/int8_joints.py --data SYNTH [--model DIR] [--limit N] [--plans fiiii,ffiii]
 
 The same seeds through both (seed 0 each, one sample, no split into actions): the benchmark's
 test captions at their real lengths, then the 42 hand-written paraphrases at 5 s. Prints the
 joints' distance (mean, median, 99th percentile, largest), the root-relative pose's, and how many
-motions move more than 1 cm on average: issue 17 keeps int8 only if joints move < 1 cm.
+motions move more than 1 cm on average, in the joints and in the pose (root-relative), and how
+far the root's end point moved against the length of its path: issue 17 keeps int8 only if
+joints move < 1 cm.
+
+--plans: which of the 5 steps need float32? Each plan names a denoiser per step, f (float32)
+or i (int8), e.g. fiiii: the first step in float32, the rest in int8. A plan runs the step loop
+(onnx_sampler.run_steps) of the float32 conversion with the int8 denoiser's session at its i
+steps, and is compared with float32 on the test captions.
 """
 
 from __future__ import annotations
@@ -40,11 +47,34 @@ def report(what: str, a: list[np.ndarray], b: list[np.ndarray]) -> None:
     pose = np.concatenate([np.linalg.norm((x - x[:, :1]) - (y - y[:, :1]), axis=-1).ravel()
                            for x, y in zip(a, b)])
     per = np.array([np.linalg.norm(x - y, axis=-1).mean() for x, y in zip(a, b)])
+    per_pose = np.array([np.linalg.norm((x - x[:, :1]) - (y - y[:, :1]), axis=-1).mean()
+                         for x, y in zip(a, b)])
+    # where the root ends against how far it went: a drift of the trajectory, not the pose
+    drift = np.array([np.linalg.norm(x[-1, 0] - y[-1, 0]) for x, y in zip(a, b)])
+    path = np.array([np.linalg.norm(np.diff(y[:, 0], axis=0), axis=-1).sum() for y in a])
+    share = drift / np.maximum(path, 1e-6)
     mm = 1000
     print(f"{what}: joints mean {dist.mean() * mm:.1f} mm, median {np.median(dist) * mm:.1f}, "
           f"p99 {np.percentile(dist, 99) * mm:.0f}, largest {dist.max() * mm:.0f}; root-relative "
           f"pose mean {pose.mean() * mm:.1f}, largest {pose.max() * mm:.0f}; motions moving "
-          f"> 1 cm on average: {(per > 0.01).sum()} of {len(per)} ({(per > 0.01).mean():.1%})")
+          f"> 1 cm on average: {(per > 0.01).sum()} of {len(per)} ({(per > 0.01).mean():.1%}), "
+          f"in the pose {(per_pose > 0.01).sum()} ({(per_pose > 0.01).mean():.1%}); the root's "
+          f"end point moved {drift.mean() * mm:.1f} mm on average, {np.median(share):.2%} of "
+          f"its path (median; largest {share.max():.1%})")
+
+
+class StepPlan:
+    """A denoiser session for the step loop that runs step k on plan[k % len(plan)]'s session:
+    'f' the float32 one, 'i' the int8 one. run_steps calls it once per step, in order."""
+
+    def __init__(self, plan: str, float32: object, int8: object) -> None:
+        self.sessions = [{"f": float32, "i": int8}[c] for c in plan]
+        self.calls = 0
+
+    def run(self, outputs: list[str], feeds: dict) -> list:
+        session = self.sessions[self.calls % len(self.sessions)]
+        self.calls += 1
+        return session.run(outputs, feeds)
 
 
 def main() -> None:
@@ -52,6 +82,7 @@ def main() -> None:
     parser.add_argument("--data", type=Path, required=True)
     parser.add_argument("--model", type=Path, default=None, help="default: the bundled model")
     parser.add_argument("--limit", type=int, default=None, help="first N test motions")
+    parser.add_argument("--plans", default="", help="step plans of f and i, comma-separated")
     args = parser.parse_args()
     layout = DatasetLayout.existing(args.data)
     names = layout.read_split("test")[: args.limit]
@@ -60,13 +91,25 @@ def main() -> None:
     paraphrases = [p["text"] for p in json.loads(PROMPTS.read_text())["paraphrases"]]
     with tempfile.TemporaryDirectory() as tmp:
         model = args.model or bundled_model_dir()
-        gens = [mlct.load(convert_to_onnx(model, Path(tmp) / name, read_only=True, int8=int8),
-                          backend=backend)
-                for name, int8, backend in (("f32", False, "onnx"),
-                                            ("i8", True, "onnx-int8"))]
+        dirs = [convert_to_onnx(model, Path(tmp) / name, read_only=True, int8=int8)
+                for name, int8 in (("f32", False), ("i8", True))]
+        gens = [mlct.load(d, backend=backend) for d, backend in zip(dirs, ("onnx", "onnx-int8"))]
         for gen in gens:  # batches of 50: the graphs, not the torch networks that large
             gen.torch_min_batch = None  # batches are handed to (onnx_backend.TORCH_MIN_BATCH)
-        report(f"{len(names)} test captions", *(joints(g, captions, lengths) for g in gens))
+        plans = [p for p in args.plans.split(",") if p]
+        steps = gens[0].check_nfe(None)
+        for plan in plans:
+            if set(plan) - set("fi") or len(plan) != steps:
+                parser.error(f"--plans: {plan!r} is not one f or i per step ({steps} steps)")
+        float32 = joints(gens[0], captions, lengths)
+        report(f"{len(names)} test captions", float32, joints(gens[1], captions, lengths))
+        for plan in plans:
+            mixed = mlct.load(dirs[0], backend="onnx")
+            mixed.torch_min_batch, mixed.fused = None, False  # the step loop, run_steps
+            mixed.denoiser.session = StepPlan(plan, mixed.denoiser.session,
+                                              gens[1].denoiser.session)
+            report(f"plan {plan}, {len(names)} test captions", float32,
+                   joints(mixed, captions, lengths))
         five = [gens[0].frames_for(5.0)] * len(paraphrases)
         report(f"{len(paraphrases)} paraphrases, 5 s", *(joints(g, paraphrases, five)
                                                          for g in gens))

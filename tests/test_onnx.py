@@ -350,11 +350,23 @@ def _sample_in_child(frames: int) -> np.ndarray:
 
 # --- bad input: one line naming the problem and the fix ----------------------------------------
 
-def test_a_model_without_graphs_says_how_to_make_them(tmp_path) -> None:
-    with pytest.raises(MlctError, match=r"no ONNX graphs .*mlct convert bundled --onnx --out"):
-        mlct.load(backend="onnx")
+def test_a_model_without_graphs_gets_them_from_the_cache(tmp_path, monkeypatch) -> None:
+    """--backend onnx by name on a model without graphs makes them once into the cache, as
+    auto does; without the onnx package that writes them, one line saying what to install."""
+    monkeypatch.setenv("MLCT_CACHE", str(tmp_path / "cache"))
     plain = random_bundle(tmp_path / "plain", "consistency", "minilm")
-    with pytest.raises(MlctError, match=rf"{plain}: no ONNX graphs .*mlct convert {plain} --onnx"):
+    gen = mlct.load(plain, backend="onnx")
+    assert gen.backend_note == "onnx (asked for)" and "int8" not in gen.graphs.manifest
+    assert Path(gen.graphs.denoiser).is_relative_to(tmp_path / "cache" / "onnx")
+    assert not (plain / ONNX_DIR).exists()  # the model directory is not written
+    want = mlct.load(plain, backend="torch").generate(["a person walks"], lengths=[40], seed=3,
+                                                      candidates=1)
+    got = gen.generate(["a person walks"], lengths=[40], seed=3, candidates=1)
+    assert largest_gap(want, got) < 1e-3
+    assert mlct.load(plain, backend="onnx").graphs.denoiser == gen.graphs.denoiser  # made once
+    monkeypatch.setenv("MLCT_CACHE", str(tmp_path / "empty"))
+    monkeypatch.setitem(sys.modules, "onnx", None)
+    with pytest.raises(MlctError, match=r"no ONNX graphs and the onnx package .*pip install"):
         mlct.load(plain, backend="onnx")
     assert main(["generate", "a person walks", "--model", str(plain), "--backend", "onnx",
                  "--out", str(tmp_path / "a.npy")]) == 2

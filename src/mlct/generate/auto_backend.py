@@ -105,7 +105,7 @@ def find_graphs(path: Path, text_encoder: str, int8: bool) -> Path:
             import onnx  # noqa: F401 - writes the graphs
         except ImportError:
             raise MlctError("the model has no ONNX graphs and the onnx package that writes "
-                            "them is not installed") from None
+                            "them is not installed (pip install 'mlct[onnx]')") from None
         try:
             convert_into_cache(path, cached, int8)
         except MlctError as err:

@@ -4,8 +4,9 @@
   bfloat16 products (pipeline.py);
 - cuda-graphs: the torch pipeline on a GPU, replayed from CUDA graphs (cuda_graph_backend.py);
 - onnx: the same pipeline with the three networks as ONNX graphs run by ONNX Runtime on the CPU
-  (onnx_backend.py; the graphs come from `mlct convert MODEL_DIR --onnx`); a batch of
-  TORCH_MIN_BATCH latents or more is handed to the torch networks, faster there;
+  (onnx_backend.py; the graphs `mlct convert MODEL_DIR --onnx` put in the model directory, else
+  made once into the cache, as auto does); a batch of TORCH_MIN_BATCH latents or more is handed
+  to the torch networks, faster there;
 - onnx-int8: the same with the denoiser's matrix products in int8 (the graphs from `mlct
   convert MODEL_DIR --onnx --int8` or made once into the cache): ~2x faster sampling, motions
   as good by the read-outs but not the float32 ones (asked for by name: docs/performance.md);
@@ -28,26 +29,55 @@ from mlct.generate.onnx_backend import OnnxMotionGenerator
 from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
 
 
+def _onnx(path: Path, device: torch.device | str | None = None,
+          dtype: str | torch.dtype = "float32") -> OnnxMotionGenerator:
+    """The onnx backend on the float32 graphs `mlct convert --onnx` put in the model folder
+    (checked: graphs of other weights are refused, saying how to make them again), else on the
+    cache's, made once as auto makes them: the bundled model, which cannot hold graphs of its
+    own, and a model converted with --int8 run as float32 by name."""
+    from mlct.generate.onnx_bundle import MANIFEST, ONNX_DIR, read_onnx
+
+    if (path / ONNX_DIR / MANIFEST).is_file():
+        try:
+            int8 = bool(read_onnx(path, _config(path)["text_encoder"]).manifest.get("int8"))
+        except MlctError:
+            int8 = False  # loaded below, it says what is wrong with them
+        if not int8:
+            return OnnxMotionGenerator.load(path, device, dtype)
+    return _cached(path, device, dtype, int8=False)
+
+
 def _onnx_int8(path: Path, device: torch.device | str | None = None,
                dtype: str | torch.dtype = "float32") -> OnnxMotionGenerator:
     """The onnx backend on graphs whose denoiser products are int8: the model folder's when
     `mlct convert --onnx --int8` made them, else the cache's (made once)."""
-    from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION, CONFIG, read_bundle
-    from mlct.io import read_format_json
+    return _cached(path, device, dtype, int8=True)
+
+
+def _cached(path: Path, device: torch.device | str | None, dtype: str | torch.dtype,
+            int8: bool) -> OnnxMotionGenerator:
+    """The onnx backend on auto_backend.find_graphs' graphs of this kind."""
     from mlct.onnx_io import onnxruntime_module
 
     onnxruntime_module()  # its absence first: the fix for it comes before converting
+    return OnnxMotionGenerator.load(path, device, dtype,
+                                    graphs=find_graphs(path, _config(path)["text_encoder"], int8))
+
+
+def _config(path: Path) -> dict:
+    """The model's config.json alone (the weights are read once, by the backend that loads
+    them); one line saying what is wrong when `path` is not a model."""
+    from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION, CONFIG, read_bundle
+    from mlct.io import read_format_json
+
     if not (path / CONFIG).is_file():
         read_bundle(path)  # not a model: one line saying what is wrong, before converting
-    # config.json only: the weights are read once, by the backend that loads them
-    meta = read_format_json(path / CONFIG, BUNDLE_FORMAT, BUNDLE_VERSION, "an mlct model config")
-    return OnnxMotionGenerator.load(path, device, dtype,
-                                    graphs=find_graphs(path, meta["text_encoder"], int8=True))
+    return read_format_json(path / CONFIG, BUNDLE_FORMAT, BUNDLE_VERSION, "an mlct model config")
 
 
 BACKENDS: dict[str, Callable[..., MotionGenerator]] = {
     "torch": MotionGenerator.load,
-    "onnx": OnnxMotionGenerator.load,
+    "onnx": _onnx,
     "onnx-int8": _onnx_int8,
     "cuda-graphs": CudaGraphMotionGenerator.load,
 }
