@@ -1,6 +1,6 @@
 """How far the int8 denoiser (backend onnx-int8) moves the joints from float32 ONNX's.
 
-    python bench/int8_joints.py --data SYNTH [--model DIR] [--limit N] [--plans fiiii,ffiii]
+    python bench/int8_joints.py --data SYNTH [--model DIR] [--limit N] [--plans fiiii,ffiii] [--floor]
 
 The same seeds through both (seed 0 each, one sample, no split into actions): the benchmark's
 test captions at their real lengths, then the 42 hand-written paraphrases at 5 s. Prints the
@@ -83,6 +83,9 @@ def main() -> None:
     parser.add_argument("--model", type=Path, default=None, help="default: the bundled model")
     parser.add_argument("--limit", type=int, default=None, help="first N test motions")
     parser.add_argument("--plans", default="", help="step plans of f and i, comma-separated")
+    parser.add_argument("--floor", action="store_true",
+                        help="also the float32 torch backend against float32 onnx: the distance "
+                             "that is float rounding alone")
     args = parser.parse_args()
     layout = DatasetLayout.existing(args.data)
     names = layout.read_split("test")[: args.limit]
@@ -103,6 +106,10 @@ def main() -> None:
                 parser.error(f"--plans: {plan!r} is not one f or i per step ({steps} steps)")
         float32 = joints(gens[0], captions, lengths)
         report(f"{len(names)} test captions", float32, joints(gens[1], captions, lengths))
+        if args.floor:
+            torch_backend = mlct.load(model, backend="torch")
+            report(f"float32 torch against onnx, {len(names)} test captions", float32,
+                   joints(torch_backend, captions, lengths))
         for plan in plans:
             mixed = mlct.load(dirs[0], backend="onnx")
             mixed.torch_min_batch, mixed.fused = None, False  # the step loop, run_steps
