@@ -281,3 +281,18 @@ def test_rig_from_a_json_file(tmp_path):
     with pytest.raises(MlctError, match="unknown rig"):
         bvh_text(rigid_motion(HUMANML3D, 5, seed=5), HUMANML3D, 20.0, rig="blender")
     assert not (tmp_path / "n.bvh").exists()
+
+
+def test_euler_angles_are_scipys_and_rebuild_the_turn():
+    """The writer's own ZXY decomposition (no scipy at import) against scipy's, and at gimbal
+    lock, where any split is right, the turn it rebuilds."""
+    from mlct.motion.bvh import euler_zxy_degrees
+
+    turns = Rotation.random(2000, random_state=0)
+    np.testing.assert_allclose(euler_zxy_degrees(turns.as_matrix()),
+                               turns.as_euler("ZXY", degrees=True), atol=1e-8)
+    locked = Rotation.from_euler("ZXY", [[30, 90, 20], [-70, -90, 45], [0, 90, 0]], degrees=True)
+    angles = euler_zxy_degrees(locked.as_matrix())
+    assert np.allclose(np.abs(angles[:, 1]), 90) and np.all(angles[:, 2] == 0)
+    rebuilt = Rotation.from_euler("ZXY", angles, degrees=True).as_matrix()
+    np.testing.assert_allclose(rebuilt, locked.as_matrix(), atol=1e-9)

@@ -167,3 +167,25 @@ def test_a_planted_toe_stays_planted_while_the_heel_lifts_and_the_foot_stretches
     assert np.linalg.norm(toe_path - rest[toe], axis=-1).max() < 1e-3  # planted, to 1 mm
     ankle_error = np.linalg.norm(fit.positions[:, ankle] - joints[:, ankle], axis=-1)
     assert ankle_error.max() > 0.004  # the moving heel takes the stretch instead
+
+
+@pytest.mark.parametrize("size", [1, 2, 3, 4, 7, 12])
+def test_moving_average_is_scipys_nearest_uniform_filter(size):
+    from scipy.ndimage import uniform_filter1d
+
+    from mlct.motion.rigfit import moving_average
+
+    x = np.random.default_rng(size).normal(size=40)
+    np.testing.assert_allclose(moving_average(x, size), uniform_filter1d(x, size, mode="nearest"),
+                               atol=1e-12)
+    np.testing.assert_allclose(moving_average(x[:3], size),
+                               uniform_filter1d(x[:3], size, mode="nearest"), atol=1e-12)
+
+
+def test_turns_about_an_axis_are_scipys_rotation_vectors():
+    from mlct.motion.rigfit import _axis_rotation
+
+    axis = np.array([0.3, -0.8, 0.52]) / np.linalg.norm([0.3, -0.8, 0.52])
+    angles = np.linspace(-7.0, 7.0, 57)
+    np.testing.assert_allclose(_axis_rotation(axis, angles),
+                               Rotation.from_rotvec(angles[:, None] * axis).as_matrix(), atol=1e-12)

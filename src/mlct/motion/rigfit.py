@@ -36,10 +36,12 @@ joint positions, and a generated motion's bones stretch by a few millimetres fro
   it leak back to zero with a time constant of TWIST_RELAX_SECONDS: smooth over time, and the
   plain shortest turn wherever nothing flips. Twist never moves a joint.
 
-Rotation math: rotation vectors and quaternions are scipy's (scipy.spatial.transform.Rotation),
-Kabsch over all frames at once is `kabsch`; the shortest turn between two vectors is
-mlct.motion.quaternion's `qbetween`. Everything here is in the skeleton's units and
-its frame (y up, facing +Z); writers convert axes and units (rigs.py).
+Rotation math: Kabsch over all frames at once is `kabsch`; the shortest turn between two
+vectors and a turn about an axis are mlct.motion.quaternion's. No scipy here: importing its
+Rotation or ndimage loads scipy.spatial and scipy.sparse, ~0.4 s of every one-off `mlct
+generate --out x.bvh` (bench/cold_start.py), for a turn about an axis and a moving average.
+Everything here is in the skeleton's units and its frame (y up, facing +Z); writers convert axes
+and units (rigs.py).
 """
 
 from __future__ import annotations
@@ -48,11 +50,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
-from scipy.ndimage import uniform_filter1d
-from scipy.spatial.transform import Rotation
 
 from mlct.errors import MlctError
-from mlct.motion.quaternion import qbetween, quat_to_matrix
+from mlct.motion.quaternion import qbetween, quat_from_axis_angle, quat_to_matrix
 from mlct.motion.skeleton import Skeleton
 
 PROCRUSTES_ITERATIONS = 3  # mean shape of a multi-child group: converges in 2 on real motion
@@ -192,7 +192,7 @@ def foot_targets(x: np.ndarray, skeleton: Skeleton, offsets: np.ndarray,
         if len(x) < 2:
             continue
         speed = [np.linalg.norm(np.diff(x[:, j], axis=0), axis=-1) for j in (ankle, toe)]
-        speed = [uniform_filter1d(np.concatenate([s[:1], s]), window, mode="nearest")
+        speed = [moving_average(np.concatenate([s[:1], s]), window)
                  for s in speed]  # (T,) per frame
         w = speed[0] / (speed[0] + speed[1] + 1e-4 * length)  # 1: the ankle moves, toe still
         aims[:, ankle] = (1 - w)[:, None] * x[:, ankle] + w[:, None] * toe_first
@@ -227,8 +227,20 @@ def _leaky_sum(x: np.ndarray, keep: float) -> np.ndarray:
     return out
 
 
+def moving_average(x: np.ndarray, size: int) -> np.ndarray:
+    """(T,) -> (T,) the mean over a window of `size` samples, the edges held outward: what
+    scipy.ndimage.uniform_filter1d(x, size, mode="nearest") gives (the window of sample i runs
+    from i - size // 2), without scipy's import."""
+    left = size // 2
+    padded = np.concatenate([np.full(left, x[0]), x, np.full(size - 1 - left, x[-1])])
+    total = np.concatenate([[0.0], np.cumsum(padded)])
+    return (total[size:] - total[:-size]) / size
+
+
 def _axis_rotation(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
-    return Rotation.from_rotvec(angles[:, None] * axis[None]).as_matrix()
+    """(T, 3, 3) turns by `angles` (T,) radians about `axis` (3,)."""
+    turns = quat_from_axis_angle(torch.from_numpy(axis)[None], torch.from_numpy(angles))
+    return quat_to_matrix(turns).numpy()
 
 
 def check_joints(joints: np.ndarray, skeleton: Skeleton, what: str = "rig export") -> np.ndarray:
