@@ -43,12 +43,10 @@ def test_api_and_cli_generate_import_no_heavy_library(tmp_path: Path) -> None:
 
 
 # A rig file needs none of these: roma brought torch._dynamo (~1 s) and the twist's filter
-# scipy.signal (~0.7 s) to every one-off .bvh / .glb / .npz export (docs/performance.md, "Cold
-# start"). A .bvh, the common one, needs no scipy at all (its rotations and the fit's moving
-# average were scipy.spatial's and scipy.ndimage's: ~0.4 s); .glb and .npz still use scipy's
-# Rotation.
-RIG_HEAVY = ("roma", "torch._dynamo", "scipy.signal", "matplotlib", "sentence_transformers")
-BVH_HEAVY = (*RIG_HEAVY, "scipy")
+# scipy.signal (~0.7 s) to every one-off .bvh / .glb / .npz export, and scipy's Rotation and
+# ndimage (the rotations, the fit's moving average) scipy.spatial and scipy.sparse (~0.4 s;
+# docs/performance.md, "Cold start").
+RIG_HEAVY = ("roma", "torch._dynamo", "scipy", "matplotlib", "sentence_transformers")
 
 _RIG_CHILD = """
 import sys
@@ -66,11 +64,10 @@ def test_rig_exports_import_no_heavy_library(tmp_path: Path) -> None:
     src = str(Path(__file__).resolve().parent.parent / "src")
     path = os.pathsep.join(p for p in (src, os.environ.get("PYTHONPATH")) if p)
     env = {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": "1"}
-    for exts, heavy_ones in ((("bvh",), BVH_HEAVY), (("bvh", "glb", "npz"), RIG_HEAVY)):
-        outs = [str(tmp_path / f"x.{ext}") for ext in exts]
-        done = subprocess.run([sys.executable, "-c", _RIG_CHILD.format(HEAVY=heavy_ones), *outs],
-                              capture_output=True, text=True, env=env)
-        assert done.returncode == 0, done.stderr[-2000:]
-        heavy = done.stdout.strip().splitlines()[-1]
-        assert heavy == "heavy:", f"imported on the {'/'.join(exts)} export path: {heavy}"
-        assert all(Path(out).stat().st_size > 0 for out in outs)
+    outs = [str(tmp_path / f"x.{ext}") for ext in ("bvh", "glb", "npz")]
+    done = subprocess.run([sys.executable, "-c", _RIG_CHILD.format(HEAVY=RIG_HEAVY), *outs],
+                          capture_output=True, text=True, env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    heavy = done.stdout.strip().splitlines()[-1]
+    assert heavy == "heavy:", f"imported on the rig export path: {heavy}"
+    assert all(Path(out).stat().st_size > 0 for out in outs)

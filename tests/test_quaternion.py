@@ -144,3 +144,27 @@ def test_dtype_preserved_and_gradients_finite():
     assert torch.autograd.gradcheck(cont6d_to_matrix, (d6,))
     a, b = random_quats(6, 3).requires_grad_(True), random_quats(6, 4).requires_grad_(True)
     assert torch.autograd.gradcheck(lambda x, y: qslerp(x, y, 0.3), (a, b))
+
+
+def test_rotation_vectors_are_scipys():
+    """quat_to_rotvec and rotvec_to_matrix (the SMPL writer's and reader's, without scipy's
+    import) against scipy's Rotation: random turns, half turns, tiny and zero ones."""
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    from mlct.motion.quaternion import matrix_to_quat, quat_to_rotvec, rotvec_to_matrix
+
+    turns = Rotation.random(1000, random_state=1)
+    rotvec = np.concatenate([turns.as_rotvec(), [[0.0, 0.0, 0.0], [1e-12, -2e-12, 0.0],
+                                                 [math.pi, 0.0, 0.0], [0.0, 0.0, -math.pi + 1e-9]]])
+    matrices = Rotation.from_rotvec(rotvec).as_matrix()
+    np.testing.assert_allclose(rotvec_to_matrix(torch.from_numpy(rotvec)).numpy(), matrices,
+                               atol=1e-12)
+    back = quat_to_rotvec(matrix_to_quat(torch.from_numpy(matrices))).numpy()
+    expect = Rotation.from_matrix(matrices).as_rotvec()
+    near_half_turn = np.linalg.norm(expect, axis=-1) > math.pi - 1e-6  # v and -v: one turn
+    np.testing.assert_allclose(back[~near_half_turn], expect[~near_half_turn], atol=1e-9)
+    np.testing.assert_allclose(rotvec_to_matrix(torch.from_numpy(back)).numpy(), matrices,
+                               atol=1e-9)
+    w_negative = -matrix_to_quat(torch.from_numpy(matrices[:10]))  # the same turns
+    np.testing.assert_allclose(quat_to_rotvec(w_negative).numpy(), back[:10], atol=1e-12)

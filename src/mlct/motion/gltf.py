@@ -25,10 +25,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+import torch
 
 from mlct.errors import MlctError, first_line
 from mlct.io import write_bytes
+from mlct.motion.quaternion import matrix_to_quat, quat_to_matrix
 from mlct.motion.rigfit import RigFit, fit_rig
 from mlct.motion.rigs import Rig, get_rig
 from mlct.motion.skeleton import Skeleton
@@ -189,8 +190,7 @@ def gltf_document(fit: RigFit, names: tuple[str, ...], fps: float, mesh: bool = 
     gltf.scene = 0
 
     times = buffer.add(np.arange(n_frames) / float(fps), "SCALAR", FLOAT, bounds=True)
-    quats = Rotation.from_matrix(fit.local.reshape(-1, 3, 3)).as_quat().reshape(
-        n_frames, n_joints, 4)  # xyzw
+    quats = matrix_to_quat(torch.from_numpy(fit.local)).numpy()[..., [1, 2, 3, 0]]  # xyzw
     quats *= np.where(quats[..., 3:] < 0, -1.0, 1.0)  # one hemisphere per key...
     for t in range(1, n_frames):  # ...then continuous, so LINEAR never takes the long way
         flip = np.sum(quats[t] * quats[t - 1], axis=-1) < 0
@@ -311,8 +311,7 @@ def read_gltf(path: str | os.PathLike) -> GltfClip:
         elif channel.target.path == "translation":
             translation[:, target] = values
     rotation /= np.linalg.norm(rotation, axis=-1, keepdims=True)
-    matrices = Rotation.from_quat(rotation.reshape(-1, 4)).as_matrix().reshape(
-        rotation.shape[:-1] + (3, 3))  # xyzw, as glTF
+    matrices = quat_to_matrix(torch.from_numpy(rotation[..., [3, 0, 1, 2]])).numpy()  # glTF: xyzw
     positions = np.empty((n_frames, len(joints), 3))
     world = np.empty((n_frames, len(joints), 3, 3))
     done: set[int] = set()  # glTF lists nodes in no order: each after its parent

@@ -129,6 +129,23 @@ def matrix_to_quat(m: Tensor) -> Tensor:
     return q * torch.where(q[..., :1] < 0, -1.0, 1.0).to(q)
 
 
+def quat_to_rotvec(q: Tensor) -> Tensor:
+    """(..., 4) -> (..., 3) rotation vectors (axis times angle, the angle in [0, pi]): the sign
+    of q is taken so that w >= 0. A turn of angle a has |xyz| = sin(a / 2), w = cos(a / 2), so
+    the vector is xyz * a / sin(a / 2); for a tiny turn that factor is 2 / w (its limit)."""
+    q = q * torch.where(q[..., :1] < 0, -1.0, 1.0).to(q)
+    w, xyz = q[..., :1], q[..., 1:]
+    sin_half = xyz.norm(dim=-1, keepdim=True)
+    tiny = sin_half < 1e3 * _eps(sin_half)
+    angle = 2 * torch.atan2(sin_half, w)
+    return xyz * torch.where(tiny, 2 / w, angle / torch.where(tiny, 1.0, sin_half))
+
+
+def rotvec_to_matrix(rotvec: Tensor) -> Tensor:
+    """(..., 3) rotation vectors (axis times angle) -> (..., 3, 3) rotation matrices."""
+    return quat_to_matrix(quat_from_axis_angle(rotvec, rotvec.norm(dim=-1)))
+
+
 def quat_to_cont6d(q: Tensor) -> Tensor:
     """(..., 4) -> (..., 6): the first two columns of the rotation matrix, column by column.
 
