@@ -31,19 +31,14 @@ from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
 
 def _onnx(path: Path, device: torch.device | str | None = None,
           dtype: str | torch.dtype = "float32") -> OnnxMotionGenerator:
-    """The onnx backend on the float32 graphs `mlct convert --onnx` put in the model folder
-    (checked: graphs of other weights are refused, saying how to make them again), else on the
-    cache's, made once as auto makes them: the bundled model, which cannot hold graphs of its
-    own, and a model converted with --int8 run as float32 by name."""
-    from mlct.generate.onnx_bundle import MANIFEST, ONNX_DIR, read_onnx
+    """The onnx backend on the graphs `mlct convert --onnx [--int8]` put in the model folder, as
+    they are (checked: graphs of other weights are refused, saying how to make them again);
+    without any there (the bundled model, which cannot hold graphs of its own), on the cache's
+    float32 graphs, made once as auto makes them."""
+    from mlct.generate.onnx_bundle import MANIFEST, ONNX_DIR
 
     if (path / ONNX_DIR / MANIFEST).is_file():
-        try:
-            int8 = bool(read_onnx(path, _config(path)["text_encoder"]).manifest.get("int8"))
-        except MlctError:
-            int8 = False  # loaded below, it says what is wrong with them
-        if not int8:
-            return OnnxMotionGenerator.load(path, device, dtype)
+        return OnnxMotionGenerator.load(path, device, dtype)
     return _cached(path, device, dtype, int8=False)
 
 
