@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import torch
 import pytest
@@ -255,11 +257,21 @@ def test_verbose_says_how_each_prompt_is_read(tmp_path, capsys):
     text = "the robot walks forward while clapping, then sits down"
     assert main(["generate", text, "--seconds", "4", "--seed", "0", "--backend", "torch",
                  "--candidates", "1", "--verbose", "--out", str(tmp_path / "s.npy")]) == 0
+    err = capsys.readouterr().err
     assert (f"{text!r} read as 'a person walks forward', then 'a person sits down'; its arms "
-            "as 'a person claps'") in capsys.readouterr().err
+            "as 'a person claps'") in err
+    # and what it took, the text encoder apart
+    assert re.search(r"mlct: 1 motion made in \d+\.\d ms, the text encoder \d+\.\d ms before "
+                     r"\(backend torch; writing not counted\)", err), err
+    assert main(["generate", "a person walks forward", "a person jumps", "--seconds", "2", "1",
+                 "--seed", "0", "--backend", "torch", "--candidates", "1", "--verbose",
+                 "--out", str(tmp_path / "two.npy")]) == 0
+    assert re.search(r"mlct: 1 motion of 2 parts made in \d+\.\d ms \(backend torch",
+                     capsys.readouterr().err)
     assert main(["generate", text, "--seconds", "4", "--seed", "0", "--backend", "torch",
                  "--candidates", "1", "--out", str(tmp_path / "q.npy")]) == 0
-    assert "read as" not in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "read as" not in err and "made in" not in err
 
 
 def test_reading_says_how_generate_reads_a_prompt(pipe) -> None:

@@ -11,7 +11,9 @@ Every output path is checked before the model loads, so a typo costs no generati
 from __future__ import annotations
 
 import dataclasses
+import logging
 import re
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Sequence
@@ -22,6 +24,8 @@ from mlct.errors import MlctError
 from mlct.generate.exports import check_format, check_rig
 from mlct.generate.prompts import clean_prompt
 from mlct.io import check_writable_dir
+
+_LOG = logging.getLogger("mlct.generate")  # --verbose shows its INFO lines
 
 if TYPE_CHECKING:
     from mlct.generate.generated import GeneratedMotion
@@ -120,8 +124,12 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
                             f"durations; give one each")
         generator = _configured(load(), request)
         seconds = generator.long_part_seconds(request.prompts, request.seconds)
+        started = time.perf_counter()
         motion = generate_long(generator, request.prompts, seconds, request.nfe,
                                request.seed, candidates=request.candidates)
+        _LOG.info("1 motion of %d parts made in %.1f ms (backend %s; writing not counted)",
+                  len(request.prompts), (time.perf_counter() - started) * 1e3,
+                  generator.backend)
         (motion.in_place() if request.in_place else motion).save(paths[0], features, rig)
         return [paths[0]]
     texts = [p for p in request.prompts for _ in range(request.num)]
@@ -133,11 +141,14 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     # The text encoder loads on first use (a CLIP one takes seconds): load it and embed the first
     # batch's prompts before the bar starts, so that the bar's first step and its ETA time
     # generation only.
+    started = time.perf_counter()
     generator.encode_text(list(dict.fromkeys(clean_prompt(t) for t in texts[:BATCH])))
+    text_s, making_s = time.perf_counter() - started, 0.0
     bar = tqdm(total=len(texts), unit="motion", disable=not progress or len(texts) == 1)
     with bar:
         for start in range(0, len(texts), BATCH):
             stop = start + BATCH
+            started = time.perf_counter()
             motions: Sequence[GeneratedMotion] = [m for i in range(start, min(stop, len(texts)))
                 for m in generator.generate(
                     texts[i], lengths=None if lengths is None else lengths[i],
@@ -148,11 +159,16 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
                 seconds=None if seconds is None else seconds[start:stop], nfe=request.nfe,
                 seed=None if seeds is None else seeds[start:stop],
                 split_actions=request.split_actions, candidates=request.candidates)
+            making_s += time.perf_counter() - started
             for motion, path in zip(motions, paths[start:stop]):
                 if request.in_place:
                     motion = motion.in_place()
                 written.append(motion.save(path, features, rig))
                 bar.update(1)
+    # --verbose: what a person waits for, the text encoder apart (its first batch, above)
+    _LOG.info("%d motion%s made in %.1f ms, the text encoder %.1f ms before (backend %s; "
+              "writing not counted)", len(texts), "" if len(texts) == 1 else "s", making_s * 1e3,
+              text_s * 1e3, generator.backend)
     return written
 
 
