@@ -107,6 +107,21 @@ def test_onnx_by_name_on_a_model_without_graphs_takes_the_caches(auto, monkeypat
     assert Path(gen.graphs.denoiser).parent == auto_backend.default_graph_dir(bundled_model_dir())
 
 
+def test_a_dtype_or_device_onnx_cannot_run_is_refused_before_converting(tmp_path,
+                                                                         monkeypatch) -> None:
+    monkeypatch.setenv("MLCT_CACHE", str(tmp_path))  # an empty cache: a conversion would start
+
+    def fail(*args):
+        raise AssertionError("converted for a dtype or device it cannot run")
+
+    monkeypatch.setattr("mlct.generate.onnx_bundle.write_onnx_graphs", fail)
+    for backend in ("onnx", "onnx-int8"):
+        with pytest.raises(MlctError, match="runs float32 graphs; dtype 'bfloat16'"):
+            mlct.load(backend=backend, dtype="bfloat16")
+        with pytest.raises(MlctError, match="CUDA is not available|runs on the CPU, not 'cuda'"):
+            mlct.load(backend=backend, device="cuda")
+
+
 def test_a_concurrent_conversion_keeps_the_first(tmp_path, monkeypatch) -> None:
     entry = tmp_path / "onnx" / "key"
 

@@ -25,7 +25,7 @@ import torch
 from mlct.errors import MlctError
 from mlct.generate.auto_backend import ENV, choose_backend, find_graphs
 from mlct.generate.cuda_graph_backend import CudaGraphMotionGenerator
-from mlct.generate.onnx_backend import OnnxMotionGenerator
+from mlct.generate.onnx_backend import OnnxMotionGenerator, check_device_and_dtype
 from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
 
 
@@ -55,6 +55,7 @@ def _cached(path: Path, device: torch.device | str | None, dtype: str | torch.dt
     from mlct.onnx_io import onnxruntime_module
 
     onnxruntime_module()  # its absence first: the fix for it comes before converting
+    check_device_and_dtype(device, dtype)  # and a device or dtype it cannot run
     return OnnxMotionGenerator.load(path, device, dtype,
                                     graphs=find_graphs(path, _config(path)["text_encoder"], int8))
 

@@ -166,16 +166,7 @@ class OnnxMotionGenerator(MotionGenerator):
     def __init__(self, meta: dict, tensors: dict[str, Tensor], graphs: OnnxGraphs,
                  device: torch.device | str | None = None, dtype: str | torch.dtype = "float32",
                  threads: int | None = None, fused: bool = True) -> None:
-        if device is not None and resolve_device(device).type != "cpu":
-            raise MlctError(f"the onnx backend runs on the CPU, not {device!r}; use "
-                            f"backend='torch' (--backend torch) for a GPU")
-        try:
-            float32 = weight_dtype(dtype) == torch.float32
-        except ValueError as err:
-            raise MlctError(str(err)) from None
-        if not float32:
-            raise MlctError(f"the onnx backend runs float32 graphs; dtype {dtype!r} is the "
-                            f"torch backend's (--backend torch)")
+        check_device_and_dtype(device, dtype)
         self.graphs, self.threads = graphs, int(threads or torch.get_num_threads())
         self.fused = fused
         self._fused: dict[int, Any] = {}  # step count -> its sampler graph (bytes, or None)
@@ -465,6 +456,21 @@ class OnnxMotionGenerator(MotionGenerator):
         meta, tensors = read_bundle(path)
         return cls(meta, tensors, read_onnx(path, meta["text_encoder"], graphs), device, dtype,
                    threads)
+
+
+def check_device_and_dtype(device: torch.device | str | None, dtype: str | torch.dtype) -> None:
+    """A one-line MlctError unless the onnx backends can run there: the CPU, float32 (said
+    before any graph is made into the cache: backends.py)."""
+    if device is not None and resolve_device(device).type != "cpu":
+        raise MlctError(f"the onnx backend runs on the CPU, not {device!r}; use "
+                        f"backend='torch' (--backend torch) for a GPU")
+    try:
+        float32 = weight_dtype(dtype) == torch.float32
+    except ValueError as err:
+        raise MlctError(str(err)) from None
+    if not float32:
+        raise MlctError(f"the onnx backend runs float32 graphs; dtype {dtype!r} is the "
+                        f"torch backend's (--backend torch)")
 
 
 def _onnx_installed() -> bool:
