@@ -1,7 +1,7 @@
 """`mlct serve` latency and dynamic batching: API round trips, concurrent clients, the browser.
 
     python bench/serve_latency.py [--model DIR] [--requests 10] [--clients 8] [--rounds 4]
-                                  [--browser]
+                                  [--threads N] [--browser]
 
 Starts `mlct serve` in a subprocess on a free localhost port and times 4 s motions at 5 NFE:
   1. one client, one text per request: round-trip medians for a prompt seen before (its text
@@ -40,10 +40,12 @@ def free_port() -> int:
         return sock.getsockname()[1]
 
 
-def start_server(model: Path | None, port: int) -> subprocess.Popen:
+def start_server(model: Path | None, port: int, threads: int | None = None) -> subprocess.Popen:
     command = [sys.executable, "-m", "mlct.cli", "serve", "--port", str(port)]
     if model is not None:
         command += ["--model", str(model)]
+    if threads is not None:
+        command += ["--threads", str(threads)]
     process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline = time.monotonic() + 180
     while time.monotonic() < deadline:
@@ -159,11 +161,13 @@ def main() -> None:
     parser.add_argument("--requests", type=int, default=10)
     parser.add_argument("--clients", type=int, default=8)
     parser.add_argument("--rounds", type=int, default=4, help="requests per concurrent client")
+    parser.add_argument("--threads", type=int, default=None,
+                        help="the server's --threads (default: its own, one per core)")
     parser.add_argument("--browser", action="store_true", help="also time the web page")
     args = parser.parse_args()
     port = free_port()
     print(f"mlct serve on 127.0.0.1:{port}; OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS')}")
-    server = start_server(args.model, port)
+    server = start_server(args.model, port, args.threads)
     base = f"http://127.0.0.1:{port}"
     try:
         single_client(base, args.requests)

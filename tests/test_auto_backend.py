@@ -107,6 +107,35 @@ def test_onnx_by_name_on_a_model_without_graphs_takes_the_caches(auto, monkeypat
     assert Path(gen.graphs.denoiser).parent == auto_backend.default_graph_dir(bundled_model_dir())
 
 
+def test_threads_set_torch_and_every_graph(auto, tmp_path, capsys) -> None:
+    """threads= (--threads): PyTorch's intra-op threads and ONNX Runtime's per graph; a count
+    below 1 or not a whole number is a one-line error (exit 2 in the CLI)."""
+    import torch
+
+    before = torch.get_num_threads()
+    try:
+        gen = mlct.load(backend="onnx", threads=1)
+        assert torch.get_num_threads() == 1 and gen.threads == 1
+        assert gen.text_encoder.threads == 1
+        assert gen.ae.session.get_session_options().intra_op_num_threads == 1
+        assert mlct.load(threads=2).threads == 2  # auto: onnx here
+        for bad in (0, -1, 1.5, "2", True):
+            with pytest.raises(MlctError, match="threads must be a whole number of at least 1"):
+                mlct.load(threads=bad)
+        out = tmp_path / "x.npy"
+        for threads in ("0", "two"):  # a usage error: argparse exits with 2
+            with pytest.raises(SystemExit) as exited:
+                main(["generate", "a person walks forward", "--threads", threads,
+                      "--out", str(out)])
+            assert exited.value.code == 2
+        assert "argument --threads: at least 1 thread, got 0" in capsys.readouterr().err
+        assert main(["generate", "a person walks forward", "--seconds", "1", "--seed", "0",
+                     "--threads", "1", "--out", str(out), "--quiet"]) == 0
+        assert np.load(out).shape == (20, 22, 3)
+    finally:
+        torch.set_num_threads(before)
+
+
 def test_a_dtype_or_device_onnx_cannot_run_is_refused_before_converting(tmp_path,
                                                                          monkeypatch) -> None:
     monkeypatch.setenv("MLCT_CACHE", str(tmp_path))  # an empty cache: a conversion would start

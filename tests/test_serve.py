@@ -537,11 +537,14 @@ def test_cli_serve_passes_its_options(monkeypatch):
     monkeypatch.setattr(mlct.serve, "run_server", lambda *a, **k: calls.append((a, k)))
     assert main(["serve", "--port", "9123", "--host", "0.0.0.0", "--device", "cpu",
                  "--token", "a-long-secret"]) == 0
-    assert main(["serve", "--backend", "onnx"]) == 0
+    assert main(["serve", "--backend", "onnx", "--threads", "3"]) == 0
     assert calls == [((None,), {"host": "0.0.0.0", "port": 9123, "device": "cpu",
-                                "token": "a-long-secret", "backend": "auto"}),
+                                "token": "a-long-secret", "backend": "auto", "threads": None}),
                      ((None,), {"host": "127.0.0.1", "port": 8000, "device": None,
-                                "token": None, "backend": "onnx"})]
+                                "token": None, "backend": "onnx", "threads": 3})]
+    with pytest.raises(SystemExit) as exited:
+        main(["serve", "--threads", "0"])
+    assert exited.value.code == 2 and len(calls) == 2
 
 
 @pytest.mark.parametrize("host, loopback", [

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from mlct.cli.parser import Commands
+from mlct.cli.parser import THREADS_HELP, Commands, thread_count
 from mlct.errors import MlctError
 
 MAX_MOTIONS = 100_000  # motions one `mlct generate` makes (files and names are listed first)
@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
             print("mlct: loading the model and the text encoder ...", end="\r", file=sys.stderr,
                   flush=True)
         generator = mlct.load(args.model, device=args.device, dtype=args.dtype,
-                              backend=args.backend)
+                              backend=args.backend, threads=args.threads)
         generator.text_encoder  # noqa: B018 - loads it now, under the status line
         if status:
             print(" " * 50, end="\r", file=sys.stderr, flush=True)
@@ -174,6 +174,7 @@ def add_parser(commands: Commands) -> None:
                           "onnx (ONNX Runtime on the CPU), onnx-int8 (the denoiser's products "
                           "in int8: ~1.4x faster, motions a few mm off float32's) or "
                           "cuda-graphs (a GPU)")
+    generate.add_argument("--threads", type=thread_count, default=None, help=THREADS_HELP)
     generate.add_argument("--no-keep-going", action="store_true",
                           help="locomotion asked for longer than the model's clips of it stops "
                                "where the model stops it, instead of walking on (made as takes "

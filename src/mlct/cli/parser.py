@@ -14,3 +14,18 @@ class Parser(argparse.ArgumentParser):
 
 
 Commands = argparse._SubParsersAction  # what add_subparsers returns; add_parser adds to it
+
+
+def thread_count(text: str) -> int:
+    """--threads: a whole number of at least 1 (argparse's type: a bad one is a usage error)."""
+    try:
+        threads = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid int value: {text!r}") from None
+    if threads < 1:
+        raise argparse.ArgumentTypeError(f"at least 1 thread, got {threads}")
+    return threads
+
+
+THREADS_HELP = ("CPU threads for inference (PyTorch's, and ONNX Runtime's per graph; default: "
+                "one per core, or $OMP_NUM_THREADS)")

@@ -5,14 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mlct.cli.parser import Commands
+from mlct.cli.parser import THREADS_HELP, Commands, thread_count
 
 
 def run(args: argparse.Namespace) -> int:
     from mlct.serve import run_server
 
     run_server(args.model, host=args.host, port=args.port, device=args.device, token=args.token,
-               backend=args.backend)
+               backend=args.backend, threads=args.threads)
     return 0
 
 
@@ -39,6 +39,7 @@ def add_parser(commands: Commands) -> None:
                        help="auto (default: cuda-graphs on a GPU, else onnx when onnxruntime "
                        "is installed), torch, onnx (ONNX Runtime on the CPU), onnx-int8 (its "
                        "denoiser in int8: faster, other motions) or cuda-graphs")
+    serve.add_argument("--threads", type=thread_count, default=None, help=THREADS_HELP)
     serve.add_argument("--token", default=None,
                        help="require 'Authorization: Bearer TOKEN' on POST /generate "
                        "(default: $MLCT_TOKEN; the page takes it as #token=TOKEN)")

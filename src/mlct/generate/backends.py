@@ -30,7 +30,8 @@ from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
 
 
 def _onnx(path: Path, device: torch.device | str | None = None,
-          dtype: str | torch.dtype = "float32") -> OnnxMotionGenerator:
+          dtype: str | torch.dtype = "float32", threads: int | None = None
+          ) -> OnnxMotionGenerator:
     """The onnx backend on the graphs `mlct convert --onnx [--int8]` put in the model folder, as
     they are (checked: graphs of other weights are refused, saying how to make them again);
     without any there (the bundled model, which cannot hold graphs of its own), on the cache's
@@ -38,25 +39,26 @@ def _onnx(path: Path, device: torch.device | str | None = None,
     from mlct.generate.onnx_bundle import MANIFEST, ONNX_DIR
 
     if (path / ONNX_DIR / MANIFEST).is_file():
-        return OnnxMotionGenerator.load(path, device, dtype)
-    return _cached(path, device, dtype, int8=False)
+        return OnnxMotionGenerator.load(path, device, dtype, threads)
+    return _cached(path, device, dtype, threads, int8=False)
 
 
 def _onnx_int8(path: Path, device: torch.device | str | None = None,
-               dtype: str | torch.dtype = "float32") -> OnnxMotionGenerator:
+               dtype: str | torch.dtype = "float32", threads: int | None = None
+               ) -> OnnxMotionGenerator:
     """The onnx backend on graphs whose denoiser products are int8: the model folder's when
     `mlct convert --onnx --int8` made them, else the cache's (made once)."""
-    return _cached(path, device, dtype, int8=True)
+    return _cached(path, device, dtype, threads, int8=True)
 
 
 def _cached(path: Path, device: torch.device | str | None, dtype: str | torch.dtype,
-            int8: bool) -> OnnxMotionGenerator:
+            threads: int | None, int8: bool) -> OnnxMotionGenerator:
     """The onnx backend on auto_backend.find_graphs' graphs of this kind."""
     from mlct.onnx_io import onnxruntime_module
 
     onnxruntime_module()  # its absence first: the fix for it comes before converting
     check_device_and_dtype(device, dtype)  # and a device or dtype it cannot run
-    return OnnxMotionGenerator.load(path, device, dtype,
+    return OnnxMotionGenerator.load(path, device, dtype, threads,
                                     graphs=find_graphs(path, _config(path)["text_encoder"], int8))
 
 
@@ -77,15 +79,28 @@ BACKENDS: dict[str, Callable[..., MotionGenerator]] = {
     "onnx-int8": _onnx_int8,
     "cuda-graphs": CudaGraphMotionGenerator.load,
 }
+ONNX_BACKENDS = ("onnx", "onnx-int8")  # their loaders take the thread count per graph
+
+
+def check_threads(threads: object) -> int | None:
+    """None, or a thread count of at least 1; a one-line MlctError otherwise."""
+    if threads is None:
+        return None
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise MlctError(f"threads must be a whole number of at least 1, got {threads!r}")
+    return threads
 
 
 def load(path: str | os.PathLike | None = None, device: torch.device | str | None = None,
-         dtype: str | torch.dtype = "float32", backend: str = "auto") -> MotionGenerator:
+         dtype: str | torch.dtype = "float32", backend: str = "auto",
+         threads: int | None = None) -> MotionGenerator:
     """Load an inference bundle written by `mlct export`; with no path, the bundled model.
     dtype: "float32" or "bfloat16" matrix products (the torch backend); backend: a BACKENDS
     name, or "auto" (the default): the fastest one that can run the model here
     (auto_backend.py; $MLCT_BACKEND overrides it). The generator's `backend_note` says which
-    backend runs it and why."""
+    backend runs it and why. threads: PyTorch's intra-op threads (process-wide: the torch
+    backends and the torch work around the graphs) and ONNX Runtime's per graph; None keeps
+    PyTorch's (one per core, or $OMP_NUM_THREADS)."""
     if path is not None and not isinstance(path, (str, os.PathLike)):
         raise MlctError(f"path must be a model directory (str or Path), not {type(path).__name__}")
     if backend == "auto" and os.environ.get(ENV):
@@ -96,16 +111,19 @@ def load(path: str | os.PathLike | None = None, device: torch.device | str | Non
     if not isinstance(backend, str) or backend not in (*BACKENDS, "auto"):
         raise MlctError(f"unknown backend {backend!r}{' in $' + ENV if origin != 'asked for' else ''}"
                         f"; choose one of auto, {', '.join(BACKENDS)}")
+    if check_threads(threads) is not None:
+        torch.set_num_threads(threads)
     folder = bundled_model_dir() if path is None else Path(path)
     if backend != "auto":
-        generator = BACKENDS[backend](folder, device, dtype)
+        generator = (BACKENDS[backend](folder, device, dtype, threads) if backend in ONNX_BACKENDS
+                     else BACKENDS[backend](folder, device, dtype))
         generator.backend = backend
         generator.backend_note = f"{backend} ({origin})"
         return generator
     chosen, graphs, why = choose_backend(folder, device, dtype)
     if chosen in ("onnx", "onnx-int8"):
         try:
-            generator = OnnxMotionGenerator.load(folder, device, dtype, graphs=graphs)
+            generator = OnnxMotionGenerator.load(folder, device, dtype, threads, graphs=graphs)
             generator.backend = chosen
         except MlctError as err:  # e.g. a graph ONNX Runtime cannot load: torch still can
             chosen, why = "torch", f"the {chosen} backend failed to load ({err})"

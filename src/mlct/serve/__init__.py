@@ -38,10 +38,12 @@ def is_loopback(host: str) -> bool:
 
 def run_server(model: Any = None, host: str = "127.0.0.1", port: int = 8000,
                device: Any = None, settings: ServeSettings | None = None,
-               token: str | None = None, backend: str = "auto") -> None:
+               token: str | None = None, backend: str = "auto",
+               threads: int | None = None) -> None:
     """Load the model (None: the bundled one) and serve it until interrupted. token (or the
     MLCT_TOKEN environment variable): POST /generate needs it as a bearer token. backend: the
-    inference backend (mlct.load's); the torch one takes a GPU when there is one."""
+    inference backend (mlct.load's); the torch one takes a GPU when there is one. threads:
+    mlct.load's (the CPU threads inference uses)."""
     import dataclasses
     import os
 
@@ -59,7 +61,7 @@ def run_server(model: Any = None, host: str = "127.0.0.1", port: int = 8000,
     # a GPU when there is one; the onnx backends run on the CPU
     if device is None and not backend.startswith("onnx"):
         device = resolve_device(None)
-    generator = mlct.load(model, device=device, backend=backend)
+    generator = mlct.load(model, device=device, backend=backend, threads=threads)
     _fetch_three()
     uvicorn.run(create_app(generator, settings), host=host, port=port, log_level="info")
 
