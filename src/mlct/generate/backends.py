@@ -30,8 +30,7 @@ from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
 
 
 def _onnx(path: Path, device: torch.device | str | None = None,
-          dtype: str | torch.dtype = "float32", threads: int | None = None
-          ) -> OnnxMotionGenerator:
+          dtype: str | torch.dtype = "float32") -> OnnxMotionGenerator:
     """The onnx backend on the graphs `mlct convert --onnx [--int8]` put in the model folder, as
     they are (checked: graphs of other weights are refused, saying how to make them again);
     without any there (the bundled model, which cannot hold graphs of its own), on the cache's
@@ -39,26 +38,25 @@ def _onnx(path: Path, device: torch.device | str | None = None,
     from mlct.generate.onnx_bundle import MANIFEST, ONNX_DIR
 
     if (path / ONNX_DIR / MANIFEST).is_file():
-        return OnnxMotionGenerator.load(path, device, dtype, threads)
-    return _cached(path, device, dtype, threads, int8=False)
+        return OnnxMotionGenerator.load(path, device, dtype)
+    return _cached(path, device, dtype, int8=False)
 
 
 def _onnx_int8(path: Path, device: torch.device | str | None = None,
-               dtype: str | torch.dtype = "float32", threads: int | None = None
-               ) -> OnnxMotionGenerator:
+               dtype: str | torch.dtype = "float32") -> OnnxMotionGenerator:
     """The onnx backend on graphs whose denoiser products are int8: the model folder's when
     `mlct convert --onnx --int8` made them, else the cache's (made once)."""
-    return _cached(path, device, dtype, threads, int8=True)
+    return _cached(path, device, dtype, int8=True)
 
 
 def _cached(path: Path, device: torch.device | str | None, dtype: str | torch.dtype,
-            threads: int | None, int8: bool) -> OnnxMotionGenerator:
+            int8: bool) -> OnnxMotionGenerator:
     """The onnx backend on auto_backend.find_graphs' graphs of this kind."""
     from mlct.onnx_io import onnxruntime_module
 
     onnxruntime_module()  # its absence first: the fix for it comes before converting
     check_device_and_dtype(device, dtype)  # and a device or dtype it cannot run
-    return OnnxMotionGenerator.load(path, device, dtype, threads,
+    return OnnxMotionGenerator.load(path, device, dtype,
                                     graphs=find_graphs(path, _config(path)["text_encoder"], int8))
 
 
@@ -79,7 +77,6 @@ BACKENDS: dict[str, Callable[..., MotionGenerator]] = {
     "onnx-int8": _onnx_int8,
     "cuda-graphs": CudaGraphMotionGenerator.load,
 }
-ONNX_BACKENDS = ("onnx", "onnx-int8")  # their loaders take the thread count per graph
 
 
 def check_threads(threads: object) -> int | None:
@@ -111,19 +108,18 @@ def load(path: str | os.PathLike | None = None, device: torch.device | str | Non
     if not isinstance(backend, str) or backend not in (*BACKENDS, "auto"):
         raise MlctError(f"unknown backend {backend!r}{' in $' + ENV if origin != 'asked for' else ''}"
                         f"; choose one of auto, {', '.join(BACKENDS)}")
-    if check_threads(threads) is not None:
-        torch.set_num_threads(threads)
+    if check_threads(threads) is not None:  # every backend takes torch's count, the onnx
+        torch.set_num_threads(threads)  # ones for each of their graphs
     folder = bundled_model_dir() if path is None else Path(path)
     if backend != "auto":
-        generator = (BACKENDS[backend](folder, device, dtype, threads) if backend in ONNX_BACKENDS
-                     else BACKENDS[backend](folder, device, dtype))
+        generator = BACKENDS[backend](folder, device, dtype)
         generator.backend = backend
         generator.backend_note = f"{backend} ({origin})"
         return generator
     chosen, graphs, why = choose_backend(folder, device, dtype)
     if chosen in ("onnx", "onnx-int8"):
         try:
-            generator = OnnxMotionGenerator.load(folder, device, dtype, threads, graphs=graphs)
+            generator = OnnxMotionGenerator.load(folder, device, dtype, graphs=graphs)
             generator.backend = chosen
         except MlctError as err:  # e.g. a graph ONNX Runtime cannot load: torch still can
             chosen, why = "torch", f"the {chosen} backend failed to load ({err})"

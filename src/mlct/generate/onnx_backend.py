@@ -177,7 +177,7 @@ class OnnxMotionGenerator(MotionGenerator):
         self.torch_min_batch = TORCH_MIN_BATCH
         self.decode_apart = DECODE_APART
         self.decode_halves = DECODE_HALVES
-        self.spinning_steps: bool | None = None  # None: _spinning_steps decides
+        self._spinning: bool | None = None  # `spinning`; None: the machine's load decides
         # the attentions of the sampler graph and of a transformer decoder as ONNX Runtime's
         # fused operator (onnx_attention.py)
         self.fuse_attention = FUSE_ATTENTION
@@ -378,13 +378,17 @@ class OnnxMotionGenerator(MotionGenerator):
         default) while the machine is idle (onnx_io.spin_now), or forced either way. A server
         sets False while requests overlap (serve/batcher.py): its own threads then work beside
         the model's, which the load meter, counting other processes, does not see."""
-        return self.spinning_steps
+        return self._spinning
 
     @spinning.setter
     def spinning(self, value: bool | None) -> None:
-        self.spinning_steps = value
+        self._spinning = value
         if self._text_encoder is not None and hasattr(self._text_encoder, "spinning"):
             self._text_encoder.spinning = value
+
+    # the older name (benches and tests force the steps' choice by it): the same one value,
+    # so that the text encoder never keeps a choice the steps no longer make
+    spinning_steps = spinning
 
     def _spinning_steps(self) -> bool:
         """Do batch 1's steps run on two threads that spin within the run (`spinning_steps`;
@@ -395,7 +399,7 @@ class OnnxMotionGenerator(MotionGenerator):
     def _spin(self, threads: int) -> bool:
         """Do `threads` threads spin within this run: as `spinning_steps` says, or (None) while
         the machine has idle logical CPUs for them (onnx_io.spin_now)?"""
-        return self.spinning_steps if self.spinning_steps is not None else spin_now(threads)
+        return self._spinning if self._spinning is not None else spin_now(threads)
 
     def _decoder_halves(self) -> DecoderHalves | None:
         """The decoder cut in its two halves (onnx_decoder_halves.py), made on first use; None
@@ -444,7 +448,7 @@ class OnnxMotionGenerator(MotionGenerator):
 
             self._text_encoder = OnnxMiniLMEncoder(self.graphs.text_encoder,
                                                    self.meta["text_encoder"], self.threads)
-            self._text_encoder.spinning = self.spinning_steps
+            self._text_encoder.spinning = self._spinning
         return self._text_encoder
 
     @classmethod

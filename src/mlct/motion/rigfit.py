@@ -52,7 +52,7 @@ import numpy as np
 import torch
 
 from mlct.errors import MlctError
-from mlct.motion.quaternion import qbetween, quat_from_axis_angle, quat_to_matrix
+from mlct.motion.quaternion import qbetween, quat_to_matrix, rotvec_to_matrix
 from mlct.motion.skeleton import Skeleton
 
 PROCRUSTES_ITERATIONS = 3  # mean shape of a multi-child group: converges in 2 on real motion
@@ -238,9 +238,8 @@ def moving_average(x: np.ndarray, size: int) -> np.ndarray:
 
 
 def _axis_rotation(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
-    """(T, 3, 3) turns by `angles` (T,) radians about `axis` (3,)."""
-    turns = quat_from_axis_angle(torch.from_numpy(axis)[None], torch.from_numpy(angles))
-    return quat_to_matrix(turns).numpy()
+    """(T, 3, 3) turns by `angles` (T,) radians about the unit `axis` (3,)."""
+    return rotvec_to_matrix(torch.from_numpy(angles[:, None] * axis[None])).numpy()
 
 
 def check_joints(joints: np.ndarray, skeleton: Skeleton, what: str = "rig export") -> np.ndarray:
