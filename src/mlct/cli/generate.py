@@ -72,12 +72,22 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         written = generate_files.run(load, request, paths, features=args.features,
-                                     progress=not args.quiet, rig=args.rig)
+                                     progress=not args.quiet, rig=args.rig,
+                                     notice=_notice)
     finally:
         _hide_decisions()  # main() may be called again in one process (tests, scripts)
     for path in written:
         print(path)
     return 0
+
+
+def _notice(line: str) -> None:
+    """A prompt the model does not know, said on stderr also without --verbose (and --quiet,
+    which hides only the progress bar): a user would otherwise take its motion for the
+    prompt's. Through tqdm, so that a progress bar stays whole."""
+    from tqdm import tqdm
+
+    tqdm.write(f"mlct: {line}", file=sys.stderr)
 
 
 class _ToStderr(logging.Handler):

@@ -95,10 +95,12 @@ def output_paths(names: Sequence[str], out: Path | None, out_dir: Path | None,
 
 
 def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[Path],
-        features: bool = False, progress: bool = True, rig: str | None = None) -> list[Path]:
+        features: bool = False, progress: bool = True, rig: str | None = None,
+        notice: Callable[[str], None] | None = None) -> list[Path]:
     """Generate the request's motions and write each to its path; returns the paths.
 
-    `load` makes the model: it is called only after every argument has been checked."""
+    `load` makes the model: it is called only after every argument has been checked.
+    `notice` gets one line per distinct prompt the model does not know (unknown_prompts.py)."""
     from mlct.generate.pipeline import MAX_SEED  # what load() imports anyway
 
     # Every check that needs no model comes first: a mistake costs no loading, no progress bar.
@@ -130,6 +132,9 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
         _LOG.info("1 motion of %d parts made in %.1f ms (backend %s; writing not counted)",
                   len(request.prompts), (time.perf_counter() - started) * 1e3,
                   generator.backend)
+        if notice is not None:  # each prompt is one segment, made whole
+            _tell_unknown(notice, zip(request.prompts,
+                                      generator.unknown_parts(request.prompts, False)))
         (motion.in_place() if request.in_place else motion).save(paths[0], features, rig)
         return [paths[0]]
     texts = [p for p in request.prompts for _ in range(request.num)]
@@ -138,6 +143,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     seconds = _per_text(request.seconds, request.prompts, request.num, "--seconds")
     generator = _configured(load(), request)
     written = []
+    told: set[str] = set()  # the prompts already said to be unknown (--num makes several)
     # The text encoder loads on first use (a CLIP one takes seconds): load it and embed the first
     # batch's prompts before the bar starts, so that the bar's first step and its ETA time
     # generation only.
@@ -160,6 +166,9 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
                 seed=None if seeds is None else seeds[start:stop],
                 split_actions=request.split_actions, candidates=request.candidates)
             making_s += time.perf_counter() - started
+            if notice is not None:
+                told = _tell_unknown(notice, ((m.text, m.unknown_parts) for m in motions),
+                                     told)
             for motion, path in zip(motions, paths[start:stop]):
                 if request.in_place:
                     motion = motion.in_place()
@@ -170,6 +179,20 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
               "writing not counted)", len(texts), "" if len(texts) == 1 else "s", making_s * 1e3,
               text_s * 1e3, generator.backend)
     return written
+
+
+def _tell_unknown(notice: Callable[[str], None], judged: Any, told: set[str] | None = None
+                  ) -> set[str]:
+    """notice() the line of each (text, unknown parts) with parts, once per text; the texts
+    told so far."""
+    from mlct.generate.unknown_prompts import unknown_notice
+
+    told = set() if told is None else told
+    for text, parts in judged:
+        if parts and text not in told:
+            told.add(text)
+            notice(unknown_notice(text, tuple(parts)))
+    return told
 
 
 def _per_text(values: list | None, prompts: list[str], num: int, flag: str) -> list | None:

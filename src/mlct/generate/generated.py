@@ -6,6 +6,7 @@
     out[0].joints   # (T_0, J, 3), just that motion
     out.save("jump.bvh")   # one motion: that file; several: jump_000.bvh, jump_001.bvh, ...
     out[0].save("jump.glb", rig="mixamo")  # a skinned humanoid with Mixamo's joint names
+    out[0].unknown_parts  # (): the model knows the prompt; else the parts it does not know
 """
 
 from __future__ import annotations
@@ -34,10 +35,19 @@ class GeneratedMotion:
     fps: float
     skeleton: str
     seed: int | None = None
+    # the parts of the prompt (all of it, or some of its actions as generate() splits them)
+    # that lie too far from every training caption for the model to know them: their motion
+    # is likely not what was asked (generate/unknown_prompts.py); () when it knows them all
+    unknown_parts: tuple[str, ...] = ()
 
     @property
     def seconds(self) -> float:
         return len(self.joints) / self.fps
+
+    @property
+    def known(self) -> bool:
+        """False when some part of the prompt is unknown to the model (unknown_parts)."""
+        return not self.unknown_parts
 
     def renamed(self, text: str) -> GeneratedMotion:
         """The same motion under another text (its features not derived by the copy)."""
@@ -125,6 +135,11 @@ class Generation(Sequence[GeneratedMotion]):
     @property
     def texts(self) -> list[str]:
         return [m.text for m in self.motions]
+
+    @property
+    def unknown_parts(self) -> list[tuple[str, ...]]:
+        """Each motion's unknown_parts: () where the model knows its prompt."""
+        return [m.unknown_parts for m in self.motions]
 
     @property
     def lengths(self) -> np.ndarray:

@@ -90,6 +90,10 @@ class MotionGenerator:
         self.text_anchors: TextAnchors | None = (
             read_text_anchors(meta["model_dir"], meta["text_encoder"], int(meta["text_dim"]))
             if meta.get("model_dir") else None)
+        # the same anchors judge which prompts the model does not know (generate/unknown_prompts
+        # .py: GeneratedMotion.unknown_parts); kept apart so that turning the pull off
+        # (text_anchors = None, --no-text-anchors) leaves the judgement; None: no judgement
+        self.known_anchors: TextAnchors | None = self.text_anchors
         # locomotion asked for longer than its natural length keeps going (generate/keep_going.py)
         self.keep_going = True
         # a list of prompts has all its samples (a sequence's parts, a body and its arms, the
@@ -331,27 +335,71 @@ class MotionGenerator:
         A list is sampled in a few large batches whatever its prompts become (a sequence's
         parts, a body and its arms, a gait's takes: generate/batch_plan.py), so pass many
         prompts in one call rather than one call each."""
-        if not getattr(self._nesting, "depth", 0) and _LOG.isEnabledFor(logging.INFO):
+        outermost = not getattr(self._nesting, "depth", 0)
+        if outermost and _LOG.isEnabledFor(logging.INFO):
             self._log_reading(texts, split_actions)  # --verbose: how each prompt is read
         with self.parts_of_a_whole():
             made = self._made(texts, lengths, seconds, nfe, seed, guidance, split_actions,
                               control, candidates)
-        if control is not None:  # generate/controlled.py plants a motion on a path alone
-            return made
-        return Generation([self.plant_feet(m) for m in made])
+        if control is None:  # generate/controlled.py plants a motion on a path alone
+            made = Generation([self.plant_feet(m) for m in made])
+        if outermost:  # the whole prompt is judged once, not each part the calls inside make
+            texts = [texts] if isinstance(texts, str) else list(texts)
+            for motion, parts in zip(made, self.unknown_parts(texts, split_actions)):
+                motion.unknown_parts = parts
+        return made
+
+    def unknown_parts(self, texts: str | Sequence[str], split_actions: bool = True
+                      ) -> list[tuple[str, ...]]:
+        """For each prompt, the parts of it (as generate() splits it: its actions in turn, an
+        arm action done during them) that lie too far from every training caption for the
+        model to know them (generate/unknown_prompts.py); () where it knows them all, or where
+        the model has no text anchors to judge by. Reads the text encoder's memo without
+        changing it, so that judging a prompt never changes a later motion."""
+        from mlct.generate.unknown_prompts import unknown_rows
+
+        texts = [texts] if isinstance(texts, str) else list(texts)
+        clean, _ = stated_lengths([clean_prompt(t) for t in texts], split_actions)
+        plans = [parts_as_made(t, split_actions) for t in clean]
+        parts = [[*body, *([arms] if arms else [])] for body, arms in plans]
+        distinct = list(dict.fromkeys(p for plan in parts for p in plan))
+        if self.known_anchors is None or not distinct:
+            return [() for _ in texts]
+        unknown = dict(zip(distinct, unknown_rows(self.known_anchors,
+                                                  self._judged_vectors(distinct))))
+        return [tuple(p for p in plan if unknown[p]) for plan in parts]
+
+    def _judged_vectors(self, texts: Sequence[str]) -> Tensor:
+        """encode_text's vectors (B, c) for judging: from its memo where there (the vectors the
+        motions were made from), else encoded now and not kept."""
+        keys = [plain_subject(t) for t in texts]
+        found = {k: self._text_memo[k] for k in keys if k in self._text_memo}
+        missing = sorted(set(keys) - set(found))
+        if missing:
+            found.update(zip(missing, (row.float() for row in self.text_encoder.encode(missing))))
+        return torch.stack([found[k] for k in keys])
 
     def reading(self, text: str, split_actions: bool = True) -> list[dict[str, Any]]:
         """How generate() reads a prompt, one dict per sample it makes: "part" (the words, as
         split from the prompt), "read_as" (as the text encoder gets them: compose.plain_subject),
-        "pull" (how far the text anchors move its vector, 0 to 1) and "arms" (True for an arm
-        action done during the rest). A misreading shows here first ("a little girl in a party
+        "pull" (how far the text anchors move its vector, 0 to 1), "arms" (True for an arm
+        action done during the rest) and "known" (False: too far from every training caption
+        for the model to know it, generate/unknown_prompts.py). A misreading shows here first ("a little girl in a party
         dress twirls" was once read as "a person dress twirls")."""
         body, arms = parts_as_made(clean_prompt(text), split_actions)
         parts = body + ([arms] if arms else [])
-        pulls = (self.text_anchors.weights(self.encode_text(parts))[0].tolist()
+        vectors = self.encode_text(parts)
+        pulls = (self.text_anchors.weights(vectors)[0].tolist()
                  if self.text_anchors is not None else [0.0] * len(parts))
+        if self.known_anchors is not None:
+            from mlct.generate.unknown_prompts import unknown_rows
+
+            known = [not u for u in unknown_rows(self.known_anchors, vectors)]
+        else:
+            known = [True] * len(parts)
         return [{"part": part, "read_as": plain_subject(part), "pull": round(pull, 3),
-                 "arms": k == len(body)} for k, (part, pull) in enumerate(zip(parts, pulls))]
+                 "arms": k == len(body), "known": ok}
+                for k, (part, pull, ok) in enumerate(zip(parts, pulls, known))]
 
     def _log_reading(self, texts: Any, split: bool) -> None:
         """--verbose: each prompt's reading() as one line."""
@@ -364,6 +412,7 @@ class MotionGenerator:
                 continue  # _made refuses it with its own message
             said = [f"{p['read_as']!r}" + (f" (pulled {p['pull']:.2f} towards the training "
                                              f"captions)" if p["pull"] else "")
+                    + ("" if p["known"] else " (unknown to the model)")
                     for p in parts]
             body = [w for w, p in zip(said, parts) if not p["arms"]]
             arms = [w for w, p in zip(said, parts) if p["arms"]]

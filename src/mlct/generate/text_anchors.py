@@ -100,6 +100,11 @@ class TextAnchors:
                 pull[far] = torch.where(agreed, self.agreed_pull * ramp[far], pull[far])
         return pull, mean
 
+    def nearest(self, cond: Tensor) -> Tensor:
+        """(B,) each row's cosine with its nearest training caption: how far the prompt lies
+        from everything the model was trained on (generate/unknown_prompts.py reads it)."""
+        return (F.normalize(cond.float().cpu(), dim=1) @ self._columns).amax(dim=1)
+
     def __call__(self, cond: Tensor) -> Tensor:
         """cond (B, c) -> the pulled vectors, same dtype and device. A row seen before is
         taken from a memo (MEMO_ROWS): the 12,000 cosines cost ~0.4 ms a prompt on 2 CPU
