@@ -7,6 +7,9 @@ from pathlib import Path
 
 from mlct.cli.parser import Commands, Parser
 
+# mlct.data.corpora's names, spelled here so that building the parser imports no importer
+CORPUS_NAMES = ("bandai-namco",)
+
 
 def run_synth(args: argparse.Namespace) -> int:
     from mlct.data.synth.build import synthesize_dataset
@@ -75,7 +78,30 @@ def run_check(args: argparse.Namespace) -> int:
 
 def run_import(args: argparse.Namespace) -> int:
     from mlct.data.importer import format_summary, import_dataset, parse_split
+    from mlct.errors import MlctError
 
+    if args.corpus is not None:
+        from mlct.data.corpora import import_corpus
+
+        given = [flag for flag, value in (("--captions", args.captions),
+                                          ("--joint-map", args.joint_map),
+                                          ("--scale", args.scale), ("--fps", args.fps))
+                 if value is not None]
+        if given:
+            raise MlctError(f"--corpus makes its own captions, joint map and units; drop "
+                            f"{', '.join(given)}")
+        name, src = args.corpus
+        contents = None if args.contents is None else set(args.contents.split(","))
+        summary = import_corpus(name, src, args.out, captions_per_clip=args.captions_per_clip,
+                                contents=contents, split=parse_split(args.split),
+                                seed=args.seed, overwrite=args.overwrite,
+                                progress=not args.quiet)
+        print(format_summary(summary))
+        return 0
+    if args.captions is None:
+        raise MlctError("--captions FILE is needed with --joints or --bvh")
+    if args.contents is not None:
+        raise MlctError("--contents is for --corpus input")
     summary = import_dataset(args.out, args.captions, joints_dir=args.joints, bvh_dir=args.bvh,
                              skeleton=args.skeleton, joint_map=args.joint_map, scale=args.scale,
                              fps=args.fps, split=parse_split(args.split), seed=args.seed,
@@ -161,8 +187,16 @@ def add_parser(commands: Commands) -> None:
     source = imported.add_mutually_exclusive_group(required=True)
     source.add_argument("--joints", type=Path, help="directory of (T, J, 3) .npy joints, y up")
     source.add_argument("--bvh", type=Path, help="directory of .bvh files")
-    imported.add_argument("--captions", required=True, type=Path,
-                          help="CSV (name,caption) or JSONL ({name, caption|captions})")
+    source.add_argument("--corpus", nargs=2, metavar=("NAME", "DIR"),
+                        help=f"a real corpus's release folder, captioned from its labels: "
+                             f"{', '.join(CORPUS_NAMES)} (docs/data.md)")
+    imported.add_argument("--captions", type=Path, default=None,
+                          help="CSV (name,caption) or JSONL ({name, caption|captions}); "
+                               "needed with --joints or --bvh")
+    imported.add_argument("--contents", default=None,
+                          help="with --corpus: only these content labels, comma-separated")
+    imported.add_argument("--captions-per-clip", type=int, default=4,
+                          help="with --corpus: captions made per clip (default 4)")
     imported.add_argument("--skeleton", default="humanml3d", choices=["humanml3d", "kit"])
     imported.add_argument("--out", required=True, type=Path, help="dataset directory to create")
     imported.add_argument("--joint-map", type=Path, default=None,

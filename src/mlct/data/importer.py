@@ -79,6 +79,8 @@ class ImportSummary:
     skipped_uncaptioned: list[str] = field(default_factory=list)
     unused_captions: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    # motion name -> its [start, stop) joint frames in its clip, resampled
+    windows: dict[str, tuple[int, int]] = field(default_factory=dict)
 
 
 def _clean_caption(text: Any, path: Path, line: int) -> str:
@@ -207,25 +209,46 @@ def _load_joints(path: Path, skeleton: Skeleton) -> np.ndarray:
     return array.astype(np.float64)
 
 
-def _load_bvh(path: Path, skeleton: Skeleton, mapping: dict[str, str]) -> tuple[np.ndarray, float]:
+@dataclass(frozen=True)
+class Between:
+    """A skeleton joint the BVH rig lacks, placed on the segment between two of its joints:
+    `start + at * (end - start)` (a rig with one chest bone where SMPL has two, say)."""
+
+    start: str  # BVH joint names
+    end: str
+    at: float
+
+
+def _load_bvh(path: Path, skeleton: Skeleton, mapping: dict[str, str],
+              between: dict[str, Between] | None = None) -> tuple[np.ndarray, float]:
     """(T, J, 3) positions in the skeleton's joint order, in the file's units; and its fps."""
     from mlct.motion.bvh import read_bvh
 
     clip = read_bvh(path)
+    between = between or {}
     columns: dict[str, int] = {}
     for column, name in enumerate(clip.joint_names):
         ours = mapping.get(name, name)
-        if ours in skeleton.joint_names:
+        if ours in skeleton.joint_names and ours not in between:
             if ours in columns:
                 raise MlctError(f"{path}: joints {clip.joint_names[columns[ours]]} and {name} "
                                 f"both map to {ours}")
             columns[ours] = column
-    missing = [name for name in skeleton.joint_names if name not in columns]
+    index = {name: i for i, name in enumerate(clip.joint_names)}
+    missing = [name for name in skeleton.joint_names if name not in columns and (
+        name not in between or between[name].start not in index or between[name].end not in index)]
     if missing:
         shown = ", ".join(clip.joint_names[:12]) + (" ..." if len(clip.joint_names) > 12 else "")
         raise MlctError(f"{path}: no joint for {', '.join(missing)} (its joints: {shown}); "
                         f"map them with --joint-map FILE.json")
-    positions = clip.positions[:, [columns[name] for name in skeleton.joint_names]]
+    positions = np.empty((len(clip.positions), skeleton.n_joints, 3))
+    for j, name in enumerate(skeleton.joint_names):
+        if name in columns:
+            positions[:, j] = clip.positions[:, columns[name]]
+        else:
+            place = between[name]
+            start, end = clip.positions[:, index[place.start]], clip.positions[:, index[place.end]]
+            positions[:, j] = start + place.at * (end - start)
     return positions, clip.fps
 
 
@@ -330,11 +353,14 @@ def _short_list(names: list[str], limit: int = 10) -> str:
     return shown + (f" and {len(names) - limit} more" if len(names) > limit else "")
 
 
-def import_dataset(out: str | os.PathLike, captions: str | os.PathLike, *,
+def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[str, list[str]], *,
                    joints_dir: str | os.PathLike | None = None,
-                   bvh_dir: str | os.PathLike | None = None,
+                   bvh_dir: str | os.PathLike | dict[str, Path] | None = None,
                    skeleton: str | Skeleton = "humanml3d",
-                   joint_map: str | os.PathLike | None = None, scale: float | None = None,
+                   joint_map: str | os.PathLike | dict[str, str] | None = None,
+                   between: dict[str, Between] | None = None,
+                   provenance: dict[str, dict[str, Any]] | None = None,
+                   scale: float | None = None,
                    fps: float | None = None, split: tuple[float, float, float] = DEFAULT_SPLIT,
                    seed: int = 0, skip_uncaptioned: bool = False, overwrite: bool = False,
                    progress: bool = False) -> ImportSummary:
@@ -343,13 +369,20 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike, *,
     `scale` multiplies the input positions into the skeleton's units (m for humanml3d, mm for
     kit); None guesses a power of ten from the body height. `fps` is the input's frame rate;
     None takes the BVH Frame Time, or the skeleton's fps for .npy.
+    A corpus importer (mlct.data.corpora) passes its files, captions and joint map as
+    mappings, the joints its rig lacks as `between`, and each clip's `provenance` (source,
+    license, labels), written per motion to provenance.jsonl.
     """
     if (joints_dir is None) == (bvh_dir is None):
         raise MlctError("give one source: --joints DIR or --bvh DIR")
     skel = resolve_skeleton(skeleton)
     assert skel is not None
     kind = "joints" if joints_dir is not None else "bvh"
-    files = _motion_files(Path(joints_dir if joints_dir is not None else bvh_dir), SUFFIXES[kind])
+    if isinstance(bvh_dir, dict):
+        files = dict(sorted(bvh_dir.items()))
+    else:
+        files = _motion_files(Path(joints_dir if joints_dir is not None else bvh_dir),
+                              SUFFIXES[kind])
     for name, value, (low, high) in (("--scale", scale, SCALE_RANGE), ("--fps", fps, FPS_RANGE)):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise MlctError(f"{name} must be a positive number, got {value}")
@@ -364,8 +397,8 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike, *,
                         f"--overwrite")
     if joint_map is not None and kind != "bvh":
         raise MlctError("--joint-map is for --bvh input (.npy joints are in the skeleton's order)")
-    texts = read_captions(captions)
-    mapping = _joint_map(joint_map, skel)
+    texts = captions if isinstance(captions, dict) else read_captions(captions)
+    mapping = joint_map if isinstance(joint_map, dict) else _joint_map(joint_map, skel)
 
     summary = ImportSummary(path=str(out), skeleton=skel.name, fps=skel.fps, clips=0,
                             motions=0, frames=0, hours=0.0, scale=1.0, splits={})
@@ -386,7 +419,7 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike, *,
         if path in loaded:
             return loaded.pop(path)
         if kind == "bvh":
-            positions, file_fps = _load_bvh(path, skel, mapping)
+            positions, file_fps = _load_bvh(path, skel, mapping, between)
             if fps is None and not FPS_RANGE[0] <= file_fps <= FPS_RANGE[1]:
                 raise MlctError(f"{path}: its Frame Time makes {file_fps:g} fps, outside "
                                 f"{FPS_RANGE[0]:g}..{FPS_RANGE[1]:g} (--fps overrides it)")
@@ -409,13 +442,20 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike, *,
                 (work / sub).mkdir()
             members = _write_motions(work, files, texts, load, skel, scale, summary, progress)
             _write_splits(work, members, split, seed, summary)
+            if provenance is not None:
+                _write_provenance(work, members, provenance, summary.windows)
             mean, std, constant = standard_mean_std(_features(work, members), skel)
             save_npy(work / "Mean.npy", mean)
             save_npy(work / "Std.npy", std)
             summary.notes.extend(f"feature group {g!r} is constant: its std is set to 1"
                                  for g in constant)
-            info = {"source": str(joints_dir if joints_dir is not None else bvh_dir),
-                    "kind": kind, "captions": str(captions), "skeleton": skel.name,
+            source = joints_dir if joints_dir is not None else bvh_dir
+            if isinstance(source, dict):
+                source = os.path.commonpath([str(p) for p in source.values()])
+            info = {"source": str(source),
+                    "kind": kind, "skeleton": skel.name,
+                    "captions": "made by the corpus importer" if isinstance(captions, dict)
+                    else str(captions),
                     "fps": skel.fps, "scale": scale, "split": list(split), "seed": seed,
                     "clips": {clip: names for clip, names in members.items()},
                     "skipped_short": summary.skipped_short,
@@ -448,6 +488,7 @@ def _write_motions(work: Path, files: dict[str, Path], texts: dict[str, list[str
                 raise MlctError(f"{path}: its motion {name} clashes with {taken[name]}'s; "
                                 f"rename one of the files")
             taken[name] = clip
+            summary.windows[name] = (start, stop)
             try:
                 features = joints_to_features(positions[start:stop], skel).features
             except MlctError as error:
@@ -477,6 +518,23 @@ def _write_splits(work: Path, members: dict[str, list[str]], split: tuple[float,
     write_text(work / "all.txt", "".join(f"{n}\n" for clip in sorted(members)
                                          for n in members[clip]))
     summary.splits = {part: len(part_names) for part, part_names in names.items()}
+
+
+PROVENANCE_FILE = "provenance.jsonl"
+
+
+def _write_provenance(work: Path, members: dict[str, list[str]],
+                      provenance: dict[str, dict[str, Any]],
+                      spans: dict[str, tuple[int, int]]) -> None:
+    """One JSON line per motion: its clip, its window of the clip ([start, stop) joint frames at
+    the skeleton's fps) and the clip's provenance record."""
+    lines = []
+    for clip, names in members.items():
+        for name in names:
+            record = {"name": name, "clip": clip, "window": list(spans[name]),
+                      **provenance.get(clip, {})}
+            lines.append(json.dumps(record, sort_keys=True) + "\n")
+    write_text(work / PROVENANCE_FILE, "".join(lines))
 
 
 def _features(work: Path, members: dict[str, list[str]]) -> Iterator[np.ndarray]:

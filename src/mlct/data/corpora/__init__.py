@@ -1,0 +1,54 @@
+"""Importers of real motion-capture corpora into the standard dataset layout.
+
+`mlct data import --corpus NAME --src DIR --out OUT`: the corpus's clips found in DIR (the
+folder its public release unpacks to), captioned from their labels, retargeted and cut by
+`import_dataset`, each motion's source and license in provenance.jsonl (base.py). The real
+files are never part of this repository; each corpus module says where they are published and
+under which license.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from mlct.data.corpora.bandai_namco import BANDAI_NAMCO
+from mlct.data.corpora.base import Corpus, RealClip
+from mlct.data.importer import DEFAULT_SPLIT, ImportSummary, import_dataset
+from mlct.errors import MlctError
+
+CORPORA: dict[str, Corpus] = {c.name: c for c in (BANDAI_NAMCO,)}
+
+
+def corpus(name: str) -> Corpus:
+    """The corpus called `name`; MlctError naming the known ones otherwise."""
+    if name not in CORPORA:
+        raise MlctError(f"unknown corpus {name!r}; known: {', '.join(sorted(CORPORA))}")
+    return CORPORA[name]
+
+
+def import_corpus(name: str, src: str | os.PathLike, out: str | os.PathLike, *,
+                  captions_per_clip: int = 4, contents: set[str] | None = None,
+                  split: tuple[float, float, float] = DEFAULT_SPLIT, seed: int = 0,
+                  overwrite: bool = False, progress: bool = False) -> ImportSummary:
+    """Import corpus `name` from its release folder `src` as a dataset at `out`; `contents`
+    keeps only clips of those content labels."""
+    chosen = corpus(name)
+    root = Path(src)
+    if not root.is_dir():
+        raise MlctError(f"{root}: no such directory")
+    clips: list[RealClip] = chosen.find(root)
+    if contents is not None:
+        unknown = contents - {c.labels["content"] for c in clips}
+        if unknown:
+            raise MlctError(f"no {name} clips of content {', '.join(sorted(unknown))}")
+        clips = [c for c in clips if c.labels["content"] in contents]
+    rng = np.random.default_rng(seed)
+    texts = {c.name: chosen.caption(c.labels, rng, captions_per_clip) for c in clips}
+    return import_dataset(
+        out, texts, bvh_dir={c.name: c.path for c in clips}, joint_map=chosen.joint_map,
+        between=chosen.between, scale=chosen.scale,
+        provenance={c.name: chosen.provenance(c, root) for c in clips},
+        split=split, seed=seed, overwrite=overwrite, progress=progress)

@@ -1,0 +1,226 @@
+"""Real corpora importers (mlct.data.corpora): a corpus's release folder -> a clean dataset with
+captions from the clips' labels and every motion's provenance and license. The clips here are
+made in the tests, in the corpus's rig and file names; the real files are never in the tree."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mlct.cli import main
+from mlct.cli.data import CORPUS_NAMES
+from mlct.data.check import check_dataset
+from mlct.data.corpora import CORPORA, import_corpus
+from mlct.data.corpora.bandai_namco import BANDAI_NAMCO, CONTENTS, STYLES
+from mlct.data.corpora.wording import FORMS
+from mlct.data.importer import _load_bvh
+from mlct.data.synth.build import make_motion
+from mlct.errors import MlctError
+from mlct.motion.skeleton import HUMANML3D
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+# The Bandai Namco rig: (joint, parent, the HumanML3D joint whose position it takes).
+_BANDAI = [("joint_Root", None, None), ("Hips", "joint_Root", "pelvis"),
+           ("Spine", "Hips", "spine1"), ("Chest", "Spine", "spine2"),
+           ("Neck", "Chest", "neck"), ("Head", "Neck", "head")]
+for _s in ("L", "R"):
+    _side = "left" if _s == "L" else "right"
+    _BANDAI += [(f"Shoulder_{_s}", "Chest", f"{_side}_collar"),
+                (f"UpperArm_{_s}", f"Shoulder_{_s}", f"{_side}_shoulder"),
+                (f"LowerArm_{_s}", f"UpperArm_{_s}", f"{_side}_elbow"),
+                (f"Hand_{_s}", f"LowerArm_{_s}", f"{_side}_wrist"),
+                (f"UpperLeg_{_s}", "Hips", f"{_side}_hip"),
+                (f"LowerLeg_{_s}", f"UpperLeg_{_s}", f"{_side}_knee"),
+                (f"Foot_{_s}", f"LowerLeg_{_s}", f"{_side}_ankle"),
+                (f"Toes_{_s}", f"Foot_{_s}", f"{_side}_foot")]
+
+
+def bandai_rig_bvh(path: Path, joints: np.ndarray, fps: float = 30.0) -> None:
+    """HumanML3D joints (T, 22, 3) in metres as a BVH in the Bandai Namco rig, in centimetres,
+    six channels a joint as the corpus has: each joint's position channels hold its offset from
+    its parent and its rotations are zero, so the file's world positions are the joints'."""
+    cm = joints * 100.0
+    world = {}
+    for name, parent, ours in _BANDAI:
+        world[name] = (cm[:, HUMANML3D.joint_names.index(ours)] if ours else
+                       cm[:, 0] * np.array([1.0, 0.0, 1.0]))  # the root on the floor
+    children: dict[str | None, list[str]] = {}
+    for name, parent, _ in _BANDAI:
+        children.setdefault(parent, []).append(name)
+    lines = ["HIERARCHY"]
+
+    def block(name: str, depth: int) -> None:
+        pad = "  " * depth
+        lines.append(f"{pad}{'ROOT' if depth == 0 else 'JOINT'} {name}")
+        lines.append(f"{pad}{{")
+        lines.append(f"{pad}  OFFSET 0 0 0")
+        lines.append(f"{pad}  CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation "
+                     f"Xrotation")
+        for child in children.get(name, []):
+            block(child, depth + 1)
+        if name not in children:
+            lines.extend([f"{pad}  End Site", f"{pad}  {{", f"{pad}    OFFSET 0 0 1", f"{pad}  }}"])
+        lines.append(f"{pad}}}")
+
+    block("joint_Root", 0)
+    order = [n for n, _, _ in _BANDAI]
+    depth_first: list[str] = []
+
+    def visit(name: str) -> None:
+        depth_first.append(name)
+        for child in children.get(name, []):
+            visit(child)
+
+    visit("joint_Root")
+    assert sorted(depth_first) == sorted(order)
+    parent_of = {n: p for n, p, _ in _BANDAI}
+    lines += ["MOTION", f"Frames: {len(cm)}", f"Frame Time: {1.0 / fps:.8f}"]
+    for t in range(len(cm)):
+        values = []
+        for name in depth_first:
+            parent = parent_of[name]
+            local = world[name][t] - (world[parent][t] if parent else 0.0)
+            values += [f"{v:.5f}" for v in local] + ["0", "0", "0"]
+        lines.append(" ".join(values))
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def _joints_at_30fps(index: int) -> np.ndarray:
+    joints = make_motion(index, seed=0, skeleton=HUMANML3D).joints.astype(np.float64)
+    at = np.arange(0, len(joints) - 1, 20.0 / 30.0)  # 20 fps -> 30 fps, linearly
+    low = np.floor(at).astype(int)
+    weight = (at - low)[:, None, None]
+    return (1 - weight) * joints[low] + weight * joints[low + 1]
+
+
+@pytest.fixture(scope="module")
+def release(tmp_path_factory):
+    """A folder laid out like the corpus's release: two subsets, clips named by their labels."""
+    root = tmp_path_factory.mktemp("bandai")
+    one = root / "Bandai-Namco-Research-Motiondataset-1" / "data"
+    two = root / "Bandai-Namco-Research-Motiondataset-2" / "data"
+    one.mkdir(parents=True)
+    two.mkdir(parents=True)
+    clips = {one / "dataset-1_walk_tired_001.bvh": 1, one / "dataset-1_bow_normal_001.bvh": 5,
+             two / "dataset-2_wave-left-hand_elderly_003.bvh": 2}
+    joints = {}
+    for path, index in clips.items():
+        joints[path.stem] = _joints_at_30fps(index)
+        bandai_rig_bvh(path, joints[path.stem])
+    return root, joints
+
+
+def test_the_rig_maps_onto_the_skeleton_with_spine3_between_chest_and_neck(release):
+    root, joints = release
+    path = next(root.rglob("dataset-1_walk_tired_001.bvh"))
+    positions, fps = _load_bvh(path, HUMANML3D, BANDAI_NAMCO.joint_map, BANDAI_NAMCO.between)
+    assert fps == pytest.approx(30.0)
+    source = joints[path.stem] * 100.0
+    names = HUMANML3D.joint_names
+    spine3 = names.index("spine3")
+    others = [j for j in range(len(names)) if j != spine3]
+    np.testing.assert_allclose(positions[:, others], source[:, others], atol=1e-3)
+    halfway = (source[:, names.index("spine2")] + source[:, names.index("neck")]) / 2
+    np.testing.assert_allclose(positions[:, spine3], halfway, atol=1e-3)
+
+
+def test_a_release_folder_imports_as_a_clean_dataset_with_provenance(release, tmp_path):
+    root, _ = release
+    out = tmp_path / "real"
+    summary = import_corpus("bandai-namco", root, out, seed=0)
+    assert summary.clips == 3 and summary.motions == 3
+    assert check_dataset(out) == []
+    records = [json.loads(line) for line in (out / "provenance.jsonl").read_text().splitlines()]
+    by_name = {r["name"]: r for r in records}
+    assert set(by_name) == {"dataset-1_walk_tired_001", "dataset-1_bow_normal_001",
+                            "dataset-2_wave-left-hand_elderly_003"}
+    wave = by_name["dataset-2_wave-left-hand_elderly_003"]
+    assert wave["license"] == "CC BY-NC 4.0" and wave["commercial_use"] is False
+    assert wave["labels"] == {"content": "wave-left-hand", "style": "elderly",
+                              "subset": "dataset-2", "take": "003"}
+    assert wave["file"] == ("Bandai-Namco-Research-Motiondataset-2/data/"
+                            "dataset-2_wave-left-hand_elderly_003.bvh")
+    features = len(np.load(out / "new_joints" / f"{wave['name']}.npy"))
+    assert wave["window"] == [0, features + 1]  # joint frames of the clip at 20 fps
+    assert "arXiv:2306.08861" in wave["citation"]
+    # captions from the labels: several distinct wordings, each saying the content and style
+    texts = (out / "texts" / "dataset-2_wave-left-hand_elderly_003.txt").read_text().splitlines()
+    captions = [line.split("#")[0] for line in texts]
+    assert len(captions) == 4 == len(set(captions))
+    assert all("left" in c and "wav" in c for c in captions)
+    assert all(("old" in c or "elderly" in c) for c in captions)
+    walk = [line.split("#")[0] for line in
+            (out / "texts" / "dataset-1_walk_tired_001.txt").read_text().splitlines()]
+    assert all("walk" in c or "steps" in c for c in walk)
+    assert all(any(w in c for w in ("tired", "weary", "wearily")) for c in walk)
+
+
+def test_the_import_is_seeded(release, tmp_path):
+    root, _ = release
+    import_corpus("bandai-namco", root, tmp_path / "a", seed=3)
+    import_corpus("bandai-namco", root, tmp_path / "b", seed=3)
+    for name in ("texts/dataset-1_bow_normal_001.txt", "train.txt", "provenance.jsonl"):
+        assert (tmp_path / "a" / name).read_text() == (tmp_path / "b" / name).read_text()
+
+
+def test_contents_keep_only_those_clips(release, tmp_path):
+    root, _ = release
+    summary = import_corpus("bandai-namco", root, tmp_path / "bows", contents={"bow"})
+    assert summary.clips == 1
+    with pytest.raises(MlctError, match="no bandai-namco clips of content dance"):
+        import_corpus("bandai-namco", root, tmp_path / "x", contents={"dance"})
+    assert not (tmp_path / "x").exists()
+
+
+def test_the_command_line(release, tmp_path, capsys):
+    root, _ = release
+    out = tmp_path / "cli"
+    assert main(["data", "import", "--corpus", "bandai-namco", str(root), "--out", str(out),
+                 "--quiet"]) == 0
+    assert "imported 3 clip(s) as 3 motion(s)" in capsys.readouterr().out
+    assert main(["data", "check", str(out)]) == 0
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--corpus", "mocapland", "DIR"], "unknown corpus 'mocapland'; known: bandai-namco"),
+    (["--corpus", "bandai-namco", "DIR", "--captions", "c.csv"],
+     "--corpus makes its own captions, joint map and units; drop --captions"),
+    (["--corpus", "bandai-namco", "/nonexistent/folder"], "/nonexistent/folder: no such directory"),
+    (["--bvh", "DIR"], "--captions FILE is needed with --joints or --bvh"),
+])
+def test_bad_corpus_arguments_are_one_line_errors(argv, message, tmp_path, capsys):
+    code = main(["data", "import", *argv, "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_badly_named_clip_is_named_in_the_error(tmp_path):
+    (tmp_path / "dataset-1_walk_001.bvh").write_text("HIERARCHY\n")
+    with pytest.raises(MlctError, match="dataset-1_walk_001.bvh: not a Bandai Namco clip name"):
+        import_corpus("bandai-namco", tmp_path, tmp_path / "out")
+    (tmp_path / "dataset-1_walk_001.bvh").unlink()
+    (tmp_path / "dataset-1_swim_sad_001.bvh").write_text("HIERARCHY\n")
+    with pytest.raises(MlctError, match="unknown content 'swim'"):
+        import_corpus("bandai-namco", tmp_path, tmp_path / "out")
+
+
+def test_every_label_has_words_and_every_verb_a_form():
+    rng = np.random.default_rng(0)
+    for content, phrases in CONTENTS.items():
+        for phrase in phrases:
+            for verb in __import__("re").findall(r"<(\w+)>", phrase):
+                assert verb in FORMS, (content, verb)
+        for style in STYLES:
+            said = BANDAI_NAMCO.caption({"content": content, "style": style}, rng, 3)
+            assert len(said) == 3 and all(s.endswith(".") and "<" not in s for s in said)
+            assert not any(" a old" in s or s.startswith("a old") or " an tired" in s
+                           for s in said)
+
+
+def test_the_parser_knows_every_corpus():
+    assert set(CORPUS_NAMES) == set(CORPORA)
