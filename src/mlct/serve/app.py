@@ -1,7 +1,9 @@
 """The HTTP API and the web page of `mlct serve` (FastAPI).
 
     POST /generate  texts -> motions (JSON) or one motion as a file (npy, bvh, gif, glb, vrma,
-                    npz; `rig` retargets bvh and glb)
+                    npz; `rig` retargets bvh and glb); each motion's "unknown_parts" (a file's
+                    X-Mlct-Unknown-Parts header) lists the parts of its prompt the model
+                    does not know, [] when it knows them all
     GET  /health    model, limits, queue and batching figures
     GET  /docs      the OpenAPI page;  GET /  the web page (static/, plotly.js from its wheel)
 
@@ -139,8 +141,11 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
         if body.in_place:
             result.motions = [m.in_place() for m in result.motions]
         if body.format == "json":
+            # unknown_parts: the prompt's parts the model does not know (generate/
+            # unknown_prompts.py), [] when it knows them all
             motions = await run_in_threadpool(
-                lambda: [{**motion_json(m), "seed": s, "nfe": nfe, "candidates": candidates}
+                lambda: [{**motion_json(m), "seed": s, "nfe": nfe, "candidates": candidates,
+                          "unknown_parts": list(getattr(m, "unknown_parts", ()))}
                          for m, s in zip(result.motions, seeds)])
             timing["server_ms"] = round((time.perf_counter() - received) * 1e3, 1)
             return JSONResponse({"motions": motions, "timing": timing})
@@ -153,6 +158,9 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
             "Content-Disposition": f'attachment; filename="{name}"',
             "X-Mlct-Seed": str(seeds[0]), "X-Mlct-Nfe": str(nfe),
             "X-Mlct-Candidates": str(candidates),
+            # a JSON list, ASCII-escaped as a header must be
+            "X-Mlct-Unknown-Parts": json.dumps(list(getattr(result.motions[0], "unknown_parts",
+                                                            ()))),
             "Server-Timing": ", ".join(f"{k[:-3]};dur={v}" for k, v in timing.items()
                                        if k.endswith("_ms"))})
 

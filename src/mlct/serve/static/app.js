@@ -194,6 +194,15 @@ function showStatus(html, error = false) {
   status.classList.toggle("error", error);
 }
 
+// A prompt (or some of its actions) the model does not know: its motion is likely not what was
+// asked, which the motion itself does not show (the server's unknown_parts).
+function showUnknown(parts) {
+  const note = $("unknown-note");
+  note.hidden = !parts || parts.length === 0;
+  note.textContent = note.hidden ? "" : `The model does not know ${parts.map((p) => `“${p}”`)
+    .join(" or ")}: it was trained on a few kinds of action only, so this motion is likely not what was asked.`;
+}
+
 function escapeHtml(text) {
   return text.replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" }[c]));
 }
@@ -233,10 +242,12 @@ async function generate() {
       ` seed ${motion.seed} · server <b>${t.server_ms.toFixed(0)} ms</b> (model` +
       ` ${t.generate_ms.toFixed(0)} ms, batch ${t.batch_size}) · round trip` +
       ` ${(received - clicked).toFixed(0)} ms · first frame <b>${firstFrame.toFixed(0)} ms</b>`);
+    showUnknown(motion.unknown_parts);
     for (const id of ["play", "scrub", "dl-bvh", "dl-npy", "dl-gif", "dl-glb", "dl-vrma",
       "dl-npz"]) $(id).disabled = false;
   } catch (error) {
     showStatus(escapeHtml(error.message), true);
+    showUnknown([]);
   } finally {
     $("generate").classList.remove("busy");
     state.waiting -= 1;
