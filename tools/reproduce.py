@@ -163,7 +163,7 @@ def report_specs() -> dict[str, tuple[list[str], list[str]]]:
         "tokens-levels": ([cm_name(n, 1.0) for n in ("tokens2", "quantized", "tokens4",
                                                      "levels100")], NO_AITS),
         "schedule": ([cm_name("quantized", 1.0), cm_name("quantized", 1.0, "-printed")], NO_AITS),
-        # issue 6: bfloat16 matrix products must keep the metrics inside float32's interval
+        # bfloat16 matrix products must keep the metrics inside float32's interval
         "bfloat16": (["main-cm"], ["--nfe", "5", "--dtype", "bfloat16", *NO_AITS]),
     }
 

@@ -151,7 +151,7 @@ def build_markdown(reports: Path, docs: Path, header: str) -> str:
         pair = {"real": t1["real"], "rows": [*fp32, *(dict(row, method=row["method"] + ", bf16")
                                                    for row in bf["rows"])]}
         body = ["The default model at 5 NFE with float32 matrix products (from section 1) and "
-                "with bfloat16 ones (`--dtype bfloat16`, issue 6), same seeds:", "",
+                "with bfloat16 ones (`--dtype bfloat16`), same seeds:", "",
                 results_table(pair)]
     text += _section("Reduced precision: bfloat16 against float32", bf, "bfloat16", body)
     text += ["## 7. Reading", ""]
