@@ -4,8 +4,8 @@ People type "a woman walks", "a person waves", "someone stretches". The benchmar
 (text.py) always spell out what they can: which hand, how far, how many, "stretches their arms
 overhead and leans to the side", and so do the everyday phrases (everyday.py). No training
 caption was a bare verb, and the bundled model made these prompts badly: "a person waves" gave
-a kick, "a woman walks" stood still, "a woman stretches" held the arms at the chest (bench/short_prompts.py;
-docs/logs/short_prompts_2026-11-26.txt). This vocabulary says each action as briefly as people do,
+a kick, "a woman walks" stood still, "a woman stretches" held the arms at the chest (`bench/quality.py
+short`; docs/training.md). This vocabulary says each action as briefly as people do,
 leaving parameters out but never stating a wrong one. A bare verb of a one-sided action means
 its right-sided form ("a person kicks": the right leg; the left one keeps the benchmark's
 words, which name it); a direction is said ("turns left"). Its verbs are the benchmark's own
