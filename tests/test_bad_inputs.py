@@ -353,6 +353,10 @@ CLI_CASES = [
                  "CUDA is not available", marks=no_cuda),
     (["generate", W, "--device", "mps", "--out", "x.npy"], "device 'mps': mlct runs on cpu"),
     (["generate", W, "--device", "meta", "--out", "x.npy"], "device 'meta': mlct runs on cpu"),
+    pytest.param(["generate", W, "--backend", "cuda-graphs", "--out", "x.npy"],
+                 "the cuda-graphs backend needs a CUDA device, not cpu", marks=no_cuda),
+    pytest.param(["generate", W, "--backend", "cuda-graphs", "--device", "cuda", "--out",
+                  "x.npy"], "CUDA is not available", marks=no_cuda),
     (["generate", W, "--dtype", "int4", "--out", "x.npy"], "argument --dtype: invalid choice"),
     (["generate", W, "--nfe", "0", "--out", "x.npy"], "nfe must be within 1..50"),
     (["generate", W, "--nfe", "-1", "--out", "x.npy"], "nfe must be within 1..50"),
@@ -934,6 +938,10 @@ API_LOAD_CASES = [
     ((), {"device": "mps"}, "device 'mps': mlct runs on cpu or cuda"),
     ((), {"device": torch.device("meta")}, "mlct runs on cpu or cuda"),
     pytest.param((), {"device": "cuda"}, "CUDA is not available", marks=no_cuda),
+    pytest.param((), {"backend": "cuda-graphs"}, "cuda-graphs backend needs a CUDA device",
+                 marks=no_cuda),
+    pytest.param((), {"backend": "cuda-graphs", "device": "cpu"},
+                 "cuda-graphs backend needs a CUDA device, not cpu", marks=no_cuda),
     ((), {"dtype": "int4"}, "unknown weight dtype 'int4'"),
     ((), {"dtype": None}, "unknown weight dtype None"),
     ((), {"dtype": "float16"}, "unknown weight dtype 'float16'"),
@@ -947,6 +955,46 @@ API_LOAD_CASES = [
 def test_api_load(ws: Path, args: tuple, kwargs: dict, fragment: str) -> None:
     with untouched(ws):
         assert_names_the_problem(lambda: mlct.load(*args, **kwargs), MlctError, fragment)
+
+
+# --- bfloat16 where the CPU has no bfloat16 kernels: float32 and one note, not a traceback ------
+
+@pytest.fixture()
+def no_bf16_kernels(monkeypatch: pytest.MonkeyPatch) -> str:
+    """This CPU as one whose oneDNN runs no bfloat16 (an AVX2-only x86-64, an ARM64 without
+    BF16): torch's check, which the layers and the generators read, answers False. (The same
+    on oneDNN's AVX2 kernels themselves: tests/test_cpu_features.py.) Returns the note."""
+    from mlct import cpu_features
+
+    monkeypatch.setattr(cpu_features, "onednn_bf16", lambda: False)
+    return (f"bfloat16 needs a CPU with {cpu_features.bf16_feature()}, which this one lacks; "
+            f"running float32, which is faster here")
+
+
+def test_cli_bfloat16_without_the_cpus_kernels_runs_float32_with_one_note(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], no_bf16_kernels: str) -> None:
+    outs = {dtype: tmp_path / f"{dtype}.npy" for dtype in ("bfloat16", "float32")}
+    argv = ["generate", W, "--seconds", "2", "--seed", "5", "--nfe", "2"]
+    code, out, err = run_cli([*argv, "--dtype", "bfloat16", "--out", str(outs["bfloat16"])],
+                             capsys)
+    assert code == 0, err
+    assert err.strip().splitlines() == [f"mlct: note: {no_bf16_kernels}"]
+    assert run_cli([*argv, "--out", str(outs["float32"])], capsys)[0] == 0
+    np.testing.assert_array_equal(np.load(outs["bfloat16"]), np.load(outs["float32"]))
+
+
+def test_api_bfloat16_without_the_cpus_kernels_warns_once_naming_the_feature(
+        no_bf16_kernels: str) -> None:
+    from mlct.errors import MlctWarning
+
+    with pytest.warns(MlctWarning) as caught:
+        gen = mlct.load(dtype="bfloat16")
+    assert [str(w.message) for w in caught] == [no_bf16_kernels]
+    assert caught[0].filename == __file__  # the caller's line, not one inside mlct
+    assert gen.dtype == torch.float32
+    # the onnx backends refuse bfloat16 by name on every CPU, as before
+    with pytest.raises(MlctError, match="runs float32 graphs; dtype 'bfloat16'"):
+        mlct.load(dtype="bfloat16", backend="onnx")
 
 
 API_SAVE_CASES = [

@@ -5,6 +5,11 @@ class MlctError(Exception):
     """A problem with the user's input or files, explained in one line."""
 
 
+class MlctWarning(UserWarning):
+    """A one-line notice that mlct did something other than asked, and why (the CLI prints it
+    as "mlct: note: ..."); e.g. float32 where the CPU has no bfloat16 kernels."""
+
+
 def first_line(error: BaseException, empty: str | None = None) -> str:
     """The first line of an exception's message, to quote inside a one-line MlctError; for an
     empty message, `empty` (by default the exception's type name)."""

@@ -9,14 +9,17 @@ handler imports what it runs when it runs, so that `mlct --help` stays fast.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
+import warnings
+from typing import Iterator
 
 from mlct.cli import (convert, data, demo, export, export_web, generate, render, retarget, serve,
                       train)
 from mlct.cli import eval as evaluate  # (not the builtin)
 from mlct.cli.parser import Parser
-from mlct.errors import MlctError
+from mlct.errors import MlctError, MlctWarning
 
 # in the order `mlct --help` lists their commands
 COMMANDS = (data, demo, train, evaluate, export, export_web, convert, serve, generate, render,
@@ -38,6 +41,24 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@contextlib.contextmanager
+def _notes_on_one_line() -> Iterator[None]:
+    """mlct's notices (MlctWarning) as "mlct: note: ..." lines on stderr, each time, other
+    warnings as Python shows them."""
+    show = warnings.showwarning
+
+    def one_line(message, category, filename, lineno, file=None, line=None):  # type: ignore
+        if issubclass(category, MlctWarning):
+            print(f"mlct: note: {message}", file=sys.stderr, flush=True)
+        else:
+            show(message, category, filename, lineno, file, line)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", MlctWarning)
+        warnings.showwarning = one_line
+        yield
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
@@ -53,7 +74,8 @@ def main(argv: list[str] | None = None) -> int:
         args.overrides = list(args.overrides) + overrides
     args.argv = list(sys.argv[1:] if argv is None else argv)  # reports record the command
     try:
-        return args.func(args)
+        with _notes_on_one_line():
+            return args.func(args)
     except MlctError as error:
         print(f"mlct: error: {error}", file=sys.stderr)
         return 2

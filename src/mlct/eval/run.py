@@ -21,6 +21,7 @@ from typing import Any, Sequence
 
 import torch
 
+from mlct.cpu_features import kernel_dtype
 from mlct.generate.bundle import read_bundle
 from mlct.devices import resolve_device
 from mlct.errors import MlctError
@@ -99,6 +100,7 @@ def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
                              models=[(p, meta) for p, (meta, _) in zip(paths, bundles)],
                              classifier_dir=classifier_dir)
     dataset = protocol.dataset
+    dtype = str(kernel_dtype(dtype, dev)).removeprefix("torch.")  # the report says what ran
     gens = [MotionGenerator(meta, tensors, dev, dtype) for meta, tensors in bundles]
     grids = [_grid(g, steps, guidance) for g in gens]
     for path, gen, grid in zip(paths, gens, grids):

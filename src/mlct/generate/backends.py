@@ -22,6 +22,7 @@ from typing import Callable
 
 import torch
 
+from mlct.cpu_features import kernel_dtype
 from mlct.errors import MlctError
 from mlct.generate.auto_backend import ENV, choose_backend, find_graphs
 from mlct.generate.cuda_graph_backend import CudaGraphMotionGenerator
@@ -111,6 +112,8 @@ def load(path: str | os.PathLike | None = None, device: torch.device | str | Non
     if check_threads(threads) is not None:  # every backend takes torch's count, the onnx
         torch.set_num_threads(threads)  # ones for each of their graphs
     folder = bundled_model_dir() if path is None else Path(path)
+    if backend not in ("onnx", "onnx-int8"):  # (those refuse bfloat16 by name)
+        dtype = kernel_dtype(dtype, device)  # float32, said, where the CPU has no bf16 kernels
     if backend != "auto":
         generator = BACKENDS[backend](folder, device, dtype)
         generator.backend = backend

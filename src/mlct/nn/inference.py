@@ -165,7 +165,9 @@ class ChannelsLastConvs(nn.Module):
                 self._cl = [w.unsqueeze(2).contiguous(memory_format=torch.channels_last)
                             for w in self.weights]
             h = h.unsqueeze(2).contiguous(memory_format=torch.channels_last)  # (B, C, 1, T)
-        fused = _fused_conv() if cpu else None
+        # oneDNN's op refuses bfloat16 on a CPU without its bf16 kernels (mlct.cpu_features):
+        # there the plain convolution runs it
+        fused = _fused_conv() if cpu and (h.dtype == torch.float32 or _onednn_bf16()) else None
         for step in self.plan:
             if step[0] == "conv":
                 _, i, stride, padding, dilation, gelu = step
@@ -187,6 +189,12 @@ class ChannelsLastConvs(nn.Module):
                 h = F.interpolate(h, scale_factor=(1.0, step[1]) if cpu else step[1],
                                   mode="nearest")
         return (h.squeeze(2) if cpu else h).to(x.dtype)
+
+
+def _onednn_bf16() -> bool:
+    from mlct.cpu_features import onednn_bf16
+
+    return onednn_bf16()
 
 
 def _gelu(h: Tensor, approximate: str) -> Tensor:
