@@ -207,3 +207,115 @@ def test_skinned_humanoid_plays_the_glb_on_each_rig(page, url, tmp_path):
         target.mkdir(parents=True, exist_ok=True)
         for shot in shots.values():
             shutil.copyfile(shot, target / shot.name)
+
+
+def _sweep(page, frames) -> list[dict]:
+    """The humanoid's bones on screen at each frame, scrubbed to (window.mlctBody.onScreen)."""
+    out = []
+    for frame in frames:
+        page.locator("#scrub").fill(str(frame))
+        page.wait_for_function(f"window.mlctBody.frame === {frame}", timeout=5_000)
+        # read after the page's next frame: the camera follows in the frame that draws it
+        out.append(page.evaluate("new Promise((done) => requestAnimationFrame(() => "
+                                 "done(window.mlctBody.onScreen())))"))
+    return out
+
+
+def _inside(shot: dict) -> bool:
+    return all(0 <= x <= shot["width"] and 0 <= y <= shot["height"]
+               for x, y in shot["pixels"].values())
+
+
+def _drawn(page, path: Path) -> tuple[int, int]:
+    """The humanoid's panel saved to path: how many pixels of the body's grey-blue
+    (gltf.BODY_COLOUR, lit) lie within 40 px of the root's projected pixel, and how many of the
+    skeleton lines' saturated blue and green the panel shows."""
+    page.locator("#body3d").screenshot(path=str(path))
+    picture = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    shot = page.evaluate("window.mlctBody.onScreen()")
+    scale = picture.shape[1] / shot["width"]
+    x, y = (int(v * scale) for v in shot["pixels"][page.evaluate("window.mlctBody.bones")[0]])
+    r, g, b = np.moveaxis(picture[max(0, y - 40):y + 40, max(0, x - 40):x + 40], -1, 0)
+    body = (r > 100) & (g > 100) & (b - r > 12) & (b - r < 70) & (b < 245)
+    r, g, b = np.moveaxis(picture, -1, 0)
+    lines = (b - r > 120) | (g - r > 120)
+    return int(body.sum()), int(lines.sum())
+
+
+@pytest.mark.skipif(not THREE, reason="three.js: no npm tarball cached and no registry")
+def test_skinned_humanoid_stays_in_view_while_it_walks(page, tmp_path):
+    """The camera goes along with the humanoid's root: every bone stays inside the panel through
+    a walk of several metres, the user's orbit is kept, and with following off (the view as it
+    was before) the same walk leaves the panel. MLCT_FOLLOW_SCREENSHOTS=DIR keeps the panel at
+    the walk's start, middle and end there."""
+    page.wait_for_function("window.mlctBody && window.mlctBody.ready", timeout=30_000)
+    page.fill("#prompt", "a person walks forward")
+    page.click("#generate")
+    page.wait_for_function(
+        "window.mlct.state.request && window.mlct.state.request.text === 'a person walks forward'"
+        " && window.mlctBody.current && window.mlctBody.shown === "
+        "JSON.stringify(window.mlct.state.request) + '|' + document.getElementById('rig').value",
+        timeout=60_000)
+    total = page.evaluate("window.mlct.state.motion.frames")
+    assert total == 100  # the server's default length, 5 s at 20 fps
+    frames = [*range(0, total, 5), total - 1]
+
+    on = _sweep(page, frames)
+    root = np.array([s["root"] for s in on])
+    assert np.hypot(*(root[-1] - root[0])[[0, 2]]) > 3.0  # it does travel several metres
+    outside = [f for f, s in zip(frames, on) if not _inside(s)]
+    assert outside == [], f"bones left the panel at frames {outside}"
+    # the camera moves with its target, on the floor only: the view's angle and zoom are kept
+    offsets = np.array([np.subtract(s["camera"], s["target"]) for s in on])
+    assert np.abs(offsets - offsets[0]).max() < 1e-6
+    assert np.ptp([s["target"][1] for s in on]) < 1e-9
+    target = np.array([s["target"] for s in on])
+    assert np.hypot(*(target[-1] - target[0])[[0, 2]]) > 3.0
+
+    # the body is drawn where the bones project, the skeleton's lines over it
+    shots = {}
+    for name, frame in (("start", 0), ("middle", total // 2), ("end", total - 1)):
+        page.locator("#scrub").fill(str(frame))
+        page.wait_for_function(f"window.mlctBody.frame === {frame}", timeout=5_000)
+        page.wait_for_timeout(100)
+        shots[name] = tmp_path / f"web_follow_{name}.png"
+        body, lines = _drawn(page, shots[name])
+        assert body > 300 and lines > 100, f"the {name}: {body} body, {lines} line pixels"
+
+    # following off: the camera stays where it was (the view before it followed), and the same
+    # walk leaves the panel: what the sweep above measures is the following
+    page.evaluate("window.mlctBody.follow = false")
+    off = _sweep(page, frames)
+    assert np.allclose(off[0]["target"], [0, 0.9, 0])  # where the page's camera starts
+    assert np.allclose(off[0]["camera"], [2.6, 1.6, 3.4])
+    assert _inside(off[0])
+    left = [f for f, s in zip(frames, off) if not _inside(s)]
+    assert left and left[-1] == frames[-1], f"without following the walk stays in view ({left})"
+    shots["end_unfollowed"] = tmp_path / "web_follow_end_unfollowed.png"
+    page.locator("#body3d").screenshot(path=str(shots["end_unfollowed"]))
+    page.evaluate("window.mlctBody.follow = true")
+    page.evaluate("new Promise((done) => requestAnimationFrame(done))")  # carried back to the end
+
+    # the user's orbit survives following: at the end of the walk, turn the view most of the way
+    # round (from the walk's front to its side), then walk again
+    box = page.locator("#body3d").bounding_box()
+    page.mouse.move(box["x"] + 0.1 * box["width"], box["y"] + box["height"] / 2)
+    page.mouse.down()
+    page.mouse.move(box["x"] + 0.9 * box["width"], box["y"] + box["height"] / 2, steps=10)
+    page.mouse.up()
+    orbited = _sweep(page, [*frames[::3], frames[-1]])
+    offset = np.subtract(orbited[0]["camera"], orbited[0]["target"])
+    assert np.abs(offset - offsets[0]).max() > 1.0  # the drag did turn the view
+    assert all(_inside(s) for s in orbited)
+    assert all(np.abs(np.subtract(s["camera"], s["target"]) - offset).max() < 1e-6
+               for s in orbited)
+    # the body and its lines are drawn where the walk ended up, seen from there (not culled
+    # from where they were first drawn)
+    shots["end_orbited"] = tmp_path / "web_follow_end_orbited.png"
+    body, lines = _drawn(page, shots["end_orbited"])
+    assert body > 300 and lines > 100, f"turned round: {body} body, {lines} line pixels"
+    if os.environ.get("MLCT_FOLLOW_SCREENSHOTS"):
+        target_dir = Path(os.environ["MLCT_FOLLOW_SCREENSHOTS"])
+        target_dir.mkdir(parents=True, exist_ok=True)
+        for shot in shots.values():
+            shutil.copyfile(shot, target_dir / shot.name)
