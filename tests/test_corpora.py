@@ -224,3 +224,61 @@ def test_every_label_has_words_and_every_verb_a_form():
 
 def test_the_parser_knows_every_corpus():
     assert set(CORPUS_NAMES) == set(CORPORA)
+
+
+def test_a_leading_reference_pose_and_its_blend_are_dropped():
+    from mlct.data.importer import drop_reference_pose
+
+    motion = make_motion(1, seed=0, skeleton=HUMANML3D).joints.astype(np.float64)
+    names = HUMANML3D.joint_names
+    t_pose = motion[0].copy()
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        shoulder = t_pose[names.index(f"{side}_shoulder")]
+        t_pose[names.index(f"{side}_elbow")] = shoulder + [sign * 0.26, 0.0, 0.0]
+        t_pose[names.index(f"{side}_wrist")] = shoulder + [sign * 0.52, 0.0, 0.0]
+    blend = (t_pose + motion[0]) / 2  # half way down in one frame: faster than a body moves
+    clip = np.concatenate([t_pose[None], blend[None], motion])
+    kept = drop_reference_pose(clip, HUMANML3D, fps=20.0)
+    np.testing.assert_array_equal(kept, motion)
+    np.testing.assert_array_equal(drop_reference_pose(motion, HUMANML3D, 20.0), motion)
+
+
+def test_end_sites_are_read_as_joints_where_asked(tmp_path):
+    from mlct.motion.bvh import read_bvh
+
+    path = tmp_path / "clip.bvh"
+    bandai_rig_bvh(path, _joints_at_30fps(1)[:5])
+    plain = read_bvh(path)
+    with_ends = read_bvh(path, end_sites=True)
+    assert "Toes_L.end" in with_ends.joint_names and "Toes_L.end" not in plain.joint_names
+    toe = with_ends.joint_names.index("Toes_L")
+    end = with_ends.joint_names.index("Toes_L.end")
+    assert with_ends.parents[end] == toe
+    # zero rotations: the End Site is its OFFSET (0 0 1) from its joint
+    np.testing.assert_allclose(with_ends.positions[:, end] - with_ends.positions[:, toe],
+                               np.tile([0.0, 0.0, 1.0], (5, 1)), atol=1e-9)
+    np.testing.assert_allclose(with_ends.positions[:, :len(plain.joint_names)], plain.positions)
+
+
+def test_leg_scale_gives_any_body_the_skeletons_legs():
+    from mlct.data.importer import leg_scale
+
+    motion = make_motion(1, seed=0, skeleton=HUMANML3D).joints.astype(np.float64)
+    base = leg_scale(motion, HUMANML3D)
+    assert base == pytest.approx(1.0, abs=0.02)
+    assert leg_scale(motion * 39.37, HUMANML3D) == pytest.approx(base / 39.37)  # inches
+    assert leg_scale(motion * 0.75, HUMANML3D) == pytest.approx(base / 0.75)  # a small body
+
+
+def test_cmu_takes_are_captioned_from_the_index_and_unknown_ones_left_out(tmp_path):
+    from mlct.data.corpora.cmu import CMU, read_index
+
+    index = read_index()
+    assert len(index) > 2400 and index["07_01"] == "walk" and index["02_05"] == "punch/strike"
+    for take in ("07_01", "02_05", "99_99", "01_02"):  # a walk, a punch, no such take, a climb
+        bandai_rig_bvh(tmp_path / f"{take}.bvh", _joints_at_30fps(1))
+    clips = CMU.find(tmp_path)
+    assert [c.name for c in clips] == ["cmu_02_05", "cmu_07_01"]
+    said = CMU.caption(clips[0].labels, np.random.default_rng(0), 3)
+    assert all("punch" in s or "strike" in s for s in said)
+    assert CMU.commercial and "mocap.cs.cmu.edu" in CMU.citation

@@ -81,6 +81,7 @@ class ImportSummary:
     notes: list[str] = field(default_factory=list)
     # motion name -> its [start, stop) joint frames in its clip, resampled
     windows: dict[str, tuple[int, int]] = field(default_factory=dict)
+    clip_scales: dict[str, float] = field(default_factory=dict)  # clip -> factor applied
 
 
 def _clean_caption(text: Any, path: Path, line: int) -> str:
@@ -219,25 +220,26 @@ class Between:
     at: float
 
 
-def _load_bvh(path: Path, skeleton: Skeleton, mapping: dict[str, str],
-              between: dict[str, Between] | None = None) -> tuple[np.ndarray, float]:
-    """(T, J, 3) positions in the skeleton's joint order, in the file's units; and its fps."""
+def _load_bvh(path: Path, skeleton: Skeleton,
+              mapping: dict[str, str] | tuple[dict[str, str], ...],
+              between: dict[str, tuple[Between, ...]] | None = None
+              ) -> tuple[np.ndarray, float]:
+    """(T, J, 3) positions in the skeleton's joint order, in the file's units; and its fps.
+    `mapping` may be several maps, one per rig naming a corpus mixes: the first under which
+    every skeleton joint is found is taken. A skeleton joint no BVH joint maps to takes the
+    first of its `between` places whose two joints the file has."""
     from mlct.motion.bvh import read_bvh
 
-    clip = read_bvh(path)
-    between = between or {}
-    columns: dict[str, int] = {}
-    for column, name in enumerate(clip.joint_names):
-        ours = mapping.get(name, name)
-        if ours in skeleton.joint_names and ours not in between:
-            if ours in columns:
-                raise MlctError(f"{path}: joints {clip.joint_names[columns[ours]]} and {name} "
-                                f"both map to {ours}")
-            columns[ours] = column
+    clip = read_bvh(path, end_sites=True)
     index = {name: i for i, name in enumerate(clip.joint_names)}
-    missing = [name for name in skeleton.joint_names if name not in columns and (
-        name not in between or between[name].start not in index or between[name].end not in index)]
-    if missing:
+    tried = []
+    for one in (mapping if isinstance(mapping, tuple) else (mapping,)):
+        columns, placed, missing = _columns(path, clip.joint_names, skeleton, one, between or {})
+        if not missing:
+            break
+        tried.append(missing)
+    else:
+        missing = min(tried, key=len)
         shown = ", ".join(clip.joint_names[:12]) + (" ..." if len(clip.joint_names) > 12 else "")
         raise MlctError(f"{path}: no joint for {', '.join(missing)} (its joints: {shown}); "
                         f"map them with --joint-map FILE.json")
@@ -246,10 +248,70 @@ def _load_bvh(path: Path, skeleton: Skeleton, mapping: dict[str, str],
         if name in columns:
             positions[:, j] = clip.positions[:, columns[name]]
         else:
-            place = between[name]
+            place = placed[name]
             start, end = clip.positions[:, index[place.start]], clip.positions[:, index[place.end]]
             positions[:, j] = start + place.at * (end - start)
     return positions, clip.fps
+
+
+def _columns(path: Path, names: tuple[str, ...], skeleton: Skeleton, mapping: dict[str, str],
+             between: dict[str, tuple[Between, ...]]
+             ) -> tuple[dict[str, int], dict[str, Between], list[str]]:
+    """Under one map: skeleton joint -> BVH column, the joints placed between two others, and
+    the skeleton joints neither finds."""
+    columns: dict[str, int] = {}
+    for column, name in enumerate(names):
+        ours = mapping.get(name, name)
+        if ours in skeleton.joint_names:
+            if ours in columns:
+                raise MlctError(f"{path}: joints {names[columns[ours]]} and {name} "
+                                f"both map to {ours}")
+            columns[ours] = column
+    placed: dict[str, Between] = {}
+    for name in skeleton.joint_names:
+        if name not in columns:
+            place = next((p for p in between.get(name, ()) if p.start in names and p.end in names),
+                         None)
+            if place is not None:
+                placed[name] = place
+    missing = [n for n in skeleton.joint_names if n not in columns and n not in placed]
+    return columns, placed, missing
+
+
+REFERENCE_POSE_FRAMES = 3  # leading frames looked at for a conversion's T-pose
+# After a reference pose, a conversion may blend into the capture over a few frames faster than
+# a body moves (arms falling 15 degrees a frame at 120 fps, ~30 m/s at the wrist): those go too,
+# up to BLEND_SECONDS, while a joint moves more than BLEND_LEGS leg lengths a second (~7 m/s).
+BLEND_SECONDS = 0.25
+BLEND_LEGS = 8.0
+
+
+def drop_reference_pose(positions: np.ndarray, skeleton: Skeleton, fps: float) -> np.ndarray:
+    """The clip without its leading T-pose frames and the blend out of them: many BVH
+    conversions start with the rig's reference pose, arms straight out to the sides, which is
+    not part of the motion. A frame is one when both wrists are within 15 degrees of level with
+    their shoulders and each arm is nearly straight."""
+    names = skeleton.joint_names
+    first = 0
+    for frame in positions[:REFERENCE_POSE_FRAMES]:
+        straight = True
+        for side in ("left", "right"):
+            shoulder, elbow, wrist = (frame[names.index(f"{side}_{j}")]
+                                      for j in ("shoulder", "elbow", "wrist"))
+            reach = wrist - shoulder
+            arm = np.linalg.norm(elbow - shoulder) + np.linalg.norm(wrist - elbow)
+            level = abs(reach[1]) < np.sin(np.radians(15)) * np.linalg.norm(reach)
+            straight &= bool(level and np.linalg.norm(reach) > 0.95 * arm)
+        if not straight:
+            break
+        first += 1
+    if first:
+        limit = BLEND_LEGS * _leg_length(positions, skeleton) / fps  # per frame
+        steps = np.linalg.norm(np.diff(positions, axis=0), axis=-1).max(axis=-1)
+        stop = min(len(steps), first + int(BLEND_SECONDS * fps))
+        while first < stop and steps[first] > limit:
+            first += 1
+    return positions[first:] if first < len(positions) - 1 else positions
 
 
 def resample(positions: np.ndarray, source_fps: float, target_fps: float) -> np.ndarray:
@@ -297,6 +359,32 @@ def guess_scale(heights: list[float], skeleton: Skeleton) -> float:
                         f"lowest to the highest joint, no power of ten makes that a "
                         f"{target:.4g} {skeleton.unit} body; pass --scale (to {skeleton.unit})")
     return scale
+
+
+LEGS = "legs"  # scale each clip so that its legs measure the skeleton's (corpora of mixed units)
+
+
+def _leg_length(positions: np.ndarray, skeleton: Skeleton) -> float:
+    """Median over frames of hip-knee-ankle length, both legs averaged (the positions' units)."""
+    total = 0.0
+    for side in ("left", "right"):
+        hip, knee, ankle = (positions[:, skeleton.joint_names.index(f"{side}_{j}")]
+                            for j in ("hip", "knee", "ankle"))
+        total += float(np.median(np.linalg.norm(knee - hip, axis=-1) +
+                                 np.linalg.norm(ankle - knee, axis=-1)))
+    return total / 2
+
+
+def leg_scale(positions: np.ndarray, skeleton: Skeleton) -> float:
+    """The factor that gives the clip's legs the skeleton's rest length: units and body size at
+    once, so that a clip's speeds are those of a body of the skeleton's size."""
+    rest = np.asarray(skeleton.rest_offsets)
+    target = sum(float(np.linalg.norm(rest[skeleton.joint_names.index(f"left_{j}")]))
+                 for j in ("knee", "ankle"))
+    length = _leg_length(positions, skeleton)
+    if not length > 0:
+        raise MlctError("the clip's legs have no length: cannot scale it")
+    return target / length
 
 
 def _height(positions: np.ndarray) -> float:
@@ -357,10 +445,11 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
                    joints_dir: str | os.PathLike | None = None,
                    bvh_dir: str | os.PathLike | dict[str, Path] | None = None,
                    skeleton: str | Skeleton = "humanml3d",
-                   joint_map: str | os.PathLike | dict[str, str] | None = None,
-                   between: dict[str, Between] | None = None,
+                   joint_map: str | os.PathLike | dict[str, str] | tuple[dict[str, str], ...]
+                   | None = None,
+                   between: dict[str, tuple[Between, ...]] | None = None,
                    provenance: dict[str, dict[str, Any]] | None = None,
-                   scale: float | None = None,
+                   scale: float | str | None = None,
                    fps: float | None = None, split: tuple[float, float, float] = DEFAULT_SPLIT,
                    seed: int = 0, skip_uncaptioned: bool = False, overwrite: bool = False,
                    progress: bool = False) -> ImportSummary:
@@ -368,7 +457,8 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
 
     `scale` multiplies the input positions into the skeleton's units (m for humanml3d, mm for
     kit); None guesses a power of ten from the body height. `fps` is the input's frame rate;
-    None takes the BVH Frame Time, or the skeleton's fps for .npy.
+    None takes the BVH Frame Time, or the skeleton's fps for .npy. `scale="legs"` scales each
+    clip by its leg length instead (`leg_scale`).
     A corpus importer (mlct.data.corpora) passes its files, captions and joint map as
     mappings, the joints its rig lacks as `between`, and each clip's `provenance` (source,
     license, labels), written per motion to provenance.jsonl.
@@ -383,6 +473,10 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
     else:
         files = _motion_files(Path(joints_dir if joints_dir is not None else bvh_dir),
                               SUFFIXES[kind])
+    if scale == LEGS:
+        per_clip, scale = True, None
+    else:
+        per_clip = False
     for name, value, (low, high) in (("--scale", scale, SCALE_RANGE), ("--fps", fps, FPS_RANGE)):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise MlctError(f"{name} must be a positive number, got {value}")
@@ -398,7 +492,7 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
     if joint_map is not None and kind != "bvh":
         raise MlctError("--joint-map is for --bvh input (.npy joints are in the skeleton's order)")
     texts = captions if isinstance(captions, dict) else read_captions(captions)
-    mapping = joint_map if isinstance(joint_map, dict) else _joint_map(joint_map, skel)
+    mapping = joint_map if isinstance(joint_map, (dict, tuple)) else _joint_map(joint_map, skel)
 
     summary = ImportSummary(path=str(out), skeleton=skel.name, fps=skel.fps, clips=0,
                             motions=0, frames=0, hours=0.0, scale=1.0, splits={})
@@ -420,19 +514,22 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
             return loaded.pop(path)
         if kind == "bvh":
             positions, file_fps = _load_bvh(path, skel, mapping, between)
+            positions = drop_reference_pose(positions, skel, fps or file_fps)
             if fps is None and not FPS_RANGE[0] <= file_fps <= FPS_RANGE[1]:
                 raise MlctError(f"{path}: its Frame Time makes {file_fps:g} fps, outside "
                                 f"{FPS_RANGE[0]:g}..{FPS_RANGE[1]:g} (--fps overrides it)")
             return positions, fps or file_fps
         return _load_joints(path, skel), fps or skel.fps
 
-    if scale is None:
+    if per_clip:
+        summary.notes.append("each clip scaled so that its legs measure the skeleton's")
+    elif scale is None:
         sample = list(files.values())[:SCALE_GUESS_FILES]
         loaded.update((path, load(path)) for path in sample)
         scale = guess_scale([_height(positions) for positions, _ in loaded.values()], skel)
         summary.notes.append(f"--scale not given: positions x {scale:g} to {skel.unit}, guessed "
                              f"from the body height of {len(sample)} file(s)")
-    summary.scale = scale
+    summary.scale = scale if scale is not None else float("nan")
 
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # tiny per-clip tensors: threads cost more than they give
@@ -443,7 +540,7 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
             members = _write_motions(work, files, texts, load, skel, scale, summary, progress)
             _write_splits(work, members, split, seed, summary)
             if provenance is not None:
-                _write_provenance(work, members, provenance, summary.windows)
+                _write_provenance(work, members, provenance, summary)
             mean, std, constant = standard_mean_std(_features(work, members), skel)
             save_npy(work / "Mean.npy", mean)
             save_npy(work / "Std.npy", std)
@@ -456,7 +553,7 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
                     "kind": kind, "skeleton": skel.name,
                     "captions": "made by the corpus importer" if isinstance(captions, dict)
                     else str(captions),
-                    "fps": skel.fps, "scale": scale, "split": list(split), "seed": seed,
+                    "fps": skel.fps, "scale": LEGS if per_clip else scale, "split": list(split), "seed": seed,
                     "clips": {clip: names for clip, names in members.items()},
                     "skipped_short": summary.skipped_short,
                     "skipped_uncaptioned": summary.skipped_uncaptioned}
@@ -468,14 +565,17 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
 
 
 def _write_motions(work: Path, files: dict[str, Path], texts: dict[str, list[str]], load: Any,
-                   skel: Skeleton, scale: float, summary: ImportSummary,
+                   skel: Skeleton, scale: float | None, summary: ImportSummary,
                    progress: bool) -> dict[str, list[str]]:
-    """Process and write every clip; returns clip -> names of its motions."""
+    """Process and write every clip; returns clip -> names of its motions. A `scale` of None
+    scales each clip by its legs (`leg_scale`)."""
     members: dict[str, list[str]] = {}
     taken: dict[str, str] = {}  # motion name -> clip it came from
     for clip, path in tqdm(files.items(), disable=not progress, desc="import", unit="clip"):
         positions, file_fps = load(path)
-        positions = resample(positions * scale, file_fps, skel.fps)
+        factor = leg_scale(positions, skel) if scale is None else scale
+        summary.clip_scales[clip] = factor
+        positions = resample(positions * factor, file_fps, skel.fps)
         spans = windows(len(positions), skel)
         if not spans:
             summary.skipped_short.append(clip)
@@ -524,14 +624,14 @@ PROVENANCE_FILE = "provenance.jsonl"
 
 
 def _write_provenance(work: Path, members: dict[str, list[str]],
-                      provenance: dict[str, dict[str, Any]],
-                      spans: dict[str, tuple[int, int]]) -> None:
+                      provenance: dict[str, dict[str, Any]], summary: ImportSummary) -> None:
     """One JSON line per motion: its clip, its window of the clip ([start, stop) joint frames at
     the skeleton's fps) and the clip's provenance record."""
     lines = []
     for clip, names in members.items():
         for name in names:
-            record = {"name": name, "clip": clip, "window": list(spans[name]),
+            record = {"name": name, "clip": clip, "window": list(summary.windows[name]),
+                      "scale": round(summary.clip_scales[clip], 6),
                       **provenance.get(clip, {})}
             lines.append(json.dumps(record, sort_keys=True) + "\n")
     write_text(work / PROVENANCE_FILE, "".join(lines))

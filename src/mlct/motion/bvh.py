@@ -200,8 +200,10 @@ def _check_bvh_shape(path: Path) -> str:
     return text
 
 
-def read_bvh(path: str | os.PathLike) -> BvhClip:
-    """Parse a BVH file (bvhio) and compute every joint's world position per frame.
+def read_bvh(path: str | os.PathLike, end_sites: bool = False) -> BvhClip:
+    """Parse a BVH file (bvhio) and compute every joint's world position per frame; with
+    `end_sites`, each End Site too, as a joint named after its parent plus ".end" (a rig
+    whose feet end in one has no toe joint, but its End Site is where the toes are).
 
     Forward kinematics as the format defines it: a joint's channels give its local translation
     (the OFFSET unless position channels override it) and its rotation (Euler angles in the
@@ -252,7 +254,16 @@ def read_bvh(path: str | os.PathLike) -> BvhClip:
             positions[:, i] = positions[:, parent] + np.einsum("tij,tj->ti", world[:, parent],
                                                                local_pos)
             world[:, i] = world[:, parent] @ local_rot
+    names = [j.Name for j in layout]
+    if end_sites:
+        tips = [(i, np.array(tuple(j.EndSite))) for i, j in enumerate(layout)
+                if not j.Children and j.EndSite is not None]
+        extra = np.stack([positions[:, i] + world[:, i] @ offset for i, offset in tips], axis=1) \
+            if tips else np.empty((n_frames, 0, 3))
+        positions = np.concatenate([positions, extra], axis=1)
+        names += [f"{layout[i].Name}.end" for i, _ in tips]
+        parents += [i for i, _ in tips]
     if not np.isfinite(positions).all():
         raise MlctError(f"{path}: the motion contains NaN or inf values")
-    return BvhClip(joint_names=tuple(j.Name for j in layout), parents=tuple(parents),
+    return BvhClip(joint_names=tuple(names), parents=tuple(parents),
                    positions=positions, frame_time=float(container.FrameTime))

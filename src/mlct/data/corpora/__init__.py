@@ -15,11 +15,12 @@ from pathlib import Path
 import numpy as np
 
 from mlct.data.corpora.bandai_namco import BANDAI_NAMCO
+from mlct.data.corpora.cmu import CMU
 from mlct.data.corpora.base import Corpus, RealClip
 from mlct.data.importer import DEFAULT_SPLIT, ImportSummary, import_dataset
 from mlct.errors import MlctError
 
-CORPORA: dict[str, Corpus] = {c.name: c for c in (BANDAI_NAMCO,)}
+CORPORA: dict[str, Corpus] = {c.name: c for c in (BANDAI_NAMCO, CMU)}
 
 
 def corpus(name: str) -> Corpus:

@@ -29,7 +29,7 @@ JOINT_MAP = {"Hips": "pelvis", "Spine": "spine1", "Chest": "spine2", "Neck": "ne
                  ("Shoulder", "collar"), ("UpperArm", "shoulder"), ("LowerArm", "elbow"),
                  ("Hand", "wrist"), ("UpperLeg", "hip"), ("LowerLeg", "knee"),
                  ("Foot", "ankle"), ("Toes", "foot"))}}
-BETWEEN = {"spine3": Between("Chest", "Neck", 0.5)}
+BETWEEN = {"spine3": (Between("Chest", "Neck", 0.5),)}
 
 # What each content is, in a few wordings (<verb> marks, HIS: wording.py). The dataset's own
 # videos and a filmstrip of every content were looked at to say it right (docs/data.md).

@@ -35,11 +35,12 @@ class Corpus:
     commercial: bool  # whether the license allows commercial use
     citation: str
     url: str
-    joint_map: dict[str, str]  # BVH joint -> skeleton joint
+    # BVH joint -> skeleton joint; several maps where the corpus's files use several namings
+    joint_map: dict[str, str] | tuple[dict[str, str], ...]
     scale: float  # file units -> metres
     find: Callable[[Path], list[RealClip]]
     caption: Callable[[dict[str, Any], Any, int], list[str]]  # labels, rng, count -> captions
-    between: dict[str, Between] = field(default_factory=dict)
+    between: dict[str, tuple[Between, ...]] = field(default_factory=dict)
 
     def provenance(self, clip: RealClip, root: Path) -> dict[str, Any]:
         """The record every motion of `clip` carries in provenance.jsonl."""

@@ -32,7 +32,9 @@ _NEW_VERBS = {
     "carry": ("carries", "carrying"), "push": ("pushes", "pushing"), "pull": ("pulls", "pulling"),
     "dribble": ("dribbles", "dribbling"), "shoot": ("shoots", "shooting"),
     "direct": ("directs", "directing"), "sway": ("sways", "swaying"),
-    "shout": ("shouts", "shouting"),
+    "shout": ("shouts", "shouting"), "stop": ("stops", "stopping"),
+    "start": ("starts", "starting"), "fence": ("fences", "fencing"),
+    "laugh": ("laughs", "laughing"), "fight": ("fights", "fighting"),
 }
 FORMS = {**_BENCHMARK_FORMS, **_NEW_VERBS}
 
