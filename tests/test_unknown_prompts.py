@@ -49,9 +49,9 @@ def test_the_rule_is_the_nearest_caption_cosine_under_the_threshold():
 
 
 def test_the_notice_names_the_unknown_part():
-    assert unknown_notice(GUITAR, (GUITAR,)).startswith(f"{GUITAR!r} is unlike every caption")
+    assert unknown_notice(GUITAR, (GUITAR,)).startswith(f"{GUITAR!r} is far from every caption")
     line = unknown_notice("a person walks, then plays the guitar", (GUITAR,))
-    assert line.startswith(f"{GUITAR!r} (in 'a person walks, then plays the guitar') is unlike")
+    assert line.startswith(f"{GUITAR!r} (in 'a person walks, then plays the guitar') is far from")
     assert "\n" not in line
 
 
@@ -112,7 +112,7 @@ def test_the_cli_says_so_in_one_line_without_verbose(tmp_path, capsys):
     # the pull turned off, the judgement stays
     assert main(["generate", GUITAR, "--seconds", "1", "--candidates", "1",
                  "--no-text-anchors", "--out", str(out)]) == 0
-    assert "unlike every caption" in capsys.readouterr().err
+    assert "far from every caption" in capsys.readouterr().err
     assert main(["generate", KNOWN, "--seconds", "1", "--candidates", "1", "--out",
                  str(out)]) == 0
     assert capsys.readouterr().err == ""

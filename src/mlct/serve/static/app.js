@@ -199,8 +199,8 @@ function showStatus(html, error = false) {
 function showUnknown(parts) {
   const note = $("unknown-note");
   note.hidden = !parts || parts.length === 0;
-  note.textContent = note.hidden ? "" : `The model does not know ${parts.map((p) => `“${p}”`)
-    .join(" or ")}: it was trained on a few kinds of action only, so this motion is likely not what was asked.`;
+  note.textContent = note.hidden ? "" : `${parts.map((p) => `“${p}”`).join(" and ")} is far from` +
+    " every caption the model was trained on (a few kinds of action): this motion may not be what was asked.";
 }
 
 function escapeHtml(text) {
