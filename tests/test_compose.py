@@ -276,14 +276,15 @@ def test_verbose_says_how_each_prompt_is_read(tmp_path, capsys):
 
 def test_reading_says_how_generate_reads_a_prompt(pipe) -> None:
     """pipe.reading: one entry per sample generate() makes of the prompt, each as the text
-    encoder gets it, with the text anchors' pull."""
+    encoder gets it, with the text anchors' pull and whether the model knows it."""
     got = pipe.reading("the robot walks forward while clapping, then sits down")
     assert got == [
         {"part": "the robot walks forward", "read_as": "a person walks forward", "pull": 0.0,
-         "arms": False},
+         "arms": False, "known": True},
         {"part": "the robot sits down", "read_as": "a person sits down", "pull": 0.0,
-         "arms": False},
-        {"part": "the robot claps", "read_as": "a person claps", "pull": 0.0, "arms": True}]
+         "arms": False, "known": True},
+        {"part": "the robot claps", "read_as": "a person claps", "pull": 0.0, "arms": True,
+         "known": True}]
     far = pipe.reading("a little girl in a party dress twirls all the way round on the spot")
     assert [p["read_as"] for p in far] == ["a person twirls all the way round on the spot"]
     assert 0.0 < far[0]["pull"] <= 1.0
