@@ -384,8 +384,8 @@ class MotionGenerator:
         split from the prompt), "read_as" (as the text encoder gets them: compose.plain_subject),
         "pull" (how far the text anchors move its vector, 0 to 1), "arms" (True for an arm
         action done during the rest) and "known" (False: too far from every training caption
-        for the model to know it, generate/unknown_prompts.py). A misreading shows here first ("a little girl in a party
-        dress twirls" was once read as "a person dress twirls")."""
+        for the model to know it, generate/unknown_prompts.py). A misreading shows here first
+        ("a little girl in a party dress twirls" was once read as "a person dress twirls")."""
         body, arms = parts_as_made(clean_prompt(text), split_actions)
         parts = body + ([arms] if arms else [])
         vectors = self.encode_text(parts)
