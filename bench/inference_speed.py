@@ -1,4 +1,4 @@
-"""Inference speed: AITS split, throughput, peak memory, and the machine's limit (issues 6, 17).
+"""Inference speed: AITS split, throughput, peak memory, and the machine's limit.
 
     python bench/inference_speed.py [--quick] [--device cpu|cuda] [--dtypes float32,bfloat16]
                                     [--backends torch,onnx,onnx-spinning,onnx-int8,...]
@@ -64,6 +64,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from mlct.eval.speed import (DEFAULT_FRAMES, FRAMES, SMALL_MODEL_ENV, TEXT_DIM, TEXTS,
+                              bundle_in_memory, onnx_generator, small_model_dir)
+
 MODELS = {  # label: (preset, sampler, NFEs; for DDIM the step count)
     "small CM": ("small", "consistency", (1, 3, 5, 10)),
     "paper CM": ("humanml3d", "consistency", (1, 3, 5, 10)),
@@ -72,18 +75,6 @@ MODELS = {  # label: (preset, sampler, NFEs; for DDIM the step count)
 }
 BATCHES = (1, 8, 64, 512, 4096)
 GPU_BATCHES = (*BATCHES, 16384)  # a GPU's throughput keeps growing past 4096
-FRAMES, FEATURE_DIM, TEXT_DIM = 196, 263, 384
-DEFAULT_FRAMES = 100  # generate()'s default 5 s at 20 fps
-TEXTS = ["a person walks forward", "someone jumps up and down twice", "a man waves his right hand",
-         "the person turns around and sits down", "a person kicks with the left leg",
-         "someone runs in a circle", "a person bends down to pick something up",
-         "a figure raises both arms above the head", "the person walks backwards slowly",
-         "a person does a cartwheel", "someone stretches the arms to the sides",
-         "a man walks forward then stops and waves", "a person crouches and stands up",
-         "the person steps to the left", "a person claps the hands three times",
-         "someone spins on the spot"]
-
-
 def _best_time(fn: Callable[[], Any], reps: int, sync: Callable[[], None]) -> float:
     """Shortest seconds of fn over reps runs, after one untimed run: a roof of the machine is
     the best it does (other processes only slow it down)."""
@@ -126,38 +117,6 @@ def read_bandwidth(nbytes: int, device: Any) -> float:
     return 4 * n / _best_time(lambda: buf.sum(), reps, _syncer(device))
 
 
-SMALL_MODEL_ENV = "MLCT_BENCH_SMALL_MODEL"  # --small-model, for the child processes
-
-
-def small_model_dir() -> Path:
-    """The bundle timed as the small CM: --small-model's, else the bundled model."""
-    from mlct.generate.pipeline import bundled_model_dir
-
-    return Path(os.environ.get(SMALL_MODEL_ENV) or bundled_model_dir())
-
-
-def bundle_in_memory(preset: str, sampler: str) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The bundled model for the small CM; otherwise a preset's networks with seeded random
-    weights, as mlct.generate.bundle.read_bundle returns a bundle: (meta, tensors)."""
-    import torch
-
-    from mlct.generate.bundle import ENCODER_PREFIXES, read_bundle
-    from mlct.config import load_config
-    from mlct.nn.build import build_autoencoder, build_denoiser
-    if (preset, sampler) == ("small", "consistency"):
-        return read_bundle(small_model_dir())
-    config = load_config(preset)
-    torch.manual_seed(0)
-    ae, den = build_autoencoder(config, FEATURE_DIM), build_denoiser(config, TEXT_DIM)
-    tensors = {f"decoder.{k}": v for k, v in ae.state_dict().items()
-               if not k.startswith(ENCODER_PREFIXES)}
-    tensors.update({f"denoiser.{k}": v for k, v in den.state_dict().items()})
-    tensors.update({"norm.mean": torch.zeros(FEATURE_DIM), "norm.std": torch.ones(FEATURE_DIM)})
-    meta = {"config": config.to_dict(), "sampler": sampler, "feature_dim": FEATURE_DIM,
-            "skeleton": "humanml3d", "text_encoder": "minilm", "text_dim": TEXT_DIM}
-    return meta, tensors
-
-
 def variant(meta: dict[str, Any], tensors: dict[str, Any], layers: str, text_once: bool,
             inference_mode: bool = True, dtype: str = "float32") -> Any:
     """A generator whose networks run as `layers` says: "torch" (the modules as trained:
@@ -188,27 +147,6 @@ def variant(meta: dict[str, Any], tensors: dict[str, Any], layers: str, text_onc
             plain = getattr(MotionGenerator, name).__wrapped__  # under the decorator
             setattr(gen, name, torch.no_grad()(plain.__get__(gen)))
     return gen
-
-
-def onnx_generator(preset: str, sampler: str, folder: str, threads: int | None = None,
-                   int8: bool = False) -> Any:
-    """The model of bundle_in_memory written to folder as a bundle, converted (mlct convert
-    --onnx, and --int8 when int8: the denoiser's products in int8) and loaded with the onnx
-    backend; threads: ONNX Runtime's (None: torch's)."""
-    from pathlib import Path
-
-    from safetensors.torch import save_file
-
-    from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION
-    from mlct.generate.onnx_backend import OnnxMotionGenerator
-    from mlct.generate.onnx_bundle import convert_to_onnx
-
-    meta, tensors = bundle_in_memory(preset, sampler)
-    save_file({k: v.contiguous() for k, v in tensors.items()},
-              str(Path(folder) / "model.safetensors"))
-    (Path(folder) / "config.json").write_text(json.dumps(
-        {**meta, "format": BUNDLE_FORMAT, "version": BUNDLE_VERSION}), encoding="utf-8")
-    return OnnxMotionGenerator.load(convert_to_onnx(folder, int8=int8), threads=threads)
 
 
 def _compile_for_cuda(gen: Any) -> None:
@@ -596,7 +534,7 @@ def quality_bf16() -> dict[str, float]:
 
 
 def targets(results: list[dict[str, Any]], device: str) -> list[tuple[str, str, bool]]:
-    """(target, measured, met) for each of issue 17's targets that this run measured."""
+    """(target, measured, met) for each of the speed targets (docs/performance.md) this run measured."""
     def row(model: str, kind: tuple[str, str], nfe: int) -> dict[str, Any] | None:
         for r in results:
             if r["model"] == model and (r["backend"], r["dtype"]) == kind:
@@ -722,7 +660,7 @@ def report(results: list[dict[str, Any]], info: dict[str, Any], device: str) -> 
         print(f"\nbfloat16 vs float32 joints (bundled model): mean {q['mean_mm']:.1f} mm, max "
               f"{q['max_mm']:.1f} mm; relative to the root: mean {q['pose_mean_mm']:.2f} mm, "
               f"max {q['pose_max_mm']:.1f} mm")
-    print("\ntargets (issue 17)")
+    print("\ntargets")
     for name, measured, met in targets(results, device):
         print(f"  {'met    ' if met else 'NOT met'}  {name}: {measured}")
 

@@ -36,7 +36,7 @@ see: `--busy 1` on 2 cores is a machine with one core taken.
 --frames sets the clip's length (196: 9.8 s, the bench's; 100: 5 s, generate()'s default).
 Per call, as bench/inference_speed.py times them: warm = one sample of a caption already
 encoded (text memo, anchors' pull, sample_features: 5 steps and the decoder, 196 frames; the
-paper's AITS, what the issue's targets count); text = the text encoder on a new sentence; cold =
+paper's AITS, the figure the targets count); text = the text encoder on a new sentence; cold =
 warm + text. The onnx backend, float32.
 """
 
@@ -51,9 +51,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-# the same prompts, length and paper-size networks
-from inference_speed import FRAMES, TEXTS, onnx_generator  # noqa: E402
+# the same prompts, length and paper-size networks as bench/inference_speed.py
+from mlct.eval.speed import FRAMES, TEXTS, onnx_generator
 
 
 VARIANTS = ("unfused-text", "whole-grid", "one-graph", "matmul-add-fusion", "one-decoder",

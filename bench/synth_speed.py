@@ -4,7 +4,7 @@
 
 Prints the rate of the whole `mlct data synth` path (script, poses, ground contact, standard
 feature processing, recovery of new_joints, captions, file writes, Mean/Std) on one process with
-one torch thread, and of its parts. The goal of the issue: >= 50 motions/s on one core.
+one torch thread, and of its parts. The goal: >= 50 motions/s on one core.
 """
 
 from __future__ import annotations

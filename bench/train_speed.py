@@ -33,7 +33,7 @@ def build_step(preset: str, stage: str, device: str, precision: str,
     """(one training step, the trained module, batch size, bf16 autocast?) of a stage at a
     preset's sizes, on synthetic batches of the real shapes. The optimizer and CPU kernels are
     the trainer's (train/loop.py prepare_training) unless cheap_dropout / fused_adamw name a
-    variant to compare (bench/train_cpu_kernels.py)."""
+    variant to compare."""
     import torch
 
     from mlct.config import load_config

@@ -9,7 +9,7 @@ page) on the benchmark's hand-written paraphrases, per text-encoder / denoiser c
     python bench/web_readouts.py --hand-written --seeds 3   # the three paraphrase sets (~10 min)
 
 Each variant makes every paraphrase of bench/data/quality_prompts.json (4 s, 5 NFE) with
---seeds seeds, and scores it as bench/motion_quality.py does (mlct.eval.readouts.evaluate_label
+--seeds seeds, and scores it as bench/quality.py motion does (mlct.eval.readouts.evaluate_label
 on the label the prompt implies); "named side" is the pass rate of the prompts that name a side,
 the ones the side contrast (text/sides.py) serves and text-encoder error hurts most. The torch
 row is mlct.load()'s pipeline with its own (torch) noise: the same seeds are other motions
@@ -17,14 +17,14 @@ there, so its row differs by sampling noise too. The site's graphs store the sam
 gzipped or not (serve/site/pack.py), so --no-gzip needs no row.
 
 --two-actions scores the benchmark's two-action prompts (7 s) and --captions DATA a procedural
-benchmark's test captions (their own lengths, judged by their labels as bench/motion_quality.py's
+benchmark's test captions (their own lengths, judged by their labels as bench/quality.py motion's
 (c), per kind: one action, a sequence, and locomotion with an arm action at the same time,
 "+ concurrent"), each made five ways in one run (`makers`): the page before it followed
 generate() (the int8 text encoder, the whole prompt given to the model at once, one sample);
 the page now (the int8-weights text encoder; a sequence one part per action, chained; an arm
 action during another made apart and re-attached; static/compose.js, chain.js) at one sample
 and at the model's best of 8 by its critic; and the torch pipeline at both. Two-action prompts
-are judged as bench/motion_quality.py judges them: in order at the motion's own cut, and in
+are judged as bench/quality.py motion judges them: in order at the motion's own cut, and in
 halves. --hand-written does the same for the three sets of hand-written one-action prompts
 (seen paraphrases, held-out, held-out 2) at the length each way gives a prompt asked for none.
 """
@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import tempfile
 from pathlib import Path
 from typing import Callable
@@ -41,14 +40,16 @@ from typing import Callable
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from motion_quality import (HELDOUT, HELDOUT2, MAX_FRAMES, PROMPTS, Tally,  # noqa: E402
-                            judge_prompt, print_table, prompt_label)
+import mlct
+from mlct.eval.readouts import evaluate_label
+from mlct.eval.suites.common import (MAX_FRAMES, PROMPT_FILES, Tally, judge_prompt, print_table,
+                                     prompt_label)
+from mlct.serve.site import export_site, load_site_reference
+from mlct.serve.site.reference import generate_with_portable_noise
 
-import mlct  # noqa: E402
-from mlct.eval.readouts import evaluate_label  # noqa: E402
-from mlct.serve.site.reference import generate_with_portable_noise  # noqa: E402
-from mlct.serve.site import export_site, load_site_reference  # noqa: E402
+DATA = Path(__file__).resolve().parent / "data"  # the hand-written prompt sets
+PROMPTS, HELDOUT, HELDOUT2 = (DATA / PROMPT_FILES[k] for k in ("seen", "held-out 1",
+                                                                "held-out 2"))
 
 VARIANTS = {"site: --text-encoder float32": {"text_encoder": "float32"},
             "site: default (int8 text encoder, float16 denoiser)": {},

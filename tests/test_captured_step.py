@@ -1,6 +1,6 @@
 """train.<stage>.cuda_graph (train/captured_step.py): the fixed-shape step with the motions on the
 device. On the CPU it runs without a graph and must train exactly as the eager loop does; on a
-GPU (bench/gpu_train_check.sh runs this file there) the replayed graph must train as the eager
+GPU (bench/gpu/train_check.sh runs this file there) the replayed graph must train as the eager
 GPU step does."""
 
 from __future__ import annotations
@@ -155,7 +155,7 @@ def test_what_it_cannot_hold_is_refused_up_front(data: Path, cache: str, tmp_pat
     assert not (tmp_path / "a" / "cm" / "checkpoints").exists()
 
 
-@pytest.mark.skipif(not GPU, reason="needs a CUDA GPU (bench/gpu_train_check.sh runs it there)")
+@pytest.mark.skipif(not GPU, reason="needs a CUDA GPU (bench/gpu/train_check.sh runs it there)")
 def test_on_a_gpu_the_replayed_graph_trains_as_the_eager_step(data: Path, cache: str,
                                                                tmp_path: Path) -> None:
     """The autoencoder (no noise: deterministic) step for step within bf16 rounding; stage 2

@@ -120,7 +120,7 @@ def test_path_is_met_and_guidance_brings_the_motion_near_it(pipe) -> None:
     # bundled model (decoder noise 0.2) 0.93 at 1 + 2 gradient steps, 0.46 at the 2 + 4 now
     # the default (the model before: 0.43). One seed's ratio ranges over 0.2-1.6, so the 6-seed
     # mean moves by ~0.15 between models that 30 seeds cannot tell apart
-    # (bench/guidance_strength.py): the soup of three colloquial seeds at 0.7 (2026-11-27,
+    # (bench/control.py --guidance): the soup of three colloquial seeds at 0.7 (2026-11-27,
     # evening) 0.69 here, 0.56 over 30; the same soup at 1, not shipped, 0.95 here, 0.68 over 30.
     # The one-pass recipe's model (2026-11-28, seed 0): 0.91 here (seeds: 0.45-1.58), so guidance
     # alone helps it less; guidance with projection, the default, still meets the path (below).

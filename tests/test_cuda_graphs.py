@@ -3,7 +3,7 @@
 On the CPU the backend's own code runs without graphs (the noise handed to the graph as an
 input, the padded batch and length buckets, the de-normalisation on the device): it must give
 the torch backend's motions for the same seeds. On a GPU, when there is one, the same checks
-run through captured graphs (CI has none; bench/gpu_check.sh runs them on a lent one).
+run through captured graphs (CI has none; bench/gpu/check.sh runs them on a lent one).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The hand-written prompt sets of bench/motion_quality.py: labels the read-outs can judge."""
+"""The hand-written prompt sets of bench/quality.py (bench/data): labels the read-outs can judge."""
 
 from __future__ import annotations
 

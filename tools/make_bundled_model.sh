@@ -1,21 +1,14 @@
 #!/usr/bin/env bash
 # Remake the bundled model (docs/model_card.md) from scratch, on a CPU:
 #   bash tools/make_bundled_model.sh [WORK_DIR] [CM_SEED]
-# The bundle is what the one-pass recipe makes (tools/make_bundled_model_3h.sh, version 6: the
-# data, the autoencoder and its arm pair, stage 2 (3 x 192) on 3 then 6 tokens, the durations,
-# the critic and the text anchors), with stage 2 seeded CM_SEED (default 0); 1 h 53 min from an
-# empty folder on this repository's 2-vCPU host, timed with seed 1 of version 4, whose stage 2
-# was the larger 5 x 256 (docs/training.md, "Version 4"). The bundle shipped is seed 0, chosen by
-# the rule in docs/training.md ("Version 6"); its stage 2 ran on version 5's stage 1, written
-# back from that bundle (tools/make_bundled_model_3h_stage2.sh), which this script remakes.
-# Resumable: run it again with the same WORK_DIR after an interruption and each stage
-# continues from its last checkpoint. The result replaces
-# src/mlct/assets/model. The bundle before this one (~13.5 h of stages):
-# tools/make_bundled_model_staged.sh.
-# Version 7 (since 2026-11-29, later) is version 6 with the body's decoder narrowed to 96
-# channels and retrained on the frozen encoder, the arm pair's decoder kept
-# (tools/make_bundled_model_narrow_decoder.sh, 96 frozen: 18 min more; 0.90x the warm time;
-# docs/training.md, "Version 7"); the script ends with that step.
+# The one-pass recipe (tools/make_bundled_model_3h.sh: the data and its caption sets, the
+# autoencoder and its arm pair, stage 2 (3 x 192) on 3 then 6 tokens, the durations, the critic
+# and the text anchors), stage 2 seeded CM_SEED (default 0, the shipped seed); then the body's
+# decoder narrowed to 96 channels on the frozen encoder, the arm pair's decoder kept
+# (tools/make_bundled_model_narrow_decoder.sh ... 96 frozen). About 2 h 10 min from an empty
+# folder on 2 CPU cores (docs/training.md, "The bundled model's recipe"). Resumable: run it
+# again with the same WORK_DIR and each stage continues from its last checkpoint. The result
+# replaces src/mlct/assets/model.
 set -euo pipefail
 work="${1:-mlct-bundled}"
 seed="${2:-0}"

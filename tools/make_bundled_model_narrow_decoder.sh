@@ -9,13 +9,9 @@
 # ARM: the arm pair's decoder width (default CHANNELS), or "frozen": kept as MODEL_DIR's and not
 # trained (ae.freeze_arm_decoder), only the body's decoder narrowed.
 # DATA=DIR trains on that benchmark instead of making one in WORK_DIR.
-# Why: at batch 1 the decoder's time is its channels (docs/performance.md, "Narrower decoders,
-# pruned from the bundle's"). The 96 / 96 candidate ("version 7", not shipped: its walks stop
-# where version 6's go on, so 2 of 48 gaits asked for 12 s were refused; docs/training.md,
-# "Version 7, a 96 / 96 decoder") was made so, on version 6's bundle (25 min on 2 cores):
-#   bash tools/make_bundled_model_narrow_decoder.sh src/mlct/assets/model WORK 96
-# and the 96-channel body beside version 6's arm decoder (AE read-outs 0.953 against 0.955;
-# 18 min on 2 cores): ... WORK 96 frozen
+# Why: at batch 1 the decoder's time is its channels (docs/performance.md). The bundle's last
+# step (18 min on 2 cores): DATA=SYNTH bash tools/make_bundled_model_narrow_decoder.sh \
+#   src/mlct/assets/model WORK 96 frozen
 set -euo pipefail
 bundle="$1"
 work="$2"

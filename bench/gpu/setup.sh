@@ -1,5 +1,5 @@
-# Sourced by the GPU scripts (bench/gpu_check.sh, bench/gpu_train_check.sh) on a lent machine
-# with no package registry: installs what CARRY_DIR ($1) holds (see gpu_check.sh) into
+# Sourced by the GPU scripts (bench/gpu/check.sh, bench/gpu/train_check.sh) on a lent machine
+# with no package registry: installs what CARRY_DIR ($1) holds (see check.sh) into
 # /tmp/mlct_site and puts it and this checkout's src/ and tests/ on PYTHONPATH.
 carry=${1:-.devcarry}
 site=/tmp/mlct_site

@@ -1,7 +1,7 @@
-"""Where a big batch's time goes on the cuda-graphs backend (issue 17): the noise, the graph's
+"""Where a big batch's time goes on the cuda-graphs backend: the noise, the graph's
 replay (sampling, decoding, de-normalisation), the copy to the host and the per-item arrays.
 
-    python bench/gpu_throughput_parts.py [--batches 4096,16384] [--dtype bfloat16]
+    python bench/gpu/throughput_parts.py [--batches 4096,16384] [--dtype bfloat16]
 
 Medians of 5 runs after 2 warm-ups, ms and motions/s; noise drawn on the GPU (random seeds)
 and on the host (one seed for the batch: what reproducing a batch costs).

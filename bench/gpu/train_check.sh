@@ -1,20 +1,20 @@
 #!/usr/bin/env bash
-# Issue 14 (item 5) on a lent GPU: the real trainer (`mlct train ae|cm`) at the paper's sizes
+# On a lent GPU: the real trainer (`mlct train ae|cm`) at the paper's sizes
 # (config humanml3d: the skip-transformer autoencoder 7 x 256, the denoiser 11 x 512), bfloat16
-# autocast (named: since 2026-11-27 train.cm.precision=auto is fp32 on CUDA, as bf16 stage 2
+# autocast (named: train.cm.precision=auto is fp32 on CUDA, as bf16 stage 2
 # diverged over thousands of steps; these runs are hundreds, for speed), and how busy it keeps the GPU: nvidia-smi's
 # utilization sampled every 100 ms while each run trains, counted between its first and last
 # log lines (the training itself, not the start-up). The eager step (batches from DataLoader
 # workers) and the step replayed from a CUDA graph (train.*.cuda_graph=true: the motions on the
 # GPU, train/captured_step.py) side by side in one run, then the CUDA-graph tests.
 #
-#   bash bench/gpu_train_check.sh [CARRY_DIR] [WORKERS]   (defaults .devcarry 8; logs to $OUT)
+#   bash bench/gpu/train_check.sh [CARRY_DIR] [WORKERS]   (defaults .devcarry 8; logs to $OUT)
 #
 # A dry run of the script itself on a machine without a GPU: a stand-in nvidia-smi on PATH and
 # DEVICE=cpu CONFIG=tiny STEPS_SCALE=0.01.
 set -u
-cd "$(dirname "$0")/.."
-source bench/gpu_setup.sh "${1:-.devcarry}"
+cd "$(dirname "$0")/../.."
+source bench/gpu/setup.sh "${1:-.devcarry}"
 workers=${2:-8}
 device=${DEVICE:-cuda}
 config=${CONFIG:-humanml3d}
