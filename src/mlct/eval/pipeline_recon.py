@@ -1,7 +1,8 @@
 """Stage 1 as the pipeline uses it: a test motion reconstructed the way generate() composes one.
 
-bench/motion_quality.py's (b) is there to say where quality is lost, stage 1 or stage 2: the
-best any stage 2 could reach is what the autoencoder can give back. The bundled pipeline does
+The motion suite's reconstructions (bench/quality.py motion --ae) are there to say where
+quality is lost, stage 1 or stage 2: the best any stage 2 could reach is what the autoencoder
+can give back. The bundled pipeline does
 not ask the autoencoder for every motion whole (generate/pipeline.py):
 
 - a prompt that names actions in turn is made one action at a time, each part its own latent,

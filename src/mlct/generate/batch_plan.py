@@ -5,7 +5,7 @@ sequence ("walks forward, then waves") one per action (long_motion.generate_long
 action done during another ("walks while waving") a body and its arms (pipeline._concurrent);
 a gait asked for past its natural length several takes (keep_going). Those paths call
 generate() again, one prompt at a time, so a list of 64 sequences sampled 64 small batches
-(29 motions/s against 177 for 64 plain prompts, torch, 2 threads; bench/batched_prompts.py).
+(29 motions/s against 177 for 64 plain prompts, torch, 2 threads).
 
 Each sample depends only on its (text, length, seed, nfe, guidance, candidates): every item
 draws its noise from its own seed (pipeline.generators_for), so it does not matter which batch

@@ -21,7 +21,7 @@ the comma/"and" rule).
 Actions at the same time ("walks forward while waving the right hand", "... and claps at the
 same time") are split too when one of the two is an arm action (split_concurrent): the
 autoencoder's three latent tokens hold a gait or an arm action, not both (the "+ concurrent"
-row of bench/motion_quality.py: 0.02 of such motions survive reconstruction), so the body is
+row of bench/quality.py motion: 0.02 of such motions survive reconstruction), so the body is
 made from the rest of the prompt and the arms from the arm action alone, grafted on
 (generate/control_fit.py's reattach, a body-part edit).
 """

@@ -56,7 +56,7 @@ class ControlMethod:
     # kept 0.93 of plain sampling's waypoint error on tests/test_control.py's walk, with 2 and 4
     # 0.46 (the model before: 0.64 and 0.43; docs/control.md). 4 and 8 since version 7's
     # narrower body decoder, under which 2 and 4 did nothing: over 30 seeds (bench/
-    # guidance_strength.py's measure) 1.01 of the error at 2 and 4, 0.55 at 4 and 8; version 6
+    # control.py --guidance) 1.01 of the error at 2 and 4, 0.55 at 4 and 8; version 6
     # 0.73 and 0.55.
     iterations: int = 4
     final_iterations: int = 8

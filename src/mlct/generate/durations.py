@@ -194,10 +194,10 @@ def squeeze_longest_first(wanted: np.ndarray, total_seconds: float) -> np.ndarra
     turn) needs its own time for it (the benchmark's waves take 2.2-3.6 s, its walks 3.8-5.7 s),
     where a walk or a jog is as good shorter, only going less far. Squeezed alike, "a person
     walks, then waves" in 5 s gave the wave 1.8 s, less than any wave of the data, and it
-    swayed too few times (docs/training.md, "A short clip's time, taken from the longest part
-    first"). Down to equal shares when the clip is shorter than that. part_weights uses it
+    swayed too few times (docs/training.md). Down to equal shares when the clip is shorter
+    than that. part_weights uses it
     only past the data's own tempo range: within it the data's cuts agree better with parts
-    squeezed alike (bench/duration_squeeze.py)."""
+    squeezed alike."""
     wanted = np.asarray(wanted, dtype=np.float64)
     levels = np.sort(wanted)
     count = len(levels)

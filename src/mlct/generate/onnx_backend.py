@@ -111,8 +111,8 @@ ONE_THREAD_MAX_BYTES = 32_000_000
 # once, on the first such batch, from the same weights): at large batches oneDNN's packed
 # products beat ONNX Runtime's on this CPU work, at small ones ONNX Runtime's lower overhead wins
 # (bundled model, 5 NFE, 196 frames, 2 threads, ms per motion ONNX Runtime / torch: batch 8
-# 5.9 / 7.4, 16 5.4 / 5.9, 32 4.6 / 4.0, 64 4.6-5.2 / 3.8-4.4; `python bench/batch_handoff.py`,
-# docs/performance.md, "Large batches go to torch"). The motions are the same within float
+# 5.9 / 7.4, 16 5.4 / 5.9, 32 4.6 / 4.0, 64 4.6-5.2 / 3.8-4.4;
+# docs/performance.md, "Backends"). The motions are the same within float
 # rounding (tests/test_onnx_sampler.py). None: never.
 TORCH_MIN_BATCH: int | None = 32
 # A batch that runs its sampler graph on one thread (above) runs the steps alone there and the

@@ -233,7 +233,7 @@ def for_inference(module: nn.Module, dtype: str | torch.dtype = "float32",
     returns it, in eval mode without gradients. bfloat16 converts the swapped weights once. Call
     it after moving the module to its device; prepack=False keeps plain products and the
     Conv1d layers (for comparisons and the ONNX export), channels_last=False the Conv1d layers
-    alone (bench/decoder_layout.py)."""
+    alone."""
     dt = weight_dtype(dtype)
     module.eval().requires_grad_(False)
     for name, child in module.named_children():

@@ -11,7 +11,7 @@ the label's physical read-outs (mlct.eval.readouts, the checks the benchmark app
 candidates do what the caption says. Where some pass and some fail, the critic learns to rate
 each passing candidate above each failing one (a pairwise logistic term beside its InfoNCE).
 
-Only the training split is sampled; bench/motion_quality.py measures on the test split and on
+Only the training split is sampled; bench/quality.py motion measures on the test split and on
 hand-written prompts. One-action motions only: the pipeline makes a sequence one action at a
 time and a concurrent arm action apart, so its critic only ever ranks single actions.
 """

@@ -31,7 +31,7 @@ HELD_OUT_EVERY = 5  # every fifth motion (never its captions apart) is held out 
 # Each cut between parts is put this much before the data's (the first part shorter, the last
 # longer): the start of the 0.75 s blend then lies a quarter of it early. On the train split's
 # sequence captions the read-outs passed 0.901 at the data's cuts, 0.926 at 0.19 s earlier,
-# 0.915 at 0.38 s (bench/sequence_timing.py --split train --shifts; docs/training.md).
+# 0.915 at 0.38 s (docs/training.md).
 CUT_SHIFT = 0.19
 
 

@@ -158,7 +158,7 @@ def _hop(p: dict, rng: Rng) -> str:
     # the negated form names the hopping foot, never the raised one: "without putting the right
     # foot down" of a left hop is read near "hops on the right foot" (cosine 0.67 against 0.35,
     # the side-contrast encoder counts side words, not whose foot), and with it in the captions
-    # every recipe model hopped on the right when asked for the left (bench/sided_prompts.py)
+    # every recipe model hopped on the right when asked for the left (bench/quality.py sides)
     return _pick(rng, (f"<hop> {t} on {_one(s, 'leg', rng)}",
                        f"<hop> on {_one(s, 'foot', rng)} {t}",
                        f"<hop> {t} on the {s} foot without putting the other one down",

@@ -38,7 +38,7 @@ _FIXED: dict[str, tuple[str, ...]] = {
 # A bare verb of a one-sided action means the right hand or foot, as for most people: the
 # phrase is said of right-sided motions only. Said of both sides, it was a blend of the two to
 # the model: 6,000 steps on it made "a person kicks" a half-kick of either leg (plain samples
-# 16/16 -> 11/16 pass), bench/short_prompts.py.
+# 16/16 -> 11/16 pass), bench/quality.py short.
 _RIGHT_SIDED: dict[str, tuple[str, ...]] = {
     "hop": ("<hop>", "<hop>", "<hop> on one foot", "<hop> on one leg"),
     "kneel": ("<kneel>", "<kneel>", "<kneel> down"),
@@ -73,7 +73,7 @@ def _sided(family: str) -> Callable[[dict, Rng], str]:
 # A bare "jumps" means jumping in place, as a bare "kicks" means the right leg; a forward jump
 # keeps the benchmark's words, which say "forward". Said of both (version 4 of the recipe and
 # before), it was a blend to the model: "a person jumps twice" landed over 0.5 m ahead in 4 seeds
-# of 5 (bench/readme_examples.py). The count may be said: "jumps twice" is still short.
+# of 5 (bench/quality.py examples). The count may be said: "jumps twice" is still short.
 def _jump(p: dict, rng: Rng) -> str:
     if p["mode"] == "forward":
         return BENCHMARK.phrases["jump"](p, rng)
@@ -84,7 +84,7 @@ def _jump(p: dict, rng: Rng) -> str:
 # side. A turn said without its size is a quarter turn, as in the benchmark's captions; other
 # sizes keep the benchmark's words, which name them. Said of every size (version 4 and before),
 # "a person turns left" became a 40-180 degree blend the critic cut to 40-60 degrees in 3 seeds
-# of 5 (bench/turn_sizes.py).
+# of 5 (bench/quality.py turns).
 def _turn(p: dict, rng: Rng) -> str:
     if p["angle"] != 90:
         return BENCHMARK.phrases["turn"](p, rng)

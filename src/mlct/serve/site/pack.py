@@ -6,7 +6,7 @@ files and not at all as anything smaller: onnxruntime-web's WASM binary (14.2 MB
 the int8 text encoder (23.0 -> 17.9 MB); the float16 graphs gain 8-9 %, which the arm-pair
 decoder and the critic's graph made worth it (MIN_GAIN). Stored so the site takes 39.2 MB
 instead of 54.3 with every number unchanged
-(quantizing further costs quality: docs/web.md, bench/web_int4.py). A server that compresses
+(quantizing further costs quality: docs/web.md). A server that compresses
 (GitHub Pages, nginx) would have sent them gzipped anyway; `python -m http.server`, a file share
 or a zip of the site now carry the small files too.
 
@@ -29,7 +29,8 @@ SUFFIX = ".gz"
 LEVEL = 9
 # Unpacking costs the page time when it opens (2-core machine at load average 7.5: 1.1 s more
 # for the text encoder, 0.2 s for the WASM binary, 0.45 s for the float16 graphs together;
-# bench/web_unpack.py); a file is stored gzipped only when that saves at least this share of it.
+# bench/web_speed.py --unpack); a file is stored gzipped only when that saves at least this
+# share of it.
 # 5 %: the float16 graphs (denoiser, decoder, critic) save 1.4 MB together, which keeps the site
 # of the arm-pair model with its critic under the 40 MB goal (40.5 MB with them plain).
 MIN_GAIN = 0.05
