@@ -457,7 +457,7 @@ def test_int8_quantizes_the_denoiser_only_and_moves_the_joints_little(converted,
     gaps = [np.linalg.norm(x.joints - y.joints, axis=-1) for x, y in zip(a, b)]
     poses = [np.linalg.norm((x.joints - x.joints[:, :1]) - (y.joints - y.joints[:, :1]), axis=-1)
              for x, y in zip(a, b)]
-    # docs/performance.md, "Blockwise int8": ~1 mm mean and 8 mm at most here on the bundle of
+    # docs/performance.md: ~1 mm mean and 8 mm at most here on the bundle of
     # 2026-11-26, 23 mm at most on the one of 2026-11-27 (per-column scales gave 9 mm on average
     # and up to 8 cm); quantization is not exact, but close on average. On the bundle of
     # 2026-11-28 (version 4 of the recipe) 3 mm on average, the walk 1-2 cm at most, but the

@@ -11,7 +11,7 @@ gets the first TUNED's files with model.safetensors interpolated and config.json
 from. Why: averaging a fine-tune with its start in weight space keeps much of what the
 fine-tune learned and much of what it forgot (Wortsman et al. 2022, "Robust fine-tuning of
 zero-shot models", WiSE-FT); here the colloquial-caption continuation gained unseen phrasings
-and lost some of the size of turns (docs/training.md, "Colloquial captions"). Only tensors that
+and lost some of the size of turns (docs/training.md). Only tensors that
 differ are mixed; the result is stored in TUNED's dtypes, so a float16 bundle stays float16.
 """
 

@@ -63,7 +63,7 @@ class AutoencoderConfig(_Section):
     joint_weight: float = Field(1e-3, ge=0.0)  # lambda_j (Eq. 9)
     # Ours: the smooth-L1 beta of the joint term, in metres. 1 (the default) is quadratic for
     # any error a body makes, so a 15 cm miss of a clapping hand costs ~0.01; a few cm makes
-    # the term L1-like, so such misses cost their size (docs/training.md "The joint term").
+    # the term L1-like, so such misses cost their size (docs/training.md).
     joint_beta: float = Field(1.0, gt=0.0)
     kl_weight: float = Field(1e-4, ge=0.0)  # for latent_type = vae (MLD's value)
     # Ours, beyond Eq. 9 (0 / off = the paper): see nn/autoencoder.py and train/stages.py.
@@ -76,7 +76,7 @@ class AutoencoderConfig(_Section):
     arm_channels: int = Field(64, ge=1)
     # conv only: the decoders' widths, when narrower than their encoders' (0 = channels and
     # arm_channels). Why: at batch 1 the decoder's time is its channels (2.7 ms at 128 / 128,
-    # 0.95 at 64 / 64; docs/performance.md "What a narrower decoder would buy"); trained on a
+    # 0.95 at 64 / 64; docs/performance.md); trained on a
     # frozen encoder (freeze_encoder), the latents and the stage 2 on them stay as they are.
     decoder_channels: int = Field(0, ge=0)
     arm_decoder_channels: int = Field(0, ge=0)
@@ -103,8 +103,7 @@ class AutoencoderConfig(_Section):
     freeze_encoder: bool = False
     # Keep the arm pair's decoder as loaded (--init) too, while a narrower body decoder trains
     # (ae.decoder_channels). Why: trained along, the arm decoder drifted and claps fell from
-    # 0.98 to 0.93 of the read-outs (docs/training.md, "Version 7, a 96-channel body decoder
-    # beside version 6's arm decoder").
+    # 0.98 to 0.93 of the read-outs (docs/training.md).
     freeze_arm_decoder: bool = False
     # Fraction of each batch whose decoding target runs past the clip, the last pose held still
     # for a random number of frames: teaches the decoder what to draw after an action ends.

@@ -1,7 +1,7 @@
 """CUDA graphs: a function of fixed-shape tensors captured once, then replayed as one launch.
 
 Why: at batch 1 the GPU does a few microseconds of arithmetic per kernel and the host spends
-~10 us launching each of the sampler's hundreds of kernels (docs/performance.md, issue 17). A
+~10 us launching each of the sampler's hundreds of kernels (docs/performance.md). A
 captured graph replays them all with one call. The cost: inputs and outputs live in fixed
 buffers (copied in, read out before the next replay), the shapes are fixed per graph (one graph
 per shape key, kept least-recently-used), and the function may not read the device while it is

@@ -63,8 +63,7 @@ def export_graph(module: nn.Module, args: tuple[torch.Tensor, ...], path: str | 
 # a Reshape before and after: 160 of the bundled model's 580 operators in its 5-step batch-1
 # sampler graph. Without it: 480 operators (and BiasGelu fused in their place), and the warm
 # batch-1 call (5 NFE, 196 frames, 2 threads) 3 % faster, paired in one run: 5.49 -> 5.29 ms
-# median (bench/paired_speed.py :matmul-add-fusion; docs/performance.md, "Around the sampler
-# graph").
+# median (bench/paired_speed.py :matmul-add-fusion; docs/performance.md).
 DISABLED_OPTIMIZERS: tuple[str, ...] = ("MatMulAddFusion",)
 
 
@@ -83,7 +82,7 @@ def spare_cores(threads: int) -> bool:
     does, a session's threads may spin within a run (session's spin_within_run); where it does
     not, spinning threads fight other work for the cores: with the test suite running beside on
     a 2-core machine, MiniLM took 8.2 ms spinning within the run against 4.1 sleeping
-    (docs/performance.md, "Spinning within the run"). The machine's size only: a session that
+    (docs/performance.md). The machine's size only: a session that
     cannot change its mind later is made by this rule; spin_now also asks how busy it is."""
     return (os.cpu_count() or 1) >= threads + 2
 
@@ -147,8 +146,7 @@ def spin_now(threads: int) -> bool:
     size) until the meter has a reading, and where it has none. For sessions kept in both kinds
     and chosen per run (the batch-1 steps, the text encoder): on 2 quiet cores, paired with the
     rule of the machine's size (which spins nothing there), 0.90x the warm call's time and 0.88x
-    the cold one's (docs/performance.md, "Spinning while the machine is idle, the attention
-    fused"); beside other work spinning takes up to 2x."""
+    the cold one's (docs/performance.md); beside other work spinning takes up to 2x."""
     if threads < 2:
         return False
     others = OTHER_LOAD()
@@ -170,7 +168,7 @@ def session(path: str | os.PathLike | bytes, threads: int | None = None,
     (`session.force_spinning_stop`), so they take no core between calls; None: when there are
     threads to wake and cores to spare (spare_cores). Measured on 2 quiet cores, spinning
     within the run against sleeping: MiniLM 3.04 / 3.70 ms, the paper-size model's 5 steps and
-    decoder 50.4 / 57.1 ms (docs/performance.md, "Spinning within the run")."""
+    decoder 50.4 / 57.1 ms (docs/performance.md)."""
     ort = onnxruntime_module()
     OTHER_LOAD()  # a first reading, so that the first run has a window to judge by (spin_now)
     options = ort.SessionOptions()

@@ -8,7 +8,7 @@ bundled model (docs/performance.md) and gives the same motions for the same seed
 0.01 mm; tests/test_onnx.py). Not onnx-int8 (the denoiser's products in int8 with a scale per
 32 weights, ~1.4x faster again): its motions are as good by the read-outs but not the same
 motions (on the benchmark's test captions the joints move 7.5 mm on average, 12% of the
-motions by more than 1 cm: docs/performance.md, "Blockwise int8"), so it is asked for by name,
+motions by more than 1 cm: docs/performance.md), so it is asked for by name,
 or by graphs `mlct convert --onnx --int8` put
 in the model directory. On a CUDA device the cuda-graphs backend. Otherwise the torch backend
 (a GPU, bfloat16, another text encoder, no onnxruntime). MLCT_BACKEND=torch|onnx|...

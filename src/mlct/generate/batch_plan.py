@@ -33,7 +33,7 @@ from mlct.generate.prompts import clean_prompt
 
 # Latents per sampler call when filling the memo (a sample is `candidates` latents). On a CPU
 # the time per motion is least near 64 and grows past a few hundred, where a batch's
-# activations leave the cache (docs/performance.md, "Throughput and memory": 335 motions/s at
+# activations leave the cache (docs/performance.md: 335 motions/s at
 # 64, 284 at 512, 195 at 4,096). A GPU wants thousands (75,000 motions/s at 4,096 on an H200).
 PREFETCH_LATENTS = {"cpu": 64, "cuda": 4096}
 

@@ -1,4 +1,4 @@
-"""The cuda-graphs backend: the torch pipeline replayed from CUDA graphs (issue 17).
+"""The cuda-graphs backend: the torch pipeline replayed from CUDA graphs.
 
 On a GPU at batch 1 the arithmetic of a sentence is microseconds; what costs is launching the
 sampler's, the decoder's and the text encoder's ~1,000 small kernels one by one from Python

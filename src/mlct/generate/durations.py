@@ -15,7 +15,7 @@ the last part), fitted on the data's sequences: neighbouring actions overlap in 
 middle part's share is shorter than its action. Version 1 (a linear map, 385 numbers, shares in
 proportion to the seconds) is still read. On the benchmark's sequence test captions the parts'
 cuts came 0.34 s (mean) from the data's with version 1 and 0.10 s with version 2
-(docs/training.md, "Durations of a sequence's parts, refitted").
+(docs/training.md).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 The benchmark's walks last 3.6-6.2 s, its jogs 3.2-4.0 s and its runs 2.9-3.6 s, each starting
 and ending at rest, so a model asked for "a person jogs forward" for 7 s jogs about 4 s and
-stands for the rest (docs/model_card.md, "Longer than the action"). A user asking for 7 s of
+stands for the rest (docs/model_card.md). A user asking for 7 s of
 jogging wants 7 s of jogging. So when a one-action prompt is asked for clearly longer than its
 natural length (the duration model's) and the motion made from it moved and then stopped, the
 prompt is made again as several segments of its natural length, chained into one motion:
@@ -127,7 +127,7 @@ def _gait_pace(joints: np.ndarray, speed: np.ndarray, fps: float, natural_second
     end a walk's clip a few tenths of a second before the duration model's length, and the
     slowing down reads as an unsteady pace) is judged again over its moving stretch, if its
     feet alternate through it (MIN_STEPS): a long jump's burst, cut where it lands, is as
-    steady, but its feet move together (docs/training.md, "Version 7, a 96 / 96 decoder")."""
+    steady, but its feet move together (docs/training.md)."""
     lead = int(round(0.5 * fps))
     end = min(int(round((natural_seconds - 0.5) * fps)), len(joints))
     pace = _pace_over(joints, speed, fps, lead, end, skeleton)

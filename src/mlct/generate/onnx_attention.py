@@ -1,4 +1,4 @@
-"""The denoiser's and decoder's self-attentions as ONNX Runtime's fused operators (issue 17).
+"""The denoiser's and decoder's self-attentions as ONNX Runtime's fused operators.
 
 torch.onnx writes each of the denoiser's attentions (mlct.nn.inference.FastEncoderLayer) as
 ~60 standard operators: the packed q/k/v product and its bias, a Reshape to (B, S, 3, H, d), a
@@ -9,8 +9,7 @@ does the same from the block's input, the packed weight (input width, 3 x width:
 columns, heads contiguous in each, as the Reshape splits them) and the bias, with the default
 scale 1 / sqrt(d); the Reshape back to (B, S, width) is its output. The bundled model's one-step
 denoiser graph goes from 406 to 226 operators and 383 to 340 us on one thread; the outputs
-agree to 5e-6, the 5-step sampler graph's latents to the bit (docs/performance.md, "Spinning
-while the machine is idle, the attention fused").
+agree to 5e-6, the 5-step sampler graph's latents to the bit (docs/performance.md).
 
 The autoencoder's attentions over frames carry a key padding mask (True = a padded frame):
 torch.onnx writes it as Where(Not(pad[:, None, None, :]), 0, -inf) added to the scores, and a
@@ -25,8 +24,7 @@ tokens in front of every row's keys (nn/autoencoder.py). The paper-size decoder 
 After a q/k/v product in blockwise int8 (MatMulNBits, `mlct convert --onnx --int8`) the Attention
 operator cannot take the weight, so the product stays and the rest becomes a Split into q, k
 and v and `com.microsoft.MultiHeadAttention` (the bias added inside): the same arithmetic after
-the product (1e-5 with float arithmetic in the product; docs/performance.md, "The paper-size
-model: its decoder's attention, the int8 attention, spinning").
+the product (1e-5 with float arithmetic in the product; docs/performance.md).
 
 Only ONNX Runtime runs the fused operator, so the rewrite is applied in memory to the sampler
 graph and the decoder's session of the onnx backend (onnx_sampler.sampler_model,

@@ -120,8 +120,7 @@ TORCH_MIN_BATCH: int | None = 32
 # thread's wake-ups, the decoder's convolutions over up to 200 frames gain from it: warm 5.44
 # -> 5.29 ms paired (5 NFE, 196 frames, 2 threads; bench/paired_speed.py :one-graph). Alone, the
 # decoder on two threads took 2.15 against 2.68 ms; in the pipeline the gain is smaller, as its
-# weights come back to the cache after the steps (docs/performance.md, "Around the sampler
-# graph").
+# weights come back to the cache after the steps (docs/performance.md).
 DECODE_APART = True
 # ... and a decoder with an arm pair runs its two halves side by side, one core each
 # (onnx_decoder_halves.py): the bundled model's warm call 4.02 ms against 4.34 with the decoder
@@ -142,7 +141,7 @@ FUSE_ATTENTION = True
 # (paired; bench/paired_speed.py :spinning-steps). With other work on the cores, two threads
 # lose whether they spin or sleep (steps and decoder with the test suite running beside: 5.0 ms
 # on one thread, 8.1 spinning within the run, 5.6 sleeping), so a machine without cores to
-# spare keeps the steps on one thread (docs/performance.md, "Spinning within the run").
+# spare keeps the steps on one thread (docs/performance.md).
 # Batch 1 of a sampler graph over ONE_THREAD_MAX_BYTES (the paper-size model: 5 steps and the
 # decoder) runs on `threads` that spin within the run while the machine is idle (onnx_io.spin_now,
 # asked at every call; a second session, with its own copy of the weights, is made only when the

@@ -96,8 +96,8 @@ def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike,
 
     int8: then the denoiser's matrix products run in int8 with a scale per 32 weights
     (ONNX Runtime's MatMulNBits, onnx_compact.quantize_blockwise_int8): sampling faster on one
-    CPU thread, joints a few mm from float32's on average (docs/performance.md, "Blockwise
-    int8"; tests/test_onnx.py bounds them). The decoder stays float32 (its convolutions ran 3x
+    CPU thread, joints a few mm from float32's on average (docs/performance.md; tests/test_onnx.py
+    bounds them). The decoder stays float32 (its convolutions ran 3x
     slower quantized), and so does the text encoder: quantized, it was 2x faster but moved the
     joints 27 mm on average, as a slightly different sentence would.
     fused_text: the text encoder with ONNX Runtime's fused transformer operators

@@ -104,7 +104,7 @@ INT8_BLOCK = 32  # weights per scale along the reduced axis (MatMulNBits' block_
 # Products with fewer weights stay float32: their bytes cost nothing, and in the denoiser they
 # are the latent's way in and out (in_proj 64 x 256, the head's 256 x 64 and 64 x 64), where
 # int8's error reaches the next step whole: kept float32, the joints move 3.1 mm from
-# float32's instead of 7.7 (40 test captions; docs/performance.md, "Blockwise int8").
+# float32's instead of 7.7 (40 test captions; docs/performance.md).
 MIN_INT8_WEIGHTS = 32768
 
 
@@ -118,8 +118,7 @@ def quantize_blockwise_int8(src: str | os.PathLike, dst: str | os.PathLike,
 
     Why blocks: the sampler feeds each step's output into the next, so a product's error grows
     over 5 steps; with per-block scales the joints end 3.6x closer to float32's than with
-    per-column dynamic quantization, which is 15 % faster (docs/performance.md, "Blockwise
-    int8")."""
+    per-column dynamic quantization, which is 15 % faster (docs/performance.md)."""
     onnx = require_onnx()
     try:
         from onnxruntime.quantization.matmul_nbits_quantizer import (

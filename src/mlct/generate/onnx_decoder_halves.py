@@ -1,4 +1,4 @@
-"""The conv decoder's two halves (body and arm pair) run at once, one core each (issue 17).
+"""The conv decoder's two halves (body and arm pair) run at once, one core each.
 
 At batch 1 the decoder's convolutions over 200 frames and 96-128 channels split badly across
 threads inside one operator: ONNX Runtime on two threads decoded the bundled model's 196 frames
@@ -6,7 +6,7 @@ in 1.55 ms against 1.80 on one, and its parallel executor, which could run the t
 halves side by side, took 1.90 ms. The halves are independent until their columns are put back in
 feature order, so here each runs in a session of its own on one thread, the lighter one in a
 worker thread while the caller's thread runs the heavier (ONNX Runtime releases the GIL while it
-runs): 1.14 ms (docs/performance.md, "Version 7, and the decoder's halves side by side").
+runs): 1.14 ms (docs/performance.md).
 
 The three graphs are cut out of decoder.onnx itself (onnx.utils.Extractor), at the outputs of
 each half's last convolution: the body's half, the arm pair's half, and the join (the columns

@@ -1,4 +1,4 @@
-"""The consistency sampler without per-step overhead on the onnx backend (issue 17).
+"""The consistency sampler without per-step overhead on the onnx backend.
 
 Two ways, both fed by consistency_feeds (the noise and the per-step coefficients, computed by
 the torch sampler's own functions and drawn from the same seeded generators in the same order,

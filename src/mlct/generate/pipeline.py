@@ -275,7 +275,7 @@ class MotionGenerator:
         (sampling_text), so that a prompt worded unlike every caption is timed as the motion
         it is pulled towards is made. Read raw, "walk around in a circle going anticlockwise"
         got 4.1 s and its circle was cut off at the 5 s floor (~250 degrees); pulled, 6.9 s
-        (docs/model_card.md, "Durations read the pulled text")."""
+        (docs/model_card.md)."""
         return self.sampling_text(self.encode_text(list(texts))).float().cpu().numpy()
 
     def sampling_text(self, cond: Tensor) -> Tensor:

@@ -17,8 +17,8 @@ second D draws them from those tokens alone; the first E still sees every featur
 draws the rest from the first n - a tokens.
 Why: of the motions that lay an arm action over a gait, the shared pair drew the gait and only
 the family's average arm (claps that never meet) on the training split as on the test split;
-neither a wider decoder nor oversampling those motions moved it (docs/training.md, "The
-autoencoder's concurrent arms"). Root-relative arm features of a clap are the same over a walk
+neither a wider decoder nor oversampling those motions moved it (docs/training.md). Root-relative
+arm features of a clap are the same over a walk
 as standing still, so a pair that sees only them has one motion to draw, not a combination.
 
 Optionally (``ae.bottleneck`` = h > 0) the maps between the coarse grid and the tokens are

@@ -2,7 +2,7 @@
 more tokens of the same pair or as an arm pair of its own (`ae.arm_tokens`; `add_arm_pair`).
 
 Why: three 64-d tokens of the small conv autoencoder hold a clip's gait or an arm action laid
-over it, not both (docs/training.md, "Where the autoencoder's 0.785 comes from"). Retraining a
+over it, not both (docs/training.md). Retraining a
 wider latent from scratch also throws away every stage-2 step trained on the old one. Grown
 instead, the old tokens keep their exact meaning (their encoder rows stay as they were) and the
 decoder starts out ignoring the new ones (their input columns are zero), so the grown
@@ -111,8 +111,8 @@ def arm_pair_from_body(old: dict[str, Tensor], arm: dict[str, Tensor], arm_colum
     of the arm columns; every other tensor is the old one as it is.
 
     Why: an arm pair trained from fresh weights learnt to hold an arm's pose but drew no
-    oscillation in 8,000 steps, not even a one-action clap's (docs/training.md, "The
-    autoencoder's concurrent arms"); the old pair already draws claps and waves, so a copy of
+    oscillation in 8,000 steps, not even a one-action clap's (docs/training.md); the old pair
+    already draws claps and waves, so a copy of
     it restricted to the arms starts where those are drawn. Needs ae.arm_channels equal to
     ae.channels and as many arm tokens as the old latent has."""
     stem = old["encoder.0.weight"]  # (channels, features + 1, kernel): the mask is the last input

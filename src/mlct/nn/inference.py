@@ -11,7 +11,7 @@ on a 2-core EPYC (docs/performance.md):
 - a Conv1d over (B, C, T) in PyTorch's default layout runs at half the GEMM peak on oneDNN;
   the same convolution over channels-last frames (C the fastest axis) runs at the peak
   (a 128 -> 128, kernel-3 conv of 64 x 200 frames, one thread of this repository's Intel host:
-  13.7 ms against 6.9; docs/performance.md, "The decoder's convolutions in channels-last").
+  13.7 ms against 6.9; docs/performance.md).
 
 `for_inference(module, dtype)` swaps, in place, every ``nn.TransformerEncoderLayer`` for a
 `FastEncoderLayer`, every ``nn.Linear`` for a `FastLinear` and, with prepack (the CPU kernels'

@@ -1,7 +1,7 @@
 """A conv autoencoder's decoders cut to fewer channels (ours; `ae.decoder_init: prune`).
 
-Why: at batch 1 the decoder's time is its channels (docs/performance.md "What a narrower
-decoder would buy"). A 64/64 decoder trained from fresh weights on the bundle's frozen encoder
+Why: at batch 1 the decoder's time is its channels (docs/performance.md). A 64/64 decoder trained
+from fresh weights on the bundle's frozen encoder
 reached 0.862 of the read-outs against the wide one's 0.955 in 15,500 steps, and never drew
 the stretch's side lean (0.002 rad against 0.25). Started instead as the wide decoder with its
 least important channels removed, it begins from a network that already draws every family,

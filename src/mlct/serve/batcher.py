@@ -72,7 +72,7 @@ _STOP = object()
 # counts other processes only, and a server's own threads (HTTP, the responses' export) work
 # beside the model while requests overlap: 4 concurrent clients on 2 cores got 48-52 motions/s
 # with the threads spinning and 55-57 without, while one client's round trip took 20 ms
-# spinning against 25 (bench/serve_latency.py; docs/performance.md, "A server's own threads").
+# spinning against 25 (bench/serve_latency.py; docs/performance.md).
 OVERLAP_WINDOW_S = 1.0
 
 

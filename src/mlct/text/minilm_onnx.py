@@ -39,7 +39,7 @@ def write_minilm_graph(spec: str, path: str | os.PathLike, fused: bool = True) -
     fused: with each layer's attention, skip layer norms and bias-GELUs as ONNX Runtime's own
     operators (com.microsoft Attention, SkipLayerNormalization, BiasGelu; its transformer
     optimizer): 71 operators instead of 326 after its session optimizations, ~0.2-0.7 ms off a
-    sentence on 2 threads (docs/performance.md, "MiniLM's attention fused"). Off, the graph
+    sentence on 2 threads (docs/performance.md). Off, the graph
     keeps standard ONNX operators only, for runtimes without those (the browser page's)."""
     encoder = MiniLMEncoder(bundled_minilm_path(), name=check_onnx_spec(spec))
     encoder.model.explicit_attention = fused  # the pattern the optimizer recognises

@@ -3,8 +3,8 @@
 Trained only on the data's motions against other captions, the critic tells a wave from a walk
 but not a good wave from a poor one: among the 8 candidates of "a person waves with the right
 hand" its scores lay within 0.07 of each other, and for seed 0 it picked the one candidate of
-the 8 whose wrist reversed 3 times, short of a wave's 4 (docs/training.md, "A critic that has
-seen the model's misses"). Best-of-N needs the second skill. So for each one-action motion of
+the 8 whose wrist reversed 3 times, short of a wave's 4 (docs/training.md). Best-of-N needs the
+second skill. So for each one-action motion of
 the training split with a benchmark label (labels.jsonl), the model samples K latents from one
 of its captions at the motion's length (the pipeline's own sampler), decodes them, and
 the label's physical read-outs (mlct.eval.readouts, the checks the benchmark applies) say which

@@ -2,8 +2,8 @@
 
 Why: stage 2 in bfloat16 on a GPU trained normally for ~3,000 steps, then its gradient norm
 rose from ~20 to thousands and to infinity while the loss stayed finite, so nothing stopped it
-and 37,000 more steps trained a model that stands still (docs/training.md, "Stage 2
-continued on a GPU"). Clipping hides such a run from the loss curve for a while; the norm does
+and 37,000 more steps trained a model that stands still (docs/training.md). Clipping hides such a
+run from the loss curve for a while; the norm does
 not. Over the 40 healthy runs logged in docs/logs the largest logged norm was 7.9x the median
 of the run's first five; the diverged ones reached 351x and infinity. A factor of 30 sits
 between the two.

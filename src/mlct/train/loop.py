@@ -64,8 +64,8 @@ def autocast_precision(precision: str, stage: str, device: torch.device) -> str:
     autocast for the autoencoder on CUDA and fp32 everywhere else: stage 2 with bf16 autocast
     on a GPU (an H200, CUDA graphs, batches of 128, lr 1e-4) diverged in all three runs tried,
     its gradient norm going from ~20 to thousands after 2,750-3,250 steps, where the same seed
-    in fp32 stayed at 16-21, for 15% fewer samples a second (docs/training.md, "Stage 2
-    continued on a GPU"). bf16 stage 2 on the CPU, asked for by name, trained the bundle."""
+    in fp32 stayed at 16-21, for 15% fewer samples a second (docs/training.md). bf16 stage 2 on the
+    CPU, asked for by name, trained the bundle."""
     if precision != "auto":
         return precision
     return "bf16" if device.type == "cuda" and stage == "ae" else "fp32"

@@ -1,8 +1,7 @@
 """Colloquial captions for procedural motions: the sentence forms the other vocabularies lack.
 
 The second held-out paraphrase set (bench/data/quality_prompts_heldout2.json, 0.823 of its
-read-outs passed) failed in four ways no training caption had shown the model (docs/model_card.md,
-"A second held-out set"):
+read-outs passed) failed in four ways no training caption had shown the model (docs/model_card.md):
 - words it never saw ("sidles");
 - a turn's size said in words ("a quarter turn", "half a turn"), never in degrees;
 - a side said after its noun ("on one knee, the left one", "with a hand, the right");
@@ -14,11 +13,10 @@ is 90 degrees, a half turn 180, an eighth of a turn 45; a turn said without its 
 quarter turn, as in the benchmark's captions. A first version said "turns left without stepping
 away" of every size and "a complete about-face" of half turns: 6,000 steps on it made "turning
 ninety degrees left" a 50-degree turn and "a complete rotation to the right" (a spin) stand
-still in 2 seeds of 5 (docs/training.md, "Colloquial captions"). A turn word is said only of
+still in 2 seeds of 5 (docs/training.md). A turn word is said only of
 motions that turn: "steps backwards without turning round" and "edges along without turning"
 (348 training captions) paired "turning" with motions that do not turn. Runs without them still
-moved turns' sizes; seeing the turns more often held them best (docs/training.md, "Why the
-turns shrink").
+moved turns' sizes; seeing the turns more often held them best (docs/training.md).
 
 It was written after held-out set 2's failures were read, so that set no longer measures unseen
 sentence forms for those four classes; the third set (quality_prompts_heldout3.json) was written
@@ -122,7 +120,7 @@ def _turn(p: dict, rng: Rng) -> str:
     size = _pick(rng, _SIZE_WORDS[angle])
     # "turns left" / "turning left" (not "turns left by ...") is said only of quarter turns, as
     # in the benchmark's captions: said of every size, it made "turning ninety degrees left" a
-    # 50-degree turn (docs/training.md, "Colloquial captions")
+    # 50-degree turn (docs/training.md)
     forms = [f"<make> {size} to the {s}", f"<do> {size} to HIS {s}", f"<make> {size}, going {s}",
              f"<turn> {s} by {size}", f"<turn> on the spot, {size} to the {s}",
              f"<pivot> {size} to the {s}"]
@@ -261,7 +259,7 @@ def _stand(p: dict, rng: Rng) -> str:
 # with every word it holds, so "a boy waves across the street to his mother, using his left
 # hand" waved the right hand where "a boy waves, using his left hand" waved the left (5 of 5).
 # Captions with such words were meant to teach the model to read past them; 2,500 steps on them
-# did not cure that prompt (docs/training.md, "Colloquial captions, shipped"), so the shipped
+# did not cure that prompt (docs/training.md), so the shipped
 # model was not trained on them. Places go with any action, addressees with the arm actions one
 # does for someone.
 _PLACES = ("in the park", "in the kitchen", "on the beach", "in the gym", "on a stage",

@@ -55,8 +55,8 @@ def rephrase_dataset(src: str | os.PathLike, out: str | os.PathLike, per_motion:
     """Write DST (module docstring); returns {"motions": rephrased, "captions": added}.
 
     A motion with an action (or a concurrent one) of `skip_families` keeps its captions as they
-    are, so a vocabulary can be added to some families only (the controls of docs/training.md,
-    "Why the turns shrink", used it)."""
+    are, so a vocabulary can be added to some families only (the controls of docs/training.md, used
+    it)."""
     src, out = Path(src), Path(out)
     if vocabulary not in VOCABULARIES:
         raise MlctError(f"--vocabulary must be one of {', '.join(VOCABULARIES)}, "

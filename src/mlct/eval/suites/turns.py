@@ -11,7 +11,7 @@ each model and prompt: the heading change of every seed, and the median of |turn
 then per model the median and the mean of that error over all prompts and seeds, and the share
 of turns within 30 degrees of their size. `--also` adds prompts of one's own (their size after
 the "@", positive to the left), `--only-also` runs just those. A fine-tune that pulls turns
-towards smaller angles (docs/training.md, "Colloquial captions") shows here first.
+towards smaller angles (docs/training.md) shows here first.
 """
 
 from __future__ import annotations

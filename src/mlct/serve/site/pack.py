@@ -1,12 +1,11 @@
 """The static site's large binaries stored gzipped, unpacked by the page (static/model.js:
 `fetchBytes`, the browser's DecompressionStream) and by the Python reference (`unpacked`).
 
-Why: the site's goal is <= 40 MB on disk (issue 20). Its two largest files compress well as
+Why: the site's goal is <= 40 MB on disk. Its two largest files compress well as
 files and not at all as anything smaller: onnxruntime-web's WASM binary (14.2 MB -> 3.7 MB) and
 the int8 text encoder (23.0 -> 17.9 MB); the float16 graphs gain 8-9 %, which the arm-pair
-decoder and the critic's graph made worth it (MIN_GAIN). Stored so the site takes 39.2 MB
-instead of 54.3 with every number unchanged
-(quantizing further costs quality: docs/web.md). A server that compresses
+decoder and the critic's graph made worth it (MIN_GAIN). Stored so, the bundled model's site
+takes 32.6 MB with every number unchanged (quantizing further costs quality: docs/web.md). A server that compresses
 (GitHub Pages, nginx) would have sent them gzipped anyway; `python -m http.server`, a file share
 or a zip of the site now carry the small files too.
 
