@@ -1,4 +1,4 @@
-"""The Python API around its bad arguments (issue 15). The bad arguments themselves, each
+"""The Python API around its bad arguments. The bad arguments themselves, each
 refused with mlct's one-line error naming the argument, are tables in test_bad_inputs.py; here:
 a valid call at the edges still works, and the text memo stays bounded."""
 
@@ -20,7 +20,7 @@ def test_a_valid_call_still_works(pipe) -> None:
 
 
 def test_text_memo_is_bounded_and_keeps_recent_texts(monkeypatch) -> None:
-    """A server sees unboundedly many prompts: the embedding memo is an LRU (issue 15)."""
+    """A server sees unboundedly many prompts: the embedding memo is an LRU."""
     import torch
 
     from mlct.generate import pipeline

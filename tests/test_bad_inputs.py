@@ -1,4 +1,4 @@
-"""Bad input, surface by surface (issue 15): every case ends cleanly, quickly, touching nothing.
+"""Bad input, surface by surface: every case ends cleanly, quickly, touching nothing.
 
 A clean end is, by surface:
 - the command line: exit code 2 and one stderr line `mlct: error: ...` naming the problem;

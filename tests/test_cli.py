@@ -68,7 +68,7 @@ def test_a_closed_pipe_is_not_an_error(tmp_path):
 
 
 def test_a_status_line_while_the_model_loads_on_a_terminal(tmp_path, capsys, monkeypatch):
-    """Issue 15: seconds of loading show a status line on a terminal; pipes stay clean."""
+    """Seconds of loading show a status line on a terminal; pipes stay clean."""
     out = tmp_path / "x.npy"
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
     assert main(["generate", "a man jogs straight ahead", "--seconds", "1", "--out",

@@ -170,7 +170,7 @@ def test_mirrored_names():
 
 @pytest.mark.parametrize("bad", ["../../etc/passwd", "sub/name", "..", ".hidden", "a\\b"])
 def test_split_names_cannot_leave_the_dataset(tmp_path, bad) -> None:
-    """Names from split files are joined to paths: one that could escape is refused (issue 15)."""
+    """Names from split files are joined to paths: one that could escape is refused."""
     from mlct.data.layout import read_split
 
     split = tmp_path / "train.txt"

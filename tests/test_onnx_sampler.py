@@ -18,7 +18,7 @@ pytest.importorskip("onnx")
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
-JOINTS_M = 1e-3  # issue 17: the same seed gives the same motion within 1 mm
+JOINTS_M = 1e-3  # the same seed gives the same motion within 1 mm
 TEXTS = ["a person walks forward", "a person jumps up high", "someone waves with the left hand"]
 LENGTHS = [196, 60, 13]
 

@@ -343,7 +343,7 @@ def test_render_reads_mlct_bvh_and_names_what_it_cannot(tmp_path: Path) -> None:
 
 
 def test_mp4_works_after_the_install_alone(tmp_path, monkeypatch):
-    """Issue 15: no system ffmpeg needed; the imageio-ffmpeg wheel (a dependency) provides it."""
+    """No system ffmpeg needed; the imageio-ffmpeg wheel (a dependency) provides it."""
     pytest.importorskip("imageio_ffmpeg")
     monkeypatch.setenv("PATH", "")  # as on a machine without a system ffmpeg
     out = render_motion(walk(HUMANML3D, 6), tmp_path / "x.mp4", HUMANML3D)
@@ -352,7 +352,7 @@ def test_mp4_works_after_the_install_alone(tmp_path, monkeypatch):
 
 
 def test_frames_say_which_side_is_which(tmp_path: Path) -> None:
-    """Issue 15: a 'left'/'right' legend in the limbs' colours, bottom right of every image."""
+    """A 'left'/'right' legend in the limbs' colours, bottom right of every image."""
     out = render_motion(walk(HUMANML3D, 8), tmp_path / "x.png", HUMANML3D, title="a walk")
     image = np.asarray(Image.open(out).convert("RGB")).astype(int)
     h, w, _ = image.shape

@@ -553,7 +553,7 @@ def test_cli_serve_passes_its_options(monkeypatch):
     ("example.com", False),
 ])
 def test_non_loopback_hosts_are_told_apart(host: str, loopback: bool) -> None:
-    """`mlct serve --host 0.0.0.0` warns (issue 15): is_loopback decides when."""
+    """`mlct serve --host 0.0.0.0` warns: is_loopback decides when."""
     from mlct.serve import is_loopback
 
     assert is_loopback(host) is loopback

@@ -380,7 +380,7 @@ def test_init_from_an_autoencoder_run_continues_it_with_other_options(
 
 def test_resume_survives_a_killed_write_and_a_broken_latest(data: Path, cache: str, tiny,
                                                             tmp_path: Path, capsys) -> None:
-    """Issue 15: partial folders are removed on the next start; a broken `latest` falls back to
+    """Partial folders are removed on the next start; a broken `latest` falls back to
     the newest intact checkpoint, saying so; `latest` is never joined to a path unchecked."""
     run = tmp_path / "run"
     common = [cache, "train.ae.max_steps=12", "train.ae.ckpt_every=4", "train.ae.val_every=6"]

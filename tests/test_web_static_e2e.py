@@ -567,7 +567,7 @@ def test_best_of_n_picks_what_the_python_critic_picks(page, reference):
 
 
 def test_the_site_stays_within_its_size_goal(site):
-    """issue 20's goal, <= 40 MB on disk, with the critic's graph and the arm pair's decoder:
+    """The site's goal, <= 40 MB on disk, with the critic's graph and the arm pair's decoder:
     the float16 graphs are stored gzipped too (pack.MIN_GAIN)."""
     from mlct.serve.site import site_size
 
