@@ -48,7 +48,7 @@ class SegmentMaker(Protocol):
     def plant_feet(self, motion: Any) -> Any: ...
 
 
-BLEND_SECONDS = 0.75  # the shortest that kept seam speeds within the segments' (bench/long_motion.py)
+BLEND_SECONDS = 0.75  # the shortest that kept seam speeds within the segments' (measured once)
 
 
 def blend_frames(fps: float, seconds: float = BLEND_SECONDS) -> int:
