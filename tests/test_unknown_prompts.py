@@ -116,6 +116,11 @@ def test_the_cli_says_so_in_one_line_without_verbose(tmp_path, capsys):
     assert main(["generate", KNOWN, "--seconds", "1", "--candidates", "1", "--out",
                  str(out)]) == 0
     assert capsys.readouterr().err == ""
+    # --verbose's reading of the prompt says it too
+    assert main(["generate", "a person walks forward, then plays the guitar", "--seconds", "4",
+                 "--candidates", "1", "--verbose", "--out", str(out)]) == 0
+    assert (f"then {GUITAR!r} (pulled 0.50 towards the training captions) (unknown to the "
+            "model)") in capsys.readouterr().err
 
 
 def test_the_cli_names_the_unknown_prompt_of_a_long_motion(tmp_path, capsys):
