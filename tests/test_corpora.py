@@ -282,3 +282,24 @@ def test_cmu_takes_are_captioned_from_the_index_and_unknown_ones_left_out(tmp_pa
     said = CMU.caption(clips[0].labels, np.random.default_rng(0), 3)
     assert all("punch" in s or "strike" in s for s in said)
     assert CMU.commercial and "mocap.cs.cmu.edu" in CMU.citation
+
+
+def test_a_merge_with_the_benchmark_keeps_every_motions_provenance(release, tmp_path):
+    from mlct.data.merge import merge_datasets
+    from mlct.data.synth.build import synthesize_dataset
+
+    root, _ = release
+    synthesize_dataset(tmp_path / "synth", num=6, seed=0, progress=False)
+    import_corpus("bandai-namco", root, tmp_path / "real")
+    merge_datasets([tmp_path / "synth", tmp_path / "real"], tmp_path / "mixed")
+    records = [json.loads(line) for line in
+               (tmp_path / "mixed" / "provenance.jsonl").read_text().splitlines()]
+    names = {p.stem for p in (tmp_path / "mixed" / "new_joint_vecs").iterdir()}
+    assert {r["name"] for r in records} == names and len(records) == len(names) == 9
+    procedural = [r for r in records if not r["name"].startswith("d2_")]
+    real = [r for r in records if r["name"].startswith("d2_")]
+    assert len(procedural) == 6 and all(r["corpus"] == "procedural" and r["commercial_use"]
+                                        for r in procedural)
+    assert len(real) == 3 and all(r["corpus"] == "bandai-namco" and r["license"] ==
+                                  "CC BY-NC 4.0" and not r["commercial_use"] for r in real)
+    assert check_dataset(tmp_path / "mixed") == []

@@ -39,6 +39,7 @@ from mlct.data.captions import SEPARATOR, format_text_line, tag_caption
 from mlct.data.layout import (
     FEATURES_DIR,
     JOINTS_DIR,
+    PROVENANCE_FILE,
     TEXTS_DIR,
     BadFileError,
     joints_problems,
@@ -618,9 +619,6 @@ def _write_splits(work: Path, members: dict[str, list[str]], split: tuple[float,
     write_text(work / "all.txt", "".join(f"{n}\n" for clip in sorted(members)
                                          for n in members[clip]))
     summary.splits = {part: len(part_names) for part, part_names in names.items()}
-
-
-PROVENANCE_FILE = "provenance.jsonl"
 
 
 def _write_provenance(work: Path, members: dict[str, list[str]],

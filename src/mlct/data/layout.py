@@ -31,6 +31,7 @@ from mlct.motion.skeleton import Skeleton, get_skeleton, skeleton_for_dim, skele
 FEATURES_DIR = "new_joint_vecs"
 JOINTS_DIR = "new_joints"
 TEXTS_DIR = "texts"
+PROVENANCE_FILE = "provenance.jsonl"  # per motion: source, license (real corpora, merges)
 SPLITS = ("train", "val", "test")
 OPTIONAL_SPLITS = ("train_val", "all")
 MIRROR_PREFIX = "M"

@@ -23,8 +23,8 @@ import numpy as np
 
 from mlct.data.labels import LABELS_FILE, SYNTH_META, read_labels, read_synth_meta
 from mlct.data.oversample import repeating_splits
-from mlct.data.layout import (FEATURES_DIR, JOINTS_DIR, OPTIONAL_SPLITS, SPLITS, TEXTS_DIR,
-                              read_split)
+from mlct.data.layout import (FEATURES_DIR, JOINTS_DIR, OPTIONAL_SPLITS, PROVENANCE_FILE, SPLITS,
+                              TEXTS_DIR, read_split)
 from mlct.errors import MlctError
 from mlct.io import atomic_dir, link_or_copy, write_text
 
@@ -94,6 +94,35 @@ def _merged_labels(sources: list[Path]) -> list[dict[str, Any]] | None:
     return records
 
 
+# What a source without provenance.jsonl is taken to be: a procedural benchmark made by
+# `mlct data synth` (its synth.json says so) is this project's own data; anything else unknown.
+PROCEDURAL = {"corpus": "procedural", "source": "mlct data synth", "license": "MIT",
+              "commercial_use": True}
+UNKNOWN = {"corpus": "unknown", "license": "unknown", "commercial_use": None}
+
+
+def _merged_provenance(sources: list[Path], metas: list[dict[str, Any]]
+                       ) -> list[dict[str, Any]] | None:
+    """Every motion's provenance record, renamed; None when no source has provenance.jsonl
+    (a merge of procedural benchmarks alone needs none)."""
+    if not any((src / PROVENANCE_FILE).is_file() for src in sources):
+        return None
+    records = []
+    for index, (src, meta) in enumerate(zip(sources, metas)):
+        prefix = source_prefix(index)
+        path = src / PROVENANCE_FILE
+        if path.is_file():
+            for line in path.read_text(encoding="utf-8").splitlines():
+                if line.strip():
+                    record = json.loads(line)
+                    records.append({**record, "name": prefix + record["name"]})
+            continue
+        default = PROCEDURAL if meta.get("generator") else UNKNOWN
+        for f in sorted((src / FEATURES_DIR).iterdir()):
+            records.append({"name": prefix + f.stem, **default})
+    return records
+
+
 def merge_datasets(sources: list[str | os.PathLike], out: str | os.PathLike,
                    overwrite: bool = False) -> dict[str, Any]:
     """Write DST (module docstring); returns {"motions": per source, "splits": sizes}."""
@@ -117,6 +146,10 @@ def merge_datasets(sources: list[str | os.PathLike], out: str | os.PathLike,
         for name in STATS_FILES:
             if (sources[0] / name).is_file():
                 link_or_copy(sources[0] / name, work / name)
+        provenance = _merged_provenance(sources, metas)
+        if provenance is not None:
+            write_text(work / PROVENANCE_FILE,
+                       "".join(json.dumps(r, sort_keys=True) + "\n" for r in provenance))
         labels = _merged_labels(sources)
         if labels is not None:
             write_text(work / LABELS_FILE, "".join(json.dumps(r) + "\n" for r in labels))
