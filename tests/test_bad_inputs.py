@@ -358,8 +358,8 @@ CLI_CASES = [
     pytest.param(["generate", W, "--backend", "cuda-graphs", "--device", "cuda", "--out",
                   "x.npy"], "CUDA is not available", marks=no_cuda),
     (["generate", W, "--dtype", "int4", "--out", "x.npy"], "argument --dtype: invalid choice"),
-    (["generate", W, "--nfe", "0", "--out", "x.npy"], "nfe must be within 1..50"),
-    (["generate", W, "--nfe", "-1", "--out", "x.npy"], "nfe must be within 1..50"),
+    (["generate", W, "--nfe", "0", "--out", "x.npy"], "--nfe must be at least 1 step, got 0"),
+    (["generate", W, "--nfe", "-1", "--out", "x.npy"], "--nfe must be at least 1 step, got -1"),
     (["generate", W, "--nfe", "1000", "--out", "x.npy"], "nfe must be within 1..50"),
     (["generate", W, "--nfe", "2.7", "--out", "x.npy"], "argument --nfe: invalid int value"),
     # generate: durations
@@ -374,7 +374,7 @@ CLI_CASES = [
      "outside 1..196 (9.80 s at 20 fps) for this prompt: only a gait"),
     (["generate", W, "--seconds", "121", "--out", "x.npy"], "another gait keeps going up to 120 s"),
     (["generate", W, "--seconds", "1e308", "--out", "x.npy"], "outside 1..196"),
-    (["generate", W, "--length", "0", "--out", "x.npy"], "length 0 frames is outside 1..196"),
+    (["generate", W, "--length", "0", "--out", "x.npy"], "--length must be at least 1 frame"),
     (["generate", "a person jumps", "--length", "197", "--out", "x.npy"],
      "length 197 frames is outside"),
     (["generate", W, "--length", "1.5", "--out", "x.npy"], "--length: invalid int value"),
@@ -825,6 +825,55 @@ def test_cli(ws: Path, capsys: pytest.CaptureFixture[str], argv: list[str],
         code, out, err = run_cli(argv, capsys)
     assert_one_line_exit_2(code, err, fragment)
     assert out == ""
+
+
+# Combinations that no model could run: refused before the model is read (loading it takes
+# seconds), so the loader must not be called at all.
+BEFORE_LOADING_CASES = [
+    (["generate", W, "--rig", "mixamo", "--out", "x.vrma"], "--rig applies to .bvh, .glb files"),
+    (["generate", W, "--rig", "unity", "--out", "x.npz"], ".npz is always smpl"),
+    (["generate", W, "--rig", "bogus", "--out", "x.bvh"], "unknown rig 'bogus'"),
+    (["generate", W, "--features", "--out", "x.gif"], "--features writes .npy files, not .gif"),
+    (["generate", W, "--backend", "bogus", "--out", "x.npy"], "unknown backend 'bogus'"),
+    (["generate", W, "--backend", "onnx", "--dtype", "bfloat16", "--out", "x.npy"],
+     "the onnx backend runs float32 graphs"),
+    (["generate", W, "--backend", "onnx-int8", "--dtype", "bfloat16", "--out", "x.npy"],
+     "the onnx backend runs float32 graphs"),
+    (["generate", W, "--device", "bogus", "--out", "x.npy"], "unknown device 'bogus'"),
+    (["generate", W, "--device", "mps", "--out", "x.npy"], "mlct runs on cpu or cuda"),
+    pytest.param(["generate", W, "--device", "cuda", "--out", "x.npy"], "CUDA is not available",
+                 marks=no_cuda),
+    pytest.param(["generate", W, "--backend", "cuda-graphs", "--out", "x.npy"],
+                 "the cuda-graphs backend needs a CUDA device", marks=no_cuda),
+    pytest.param(["generate", W, "--backend", "onnx", "--device", "cuda", "--out", "x.npy"],
+                 "CUDA is not available", marks=no_cuda),
+    (["generate", W, "--seconds", "0", "--out", "x.npy"], "seconds must be a positive number"),
+    (["generate", W, "--seconds=-inf", "--out", "x.npy"], "seconds must be a positive number"),
+    (["generate", "a", "b", "--seconds", "2", "nan", "--out", "x.npy"],
+     "seconds must be a positive number, got nan"),
+    (["generate", W, "--length=-4", "--out", "x.npy"], "--length must be at least 1 frame"),
+    (["generate", W, "--nfe", "0", "--out", "x.npy"], "--nfe must be at least 1 step, got 0"),
+    (["generate", W, "--candidates", "0", "--out", "x.npy"], "candidates must be a whole number"),
+    (["generate", "a", "b", "--seconds", "2", "3", "4", "--out", "x.npy"], "2 prompts but 3"),
+    (["generate", W, "--out", "x.txt"], "cannot tell the format of 'x.txt'"),
+    (["generate", W, "--parts", "upper", "--out", "x.npy"], "give the motion to edit (--edit)"),
+    (["serve", "--backend", "bogus"], "unknown backend 'bogus'"),
+    (["serve", "--device", "bogus"], "unknown device 'bogus'"),
+    pytest.param(["serve", "--backend", "cuda-graphs"], "needs a CUDA device", marks=no_cuda),
+]
+
+
+@pytest.mark.parametrize("argv, fragment", BEFORE_LOADING_CASES, ids=ids(BEFORE_LOADING_CASES))
+def test_cli_refuses_before_loading_the_model(ws: Path, capsys: pytest.CaptureFixture[str],
+                                              monkeypatch: pytest.MonkeyPatch, argv: list[str],
+                                              fragment: str) -> None:
+    def not_yet(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError(f"the model was loaded for {argv}")
+
+    monkeypatch.setattr(mlct, "load", not_yet)
+    with untouched(ws):
+        code, out, err = run_cli(argv, capsys)
+    assert_one_line_exit_2(code, err, fragment)
 
 
 # One test for the Python tables of the data and training sections.

@@ -41,6 +41,9 @@ def run(args: argparse.Namespace) -> int:
         from mlct.generate.critic import check_candidates
 
         check_candidates(args.candidates)
+    from mlct.generate.backends import check_options
+
+    check_options(args.device, args.dtype, args.backend)  # a combination no model runs
     request = generate_files.Request(prompts, args.seconds, args.length, args.num, args.nfe,
                                      args.seed, long, split_actions=not args.whole_prompt,
                                      control=_control(args), candidates=args.candidates,

@@ -9,8 +9,10 @@ from mlct.cli.parser import THREADS_HELP, Commands, thread_count
 
 
 def run(args: argparse.Namespace) -> int:
+    from mlct.generate.backends import check_options
     from mlct.serve import run_server
 
+    check_options(args.device, "float32", args.backend)  # before the model loads
     run_server(args.model, host=args.host, port=args.port, device=args.device, token=args.token,
                backend=args.backend, threads=args.threads)
     return 0

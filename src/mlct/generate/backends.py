@@ -23,11 +23,13 @@ from typing import Callable
 import torch
 
 from mlct.cpu_features import kernel_dtype
+from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.generate.auto_backend import ENV, choose_backend, find_graphs
-from mlct.generate.cuda_graph_backend import CudaGraphMotionGenerator
+from mlct.generate.cuda_graph_backend import CudaGraphMotionGenerator, check_cuda_device
 from mlct.generate.onnx_backend import OnnxMotionGenerator, check_device_and_dtype
 from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
+from mlct.nn.inference import weight_dtype
 
 
 def _onnx(path: Path, device: torch.device | str | None = None,
@@ -89,6 +91,31 @@ def check_threads(threads: object) -> int | None:
     return threads
 
 
+def check_options(device: torch.device | str | None, dtype: str | torch.dtype,
+                  backend: str = "auto") -> tuple[str, str]:
+    """The backend mlct.load would run ($MLCT_BACKEND for "auto") and where that name came
+    from, or a one-line MlctError for a device, dtype or backend, or a combination of them,
+    that no model could run: all said before a model is read (mlct generate calls it first)."""
+    if backend == "auto" and os.environ.get(ENV):
+        backend, origin = os.environ[ENV].strip().lower(), f"${ENV}"
+    else:
+        origin = "asked for"
+    if not isinstance(backend, str) or backend not in (*BACKENDS, "auto"):
+        raise MlctError(f"unknown backend {backend!r}{' in $' + ENV if origin != 'asked for' else ''}"
+                        f"; choose one of auto, {', '.join(BACKENDS)}")
+    if device is not None:
+        resolve_device(device)
+    try:
+        weight_dtype(dtype)
+    except ValueError as err:
+        raise MlctError(str(err)) from None
+    if backend in ("onnx", "onnx-int8"):
+        check_device_and_dtype(device, dtype)
+    if backend == "cuda-graphs":
+        check_cuda_device(device)
+    return backend, origin
+
+
 def load(path: str | os.PathLike | None = None, device: torch.device | str | None = None,
          dtype: str | torch.dtype = "float32", backend: str = "auto",
          threads: int | None = None) -> MotionGenerator:
@@ -101,14 +128,7 @@ def load(path: str | os.PathLike | None = None, device: torch.device | str | Non
     PyTorch's (one per core, or $OMP_NUM_THREADS)."""
     if path is not None and not isinstance(path, (str, os.PathLike)):
         raise MlctError(f"path must be a model directory (str or Path), not {type(path).__name__}")
-    if backend == "auto" and os.environ.get(ENV):
-        backend = os.environ[ENV].strip().lower()
-        origin = f"${ENV}"
-    else:
-        origin = "asked for"
-    if not isinstance(backend, str) or backend not in (*BACKENDS, "auto"):
-        raise MlctError(f"unknown backend {backend!r}{' in $' + ENV if origin != 'asked for' else ''}"
-                        f"; choose one of auto, {', '.join(BACKENDS)}")
+    backend, origin = check_options(device, dtype, backend)
     if check_threads(threads) is not None:  # every backend takes torch's count, the onnx
         torch.set_num_threads(threads)  # ones for each of their graphs
     folder = bundled_model_dir() if path is None else Path(path)

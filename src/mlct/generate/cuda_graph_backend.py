@@ -60,12 +60,7 @@ class CudaGraphMotionGenerator(MotionGenerator):
              dtype: str | torch.dtype = "float32") -> MotionGenerator:
         """The backend of mlct.load: a CUDA device only (constructed directly, the class runs
         the same code without graphs anywhere, as the tests do on the CPU)."""
-        from mlct.devices import resolve_device
-        from mlct.errors import MlctError
-
-        if device is None or resolve_device(device).type != "cuda":
-            raise MlctError(f"the cuda-graphs backend needs a CUDA device, not {device or 'cpu'}"
-                            "; use --device cuda, or the torch or onnx backend")
+        check_cuda_device(device)
         return super().load(path, device, dtype)
 
     @property
@@ -189,3 +184,13 @@ def _to_host(out: Tensor, lengths: Sequence[int]) -> list[np.ndarray]:
         torch.cuda.current_stream(out.device).synchronize()
     array = host.numpy()  # numpy's slicing: a torch view per item costs ~10x more
     return [array[i, :n] for i, n in enumerate(lengths)]
+
+
+def check_cuda_device(device: torch.device | str | None) -> None:
+    """A one-line MlctError unless `device` is a usable CUDA device (the backend's only one)."""
+    from mlct.devices import resolve_device
+    from mlct.errors import MlctError
+
+    if device is None or resolve_device(device).type != "cuda":
+        raise MlctError(f"the cuda-graphs backend needs a CUDA device, not {device or 'cpu'}"
+                        "; use --device cuda, or the torch or onnx backend")

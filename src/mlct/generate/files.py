@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import re
 import time
 from dataclasses import dataclass
@@ -112,6 +113,14 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
         if features and path.suffix.lower() != ".npy":
             raise MlctError(f"--features writes .npy files, not {path.suffix}")
         check_rig(rig, path.suffix.lower())
+    for value in request.seconds or []:  # (the pipeline says the same, after loading)
+        if value != "auto" and not (math.isfinite(value) and value > 0):
+            raise MlctError(f"seconds must be a positive number, got {value}")
+    for value in request.lengths or []:  # the upper bounds are the model's: checked by it
+        if value < 1:
+            raise MlctError(f"--length must be at least 1 frame, got {value}")
+    if request.nfe is not None and request.nfe < 1:
+        raise MlctError(f"--nfe must be at least 1 step, got {request.nfe}")
     if request.long and request.control is not None:
         raise MlctError("controls go with one prompt, not a long motion of several")
     if request.long:
