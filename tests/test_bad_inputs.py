@@ -857,6 +857,8 @@ BEFORE_LOADING_CASES = [
     (["generate", "a", "b", "--seconds", "2", "3", "4", "--out", "x.npy"], "2 prompts but 3"),
     (["generate", W, "--out", "x.txt"], "cannot tell the format of 'x.txt'"),
     (["generate", W, "--parts", "upper", "--out", "x.npy"], "give the motion to edit (--edit)"),
+    (["convert", "bundled", "--int8", "--decoder-from", "runs", "--out", "m2"],
+     "--int8 quantizes the ONNX graphs: give --onnx too"),
     (["serve", "--backend", "bogus"], "unknown backend 'bogus'"),
     (["serve", "--device", "bogus"], "unknown device 'bogus'"),
     pytest.param(["serve", "--backend", "cuda-graphs"], "needs a CUDA device", marks=no_cuda),

@@ -17,6 +17,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.onnx and args.decoder_from is None:
         raise MlctError("say what to convert the model to: --onnx (ONNX graphs for "
                         "--backend onnx) or --decoder-from RUN (another decoder)")
+    if args.int8 and not args.onnx:  # (else the copy would be made and --int8 do nothing)
+        raise MlctError("--int8 quantizes the ONNX graphs: give --onnx too")
     bundled = str(args.model) == "bundled"
     model = bundled_model_dir() if bundled else args.model
     if args.decoder_from is not None:
