@@ -303,3 +303,22 @@ def test_a_merge_with_the_benchmark_keeps_every_motions_provenance(release, tmp_
     assert len(real) == 3 and all(r["corpus"] == "bandai-namco" and r["license"] ==
                                   "CC BY-NC 4.0" and not r["commercial_use"] for r in real)
     assert check_dataset(tmp_path / "mixed") == []
+
+
+def test_the_real_suite_measures_reconstructions_and_spread(release, tmp_path, capsys):
+    import argparse
+
+    from mlct.eval.suites import real
+
+    root, _ = release
+    import_corpus("bandai-namco", root, tmp_path / "real", split=(0.0, 0.0, 1.0))
+    args = argparse.Namespace(data=tmp_path / "real", ae=Path("identity"), model=None,
+                              split="test", json=tmp_path / "r.json",
+                              load_autoencoder=lambda path: (lambda x: x))
+    real.run(args)
+    recon = json.loads((tmp_path / "r.json").read_text())["reconstruction"]
+    assert set(recon) == {"walk", "bow", "wave-left-hand"}
+    assert all(r["mpjpe_m"] == 0.0 and r["pose_m"] == 0.0 for r in recon.values())
+    still = np.zeros((10, 22, 3))
+    assert real.pairwise_distance([still, still + [0.0, 0.0, 0.3], still[:5]]) == \
+        pytest.approx((0.3 + 0.0 + 0.3) / 3)

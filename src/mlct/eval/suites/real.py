@@ -1,0 +1,147 @@
+"""Real capture: the autoencoder's reconstructions of real held-out motions, the variety of a
+model's motions for one label against the real data's, and foot skating against the data's.
+
+    python bench/quality.py real --data REAL [--ae RUN_OR_MODEL] [--model MODEL] [--seeds 5]
+
+REAL is a dataset imported with `mlct data import --corpus ...` (its provenance.jsonl names each
+motion's label: a corpus content such as "wave-left-hand", or CMU's description).
+- (a) with --ae: per label of the split, the reconstruction's mean joint distance (MPJPE, the
+  root's path included) and the pose's alone (each frame's joints relative to its pelvis);
+- (b) with --model (or 'bundled'): for each label with at least --min-motions motions, one
+  caption of it generated --seeds times at the label's median length; the variety is the mean
+  joint distance between two seeds' motions (every pair, frame by frame over the shorter,
+  both starting where the features put them: at the origin, facing +Z); the data's variety is
+  the same distance between its motions of the label (all splits, at most 12). Measured at the
+  defaults, with one candidate (no critic), and with the text anchors off, so that each pull
+  towards one motion shows;
+- (c) foot skating (GMD's ratio) of the defaults' motions against the data's for the same labels.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mlct.data.layout import DatasetLayout, PROVENANCE_FILE
+from mlct.motion.features import features_to_joints
+from mlct.motion.physics import foot_skating_ratio
+from mlct.motion.skeleton import HUMANML3D
+
+MAX_PER_LABEL = 12  # the data's motions of one label compared pairwise
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--data", type=Path, required=True, help="an imported real corpus")
+    parser.add_argument("--ae", type=Path, default=None, help="run or model for (a)")
+    parser.add_argument("--model", default=None, help="model folder or 'bundled' for (b), (c)")
+    parser.add_argument("--split", default="test")
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--min-motions", type=int, default=3)
+    parser.add_argument("--labels", default=None, help="only these labels, comma-separated")
+    parser.add_argument("--json", type=Path, default=None)
+
+
+def motion_labels(root: Path) -> dict[str, str]:
+    """motion name -> its label (corpus content, else CMU's description)."""
+    labels = {}
+    for line in (root / PROVENANCE_FILE).read_text(encoding="utf-8").splitlines():
+        record = json.loads(line)
+        found = record.get("labels", {})
+        labels[record["name"]] = found.get("content") or found.get("description", "?").lower()
+    return labels
+
+
+def pairwise_distance(motions: list[np.ndarray]) -> float:
+    """Mean over pairs of the mean joint distance, frame by frame over the shorter motion (m)."""
+    pairs = []
+    for a, b in itertools.combinations(motions, 2):
+        n = min(len(a), len(b))
+        pairs.append(float(np.linalg.norm(a[:n] - b[:n], axis=-1).mean()))
+    return float(np.mean(pairs)) if pairs else float("nan")
+
+
+def reconstructions(layout: DatasetLayout, names: list[str], labels: dict[str, str],
+                    ae: Any) -> dict[str, dict[str, float]]:
+    per: dict[str, list[tuple[float, float]]] = defaultdict(list)
+    for name in names:
+        features = layout.load_features(name)
+        truth, made = features_to_joints(features), features_to_joints(ae(features))
+        pose = np.linalg.norm((truth - truth[:, :1]) - (made - made[:, :1]), axis=-1).mean()
+        per[labels[name]].append((float(np.linalg.norm(truth - made, axis=-1).mean()), pose))
+    return {label: {"n": len(v), "mpjpe_m": float(np.mean([m for m, _ in v])),
+                    "pose_m": float(np.mean([p for _, p in v]))} for label, v in per.items()}
+
+
+def run(args: argparse.Namespace) -> None:
+    layout = DatasetLayout.existing(args.data)
+    labels = motion_labels(args.data)
+    report: dict[str, Any] = {"data": str(args.data)}
+    if args.ae is not None:
+        names = layout.read_split(args.split)
+        recon = reconstructions(layout, names, labels, args.load_autoencoder(args.ae))
+        report["reconstruction"] = recon
+        allv = [(r["mpjpe_m"], r["pose_m"], r["n"]) for r in recon.values()]
+        n = sum(c for _, _, c in allv)
+        print(f"(a) {args.ae}: {n} {args.split} motions of {args.data}: MPJPE "
+              f"{sum(m * c for m, _, c in allv) / n * 100:.1f} cm, pose "
+              f"{sum(p * c for _, p, c in allv) / n * 100:.1f} cm")
+        for label, r in sorted(recon.items()):
+            print(f"    {label:32s} n={r['n']:3d}  MPJPE {r['mpjpe_m'] * 100:5.1f} cm  "
+                  f"pose {r['pose_m'] * 100:5.1f} cm")
+    if args.model is not None:
+        report["variety"] = _variety(args, layout, labels)
+    if args.json is not None:
+        args.json.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+
+
+def _variety(args: argparse.Namespace, layout: DatasetLayout,
+             labels: dict[str, str]) -> dict[str, Any]:
+    import mlct
+
+    pipe = mlct.load(None if args.model == "bundled" else args.model)
+    by_label: dict[str, list[str]] = defaultdict(list)
+    for name in sorted(labels):
+        by_label[labels[name]].append(name)
+    chosen = sorted(l for l, n in by_label.items() if len(n) >= args.min_motions)
+    if args.labels:
+        chosen = [l for l in chosen if l in args.labels.split(",")]
+    rows: dict[str, Any] = {}
+    anchors = pipe.text_anchors
+    for label in chosen:
+        names = by_label[label][:MAX_PER_LABEL]
+        real = [features_to_joints(layout.load_features(n)) for n in names]
+        seconds = float(np.median([len(j) for j in real])) / HUMANML3D.fps
+        caption = layout.read_texts(names[0])[0].caption
+        row = {"caption": caption, "seconds": seconds, "data_m": pairwise_distance(real),
+               "data_skating": float(np.mean([foot_skating_ratio(j, HUMANML3D) for j in real]))}
+        for setting, kwargs, with_anchors in (("defaults", {}, True),
+                                              ("one_candidate", {"candidates": 1}, True),
+                                              ("no_anchors", {}, False)):
+            pipe.text_anchors = anchors if with_anchors else None
+            made = pipe.generate([caption] * args.seeds, seconds=seconds, seed=0, **kwargs)
+            joints = [m.joints for m in made]
+            row[f"{setting}_m"] = pairwise_distance(joints)
+            if setting == "defaults":
+                row["skating"] = float(np.mean([foot_skating_ratio(j, HUMANML3D)
+                                                for j in joints]))
+        pipe.text_anchors = anchors
+        rows[label] = row
+    print(f"(b) variety of {args.seeds} seeds (mean joint distance between seeds, cm) against "
+          f"the data's own for the label; (c) foot skating; model {args.model}")
+    print(f"    {'label':26s} {'data':>6s} {'default':>8s} {'ratio':>6s} {'1 cand':>7s} "
+          f"{'no anch':>8s} {'skate':>6s} {'data sk':>7s}")
+    for label, r in rows.items():
+        print(f"    {label:26s} {r['data_m'] * 100:6.1f} {r['defaults_m'] * 100:8.1f} "
+              f"{r['defaults_m'] / r['data_m']:6.2f} {r['one_candidate_m'] * 100:7.1f} "
+              f"{r['no_anchors_m'] * 100:8.1f} {r['skating']:6.3f} {r['data_skating']:7.3f}")
+    if rows:
+        ratios = [r["defaults_m"] / r["data_m"] for r in rows.values()]
+        print(f"    median ratio {np.median(ratios):.2f} over {len(rows)} labels; defaults "
+              f"at least 5 cm in {sum(r['defaults_m'] >= 0.05 for r in rows.values())}")
+    return rows
