@@ -56,8 +56,11 @@ def kernel_dtype(dtype: Any, device: Any) -> Any:
         return dtype
     if onednn_bf16():
         return dtype
-    warnings.warn(f"bfloat16 needs a CPU with {bf16_feature()}, which this one lacks; running "
-                  f"float32, which is faster here", MlctWarning, stacklevel=_caller_outside())
+    lacking = (f"a CPU with {bf16_feature()}, which this one lacks"
+               if torch.backends.mkldnn.is_available()
+               else "PyTorch's oneDNN kernels, which this build of torch lacks")
+    warnings.warn(f"bfloat16 needs {lacking}; running float32, which is faster here",
+                  MlctWarning, stacklevel=_caller_outside())
     return torch.float32
 
 
