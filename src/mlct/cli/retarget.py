@@ -1,6 +1,7 @@
 """`mlct retarget FILE.npy --out x.glb --rig mixamo`: a motion file already made (joints or
 features .npy, e.g. from `mlct generate --out x.npy` or a dataset) as a rig file: .bvh, .glb,
-.vrma or .npz, through the same writer as `mlct generate` (docs/export.md)."""
+.vrma or .npz, or the Unitree G1 robot's joint angles (.g1.csv, .g1.npz), through the same
+writer as `mlct generate` (docs/export.md)."""
 
 from __future__ import annotations
 
@@ -10,18 +11,19 @@ from pathlib import Path
 from mlct.cli.parser import Commands
 from mlct.errors import MlctError
 
-SUFFIXES = (".bvh", ".glb", ".vrma", ".npz")
+SUFFIXES = (".bvh", ".glb", ".vrma", ".npz", ".g1.csv", ".g1.npz")
 
 
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from mlct.generate.exports import check_rig, save_motion
+    from mlct.generate.exports import ROBOT_FORMATS, check_rig, save_motion
     from mlct.generate.generated import GeneratedMotion
     from mlct.io import check_writable_dir
     from mlct.motion.render import load_motion_npy
 
-    suffix = args.out.suffix.lower()
+    name = args.out.name.lower()
+    suffix = next((f for f in ROBOT_FORMATS if name.endswith(f)), args.out.suffix.lower())
     if suffix not in SUFFIXES:
         raise MlctError(f"--out {args.out.name}: retarget writes {', '.join(SUFFIXES)} files")
     check_rig(args.rig, suffix)
@@ -37,9 +39,10 @@ def run(args: argparse.Namespace) -> int:
 
 def add_parser(commands: Commands) -> None:
     retarget = commands.add_parser(
-        "retarget", help="a joints/features .npy as a rig file: BVH, GLB, VRMA or NPZ")
+        "retarget", help="a joints/features .npy as a rig file (BVH, GLB, VRMA, NPZ) or G1 angles")
     retarget.add_argument("file", type=Path, help="features (T x 263/251) or joints (T x J x 3) .npy")
-    retarget.add_argument("--out", required=True, type=Path, help="OUT.bvh, .glb, .vrma or .npz")
+    retarget.add_argument("--out", required=True, type=Path,
+                          help="OUT.bvh, .glb, .vrma, .npz, .g1.csv or .g1.npz")
     retarget.add_argument("--rig", default=None,
                           help="for .bvh/.glb: mixamo, unreal, unity, vrm, smpl or FILE.json")
     retarget.add_argument("--skeleton", default=None, help="humanml3d or kit (default: from shape)")

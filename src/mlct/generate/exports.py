@@ -8,7 +8,9 @@
 - .glb: a skinned humanoid with the motion as a glTF animation clip; .vrma: a VRM Animation;
   .npz: SMPL/AMASS parameters (motion/gltf.py, motion/smpl.py). Every rig format goes through
   the one rotation fit of motion/rigfit.py; `rig` (a preset of motion/rigs.py or a .json file)
-  renames and re-poses the skeleton of .bvh and .glb (.vrma is VRM's, .npz SMPL's by definition).
+  renames and re-poses the skeleton of .bvh and .glb (.vrma is VRM's, .npz SMPL's by definition);
+- .g1.csv / .g1.npz: the motion retargeted to the Unitree G1 robot's joint angles, MuJoCo's qpos
+  per frame (motion/robots/).
 
 One function, `save_motion`, serves the CLI, `GeneratedMotion.save` and the server (through
 `export_bytes`).
@@ -45,16 +47,21 @@ class GeneratedMotion(Protocol):
 FORMATS = (".gif", ".mp4", ".png", ".npy", ".json", ".bvh", ".glb", ".vrma", ".npz")
 RIG_FORMATS = (".bvh", ".glb")  # the formats a --rig retargets
 FIXED_RIGS = {".vrma": "vrm", ".npz": "smpl"}  # the formats whose rig is their own
+ROBOT_FORMATS = (".g1.csv", ".g1.npz")  # named by a double extension: .npz alone is SMPL's
 JSON_FORMAT = "mlct-motion"
 JSON_DECIMALS = 4  # 0.1 mm: far below what a viewer shows, and a third of the digits
 
 
 def check_format(path: str | os.PathLike) -> str:
     """The lower-case extension of path when it is a format we write; MlctError otherwise."""
+    name = Path(path).name.lower()
+    robot = next((f for f in ROBOT_FORMATS if name.endswith(f)), None)
+    if robot is not None:
+        return robot
     suffix = Path(path).suffix.lower()
     if suffix not in FORMATS:
         raise MlctError(f"cannot tell the format of '{Path(path).name}': the name must end in "
-                        f"{', '.join(FORMATS)}")
+                        f"{', '.join(FORMATS + ROBOT_FORMATS)}")
     return suffix
 
 
@@ -120,6 +127,11 @@ def save_motion(motion: GeneratedMotion, path: str | os.PathLike, features: bool
         from mlct.motion.gltf import write_vrma
 
         write_vrma(path, motion.joints, skeleton, motion.fps)
+    elif suffix in ROBOT_FORMATS:
+        from mlct.motion.robots.files import write_robot
+        from mlct.motion.robots.retarget import retarget_g1
+
+        write_robot(path, retarget_g1(motion.joints, skeleton, motion.fps))
     elif suffix == ".npz":
         from mlct.motion.smpl import write_smpl_npz
 

@@ -81,13 +81,14 @@ def output_paths(names: Sequence[str], out: Path | None, out_dir: Path | None,
     if out is not None:
         if fmt is not None:
             raise MlctError("--format goes with --out-dir; with --out the extension names it")
-        check_format(out)
+        suffix = out.name[-len(check_format(out)):]  # the whole of .g1.csv, in its own case
         if out.is_dir():
             raise MlctError(f"--out {out} is a directory; name a file, or use --out-dir")
         check_writable_dir(out.parent)
         if len(names) == 1:
             return [out]
-        return [out.with_name(f"{out.stem}_{i:03d}{out.suffix}") for i in range(len(names))]
+        stem = out.name[:-len(suffix)]
+        return [out.with_name(f"{stem}_{i:03d}{suffix}") for i in range(len(names))]
     assert out_dir is not None
     suffix = "." + (fmt or "gif").lower().lstrip(".")
     check_format(f"motion{suffix}")

@@ -252,6 +252,10 @@ def retarget_g1(joints: np.ndarray, skeleton: Skeleton = HUMANML3D, fps: float |
     _, q = solve(CHAIN, root, pelvis, q, arm_joints, targets, iterations=iterations)
 
     quat = matrix_to_quat(pelvis)
+    # q and -q are one rotation: each frame's sign follows the previous one, so that a reader
+    # interpolating between frames never swings the long way round
+    flips = np.cumsum(np.concatenate([[0], np.sum(quat[1:] * quat[:-1], -1) < 0])) % 2
+    quat = np.where(flips[:, None] == 1, -quat, quat)
     qpos = np.concatenate([root, quat, q], -1)
     return RobotMotion(
         g1.NAME, fps, CHAIN.joint_names, qpos, h, scale, contacts,
