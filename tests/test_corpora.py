@@ -322,3 +322,17 @@ def test_the_real_suite_measures_reconstructions_and_spread(release, tmp_path, c
     still = np.zeros((10, 22, 3))
     assert real.pairwise_distance([still, still + [0.0, 0.0, 0.3], still[:5]]) == \
         pytest.approx((0.3 + 0.0 + 0.3) / 3)
+
+
+def test_cmu_prefers_its_own_amc_take_to_a_bvh_conversion(tmp_path):
+    from mlct.data.corpora.cmu import CMU
+
+    (tmp_path / "amc").mkdir()
+    (tmp_path / "bvh").mkdir()
+    (tmp_path / "amc" / "02.asf").write_text(":bonedata\n")
+    for name in ("amc/02_05.amc", "amc/02_06.amc", "bvh/02_05.bvh", "bvh/07_01.bvh"):
+        (tmp_path / name).write_text("")
+    (tmp_path / "amc" / "03_01.amc").write_text("")  # no 03.asf beside it: not a take
+    found = {c.name: c.path.relative_to(tmp_path).as_posix() for c in CMU.find(tmp_path)}
+    assert found == {"cmu_02_05": "amc/02_05.amc", "cmu_02_06": "amc/02_06.amc",
+                     "cmu_07_01": "bvh/07_01.bvh"}

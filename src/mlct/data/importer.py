@@ -231,7 +231,12 @@ def _load_bvh(path: Path, skeleton: Skeleton,
     first of its `between` places whose two joints the file has."""
     from mlct.motion.bvh import read_bvh
 
-    clip = read_bvh(path, end_sites=True)
+    if path.suffix.lower() == ".amc":  # CMU's own format (a corpus importer passes these)
+        from mlct.motion.asf_amc import read_amc
+
+        clip: Any = read_amc(path)
+    else:
+        clip = read_bvh(path, end_sites=True)
     index = {name: i for i, name in enumerate(clip.joint_names)}
     tried = []
     for one in (mapping if isinstance(mapping, tuple) else (mapping,)):

@@ -1,9 +1,10 @@
 """The CMU Graphics Lab Motion Capture Database (mocap.cs.cmu.edu): 2,435 takes of 144 subjects,
 named `SS_TT` (subject, take), each with a one-line description in CMU's index
 (cmu_index.tsv beside this file). Its takes are published as ASF/AMC by CMU and as BVH
-conversions by others; this importer reads the BVH conversions found here: CMU's own BVH
-naming (Hips, LeftHip, ..., Chest2, as in the conversions of subject 131) and the Daz/Poser
-naming (hip, abdomen, chest, lThigh, ...), whose feet end in an End Site instead of a toe joint.
+conversions by others; this importer reads CMU's ASF/AMC (motion/asf_amc.py, bones named as
+in the ASF) and the BVH conversions in three namings: CMU's ASF bone names, CMU's BVH naming
+(Hips, LeftHip, ..., Chest2, as in the conversions of subject 131) and the Daz/Poser naming
+(hip, abdomen, chest, lThigh, ...), whose feet end in an End Site instead of a toe joint.
 
 CMU's terms: free for research and commercial use; cite mocap.cs.cmu.edu ("The data used in
 this project was obtained from mocap.cs.cmu.edu. The database was created with funding from NSF
@@ -35,9 +36,10 @@ _CMU_BVH = {"Hips": "pelvis", "lowerback": "spine1", "Chest": "spine2", "Chest2"
             "Neck": "neck", "Head": "head"}
 _DAZ = {"hip": "pelvis", "abdomen": "spine1", "chest": "spine2", "neck": "neck",
         "head": "head"}
-# CMU's ASF bone names: a joint sits where its bone starts, so lowerback is at the root and
-# lowerneck on the thorax with zero length (mapping either to a spine joint folds the spine).
-_ASF = {"hip": "pelvis", "upperback": "spine1", "thorax": "spine2", "upperneck": "neck",
+# CMU's ASF bone names (the BVH conversions call the root "hip", the AMC reader "root"): a joint
+# sits where its bone starts, so lowerback is at the root and lowerneck on the thorax with zero
+# length (mapping either to a spine joint folds the spine).
+_ASF = {"hip": "pelvis", "root": "pelvis", "upperback": "spine1", "thorax": "spine2", "upperneck": "neck",
         "head": "head"}
 for _side in ("left", "right"):
     _s, _Side = _side[0], _side.capitalize()
@@ -122,11 +124,14 @@ def read_index(path: Path = INDEX_FILE) -> dict[str, str]:
 
 
 def find_clips(root: Path) -> list[RealClip]:
-    """Every `SS_TT.bvh` under `root` whose CMU description DESCRIPTIONS can caption; a take
-    found twice (two conversions) is kept once, its first path in sorted order."""
+    """Every `SS_TT.amc` (with its subject's SS.asf beside it) and `SS_TT.bvh` under `root`
+    whose CMU description DESCRIPTIONS can caption; a take found twice is kept once: CMU's own
+    AMC before a BVH conversion, else the first path in sorted order."""
     index = read_index()
     clips: dict[str, RealClip] = {}
-    for path in sorted(root.rglob("*.bvh")):
+    amc = [p for p in sorted(root.rglob("*.amc"))
+           if p.with_name(p.stem.split("_")[0] + ".asf").is_file()]
+    for path in amc + sorted(root.rglob("*.bvh")):
         match = _TAKE.match(path.stem)
         if match is None or path.stem in clips:
             continue
