@@ -4,7 +4,7 @@
     python bench/quality.py motion --data SYNTH --seeds 5 --classifier CLF   # the benchmark
     python bench/quality.py paraphrases --seeds 5                             # hand-written sets
 
-Suites: motion, paraphrases, sides, examples, short, turns, feet, keep-going, int8
+Suites: motion, paraphrases, sides, examples, short, turns, feet, keep-going, int8, real
 (bench/README.md: what each prints and how long it takes). The hand-written prompt sets are
 bench/data's; `motion --ae RUN` also takes a training run's autoencoder.
 """
