@@ -170,3 +170,39 @@ def test_one_frame_is_a_clip_of_length_zero(rigid):
     assert list(clip.times) == [0]
     order = [HUMANML3D.joint_names.index(n) for n in clip.names]
     assert np.abs(clip.positions()[0] - rigid[0, order] * 100.0).max() < 0.01
+
+
+def test_save_motion_cli_and_server_bytes_write_the_fbx(rigid, tmp_path, capsys):
+    from mlct.cli import main
+    from mlct.generate.exports import check_rig, export_bytes, save_motion
+    from mlct.generate.generated import GeneratedMotion
+
+    motion = GeneratedMotion("a person walks", np.zeros((len(rigid), 263)), rigid, 20.0,
+                             "humanml3d", 0)
+    path = save_motion(motion, tmp_path / "m.FBX", rig="unreal")  # the extension picks it
+    assert read_skeleton(path.read_bytes()).names[0] == "pelvis"
+    assert export_bytes(motion, ".fbx", rig="mixamo") == fbx_bytes(rigid, HUMANML3D, 20.0,
+                                                                      rig="mixamo")
+    check_rig("vrm", ".fbx")  # every preset
+    np.save(tmp_path / "walk.npy", rigid)
+    assert main(["retarget", str(tmp_path / "walk.npy"), "--out", str(tmp_path / "w.fbx"),
+                 "--rig", "mixamo"]) == 0
+    assert read_skeleton((tmp_path / "w.fbx").read_bytes()).names[0] == "mixamorig:Hips"
+
+
+def test_cli_refuses_a_bad_rig_for_an_fbx_before_loading_the_model(tmp_path, capsys,
+                                                                  monkeypatch):
+    import mlct
+    from mlct.cli import main
+
+    def no_model(*args, **kwargs):
+        raise AssertionError("the model was loaded")
+
+    monkeypatch.setattr(mlct, "load", no_model)
+    for rig, words in (("maya", "unknown rig 'maya'"), ("missing.json", "cannot read")):
+        capsys.readouterr()
+        assert main(["generate", "a person walks", "--out", str(tmp_path / "m.fbx"),
+                     "--rig", rig]) == 2
+        err = capsys.readouterr().err
+        assert words in err and len(err.strip().splitlines()) == 1
+    assert not list(tmp_path.iterdir())

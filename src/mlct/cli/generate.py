@@ -1,4 +1,5 @@
-"""`mlct generate`: text to motion files (GIF, MP4, PNG, NPY, JSON, BVH, GLB, VRMA, NPZ)."""
+"""`mlct generate`: text to motion files (GIF, MP4, PNG, NPY, JSON, BVH, GLB, FBX, VRMA,
+NPZ)."""
 
 from __future__ import annotations
 
@@ -154,8 +155,8 @@ def _seconds(value: str) -> float | str:
 
 def add_parser(commands: Commands) -> None:
     generate = commands.add_parser(
-        "generate", help="text to motion: GIF, MP4, PNG filmstrip, NPY, JSON, BVH, GLB, VRMA "
-        "or NPZ",
+        "generate", help="text to motion: GIF, MP4, PNG filmstrip, NPY, JSON, BVH, GLB, FBX, "
+        "VRMA or NPZ",
         description="One prompt: one motion (--num for variations). Several prompts with one "
                     "duration each: one continuous long motion doing them in order. --prompts "
                     "FILE: one motion per line.")
@@ -227,17 +228,17 @@ def add_parser(commands: Commands) -> None:
                           help=".npy holds the features (T x 263) instead of joints (T x J x 3)")
     where = generate.add_mutually_exclusive_group()
     where.add_argument("--out", type=Path, default=None,
-                       help="FILE.gif, .mp4, .png, .npy, .json, .bvh, .glb, .vrma or .npz "
+                       help="FILE.gif, .mp4, .png, .npy, .json, .bvh, .glb, .fbx, .vrma or .npz "
                        "(several: FILE_000.gif, ...)")
     where.add_argument("--out-dir", type=Path, default=None,
                        help="directory; files named after the prompts")
     generate.add_argument("--format", default=None,
-                          help="with --out-dir: gif (default), mp4, png, npy, json, bvh, glb, vrma "
-                          "or npz")
+                          help="with --out-dir: gif (default), mp4, png, npy, json, bvh, glb, fbx, "
+                          "vrma or npz")
     generate.add_argument("--quiet", action="store_true", help="no progress bar")
     generate.add_argument("--rig", default=None,
-                          help=".bvh/.glb for a character's rig: mixamo, unreal, unity, vrm, smpl "
-                               "or FILE.json (joint names, rest pose; docs/export.md)")
+                          help=".bvh/.glb/.fbx for a character's rig: mixamo, unreal, unity, vrm, "
+                               "smpl or FILE.json (joint names, rest pose; docs/export.md)")
     generate.add_argument("--verbose", action="store_true",
                           help="say which inference backend runs the model, and why")
     generate.set_defaults(func=run)

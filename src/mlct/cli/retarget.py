@@ -1,6 +1,6 @@
 """`mlct retarget FILE.npy --out x.glb --rig mixamo`: a motion file already made (joints or
 features .npy, e.g. from `mlct generate --out x.npy` or a dataset) as a rig file: .bvh, .glb,
-.vrma or .npz, or the Unitree G1 robot's joint angles (.g1.csv, .g1.npz), through the same
+.fbx, .vrma or .npz, or the Unitree G1 robot's joint angles (.g1.csv, .g1.npz), through the same
 writer as `mlct generate` (docs/export.md)."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from pathlib import Path
 from mlct.cli.parser import Commands
 from mlct.errors import MlctError
 
-SUFFIXES = (".bvh", ".glb", ".vrma", ".npz", ".g1.csv", ".g1.npz")
+SUFFIXES = (".bvh", ".glb", ".fbx", ".vrma", ".npz", ".g1.csv", ".g1.npz")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -39,12 +39,14 @@ def run(args: argparse.Namespace) -> int:
 
 def add_parser(commands: Commands) -> None:
     retarget = commands.add_parser(
-        "retarget", help="a joints/features .npy as a rig file (BVH, GLB, VRMA, NPZ) or G1 angles")
+        "retarget", help="a joints/features .npy as a rig file (BVH, GLB, FBX, VRMA, NPZ) or G1 "
+        "angles")
     retarget.add_argument("file", type=Path, help="features (T x 263/251) or joints (T x J x 3) .npy")
     retarget.add_argument("--out", required=True, type=Path,
-                          help="OUT.bvh, .glb, .vrma, .npz, .g1.csv or .g1.npz")
+                          help="OUT.bvh, .glb, .fbx, .vrma, .npz, .g1.csv or .g1.npz")
     retarget.add_argument("--rig", default=None,
-                          help="for .bvh/.glb: mixamo, unreal, unity, vrm, smpl or FILE.json")
+                          help="for .bvh/.glb/.fbx: mixamo, unreal, unity, vrm, smpl or "
+                               "FILE.json")
     retarget.add_argument("--skeleton", default=None, help="humanml3d or kit (default: from shape)")
     retarget.add_argument("--fps", type=float, default=None, help="default: the skeleton's fps")
     retarget.set_defaults(func=run)

@@ -8,7 +8,10 @@
 - .glb: a skinned humanoid with the motion as a glTF animation clip; .vrma: a VRM Animation;
   .npz: SMPL/AMASS parameters (motion/gltf.py, motion/smpl.py). Every rig format goes through
   the one rotation fit of motion/rigfit.py; `rig` (a preset of motion/rigs.py or a .json file)
-  renames and re-poses the skeleton of .bvh and .glb (.vrma is VRM's, .npz SMPL's by definition);
+  renames and re-poses the skeleton of .bvh, .glb and .fbx (.vrma is VRM's, .npz SMPL's by
+  definition);
+- .fbx: binary FBX 7.4, a skeleton and one animation take (Blender, Unity, Unreal, Maya),
+  motion/fbx.py;
 - .g1.csv / .g1.npz: the motion retargeted to the Unitree G1 robot's joint angles, MuJoCo's qpos
   per frame (motion/robots/).
 
@@ -44,8 +47,8 @@ class GeneratedMotion(Protocol):
     seed: int | None
 
 
-FORMATS = (".gif", ".mp4", ".png", ".npy", ".json", ".bvh", ".glb", ".vrma", ".npz")
-RIG_FORMATS = (".bvh", ".glb")  # the formats a --rig retargets
+FORMATS = (".gif", ".mp4", ".png", ".npy", ".json", ".bvh", ".glb", ".fbx", ".vrma", ".npz")
+RIG_FORMATS = (".bvh", ".glb", ".fbx")  # the formats a --rig retargets
 FIXED_RIGS = {".vrma": "vrm", ".npz": "smpl"}  # the formats whose rig is their own
 ROBOT_FORMATS = (".g1.csv", ".g1.npz")  # named by a double extension: .npz alone is SMPL's
 JSON_FORMAT = "mlct-motion"
@@ -100,7 +103,7 @@ def motion_json(motion: GeneratedMotion) -> dict[str, Any]:
 def save_motion(motion: GeneratedMotion, path: str | os.PathLike, features: bool = False,
                 rig: str | os.PathLike | None = None) -> Path:
     """Write motion to path in the format its extension names; returns the path. `rig`: a
-    retarget preset or .json file for .bvh and .glb (module doc)."""
+    retarget preset or .json file for .bvh, .glb and .fbx (module doc)."""
     if not isinstance(path, (str, os.PathLike)):
         raise MlctError(f"path must be a file name (str or Path), not {type(path).__name__}")
     path = Path(path)
@@ -123,6 +126,10 @@ def save_motion(motion: GeneratedMotion, path: str | os.PathLike, features: bool
         from mlct.motion.gltf import write_glb
 
         write_glb(path, motion.joints, skeleton, motion.fps, rig=rig)
+    elif suffix == ".fbx":
+        from mlct.motion.fbx import write_fbx
+
+        write_fbx(path, motion.joints, skeleton, motion.fps, rig=rig)
     elif suffix == ".vrma":
         from mlct.motion.gltf import write_vrma
 

@@ -1,9 +1,9 @@
 """The HTTP API and the web page of `mlct serve` (FastAPI).
 
-    POST /generate  texts -> motions (JSON) or one motion as a file (npy, bvh, gif, glb, vrma,
-                    npz; `rig` retargets bvh and glb); each motion's "unknown_parts" (a file's
-                    X-Mlct-Unknown-Parts header) lists the parts of its prompt the model
-                    does not know, [] when it knows them all
+    POST /generate  texts -> motions (JSON) or one motion as a file (npy, bvh, gif, glb, fbx,
+                    vrma, npz; `rig` retargets bvh, glb and fbx); each motion's
+                    "unknown_parts" (a file's X-Mlct-Unknown-Parts header) lists the parts of
+                    its prompt the model does not know, [] when it knows them all
     GET  /health    model, limits, queue and batching figures
     GET  /docs      the OpenAPI page;  GET /  the web page (static/, plotly.js from its wheel)
 
@@ -65,7 +65,7 @@ EXAMPLES = (  # families the bundled model does best by its read-outs (docs/mode
 FASTAPI_BODY_ERROR = "There was an error parsing the body"  # FastAPI's words, e.g. for bad UTF-8
 MEDIA_TYPES = {"npy": "application/octet-stream", "bvh": "text/plain; charset=utf-8",
                "gif": "image/gif", "glb": "model/gltf-binary", "vrma": "model/gltf-binary",
-               "npz": "application/octet-stream"}
+               "fbx": "application/octet-stream", "npz": "application/octet-stream"}
 
 
 def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI:

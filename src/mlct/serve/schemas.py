@@ -18,7 +18,7 @@ from mlct.errors import MlctError
 from mlct.generate.critic import MAX_CANDIDATES
 from mlct.generate.prompts import clean_prompt
 
-Format = Literal["json", "npy", "bvh", "gif", "glb", "vrma", "npz"]
+Format = Literal["json", "npy", "bvh", "gif", "glb", "fbx", "vrma", "npz"]
 RigName = Literal["mixamo", "unreal", "unity", "vrm", "smpl"]  # motion/rigs.py's presets
 MAX_SEED = 2**53 - 1  # the largest integer a browser's JSON keeps exactly
 
@@ -83,8 +83,8 @@ def request_model(limits: Limits) -> type[BaseModel]:
         3 seconds"; "auto": from the text);
         `candidates`: motions sampled per text, the one the model's critic rates best kept
         (default: the model's); `seed`: an int s seeds text i with s + i (omitted: random,
-        returned in the reply); `format`: json for every text, npy/bvh/gif/glb/vrma/npz for
-        one text as a file download; `rig`: a retarget preset for bvh and glb
+        returned in the reply); `format`: json for every text, npy/bvh/gif/glb/fbx/vrma/npz
+        for one text as a file download; `rig`: a retarget preset for bvh, glb and fbx
         (docs/export.md); `in_place`: the pelvis kept over its start, no travel over the
         ground (an engine's root-motion clip)."""
 
