@@ -65,8 +65,9 @@ class GeneratedMotion:
 
     def save(self, path: str | os.PathLike, features: bool = False,
              rig: str | os.PathLike | None = None) -> Path:
-        """Write to path: .gif .mp4 .png .npy .json .bvh .glb .fbx .vrma .npz (mlct.generate.exports);
-        rig: mixamo, unreal, unity, vrm, smpl or a .json rig, for .bvh, .glb and .fbx."""
+        """Write to path: .gif .mp4 .png .npy .json .bvh .glb .fbx .vrma .npz
+        (mlct.generate.exports); rig: mixamo, unreal, unity, vrm, smpl or a .json rig, for .bvh,
+        .glb and .fbx."""
         from mlct.generate.exports import save_motion
 
         return save_motion(self, path, features, rig)
