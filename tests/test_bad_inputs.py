@@ -830,7 +830,8 @@ def test_cli(ws: Path, capsys: pytest.CaptureFixture[str], argv: list[str],
 # Combinations that no model could run: refused before the model is read (loading it takes
 # seconds), so the loader must not be called at all.
 BEFORE_LOADING_CASES = [
-    (["generate", W, "--rig", "mixamo", "--out", "x.vrma"], "--rig applies to .bvh, .glb files"),
+    (["generate", W, "--rig", "mixamo", "--out", "x.vrma"],
+     "--rig applies to .bvh, .glb, .fbx files"),
     (["generate", W, "--rig", "unity", "--out", "x.npz"], ".npz is always smpl"),
     (["generate", W, "--rig", "bogus", "--out", "x.bvh"], "unknown rig 'bogus'"),
     (["generate", W, "--features", "--out", "x.gif"], "--features writes .npy files, not .gif"),
