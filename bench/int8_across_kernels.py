@@ -5,9 +5,10 @@
 ONNX Runtime's u8 x s8 product saturates pairs of products in int16 on a CPU without VNNI
 (tests/int8_kernels.py, which rewrites a graph to compute what such a CPU computes). For four
 dynamic quantizations of MiniLM (int8 weights as ONNX Runtime makes them; 7-bit weights,
-reduce_range; uint8 weights, U8U8; int8 weights with pair-safe scales, mlct's quantize_int8) prints the size, the cosine of the sentence vectors with float32's over the
-benchmark's 62 prompts (bench/data/quality_prompts.json) on this CPU's kernels and as a CPU
-without VNNI computes them, and the time of one prompt on this CPU (best of 20, one thread).
+reduce_range; uint8 weights, U8U8; int8 weights with pair-safe scales, mlct's quantize_int8)
+prints the size, the cosine of the sentence vectors with float32's over the benchmark's 62
+prompts (bench/data/quality_prompts.json) on this CPU's kernels and as a CPU without VNNI
+computes them, and the time of one prompt on this CPU (best of 20, one thread).
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ def main() -> None:
     def cosine(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return (a * b).sum(1) / np.linalg.norm(a, axis=1) / np.linalg.norm(b, axis=1)
 
-    variants = {"int8 weights (before)": {"weight_type": QuantType.QInt8},
+    variants = {"int8 weights (ONNX Runtime's)": {"weight_type": QuantType.QInt8},
                 "7-bit weights (reduce_range)": {"weight_type": QuantType.QInt8,
                                                  "reduce_range": True},
                 "uint8 weights (U8U8)": {"weight_type": QuantType.QUInt8},

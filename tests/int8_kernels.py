@@ -55,7 +55,8 @@ def _saturated_product(node: onnx.NodeProto, b: np.ndarray, graph: onnx.GraphPro
         raise ValueError(f"{node.name}: odd K {k}")
     p = f"non_vnni{index}_"
     graph.initializer.extend([
-        numpy_helper.from_array(b[0::2], p + "b_even"), numpy_helper.from_array(b[1::2], p + "b_odd"),
+        numpy_helper.from_array(b[0::2], p + "b_even"),
+        numpy_helper.from_array(b[1::2], p + "b_odd"),
         numpy_helper.from_array(b.sum(0), p + "b_sum"),
         numpy_helper.from_array(np.array([2 * k], np.int64), p + "ends"),
         numpy_helper.from_array(np.array([-1], np.int64), p + "axes"),

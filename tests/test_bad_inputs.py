@@ -1026,7 +1026,7 @@ def no_bf16_kernels(monkeypatch: pytest.MonkeyPatch) -> str:
 def test_cli_bfloat16_without_the_cpus_kernels_runs_float32_with_one_note(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], no_bf16_kernels: str) -> None:
     outs = {dtype: tmp_path / f"{dtype}.npy" for dtype in ("bfloat16", "float32")}
-    argv = ["generate", W, "--seconds", "2", "--seed", "5", "--nfe", "2"]
+    argv = ["generate", W, "--seconds", "2", "--seed", "5", "--nfe", "2", "--device", "cpu"]
     code, out, err = run_cli([*argv, "--dtype", "bfloat16", "--out", str(outs["bfloat16"])],
                              capsys)
     assert code == 0, err
@@ -1040,7 +1040,7 @@ def test_api_bfloat16_without_the_cpus_kernels_warns_once_naming_the_feature(
     from mlct.errors import MlctWarning
 
     with pytest.warns(MlctWarning) as caught:
-        gen = mlct.load(dtype="bfloat16")
+        gen = mlct.load(dtype="bfloat16", device="cpu")
     assert [str(w.message) for w in caught] == [no_bf16_kernels]
     assert caught[0].filename == __file__  # the caller's line, not one inside mlct
     assert gen.dtype == torch.float32

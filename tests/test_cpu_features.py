@@ -111,9 +111,9 @@ def test_generate_bfloat16_on_avx2_kernels_is_float32_with_one_note(tmp_path):
         "import sys\n"
         "from mlct.cli import main\n"
         f"a = main(['generate', 'a person walks', '--seconds', '2', '--seed', '4', '--nfe', '2',"
-        f" '--dtype', 'bfloat16', '--out', {str(outs['bfloat16'])!r}])\n"
+        f" '--device', 'cpu', '--dtype', 'bfloat16', '--out', {str(outs['bfloat16'])!r}])\n"
         f"b = main(['generate', 'a person walks', '--seconds', '2', '--seed', '4', '--nfe', '2',"
-        f" '--out', {str(outs['float32'])!r}])\n"
+        f" '--device', 'cpu', '--out', {str(outs['float32'])!r}])\n"
         "sys.exit(a or b)\n")
     assert done.returncode == 0, done.stderr
     assert done.stderr.strip().splitlines() == [

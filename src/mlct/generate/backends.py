@@ -101,8 +101,9 @@ def check_options(device: torch.device | str | None, dtype: str | torch.dtype,
     else:
         origin = "asked for"
     if not isinstance(backend, str) or backend not in (*BACKENDS, "auto"):
-        raise MlctError(f"unknown backend {backend!r}{' in $' + ENV if origin != 'asked for' else ''}"
-                        f"; choose one of auto, {', '.join(BACKENDS)}")
+        where = f" in ${ENV}" if origin != "asked for" else ""
+        raise MlctError(f"unknown backend {backend!r}{where}; choose one of auto, "
+                        f"{', '.join(BACKENDS)}")
     if device is not None:
         resolve_device(device)
     try:
