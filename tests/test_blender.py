@@ -1,5 +1,6 @@
-"""Blender imports the GLB and the BVH and plays them (skipped where `bpy`, Blender as a Python
-module, is not installed: its wheel is ~0.5 GB, so CI does not carry it)."""
+"""Blender imports the GLB, the BVH and the FBX and plays them (skipped where `bpy`, Blender as a
+Python module, is not installed: its wheel is ~0.5 GB, so CI does not carry it; bpy 4.2 is the
+one for Python 3.11)."""
 
 from __future__ import annotations
 
@@ -9,9 +10,13 @@ import pytest
 bpy = pytest.importorskip("bpy")
 pytest.importorskip("pygltflib")
 
+from fbx_reader import rigid_joints  # noqa: E402
+
 from mlct.data.synth.build import make_motion  # noqa: E402
 from mlct.motion.bvh import write_bvh  # noqa: E402
+from mlct.motion.fbx import write_fbx  # noqa: E402
 from mlct.motion.gltf import read_gltf, write_glb  # noqa: E402
+from mlct.motion.rigs import get_rig  # noqa: E402
 from mlct.motion.skeleton import HUMANML3D  # noqa: E402
 
 pytestmark = pytest.mark.slow
@@ -58,3 +63,26 @@ def test_blender_imports_and_plays_the_bvh(tmp_path):
     # the pelvis height at frame 1 is the motion's (metres after the 0.01 scale)
     hips = moving[0][list(armature.pose.bones.keys()).index("mixamorig:Hips")]
     assert abs(hips[2] - joints[0, 0, 1]) < 0.02  # Blender is z up
+
+
+@pytest.mark.parametrize("rig", [None, "mixamo", "unreal"])  # unreal: a Z-up file
+def test_blender_imports_and_plays_the_fbx(rig, tmp_path):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    joints = rigid_joints(HUMANML3D, 45, seed=4)  # a rigid motion: the file holds it exactly
+    path = tmp_path / "m.fbx"
+    write_fbx(path, joints, HUMANML3D, HUMANML3D.fps, rig=rig)
+    assert bpy.ops.import_scene.fbx(filepath=str(path)) == {"FINISHED"}
+    armature = next(o for o in bpy.context.scene.objects if o.type == "ARMATURE")
+    names = HUMANML3D.joint_names if rig is None else get_rig(rig, HUMANML3D).joint_names
+    assert sorted(armature.pose.bones.keys()) == sorted(names)  # 22 bones, the rig's names
+    (action,) = bpy.data.actions
+    assert bpy.context.scene.render.fps == HUMANML3D.fps  # from the file's frame rate
+    assert tuple(action.frame_range) == (1.0, 45.0)  # one key a frame: (T - 1) / fps seconds
+    # Blender is z up, facing -y, in metres: mlct's (x, y, z) is its (x, -z, y), whichever
+    # axes the file states. Every bone's head at frame f is the motion's joint at f - 1.
+    to_blender = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    frames = [1, 23, 45]
+    bones = list(armature.pose.bones.keys())
+    heads = _armature_positions(frames)[:, [bones.index(name) for name in names]]
+    expected = joints[[f - 1 for f in frames]] @ to_blender.T
+    assert np.abs(heads - expected).max() < 1e-3  # 1 mm (measured: ~4e-7 m)
