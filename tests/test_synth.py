@@ -218,10 +218,10 @@ def test_kit_dataset_has_251_features(tmp_path):
 def test_interrupted_synth_leaves_nothing_behind(tmp_path, monkeypatch):
     real = build.make_motion
 
-    def failing(index, seed, skeleton):
+    def failing(index, seed, skeleton, version):
         if index == 3:
             raise KeyboardInterrupt
-        return real(index, seed, skeleton)
+        return real(index, seed, skeleton, version)
 
     monkeypatch.setattr(build, "make_motion", failing)
     with pytest.raises(KeyboardInterrupt):

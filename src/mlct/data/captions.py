@@ -108,9 +108,13 @@ VERBS = (
     "walk stroll pace move hurry jog run dash back step sidestep shuffle take turn rotate pivot "
     "make circle jump leap do hop balance squat crouch bend stand sit get rise wave raise lift "
     "put clap punch throw jab kick bow give straighten stretch lean reach spin kneel go drop "
-    "stay wait pause"
+    "stay wait pause "
+    # the families of benchmark version 3
+    "lie pick touch point salute place rest cross fold nod march perform"
 ).split()
-_DOUBLE_FINAL = frozenset("jog run step sidestep hop squat sit get put clap spin drop jab".split())
+_DOUBLE_FINAL = frozenset(
+    "jog run step sidestep hop squat sit get put clap spin drop jab nod".split())
+_IRREGULAR = {"lie": ("lies", "lying")}
 
 
 def _third_person(lemma: str) -> str:
@@ -129,7 +133,7 @@ def _gerund(lemma: str) -> str:
     return lemma + "ing"
 
 
-VERB_FORMS = {v: (_third_person(v), _gerund(v)) for v in VERBS}
+VERB_FORMS = {v: _IRREGULAR.get(v, (_third_person(v), _gerund(v))) for v in VERBS}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -138,27 +142,29 @@ VERB_FORMS = {v: (_third_person(v), _gerund(v)) for v in VERBS}
 
 _POS_WORDS = {
     "DET": "a an the both all his her their",
-    "PRON": "someone that",
+    "PRON": "someone that something",
     "NOUN": "person man woman figure human hand arm leg foot knee fist shoulder head chest waist "
-            "side place spot air pace line reverse chair seat moment degree time way front quarter",
+            "side place spot air pace line reverse chair seat moment degree time way front quarter "
+            "floor ground object toe hip forehead jack",
     "ADJ": "slow normal steady leisurely brisk invisible imaginary single slight sharp deep "
-           "full half same idle motionless",
+           "full half same idle motionless other raised crossed",
     "ADV": "forward backward backwards straight fast ahead sideways around back forth together "
            "again briefly politely high upward overhead there still quietly slightly sharply once "
            "twice then first finally slowly quickly briskly rapidly counterclockwise clockwise "
-           "left right",
+           "left right flat",
     "NUM": "one two three four five forty ninety hundred thirty eighty sixty",
-    "ADP": "up down out on in with to by into at of for over above before after",
+    "ADP": "up down out on in with to by into at of for over above before after from off "
+           "across",
     "CCONJ": "and",
     "SCONJ": "while",
     "AUX": "is",
 }
 _PLURALS = {"hands": "hand", "arms": "arm", "legs": "leg", "feet": "foot", "knees": "knee",
-            "times": "time", "degrees": "degree"}
+            "times": "time", "degrees": "degree", "toes": "toe", "hips": "hip", "jacks": "jack"}
 # Words spaCy reads as a noun after a determiner, number or adjective ("does two squats",
 # "a quarter turn") and as a verb elsewhere ("squats twice").
 _NOUN_OR_VERB = frozenset(
-    "turn kick punch jump squat bow wave step hop circle spin clap jog".split())
+    "turn kick punch jump squat bow wave step hop circle spin clap jog salute nod point".split())
 # Adjective right before a noun ("his left hand", "a fast pace"), noun after a determiner
 # ("to the left"), otherwise the listed tag ("turns left", "walks fast").
 _SIDE_WORDS = frozenset(("left", "right"))

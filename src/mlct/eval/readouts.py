@@ -436,8 +436,12 @@ _READOUTS: dict[str, Callable[[np.ndarray], Any]] = {
 
 
 def read_all(joints: np.ndarray) -> dict[str, float]:
-    """Every read-out of a motion as a flat {name: value} dict (see `Readouts.as_dict`)."""
-    return Readouts.of(joints).as_dict()
+    """Every read-out of a motion as a flat {name: value} dict (see `Readouts.as_dict`), with
+    those of the families benchmark version 3 adds (readouts_more.more_readings)."""
+    from mlct.eval.readouts_more import more_readings  # it builds on this module
+
+    joints = as_joints(joints)
+    return {**Readouts.of(joints).as_dict(), **more_readings(joints)}
 
 
 # ---------------------------------------------------------------------------- windows
@@ -792,6 +796,10 @@ def checks_for(action: Mapping[str, Any]) -> list[Check]:
         return _strike_checks(family, params)
     if family in ("bow", "stretch", "stand"):
         return _posture_checks(family)
+    from mlct.eval.readouts_more import MORE_CHECKS
+
+    if family in MORE_CHECKS:
+        return MORE_CHECKS[family](family, params)
     raise ValueError(f"no checks for action family {family!r}")
 
 

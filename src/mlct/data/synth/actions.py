@@ -35,8 +35,32 @@ FAMILY_PARAMS: dict[str, dict[str, tuple[Any, ...]]] = {
     "spin": {"side": ("left", "right")},
     "kneel": {"leg": ("left", "right")},
     "stand": {},
+    # Added in benchmark version 3: everyday actions without real capture (floor transitions,
+    # reaching, exercises, gestures held in place).
+    "lie_down": {},
+    "get_up": {},
+    "sit_floor": {},
+    "pick_up": {"hand": ("left", "right", "both")},
+    "jumping_jack": {"count": (2, 3, 4)},
+    "touch_toes": {},
+    "one_leg_stand": {"leg": ("left", "right")},
+    "point": {"hand": ("left", "right")},
+    "salute": {"hand": ("left", "right")},
+    "hands_on_hips": {},
+    "cross_arms": {},
+    "nod": {"count": (2, 3)},
+    "march_in_place": {},
 }
 FAMILIES: tuple[str, ...] = tuple(FAMILY_PARAMS)
+# The families each benchmark version samples: versions 1 and 2 have the first 21, and a
+# version-2 dataset of a seed is remade only if its scripts are drawn from exactly these.
+FAMILIES_BY_VERSION: dict[int, tuple[str, ...]] = {2: FAMILIES[:21], 3: FAMILIES}
+NEW_FAMILIES = FAMILIES[21:]
+NEW_SHARE = 0.3  # of the actions of a version-3 script drawn from the families it adds
+# Floor transitions: a motion that ends lying or sitting on the floor can only go on by
+# getting up, and getting up starts lying on the back.
+ENDS_DOWN = frozenset({"lie_down", "sit_floor"})
+STARTS_DOWN = frozenset({"get_up"})
 
 LOCOMOTION = ("walk", "walk_backward", "circle", "jog")
 UPPER_BODY = ("wave", "raise_arms", "clap", "punch")
@@ -71,15 +95,21 @@ class Script:
 
 def sample_action(rng: np.random.Generator, family: str | None = None) -> Action:
     """A random action (of `family` if given) with uniformly drawn parameters."""
-    if family is None:
-        family = FAMILIES[rng.integers(len(FAMILIES))]
+    if family is None:  # version 2's draw: its 21 families, so that its seeds stay as they were
+        pool = FAMILIES_BY_VERSION[2]
+        family = pool[rng.integers(len(pool))]
     spec = FAMILY_PARAMS[family]
     params = {key: values[rng.integers(len(values))] for key, values in spec.items()}
     return Action(family, params)
 
 
-def sample_script(rng: np.random.Generator) -> Script:
-    """A random script: mostly single actions, some sequences of 2-3, some 'while' pairs."""
+def sample_script(rng: np.random.Generator, version: int = 2) -> Script:
+    """A random script: mostly single actions, some sequences of 2-3, some 'while' pairs.
+
+    version: of the benchmark (build.BENCHMARK_VERSION). Version 2 draws exactly as it always
+    did; version 3 draws NEW_SHARE of its actions from the families it adds."""
+    if version >= 3:
+        return _sample_script_v3(rng)
     roll = rng.random()
     if roll < 0.12:
         base = sample_action(rng, LOCOMOTION[rng.integers(len(LOCOMOTION))])
@@ -93,6 +123,43 @@ def sample_script(rng: np.random.Generator) -> Script:
         if action.family == "stand" and count > 1 and len(actions) in (0, count - 1):
             continue
         if actions and actions[-1].family == action.family:
+            continue
+        actions.append(action)
+    return Script(tuple(actions))
+
+
+def _follows(previous: Action | None, family: str) -> bool:
+    """Whether `family` may come right after `previous` (None: first) in a sequence."""
+    if previous is not None and previous.family == family:
+        return False
+    if previous is not None and previous.family in ENDS_DOWN:
+        return previous.family == "lie_down" and family == "get_up"
+    if family in STARTS_DOWN:
+        return previous is None or previous.family == "lie_down"
+    return True
+
+
+def _sample_script_v3(rng: np.random.Generator) -> Script:
+    """Version 3's scripts: version 2's forms, the actions drawn from all families; a floor
+    transition in a sequence only where the body can go on from it (lies down, then gets up)."""
+    roll = rng.random()
+    if roll < 0.12:
+        base = sample_action(rng, LOCOMOTION[rng.integers(len(LOCOMOTION))])
+        upper = sample_action(rng, UPPER_BODY[rng.integers(len(UPPER_BODY))])
+        return Script((base,), concurrent=upper)
+    count = 1 if roll < 0.55 else 2 if roll < 0.87 else 3
+    old = FAMILIES_BY_VERSION[2]
+    actions: list[Action] = []
+    tries = 0
+    while len(actions) < count:
+        tries += 1
+        if tries > 200:  # a floor ending drawn early leaves no family to follow: start again
+            actions, tries = [], 0
+        pool = NEW_FAMILIES if rng.random() < NEW_SHARE else old
+        action = sample_action(rng, pool[rng.integers(len(pool))])
+        if action.family == "stand" and count > 1 and len(actions) in (0, count - 1):
+            continue
+        if not _follows(actions[-1] if actions else None, action.family):
             continue
         actions.append(action)
     return Script(tuple(actions))

@@ -35,7 +35,12 @@ SPLIT_FRACTIONS = {"train": 0.80, "val": 0.05, "test": 0.15}  # as HumanML3D's s
 # The version of the motions a seed makes; bumped whenever the same seed gives other data.
 # 2: the ground-contact solver no longer throws the root backwards at each jog/run stride, and
 #    the swing ankle eases in (v1 snapped it 50 degrees at toe-off).
-BENCHMARK_VERSION = 2
+# 3: 13 more families (lying down, getting up, sitting on the floor, picking up, touching the
+#    toes, jumping jacks, marching in place, standing on one leg, pointing, saluting, hands on
+#    the hips, crossed arms, nodding) drawn for NEW_SHARE of the actions. Version 2 is still
+#    made on request: its families' motions are unchanged, and its scripts are drawn as before.
+BENCHMARK_VERSION = 3
+VERSIONS = (2, 3)  # the versions this code makes (version 1 is gone)
 MAX_TRIES = 50
 MAX_MOTIONS = 100_000  # a benchmark's motions: past HumanML3D's size, and within memory
 
@@ -66,13 +71,14 @@ def _random_placement(positions: np.ndarray, rng: np.random.Generator, scale: fl
     return positions @ turn.T + shift
 
 
-def make_motion(index: int, seed: int, skeleton: Skeleton) -> SynthMotion:
-    """Motion number `index` of the dataset with this seed (deterministic)."""
+def make_motion(index: int, seed: int, skeleton: Skeleton,
+                version: int = BENCHMARK_VERSION) -> SynthMotion:
+    """Motion number `index` of the dataset with this seed and benchmark version (deterministic)."""
     rng = np.random.default_rng([seed, index])
     rig = make_rig(skeleton)
     fps = skeleton.fps
     for _ in range(MAX_TRIES):
-        script = sample_script(rng)
+        script = sample_script(rng, version)
         style = _style(rig, rng)
         composed = compose(script, rig, style, rng, fps, lead_in=float(rng.uniform(0.2, 0.6)),
                            lead_out=float(rng.uniform(0.2, 0.6)))
@@ -116,22 +122,24 @@ def _split(names: list[str], seed: int) -> dict[str, list[str]]:
             "test": sorted(shuffled[n_train + n_val:])}
 
 
-def _motions(num: int, seed: int, skeleton: Skeleton, workers: int) -> Iterator[SynthMotion]:
+def _motions(num: int, seed: int, skeleton: Skeleton, workers: int,
+             version: int) -> Iterator[SynthMotion]:
     if workers <= 1:
         for index in range(num):
-            yield make_motion(index, seed, skeleton)
+            yield make_motion(index, seed, skeleton, version)
         return
     import multiprocessing as mp
 
     ctx = mp.get_context("spawn")
     with ctx.Pool(workers, initializer=torch.set_num_threads, initargs=(1,)) as pool:
-        yield from pool.imap(_make_motion_star, [(i, seed, skeleton.name) for i in range(num)],
+        yield from pool.imap(_make_motion_star, [(i, seed, skeleton.name, version)
+                                                      for i in range(num)],
                              chunksize=16)
 
 
-def _make_motion_star(args: tuple[int, int, str]) -> SynthMotion:
-    index, seed, name = args
-    return make_motion(index, seed, get_skeleton(name))
+def _make_motion_star(args: tuple[int, int, str, int]) -> SynthMotion:
+    index, seed, name, version = args
+    return make_motion(index, seed, get_skeleton(name), version)
 
 
 def _prepare_target(out: Path, overwrite: bool) -> None:
@@ -147,8 +155,10 @@ def _prepare_target(out: Path, overwrite: bool) -> None:
 
 def synthesize_dataset(out: str | os.PathLike, num: int, seed: int = 0,
                        skeleton: str | Skeleton = "humanml3d", workers: int = 1,
-                       progress: bool = True, overwrite: bool = False) -> dict[str, Any]:
-    """Write `num` procedural motions in the standard layout to `out`; returns a summary."""
+                       progress: bool = True, overwrite: bool = False,
+                       version: int = BENCHMARK_VERSION) -> dict[str, Any]:
+    """Write `num` procedural motions in the standard layout to `out`; returns a summary.
+    version: of the benchmark (VERSIONS); an older one remakes that version's data exactly."""
     if num < 1:
         raise MlctError(f"--num must be at least 1, got {num}")
     if num > MAX_MOTIONS:  # every motion's features stay in memory for Mean/Std
@@ -158,6 +168,9 @@ def synthesize_dataset(out: str | os.PathLike, num: int, seed: int = 0,
         raise MlctError(f"--seed must be a non-negative integer, got {seed}")
     if workers < 1:
         raise MlctError(f"--workers must be at least 1, got {workers}")
+    if version not in VERSIONS:
+        raise MlctError(f"--benchmark-version must be one of {', '.join(map(str, VERSIONS))}, "
+                        f"got {version}")
     skeleton = get_skeleton(skeleton) if isinstance(skeleton, str) else skeleton
     out = Path(out)
     _prepare_target(out, overwrite)
@@ -166,18 +179,18 @@ def synthesize_dataset(out: str | os.PathLike, num: int, seed: int = 0,
     # (measured: inverse kinematics of one clip 31 ms on 2 threads, 2.6 ms on 1).
     torch.set_num_threads(1)
     try:
-        return _synthesize(out, num, seed, skeleton, workers, progress)
+        return _synthesize(out, num, seed, skeleton, workers, progress, version)
     finally:
         torch.set_num_threads(threads)
 
 
 def _synthesize(out: Path, num: int, seed: int, skeleton: Skeleton, workers: int,
-                progress: bool) -> dict[str, Any]:
+                progress: bool, version: int) -> dict[str, Any]:
     with atomic_dir(out) as work:  # the finished dataset replaces an old one only at the end
         for sub in ("new_joint_vecs", "new_joints", "texts"):
             (work / sub).mkdir()
         names, labels, features, skating, frames = [], [], [], [], 0
-        motions = _motions(num, seed, skeleton, workers)
+        motions = _motions(num, seed, skeleton, workers, version)
         for motion in tqdm(motions, total=num, disable=not progress, desc="synth", unit="motion"):
             np.save(work / "new_joint_vecs" / f"{motion.name}.npy", motion.features)
             np.save(work / "new_joints" / f"{motion.name}.npy", motion.joints)
@@ -198,7 +211,7 @@ def _synthesize(out: Path, num: int, seed: int, skeleton: Skeleton, workers: int
         save_npy(work / "Mean.npy", mean)
         save_npy(work / "Std.npy", std)
         write_text(work / "labels.jsonl", "".join(json.dumps(r) + "\n" for r in labels))
-        info = {"generator": "mlct procedural benchmark", "version": BENCHMARK_VERSION,
+        info = {"generator": "mlct procedural benchmark", "version": version,
                 "skeleton": skeleton.name, "seed": seed,
                 "num": num, "fps": skeleton.fps, "splits": {k: len(v) for k, v in splits.items()}}
         write_text(work / "synth.json", json.dumps(info, indent=2) + "\n")

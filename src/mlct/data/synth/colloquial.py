@@ -31,6 +31,8 @@ from collections.abc import Callable
 
 from mlct.data.synth.everyday import ALL_SUBJECTS
 from mlct.data.synth.everyday import FORMS as EVERYDAY_FORMS
+from mlct.data.synth.phrases_more import COLLOQUIAL as MORE_PHRASES
+from mlct.data.synth.phrases_more import COLLOQUIAL_VERBS as MORE_VERBS
 from mlct.data.synth.text import _ROTATION, FAMILIES, Rng, Vocabulary, _num, _pick, _times
 
 # Verbs this vocabulary adds, with (third person, gerund). The "not..." entries are negations
@@ -51,6 +53,7 @@ _NEW_VERBS = {
     "notmove": ("does not move", "not moving"), "notbudge": ("does not budge", "not budging"),
     "notstir": ("doesn't stir", "not stirring"), "notmovex": ("doesn't move", "not moving"),
 }
+_NEW_VERBS.update(MORE_VERBS)
 COLLOQUIAL_VERBS = frozenset(v for v in _NEW_VERBS if not v.startswith("not"))
 FORMS: dict[str, tuple[str, str]] = {**EVERYDAY_FORMS, **_NEW_VERBS}  # the benchmark's too
 
@@ -295,6 +298,7 @@ PHRASES: dict[str, Callable[[dict, Rng], str]] = {
     "squat": _squat, "sit_stand": _sit_stand, "wave": _wave, "raise_arms": _raise_arms,
     "clap": _clap, "punch": _punch, "kick": _kick, "bow": _bow, "stretch": _stretch,
     "spin": _spin, "kneel": _kneel, "stand": _stand,
+    **MORE_PHRASES,  # the families of benchmark version 3
 }
 assert set(PHRASES) == set(FAMILIES)
 

@@ -12,13 +12,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mlct.data.synth.actions import Script
+from mlct.data.synth.actions import ENDS_DOWN, STARTS_DOWN, Script
 from mlct.data.synth.motions import ANGLE_CHANNELS, ARM_CHANNELS, Clip, Style, action_clip, \
-    neutral, overlay_upper
+    held, neutral, overlay_upper
 from mlct.data.synth.rig import Rig, pose_positions, rot_y
 
 BLEND_SECONDS = 0.4
 CONTACT_SOFTNESS = 0.01  # metres: a contact point this much higher than the lowest bears 1/e as much
+SEAT_GRIP = 10.0  # how much more a touching seat or back holds than a touching foot or hand
 MAX_ACCELERATION = 12.0  # m/s^2: bound on the root's horizontal acceleration (sprint starts reach ~10)
 
 
@@ -82,8 +83,18 @@ def place_on_ground(rig: Rig, body: np.ndarray, clip: Clip, fps: float) -> np.nd
     threw the root 0.2 m backwards once per jog and run stride, and jog was no faster than walk.)
     """
     n = len(body)
-    points = body[:, list(rig.contact_points)]  # (T, P, 3)
-    heights = points[..., 1]
+    if clip.channels["floor"].any():
+        # Floor poses: the seat, back, head and hands touch the floor too, each through its
+        # flesh; the seat and back hold the body still while the legs slide out or in
+        # (SEAT_GRIP), as a sitting person's weight rests on the buttocks, not the heels.
+        joints, flesh = zip(*rig.floor_points.items())
+        points = body[:, list(joints)]
+        heights = points[..., 1] - np.array(flesh) * rig.scale
+        grip = np.array([SEAT_GRIP if j in (0, *rig.spine) else 1.0 for j in joints])
+    else:
+        points = body[:, list(rig.contact_points)]  # (T, P, 3)
+        heights = points[..., 1]
+        grip = None
     root = np.zeros((n, 3))
     root[:, 1] = -heights.min(axis=1) + clip.clearance * rig.scale
     softness = CONTACT_SOFTNESS * rig.scale
@@ -110,6 +121,8 @@ def place_on_ground(rig: Rig, body: np.ndarray, clip: Clip, fps: float) -> np.nd
             continue
         # Soft minimum over this frame's heights: the lowest points bear the weight.
         weight = np.exp(-(heights[t] - heights[t].min()) / softness)
+        if grip is not None:
+            weight = weight * grip
         weight /= weight.sum()
         slide = points[t, :, [0, 2]].T - points[t - 1, :, [0, 2]].T  # (P, 2) body-frame motion
         step = -weight @ slide
@@ -131,13 +144,15 @@ def place_on_ground(rig: Rig, body: np.ndarray, clip: Clip, fps: float) -> np.nd
 def compose(script: Script, rig: Rig, style: Style, rng: np.random.Generator, fps: float,
             lead_in: float = 0.3, lead_out: float = 0.3) -> Composed:
     """Global joint positions (T, J, 3) of a script, in the skeleton's units."""
-    clips = [neutral(max(2, int(round(lead_in * fps))), style)]
-    for action in script.actions:
-        clip = action_clip(action, rig, style, fps)
-        if script.concurrent is not None:
-            clip = overlay_upper(clip, script.concurrent, style, fps)
-        clips.append(clip)
-    clips.append(neutral(max(2, int(round(lead_out * fps))), style))
+    actions = [action_clip(action, rig, style, fps) for action in script.actions]
+    if script.concurrent is not None:
+        actions = [overlay_upper(clip, script.concurrent, style, fps) for clip in actions]
+    # Idle lead-in and lead-out: standing, or lying still before getting up and after lying down.
+    n_in, n_out = max(2, int(round(lead_in * fps))), max(2, int(round(lead_out * fps)))
+    first, last = script.actions[0].family, script.actions[-1].family
+    clips = [held(actions[0], 0, n_in) if first in STARTS_DOWN else neutral(n_in, style),
+             *actions,
+             held(actions[-1], -1, n_out) if last in ENDS_DOWN else neutral(n_out, style)]
     clip, segments = concatenate(clips, fps)
     n = clip.n
     # Natural variation: slow drifts of posture on every angle channel, a few degrees.

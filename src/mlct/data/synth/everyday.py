@@ -19,6 +19,8 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from mlct.data.captions import VERB_FORMS
+from mlct.data.synth.phrases_more import EVERYDAY as MORE_PHRASES
+from mlct.data.synth.phrases_more import EVERYDAY_VERBS as MORE_VERBS
 from mlct.data.synth.text import (_DEGREES, _ROTATION, _SUBJECTS, FAMILIES, Rng, Vocabulary,
                                   _hand, _n_of,
                                   _num, _pick, _times)
@@ -44,6 +46,7 @@ _NEW_VERBS = {
     "keep": ("keeps", "keeping"), "fire": ("fires", "firing"), "sink": ("sinks", "sinking"),
     "plant": ("plants", "planting"), "lunge": ("lunges", "lunging"), "settle": ("settles", "settling"),
 }
+_NEW_VERBS.update(MORE_VERBS)
 EVERYDAY_VERBS = frozenset(_NEW_VERBS)
 FORMS: dict[str, tuple[str, str]] = {**VERB_FORMS, **_NEW_VERBS}
 
@@ -218,6 +221,7 @@ PHRASES: dict[str, Callable[[dict, Rng], str]] = {
     "squat": _squat, "sit_stand": _sit_stand, "wave": _wave, "raise_arms": _raise_arms,
     "clap": _clap, "punch": _punch, "kick": _kick, "bow": _bow, "stretch": _stretch,
     "spin": _spin, "kneel": _kneel, "stand": _stand,
+    **MORE_PHRASES,  # the families of benchmark version 3
 }
 assert set(PHRASES) == set(FAMILIES)
 

@@ -19,6 +19,11 @@ from mlct.data.synth.rig import SIDES, Rig
 ANGLE_CHANNELS = ("yaw", "spine_bend", "spine_side", "spine_twist", "head_nod") + tuple(
     f"{name}_{s}" for name in ("hip_flex", "hip_abd", "knee", "ankle") for s in "lr")
 ARM_CHANNELS = tuple(f"{name}_{s}" for name in ("wrist", "pole") for s in "lr")
+# Channels of the floor families (synth/floor.py), zero in the others and outside
+# ANGLE_CHANNELS, so that the posture noise draws no more random numbers than before:
+# body_pitch tips the whole body about the pelvis, floor (0/1) says that the seat, back, head
+# and hands may bear weight (compose.place_on_ground).
+FLOOR_CHANNELS = ("body_pitch", "floor")
 
 
 @dataclass
@@ -77,10 +82,17 @@ def hanging_wrist(style: Style, sign: float) -> np.ndarray:
 
 def neutral(n: int, style: Style) -> Clip:
     """The standing pose held for n frames."""
-    channels = {name: np.zeros(n) for name in ANGLE_CHANNELS}
+    channels = {name: np.zeros(n) for name in ANGLE_CHANNELS + FLOOR_CHANNELS}
     for s, sign in (("l", 1.0), ("r", -1.0)):
         channels[f"wrist_{s}"] = np.tile(hanging_wrist(style, sign), (n, 1))
         channels[f"pole_{s}"] = np.tile(np.array([0.3 * sign, 0.0, -1.0]), (n, 1))
+    return Clip(channels, np.zeros(n), np.zeros(n, bool), np.full((n, 2), np.nan))
+
+
+def held(clip: Clip, frame: int, n: int) -> Clip:
+    """Frame `frame` of `clip` held still for n frames (lying idle before getting up)."""
+    channels = {name: np.repeat(values[frame:frame + 1 or None], n, axis=0)
+                for name, values in clip.channels.items()}
     return Clip(channels, np.zeros(n), np.zeros(n, bool), np.full((n, 2), np.nan))
 
 
@@ -506,6 +518,10 @@ def action_clip(action: Action, rig: Rig, style: Style, fps: float) -> Clip:
         return stand(fps, style)
     if f in _UPPER:
         return _UPPER[f](fps, style, **p)
+    # The families of benchmark version 3 live in their own modules, which build on this one.
+    from mlct.data.synth.more_clips import MORE_CLIPS
+    if f in MORE_CLIPS:
+        return MORE_CLIPS[f](rig, fps, style, **p)
     raise ValueError(f"no motion for action family {f!r}")
 
 

@@ -51,6 +51,19 @@ class Rig:
         return abs(x) / self.scale
 
     @property
+    def floor_points(self) -> dict[int, float]:
+        """Joints that touch the floor in floor poses (lying, sitting, hands down), each with
+        the metres of flesh between the joint and the floor: the ground-contact solver puts a
+        joint that far up when it is the lowest (lying on the back: pelvis and spine about
+        0.1 m up, the back of the head 0.1 m, the heels 0.05 m as when standing)."""
+        points = {0: 0.10, self.spine[0]: 0.11, self.spine[-1]: 0.10, self.head[-1]: 0.10}
+        for side in SIDES:
+            points.update({self.ankle[side]: 0.05, self.knee[side]: 0.05,
+                           self.wrist[side]: 0.03, self.elbow[side]: 0.04,
+                           **{joint: 0.0 for joint in self.foot[side]}})
+        return points
+
+    @property
     def contact_points(self) -> tuple[int, ...]:
         """Joints that may touch the ground: ankles, feet, knees."""
         points: list[int] = []
@@ -130,6 +143,7 @@ def pose_positions(rig: Rig, pose: dict[str, np.ndarray]) -> np.ndarray:
     Channels (radians unless noted; arrays of length T; `_l` / `_r` = body side):
     yaw (heading, left-positive), hip_flex_*, hip_abd_* (outwards), knee_*, ankle_* (toes up),
     spine_bend (forward), spine_side (towards the left), spine_twist (left), head_nod,
+    body_pitch (optional: the whole body tipped forward about the pelvis, for floor poses),
     wrist_* (T, 3): wrist target in metres relative to the shoulder, in the chest frame,
     pole_* (T, 3): where the elbow points, in the chest frame.
     """
@@ -181,4 +195,11 @@ def pose_positions(rig: Rig, pose: dict[str, np.ndarray]) -> np.ndarray:
     missing = set(range(sk.n_joints)) - done
     if missing:
         raise AssertionError(f"rig for {sk.name} leaves joints {sorted(missing)} unplaced")
+    pitch = pose.get("body_pitch")
+    if pitch is not None and np.any(pitch):
+        # The whole body tips about the pelvis, forward-positive (lying on the back is -pi/2,
+        # a push-up plank near +pi/2). Applied only where it is non-zero, so that the standing
+        # families' positions are the very same floats they were before the channel existed.
+        tip = heading @ rot_x(pitch) @ np.swapaxes(heading, -1, -2)
+        pos = np.einsum("tij,tkj->tki", tip, pos)
     return pos

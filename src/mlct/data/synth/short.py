@@ -20,6 +20,7 @@ from collections.abc import Callable
 
 from mlct.data.captions import VERB_FORMS
 from mlct.data.synth.everyday import ALL_SUBJECTS
+from mlct.data.synth.phrases_more import SHORT as MORE_PHRASES
 from mlct.data.synth.text import BENCHMARK, FAMILIES, Rng, Vocabulary, _pick, _times
 
 
@@ -107,6 +108,7 @@ PHRASES: dict[str, Callable[[dict, Rng], str]] = {
     **{family: _fixed(family) for family in _FIXED},
     **{family: _sided(family) for family in _RIGHT_SIDED},
     "jump": _jump, "turn": _turn, "spin": _spin, "circle": _circle, "side_step": _side_step,
+    **MORE_PHRASES,  # the families of benchmark version 3
 }
 assert set(PHRASES) == set(FAMILIES)
 

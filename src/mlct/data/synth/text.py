@@ -19,6 +19,7 @@ import numpy as np
 
 from mlct.data.captions import VERB_FORMS
 from mlct.data.synth.actions import FAMILY_PARAMS
+from mlct.data.synth.phrases_more import BENCHMARK as MORE_PHRASES
 
 # ---------------------------------------------------------------------------------------------
 # The action spec, as captions see it. Only these keys are read; other params (style noise,
@@ -341,6 +342,7 @@ _PHRASES: dict[str, Callable[[dict, Rng], str]] = {
     "squat": _squat, "sit_stand": _sit_stand, "wave": _wave, "raise_arms": _raise_arms,
     "clap": _clap, "punch": _punch, "kick": _kick, "bow": _bow, "stretch": _stretch,
     "spin": _spin, "kneel": _kneel, "stand": _stand,
+    **MORE_PHRASES,  # the families of benchmark version 3
 }
 assert set(_PHRASES) == set(FAMILIES)
 
