@@ -22,7 +22,9 @@ from typing import Any
 
 import torch
 
-from mlct.errors import MlctWarning
+from mlct.devices import resolve_device
+from mlct.errors import MlctError, MlctWarning
+from mlct.nn.inference import weight_dtype
 
 
 @functools.cache  # the CPU does not change; the layers ask on every call
@@ -45,10 +47,6 @@ def kernel_dtype(dtype: Any, device: Any) -> Any:
     """`dtype` as given, or torch.float32 (with a one-line MlctWarning) where it is bfloat16 on
     a CPU whose oneDNN has no bfloat16 kernels. A dtype or device that is not one is returned
     as it is: the caller's own check says what is wrong with it."""
-    from mlct.devices import resolve_device
-    from mlct.errors import MlctError
-    from mlct.nn.inference import weight_dtype
-
     try:
         if weight_dtype(dtype) != torch.bfloat16 or resolve_device(device).type != "cpu":
             return dtype
