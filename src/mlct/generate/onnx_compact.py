@@ -96,9 +96,10 @@ def quantize_int8(src: str | os.PathLike, dst: str | os.PathLike,
             quantize_dynamic(str(src), str(Path(tmp) / "quantized.onnx"),
                              op_types_to_quantize=list(op_types), per_channel=True,
                              weight_type=QuantType.QInt8)
-            model = onnx.load(str(Path(tmp) / "quantized.onnx"))
-            if make_pairs_safe(model, onnx.load(str(src))):
-                onnx.save(model, str(Path(tmp) / "quantized.onnx"))
+            if {"MatMul", "Gemm"} & set(op_types):  # (a Gather's int8 is a lookup: exact)
+                model = onnx.load(str(Path(tmp) / "quantized.onnx"))
+                if make_pairs_safe(model, onnx.load(str(src))):
+                    onnx.save(model, str(Path(tmp) / "quantized.onnx"))
             shutil.move(str(Path(tmp) / "quantized.onnx"), str(dst))
     finally:
         root.setLevel(level)
