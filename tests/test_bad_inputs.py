@@ -403,7 +403,7 @@ CLI_CASES = [
     (["generate", W, "--out", "x.txt"], "cannot tell the format of 'x.txt'"),
     (["generate", W, "--out", "x"], "cannot tell the format of 'x'"),
     (["generate", W, "--out", "x.npy", "--out-dir", "outs"], "not allowed with"),
-    (["generate", W, "--out-dir", "outs", "--format", "fbx"], "cannot tell the format"),
+    (["generate", W, "--out-dir", "outs", "--format", "obj"], "cannot tell the format"),
     (["generate", W, "--out", "x.npy", "--format", "gif"], "--format goes with --out-dir"),
     (["generate", W, "--out", "afile/x.npy"], "afile is not a directory"),
     (["generate", W, "--out-dir", "afile"], "afile is not a directory"),
