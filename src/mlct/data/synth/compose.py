@@ -83,20 +83,21 @@ def place_on_ground(rig: Rig, body: np.ndarray, clip: Clip, fps: float) -> np.nd
     threw the root 0.2 m backwards once per jog and run stride, and jog was no faster than walk.)
     """
     n = len(body)
-    if clip.channels["floor"].any():
+    points = body[:, list(rig.contact_points)]  # (T, P, 3)
+    heights = points[..., 1]
+    root = np.zeros((n, 3))
+    root[:, 1] = -heights.min(axis=1) + clip.clearance * rig.scale
+    on_floor = clip.channels["floor"] > 0.5
+    if on_floor.any():
         # Floor poses: the seat, back, head and hands touch the floor too, each through its
         # flesh; the seat and back hold the body still while the legs slide out or in
         # (SEAT_GRIP), as a sitting person's weight rests on the buttocks, not the heels.
         joints, flesh = zip(*rig.floor_points.items())
-        points = body[:, list(joints)]
-        heights = points[..., 1] - np.array(flesh) * rig.scale
+        floor_points = body[:, list(joints)]
+        floor_heights = floor_points[..., 1] - np.array(flesh) * rig.scale
         grip = np.array([SEAT_GRIP if j in (0, *rig.spine) else 1.0 for j in joints])
-    else:
-        points = body[:, list(rig.contact_points)]  # (T, P, 3)
-        heights = points[..., 1]
-        grip = None
-    root = np.zeros((n, 3))
-    root[:, 1] = -heights.min(axis=1) + clip.clearance * rig.scale
+        root[on_floor, 1] = -floor_heights[on_floor].min(axis=1) + clip.clearance[on_floor] \
+            * rig.scale
     softness = CONTACT_SOFTNESS * rig.scale
     velocity = np.zeros(2)
     heading = rot_y(clip.channels["yaw"])
@@ -120,11 +121,13 @@ def place_on_ground(rig: Rig, body: np.ndarray, clip: Clip, fps: float) -> np.nd
             landed = True
             continue
         # Soft minimum over this frame's heights: the lowest points bear the weight.
-        weight = np.exp(-(heights[t] - heights[t].min()) / softness)
-        if grip is not None:
-            weight = weight * grip
+        if on_floor[t]:
+            weight = np.exp(-(floor_heights[t] - floor_heights[t].min()) / softness) * grip
+            slide = floor_points[t, :, [0, 2]].T - floor_points[t - 1, :, [0, 2]].T
+        else:
+            weight = np.exp(-(heights[t] - heights[t].min()) / softness)
+            slide = points[t, :, [0, 2]].T - points[t - 1, :, [0, 2]].T  # (P, 2) body-frame motion
         weight /= weight.sum()
-        slide = points[t, :, [0, 2]].T - points[t - 1, :, [0, 2]].T  # (P, 2) body-frame motion
         step = -weight @ slide
         # The rig's feet are posed by joint angles, not by physics: around toe-off and touch-down
         # they can sweep 0.2 m in a frame. A body cannot change its speed that fast, so the

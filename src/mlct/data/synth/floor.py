@@ -48,12 +48,14 @@ def _squat_and_sit(clip: Clip, squat: np.ndarray, sit: np.ndarray, out: np.ndarr
     ch["spine_bend"] = (SQUAT_LEAN * squat + (SIT_LEAN - SQUAT_LEAN) * sit) * (1 - out) \
         + lean_out * out
     ch["head_nod"] = 0.25 * sit * (1 - out)  # looking at the knees, not the sky, while sitting
-    ch["floor"] = np.ones(clip.n)
+    # The seat, back and hands bear weight once down in the squat (standing, the heels' flesh
+    # would lift the toes off the floor).
+    ch["floor"] = (squat > 0.5).astype(float)
 
 
 def lie_down(rig: Rig, fps: float, style: Style) -> Clip:
     """From standing to lying on the back: squat, sit back, roll down as the legs slide out."""
-    tempo = style.tempo
+    tempo = style.tempo / 1.15  # 2.5-3.4 s from standing to the head on the floor
     n, t = _frames(2.7 / tempo + 0.4, fps)
     clip = neutral(n, style)
     squat, sit = _lowering(t, tempo)
