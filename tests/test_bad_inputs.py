@@ -545,7 +545,9 @@ DATA_CLI_CASES = [
     ([*IMPORT, "--joints", "joints_shape"], "5 joints, expected 22"),
     ([*IMPORT, "--joints", "npy"], "10 motion file(s) have no caption"),
     (["data", "import", "--captions", "captions.csv", "--out", "imp"],
-     "one of the arguments --joints --bvh is required"),
+     "one of the arguments --joints --bvh --corpus is required"),
+    (["data", "import", "--bvh", "bvh_good", "--out", "imp"],
+     "--captions FILE is needed with --joints or --bvh"),
     ([*GOOD_BVH, "--joints", "npy"], "not allowed with argument --bvh"),
     # import: the captions
     (["data", "import", "--bvh", "bvh_good", "--captions", "nope.csv", "--out", "imp"],
