@@ -238,6 +238,10 @@ def test_file_downloads(model_client):
     assert np.load(io.BytesIO(npz.content))["poses"].shape == (16, 156)
     bvh = client.post("/generate", json={**request, "format": "bvh", "rig": "unreal"})
     assert "ROOT pelvis" in bvh.text and "JOINT thigh_l" in bvh.text
+    fbx = client.post("/generate", json={**request, "format": "fbx", "rig": "unreal"})
+    assert fbx.status_code == 200, fbx.text
+    assert fbx.content.startswith(b"Kaydara FBX Binary  \x00") and b"thigh_l" in fbx.content
+    assert fbx.headers["content-disposition"].endswith('.fbx"')
     assert bvh.headers["content-disposition"].endswith('seed1_unreal.bvh"')
     # in place: the pelvis stays over its start, every pose as made
     still = np.load(io.BytesIO(client.post("/generate", json={**request, "format": "npy",

@@ -243,8 +243,8 @@ async function generate() {
       ` ${t.generate_ms.toFixed(0)} ms, batch ${t.batch_size}) · round trip` +
       ` ${(received - clicked).toFixed(0)} ms · first frame <b>${firstFrame.toFixed(0)} ms</b>`);
     showUnknown(motion.unknown_parts);
-    for (const id of ["play", "scrub", "dl-bvh", "dl-npy", "dl-gif", "dl-glb", "dl-vrma",
-      "dl-npz"]) $(id).disabled = false;
+    for (const id of ["play", "scrub", "dl-bvh", "dl-npy", "dl-gif", "dl-glb", "dl-fbx",
+      "dl-vrma", "dl-npz"]) $(id).disabled = false;
   } catch (error) {
     showStatus(escapeHtml(error.message), true);
     showUnknown([]);
@@ -260,9 +260,9 @@ async function download(format) {
   const button = $(`dl-${format}`);
   button.disabled = true;
   try {
-    // a rig preset renames and re-poses the skeleton of BVH and GLB files (docs/export.md)
+    // a rig preset renames and re-poses the skeleton of BVH, GLB and FBX files (docs/export.md)
     const rig = $("rig").value;
-    const retarget = rig && (format === "bvh" || format === "glb") ? { rig } : {};
+    const retarget = rig && ["bvh", "glb", "fbx"].includes(format) ? { rig } : {};
     const response = await postGenerate({ ...state.request, format, ...retarget });
     const blob = await response.blob();
     const match = /filename="([^"]+)"/.exec(response.headers.get("Content-Disposition") || "");
