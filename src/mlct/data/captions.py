@@ -160,7 +160,8 @@ _POS_WORDS = {
     "AUX": "is",
 }
 _PLURALS = {"hands": "hand", "arms": "arm", "legs": "leg", "feet": "foot", "knees": "knee",
-            "times": "time", "degrees": "degree", "toes": "toe", "hips": "hip", "jacks": "jack"}
+            "times": "time", "degrees": "degree", "toes": "toe", "hips": "hip", "jacks": "jack",
+            "pushups": "pushup"}
 # Words spaCy reads as a noun after a determiner, number or adjective ("does two squats",
 # "a quarter turn") and as a verb elsewhere ("squats twice").
 _NOUN_OR_VERB = frozenset(

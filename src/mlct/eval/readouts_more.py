@@ -17,7 +17,8 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from mlct.eval.readouts import (ANKLE, FPS, HEAD, NECK, PELVIS, SHOULDER, SIDES, WRIST,
-                                Check, Readings, _count_episodes, _count_rises, _other,
+                                Check, Readings, _count_entries, _count_episodes, _count_rises,
+                                _other,
                                 _standing, facing)
 
 _J_SPINE3 = 9
@@ -95,6 +96,12 @@ def more_readings(joints: np.ndarray) -> dict[str, float]:
                                       + _forward(joints, ANKLE["right"]))),
         "head_nods": float(_count_rises(_head_bend(joints), 0.25, 0.12)),
     }
+    # Push-ups: chest dips while the body is prone (chest facing down) on planted hands.
+    hands_down = np.maximum(joints[:, WRIST["left"], 1], joints[:, WRIST["right"], 1]) - floor
+    prone = (_chest_forward(joints)[:, 1] < -0.5) & (tilt > 1.0) & (hands_down < 0.12)
+    chest = np.where(prone, joints[:, _J_SPINE3, 1] - floor, np.inf)
+    r["prone_hold"] = _longest(prone)
+    r["push_ups"] = float(_count_entries(chest, 0.3, 0.38))
     ankle_gap = np.linalg.norm(joints[:, ANKLE["left"]] - joints[:, ANKLE["right"]], axis=-1)
     head = joints[:, HEAD, 1]
     arms_up = np.minimum(joints[:, WRIST["left"], 1], joints[:, WRIST["right"], 1]) > head
@@ -268,11 +275,28 @@ def _gesture_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
     return checks
 
 
+def _push_up_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
+    """push_up: down from standing onto the hands, chest dips, back up."""
+    # GT: prone on the hands 2.5 s or more, the chest joint from 0.45 m down to 0.2 m each time.
+    count = params.get("count")
+    checks = [Check("push_up.plank", "prone on both hands (chest down, wrists within 0.12 m of "
+                    "the floor) for 1.5 s", lambda r: r["prone_hold"] >= 1.5),
+              Check("push_up.dips", "the chest dips under 0.3 m at least twice",
+                    lambda r: r["push_ups"] >= 2),
+              Check("push_up.stands", "starts standing and ends within 0.1 m of that height",
+                    lambda r: r["start_pelvis_height"] > 0.7
+                    and r["end_pelvis_height"] > r["start_pelvis_height"] - 0.1)]
+    if count:
+        checks.append(Check("push_up.count", f"{count} push-ups",
+                            lambda r: r["push_ups"] == count))
+    return checks
+
+
 MORE_CHECKS: dict[str, Callable[[str, Mapping[str, Any]], list[Check]]] = {
     "lie_down": lambda f, p: _floor_checks(f), "get_up": lambda f, p: _floor_checks(f),
     "sit_floor": lambda f, p: _floor_checks(f), "pick_up": _reach_checks,
     "touch_toes": _reach_checks, "jumping_jack": _in_place_checks,
     "march_in_place": _in_place_checks, "one_leg_stand": _in_place_checks,
     "point": _gesture_checks, "salute": _gesture_checks, "hands_on_hips": _gesture_checks,
-    "cross_arms": _gesture_checks, "nod": _gesture_checks,
+    "cross_arms": _gesture_checks, "nod": _gesture_checks, "push_up": _push_up_checks,
 }

@@ -90,12 +90,14 @@ def place_on_ground(rig: Rig, body: np.ndarray, clip: Clip, fps: float) -> np.nd
     on_floor = clip.channels["floor"] > 0.5
     if on_floor.any():
         # Floor poses: the seat, back, head and hands touch the floor too, each through its
-        # flesh; the seat and back hold the body still while the legs slide out or in
-        # (SEAT_GRIP), as a sitting person's weight rests on the buttocks, not the heels.
+        # flesh; the seat, back and planted hands hold the body still while the legs slide out
+        # or in (SEAT_GRIP), as a sitting person's weight rests on the buttocks, not the heels,
+        # and the feet jump back to a plank behind the hands.
         joints, flesh = zip(*rig.floor_points.items())
         floor_points = body[:, list(joints)]
         floor_heights = floor_points[..., 1] - np.array(flesh) * rig.scale
-        grip = np.array([SEAT_GRIP if j in (0, *rig.spine) else 1.0 for j in joints])
+        grip = np.array([SEAT_GRIP if j in (0, *rig.spine, *rig.wrist.values()) else 1.0
+                         for j in joints])
         root[on_floor, 1] = -floor_heights[on_floor].min(axis=1) + clip.clearance[on_floor] \
             * rig.scale
     softness = CONTACT_SOFTNESS * rig.scale

@@ -1,5 +1,5 @@
 """Floor transitions and reaching down (benchmark version 3): lie down, get up, sit on the floor,
-pick something up, touch the toes.
+pick something up, touch the toes, push-ups.
 
 A person lies down the way most adults do without their hands' help: squat, sit back onto the
 buttocks, roll back onto the back while the legs slide out, about 2.5 s in all. The whole body
@@ -179,4 +179,75 @@ def touch_toes(rig: Rig, fps: float, style: Style) -> Clip:
         sign = 1.0 if side == "left" else -1.0
         toes = _reach_target(rig, clip, bottom, side, 0.12, 0.08)
         _arm(clip, side, np.tile(toes, (n, 1)), depth, np.array([sign, 0.0, -1.0]))
+    return clip
+
+
+def _plank(rig: Rig, pitch: np.ndarray) -> dict[str, np.ndarray]:
+    """Pose channels of a straight body tipped forward by `pitch` (T,), arms at rest."""
+    clip = neutral(len(pitch), Style(arm_length=rig.arm_length, shoulder_x=rig.shoulder_x))
+    clip.channels["body_pitch"] = pitch
+    return clip.channels
+
+
+def _hands_on_floor(rig: Rig, clip: Clip, plank: np.ndarray, top: float,
+                    ahead: float) -> dict[str, np.ndarray]:
+    """Wrist targets (chest frame) that keep both hands on the floor: `ahead` m in front of the
+    ankles in the squat, and in the plank (weight `plank`) where they stay put relative to the
+    toes, under the shoulders of the plank at body_pitch `top`. Planted hands grip the floor
+    (compose.SEAT_GRIP), so the feet jump back and forth behind them."""
+    body = pose_positions(rig, clip.channels) / rig.scale  # the arms' own pose does not matter
+    legs = [j for j in rig.floor_points if j not in (*rig.wrist.values(), *rig.elbow.values())]
+    flesh = np.array([rig.floor_points[j] for j in legs])
+    floor = (body[:, legs, 1] - flesh).min(axis=1)
+    toes = [j for side in SIDES for j in rig.foot[side]]
+    ankles = 0.5 * (body[:, rig.ankle["left"]] + body[:, rig.ankle["right"]])
+    at_top = pose_positions(rig, _plank(rig, np.array([top])))[0] / rig.scale
+    chest = rot_x(clip.channels["body_pitch"]) @ rot_x(clip.channels["spine_bend"])
+    targets = {}
+    for side in SIDES:
+        reach = at_top[rig.shoulder[side], 2] - at_top[toes, 2].mean()  # hands from the toes
+        z = (1 - plank) * (ankles[:, 2] + ahead) + plank * (body[:, toes, 2].mean(axis=1) + reach)
+        shoulder = body[:, rig.shoulder[side]]
+        hand = np.stack([shoulder[:, 0], floor + rig.floor_points[rig.wrist[side]], z], -1)
+        targets[side] = np.einsum("tji,tj->ti", chest, hand - shoulder)  # into the chest frame
+    return targets
+
+
+PLANK_TOP = 1.28  # body_pitch with straight arms: the shoulders an arm's length over the hands
+PLANK_BOTTOM = 1.5  # the chest joint 0.2 m over the floor: the chest a hand's breadth up
+
+
+def push_up(rig: Rig, fps: float, style: Style, count: int) -> Clip:
+    """Squats, puts the hands on the floor and steps back into a plank, does `count` push-ups
+    (the body straight, pivoting on the toes, hands planted), steps the feet in and stands."""
+    tempo = style.tempo
+    squat, jump, period = 0.8 / tempo, 0.6 / tempo, 1.3 / tempo  # down, feet back, one push-up
+    n, t = _frames(2 * (squat + jump) + count * period + 0.2, fps)
+    clip = neutral(n, style)
+    ch = clip.channels
+    # Squat with the hands to the floor, then the feet back; the same the other way at the end.
+    crouch = hold(t, squat, 2 * jump + count * period, squat)
+    plank = hold(t - squat, jump, count * period, jump)
+    start = squat + jump
+    dips = sum((np.sin(np.pi * np.clip((t - start - k * period) / period, 0, 1)) ** 2
+                for k in range(count)), np.zeros(n))
+    pitch_plank = PLANK_TOP + (PLANK_BOTTOM - PLANK_TOP) * dips
+    squat_pitch = 0.75  # far enough over the feet for the hands to reach the floor
+    # Jumping back, the torso tips onto the hands first and the knees stay tucked while the
+    # feet pass under the body (the hands bear the weight), then the legs stretch out.
+    tip = np.clip(plank * 1.8, 0, 1)
+    tuck = np.sin(np.pi * plank) * 0.9
+    for s in "lr":
+        squat_hip, squat_knee = SQUAT_HIP + squat_pitch, SQUAT_KNEE
+        ch[f"hip_flex_{s}"] = squat_hip * (1 - plank) * crouch + 0.6 * tuck
+        ch[f"knee_{s}"] = (squat_knee * (1 - plank) + tuck) * crouch
+        ch[f"ankle_{s}"] = (squat_knee - squat_hip + squat_pitch) * crouch * (1 - plank)
+    ch["body_pitch"] = squat_pitch * crouch * (1 - tip) + pitch_plank * tip
+    ch["spine_bend"] = 0.8 * crouch * (1 - plank)
+    ch["head_nod"] = -0.2 * plank  # looking at the floor ahead, not at the feet
+    ch["floor"] = (crouch > 0.5).astype(float)
+    hands = _hands_on_floor(rig, clip, plank, PLANK_TOP, 0.3)
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        # The elbows bend back along the body, as in a close-grip push-up.
+        _arm(clip, side, hands[side], np.clip(crouch, 0, 1), np.array([0.4 * sign, 1.0, 0.0]))
     return clip

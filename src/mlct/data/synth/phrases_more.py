@@ -82,6 +82,13 @@ def _salute(p: dict, rng: Rng) -> str:
                        f"<raise> {h} to HIS forehead in a salute"))
 
 
+def _push_up(p: dict, rng: Rng) -> str:
+    n = _count(p["count"], rng)
+    return _pick(rng, (f"<do> {n} pushups", f"<perform> {n} pushups",
+                       f"<get> down on the floor and <do> {n} pushups",
+                       f"<drop> down and <do> {n} pushups"))
+
+
 def _nod(p: dict, rng: Rng) -> str:
     t = _times(p["count"], rng)
     return _pick(rng, (f"<nod> {t}", f"<nod> HIS head {t}", f"<nod> HIS head forward {t}"))
@@ -110,7 +117,7 @@ BENCHMARK: dict[str, Phrase] = {
                         "<step> in place, lifting HIS knees high"),
     ),
     "pick_up": _pick_up, "jumping_jack": _jumping_jack, "one_leg_stand": _one_leg_stand,
-    "point": _point, "salute": _salute, "nod": _nod,
+    "point": _point, "salute": _salute, "nod": _nod, "push_up": _push_up,
 }
 
 
@@ -147,6 +154,12 @@ def _e_salute(p: dict, rng: Rng) -> str:
                        f"<snap> {h} to HIS brow"))
 
 
+def _e_push_up(p: dict, rng: Rng) -> str:
+    n = _count(p["count"], rng)
+    return _pick(rng, (f"<lower> to the floor for {n} pushups", f"<warm> up with {n} pushups",
+                       f"<push> up off the floor {_times(p['count'], rng)} from a plank"))
+
+
 def _e_nod(p: dict, rng: Rng) -> str:
     t = _times(p["count"], rng)
     return _pick(rng, (f"<tilt> HIS head forward {t}", f"<bob> HIS head {t}",
@@ -171,7 +184,7 @@ EVERYDAY: dict[str, Phrase] = {
                         "<march> on the same spot"),
     ),
     "pick_up": _e_pick_up, "jumping_jack": _e_jumping_jack, "one_leg_stand": _e_one_leg_stand,
-    "point": _e_point, "salute": _e_salute, "nod": _e_nod,
+    "point": _e_point, "salute": _e_salute, "nod": _e_nod, "push_up": _e_push_up,
 }
 # The verbs these everyday phrases add to the benchmark's and everyday.py's own.
 EVERYDAY_VERBS = {"grab": ("grabs", "grabbing"), "push": ("pushes", "pushing"),
@@ -207,6 +220,11 @@ def _c_salute(p: dict, rng: Rng) -> str:
     return _pick(rng, (f"<snap> off a salute with {h}", f"<throw> a salute with {h}"))
 
 
+def _c_push_up(p: dict, rng: Rng) -> str:
+    n = _count(p["count"], rng)
+    return _pick(rng, (f"<knock> out {n} pushups", f"<bang> out {n} press-ups"))
+
+
 def _c_nod(p: dict, rng: Rng) -> str:
     t = _times(p["count"], rng)
     return _pick(rng, (f"<bob> HIS head {t}", f"<dip> HIS chin {t}"))
@@ -223,7 +241,7 @@ COLLOQUIAL: dict[str, Phrase] = {
         march_in_place=("<stomp> on the spot like a soldier", "<march> in place, knees high"),
     ),
     "pick_up": _c_pick_up, "jumping_jack": _c_jumping_jack, "one_leg_stand": _c_one_leg_stand,
-    "point": _c_point, "salute": _c_salute, "nod": _c_nod,
+    "point": _c_point, "salute": _c_salute, "nod": _c_nod, "push_up": _c_push_up,
 }
 COLLOQUIAL_VERBS = {"scoop": ("scoops", "scooping"), "knock": ("knocks", "knocking"),
                     "bang": ("bangs", "banging"), "gesture": ("gestures", "gesturing"),
@@ -257,6 +275,7 @@ SHORT: dict[str, Phrase] = {
         march_in_place=("<march> in place", "<march>"),
         jumping_jack=("<do> jumping jacks", "<do> jumping jacks"),
         nod=("<nod>", "<nod>", "<nod> HIS head"),
+        push_up=("<do> pushups", "<do> pushups"),
     ),
     "pick_up": _s_sided("pick_up", "hand", ("<pick> something up", "<pick> something up"),
                         both=("<lift> something with both hands",)),
