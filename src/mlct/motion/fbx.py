@@ -48,8 +48,9 @@ CUSTOM_TIME_MODE = 14
 EULER_XYZ = 0  # RotationOrder eEulerXYZ
 ARMATURE = "Armature"  # the Null above the root joint: Blender makes its armature object of it
 TAKE = "motion"  # the animation stack's (and Blender's action's) name
-# Key flags: linear interpolation (0x4) with the auto and generic tangent bits FBX writers set;
-# the four data floats per key are the tangents' slopes and weights, unused by linear keys.
+# Key attributes, one set shared by every key of a curve (KeyAttrRefCount: all of them): linear
+# interpolation (0x4) with the auto and generic tangent bits FBX writers set, and four data
+# floats (the tangents' slopes and weights: unused by linear keys).
 KEY_FLAGS = 0x4 | 0x100 | 0x2000 | 0x4000
 KEY_DATA = np.array([0.0, 0.0, 9.419963346924634e-30, 0.0], dtype=np.float32)
 KEY_VERSION = 4008
