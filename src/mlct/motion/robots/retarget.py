@@ -18,9 +18,10 @@
    then damped least squares on forward kinematics (chain.py) finishes, clamped to the limits.
 5. Arms: the human's shoulder -> elbow and shoulder -> wrist vectors, in the chest's frame and
    scaled by the arm-length ratio, hang from the G1's shoulders in its torso's frame: always in
-   reach whatever the waist did. Shoulder pitch / roll / yaw and elbow start analytic from the
-   upper-arm and forearm directions, then least squares; the wrists stay at zero (the joints
-   carry no hand orientation).
+   reach whatever the waist did, except where the hand comes nearer the shoulder than the G1's
+   elbow folds (about 10 cm). Shoulder pitch / roll / yaw and elbow start analytic from the
+   upper-arm frame (starts.py; a few starts, the best kept per frame), then least squares; the
+   wrists stay at zero (the joints carry no hand orientation).
 """
 
 from __future__ import annotations
@@ -32,14 +33,16 @@ import numpy as np
 from mlct.errors import MlctError
 from mlct.motion.foot_lock import correction, foot_contacts
 from mlct.motion.robots import g1
-from mlct.motion.robots.chain import Chain, Target, axis_rotation, matrix_to_quat, solve
+from mlct.motion.robots.chain import Target, axis_rotation, matrix_to_quat, solve
+from mlct.motion.robots.starts import CHAIN, arm_start, leg_start
 from mlct.motion.skeleton import HUMANML3D, Skeleton, units_per_metre
 
-CHAIN = Chain(g1.BODIES)
 BLEND = 3  # frames over which a held foot fades in and out (as foot_lock's)
 FOOT_REST_PITCH = 0.32  # rad: a HumanML3D foot's ankle -> toe slope when flat (fallback)
 SOLE = 0.035  # m: the ankle roll link's origin above the sole when the foot is flat
 ITERATIONS = 30
+ARM_STARTS = 3  # analytic starts tried per arm
+ARM_SWITCH = 0.01  # m: how much closer another start must bring an arm for a frame to take it
 SIDES = ("left", "right")
 
 
@@ -112,13 +115,27 @@ G1_ARM = _rest_length("left_shoulder_pitch_link", "left_elbow_link") + _rest_len
     "left_elbow_link", "left_wrist_yaw_link")
 
 
-def _foot_targets(h: np.ndarray, j: dict[str, int], side: str, on: np.ndarray, scale: float
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def _arm_error(pose, targets: list[Target]) -> np.ndarray:
+    """(T,) the worst distance of an arm's points to their targets."""
+    return np.max([np.linalg.norm(pose.point(t.body, t.offset) - t.position, axis=-1)
+                   for t in targets], axis=0)
+
+
+def _foot_targets(h: np.ndarray, j: dict[str, int], side: str, on: np.ndarray, scale: float,
+                  heading: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The ankle roll link's target origin (T, 3) and rotation (T, 3, 3) for one foot."""
     ankle, toe = h[:, j[f"{side}_ankle"]], h[:, j[f"{side}_foot"]]
     along = toe - ankle
-    yaw = np.unwrap(np.arctan2(along[:, 1], along[:, 0]))
-    slope = np.arctan2(-along[:, 2], np.linalg.norm(along[:, :2], axis=-1))
+    # The toe's direction from the ankle, measured from the body's heading: a foot pointing
+    # down and back (a kneel's rear foot) is pitched past vertical, not turned round; where it
+    # points nearly straight down its yaw is unreliable and eases to the heading.
+    turn = np.angle(np.exp(1j * (np.arctan2(along[:, 1], along[:, 0]) - heading)))
+    back = np.abs(turn) > np.pi / 2
+    turn = np.where(back, np.angle(np.exp(1j * (turn + np.pi))), turn)
+    flat = np.linalg.norm(along[:, :2], axis=-1)
+    slope = np.arctan2(-along[:, 2], np.where(back, -flat, flat))
+    turn = turn * np.clip(2 * flat / np.maximum(np.linalg.norm(along, axis=-1), 1e-9), 0, 1)
+    yaw = np.unwrap(heading + turn)
     rest_slope = float(np.median(slope[on])) if on.sum() >= 3 else FOOT_REST_PITCH
     rest_height = float(np.median(ankle[on, 2])) if on.sum() >= 3 else SOLE * scale
     pitch = slope - rest_slope
@@ -133,38 +150,6 @@ def _foot_targets(h: np.ndarray, j: dict[str, int], side: str, on: np.ndarray, s
         position[:, 2] = (1 - w) * np.maximum(position[:, 2], SOLE) + w * SOLE
     rot = axis_rotation(2, yaw) @ axis_rotation(1, pitch)
     return position, rot
-
-
-def _leg_start(q: np.ndarray, hip: np.ndarray, knee: np.ndarray, ankle: np.ndarray,
-               foot_rot: np.ndarray, pelvis: np.ndarray, side: str) -> None:
-    """Hip pitch / roll / yaw and knee from the thigh and shin directions (the G1's small
-    thigh offsets left to the solver)."""
-    to_pelvis = np.swapaxes(pelvis, 1, 2)
-    d = _unit(np.einsum("tij,tj->ti", to_pelvis, knee - hip))
-    roll = np.arcsin(np.clip(d[:, 1], -1, 1))
-    pitch = np.arctan2(-d[:, 0], -d[:, 2])
-    thigh = np.swapaxes(axis_rotation(1, pitch) @ axis_rotation(0, roll), 1, 2)
-    forward = np.einsum("tij,tj->ti", thigh @ to_pelvis, foot_rot[:, :, 0])
-    shin = _unit(ankle - knee)
-    bend = np.arccos(np.clip(np.sum(_unit(knee - hip) * shin, -1), -1, 1))
-    for name, value in (("hip_pitch", pitch), ("hip_roll", roll),
-                        ("hip_yaw", np.arctan2(forward[:, 1], forward[:, 0])), ("knee", bend)):
-        q[:, CHAIN.joint(f"{side}_{name}_joint")] = value
-
-
-def _arm_start(q: np.ndarray, torso: np.ndarray, shoulder: np.ndarray, elbow: np.ndarray,
-               wrist: np.ndarray, side: str) -> None:
-    """Shoulder pitch / roll / yaw and elbow from the upper-arm and forearm directions."""
-    to_torso = np.swapaxes(torso, 1, 2)
-    d = _unit(np.einsum("tij,tj->ti", to_torso, elbow - shoulder))
-    roll = np.arcsin(np.clip(d[:, 1], -1, 1))
-    pitch = np.arctan2(-d[:, 0], -d[:, 2])
-    upper = np.swapaxes(axis_rotation(1, pitch) @ axis_rotation(0, roll), 1, 2)
-    f = _unit(np.einsum("tij,tj->ti", upper @ to_torso, wrist - elbow))
-    bend = np.arctan2(-f[:, 2], np.linalg.norm(f[:, :2], axis=-1))
-    for name, value in (("shoulder_pitch", pitch), ("shoulder_roll", roll),
-                        ("shoulder_yaw", np.arctan2(f[:, 1], f[:, 0])), ("elbow", bend)):
-        q[:, CHAIN.joint(f"{side}_{name}_joint")] = value
 
 
 def retarget_g1(joints: np.ndarray, skeleton: Skeleton = HUMANML3D, fps: float | None = None,
@@ -206,9 +191,10 @@ def retarget_g1(joints: np.ndarray, skeleton: Skeleton = HUMANML3D, fps: float |
     # legs and the root's position (least squares)
     hip_mid = (h[:, j["left_hip"]] + h[:, j["right_hip"]]) / 2
     root = hip_mid - pelvis @ np.array([0.0, 0.0, g1.BODIES[2].pos[2] + g1.BODIES[1].pos[2]])
+    heading = np.arctan2(pelvis[:, 1, 0], pelvis[:, 0, 0])
     targets, leg_joints, feet = [Target(0, (0.0, 0.0, 0.0), root, (0.3, 0.3, 0.05))], [], {}
     for side, on in zip(SIDES, contacts.T):
-        foot_pos, foot_rot = _foot_targets(h, j, side, on, scale)
+        foot_pos, foot_rot = _foot_targets(h, j, side, on, scale, heading)
         feet[side] = foot_pos
         body = CHAIN.body(f"{side}_ankle_roll_link")
         targets.append(Target(body, (0.0, 0.0, 0.0), foot_pos, 1.0))
@@ -217,7 +203,7 @@ def retarget_g1(joints: np.ndarray, skeleton: Skeleton = HUMANML3D, fps: float |
             targets.append(Target(body, tuple(sole), foot_pos + foot_rot @ sole, 0.5))
         targets.append(Target(CHAIN.body(f"{side}_knee_link"), (0.0, 0.0, 0.0),
                               h[:, j[f"{side}_knee"]], 0.05))
-        _leg_start(q, h[:, j[f"{side}_hip"]], h[:, j[f"{side}_knee"]], h[:, j[f"{side}_ankle"]],
+        leg_start(q, h[:, j[f"{side}_hip"]], h[:, j[f"{side}_knee"]], h[:, j[f"{side}_ankle"]],
                    foot_rot, pelvis, side)
         leg_joints += [k for k, name in enumerate(CHAIN.joint_names)
                        if name.startswith(side) and any(part in name for part in
@@ -233,7 +219,8 @@ def retarget_g1(joints: np.ndarray, skeleton: Skeleton = HUMANML3D, fps: float |
                         for s in SIDES for a, b in (("shoulder", "elbow"), ("elbow", "wrist")))
                     / 2)
     reach = G1_ARM / max(float(arm), 1e-6) / scale  # h is already scaled by `scale`
-    targets, arm_joints, hands = [], [], {}
+    hands = {}
+    q = CHAIN.clamp(q)
     for side in SIDES:
         shoulder = pose.pos[:, CHAIN.body(f"{side}_shoulder_pitch_link")]
         hung = {}
@@ -242,14 +229,28 @@ def retarget_g1(joints: np.ndarray, skeleton: Skeleton = HUMANML3D, fps: float |
                               h[:, j[f"{side}_shoulder"]]) * reach
             hung[part] = shoulder + np.einsum("tij,tj->ti", torso, local)
         hands[side] = hung["wrist"]
-        targets += [Target(CHAIN.body(f"{side}_elbow_link"), (0.0, 0.0, 0.0), hung["elbow"], 0.3),
-                    Target(CHAIN.body(f"{side}_wrist_yaw_link"), (0.0, 0.0, 0.0), hung["wrist"],
-                           1.0)]
-        _arm_start(q, torso, shoulder, hung["elbow"], hung["wrist"], side)
-        arm_joints += [CHAIN.joint(f"{side}_{name}_joint") for name in
-                       ("shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow")]
-    q = CHAIN.clamp(q)
-    _, q = solve(CHAIN, root, pelvis, q, arm_joints, targets, iterations=iterations)
+        targets = [Target(CHAIN.body(f"{side}_elbow_link"), (0.0, 0.0, 0.0), hung["elbow"], 0.3),
+                   Target(CHAIN.body(f"{side}_wrist_yaw_link"), (0.0, 0.0, 0.0), hung["wrist"],
+                          1.0)]
+        arm = [CHAIN.joint(f"{side}_{name}_joint") for name in
+               ("shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow")]
+        # A few starts (the splittings nearest the limits): near a limit the nearest can lead
+        # the solver into a corner another start avoids. Each frame keeps the best, the first
+        # unless another is over a centimetre closer (fewer switches between solutions).
+        best, best_error = None, None
+        for rank in range(ARM_STARTS):
+            start = q.copy()
+            arm_start(start, torso, shoulder, hung["elbow"], hung["wrist"], side, rank)
+            _, solved = solve(CHAIN, root, pelvis, CHAIN.clamp(start), arm, targets,
+                              iterations=iterations)
+            error = _arm_error(CHAIN.forward(root, pelvis, solved), targets)
+            if best is None:
+                best, best_error = solved, error
+                continue
+            better = error < best_error - ARM_SWITCH
+            best[better] = solved[better]
+            best_error = np.where(better, error, best_error)
+        q[:, arm] = best[:, arm]
 
     quat = matrix_to_quat(pelvis)
     # q and -q are one rotation: each frame's sign follows the previous one, so that a reader
