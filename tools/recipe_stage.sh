@@ -22,7 +22,7 @@ stamp() { echo "[$(date -u +%H:%M:%S)] $*"; }
 caption_sets() {
     local num="${1:-4000}"
     [ -f "$work/synth/synth.json" ] || mlct data synth --out "$work/synth" --num "$num" \
-        --seed 0 --workers 2 --quiet
+        --seed 0 --workers 2 --quiet --benchmark-version 2  # the bundled model's 21 families
     [ -f "$work/synth_rich/synth.json" ] || mlct data rephrase "$work/synth" \
         --out "$work/synth_rich"
     [ -f "$work/synth_focus/synth.json" ] || mlct data oversample "$work/synth_rich" \
