@@ -164,6 +164,15 @@ def test_version_three_scripts_follow_the_floor_and_keep_a_modest_share():
     assert any(["lie_down", "get_up"] == [a.family for a in s.actions][:2] for s in scripts)
 
 
+def test_the_command_makes_the_newest_version_and_the_functions_version_two(tmp_path):
+    from mlct.cli import build_parser
+    from mlct.data.synth.build import BENCHMARK_VERSION, DEFAULT_VERSION
+
+    args = build_parser().parse_args(["data", "synth", "--out", str(tmp_path / "x")])
+    assert args.benchmark_version == BENCHMARK_VERSION == 3 and DEFAULT_VERSION == 2
+    assert make_motion(0, 0, SK).label == make_motion(0, 0, SK, version=2).label
+
+
 def test_version_two_draws_only_its_families_as_before():
     rng = np.random.default_rng(0)
     families = {a.family for _ in range(2000) for a in sample_script(rng, version=2).actions}
