@@ -72,6 +72,10 @@ def test_floor_poses_rest_on_the_floor_at_human_heights(ground_truth):
         assert 0.12 < joints[-1, 0, 1] < 0.26 and 0.6 < joints[-1, 15, 1] < 0.95  # pelvis, head
     for params, joints in ground_truth["get_up"]:
         assert joints[0, 0, 1] < 0.2 and joints[-1, 0, 1] > 0.85
+    for params, joints in ground_truth["push_up"]:  # a plank on hands and toes
+        plank = joints[:, 0, 1] < 0.4
+        assert plank.sum() > 2 * SK.fps
+        assert np.percentile(joints[plank][:, [20, 21, 10, 11], 1], 90) < 0.08
     # Lying down takes a person 2-3.5 s: from the pelvis starting down to the neck on the floor.
     for _, joints in ground_truth["lie_down"]:
         start = np.argmax(joints[:, 0, 1] < joints[0, 0, 1] - 0.05)
@@ -83,7 +87,7 @@ def test_feet_stay_planted_while_they_bear_weight(ground_truth):
     """Standing families: the lowest foot joint slides less than 3 mm a frame, on average."""
     feet = [7, 8, 10, 11]
     for family in ("pick_up", "touch_toes", "one_leg_stand", "point", "salute", "hands_on_hips",
-                   "cross_arms", "nod", "march_in_place"):
+                   "cross_arms", "nod", "march_in_place", "lunge"):
         for _, joints in ground_truth[family]:
             low = joints[:, feet, 1].argmin(axis=1)
             planted = joints[np.arange(len(joints)), np.array(feet)[low]]
@@ -114,7 +118,9 @@ def test_checks_tell_the_sides_and_counts_apart(ground_truth):
              "one_leg_stand": ("leg", {"left": "right", "right": "left"}),
              "point": ("hand", {"left": "right", "right": "left"}),
              "salute": ("hand", {"left": "right", "right": "left"}),
-             "jumping_jack": ("count", {2: 3, 3: 4, 4: 2}), "nod": ("count", {2: 3, 3: 2})}
+             "jumping_jack": ("count", {2: 3, 3: 4, 4: 2}), "nod": ("count", {2: 3, 3: 2}),
+             "push_up": ("count", {2: 3, 3: 4, 4: 2}), "lunge": ("leg", {"left": "right",
+                                                                          "right": "left"})}
     for family, (key, other) in wrong.items():
         for params, joints in ground_truth[family]:
             assert not _passes(joints, family, dict(params, **{key: other[params[key]]})), \

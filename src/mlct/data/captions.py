@@ -110,7 +110,7 @@ VERBS = (
     "put clap punch throw jab kick bow give straighten stretch lean reach spin kneel go drop "
     "stay wait pause "
     # the families of benchmark version 3
-    "lie pick touch point salute place rest cross fold nod march perform"
+    "lie pick touch point salute place rest cross fold nod march perform lunge"
 ).split()
 _DOUBLE_FINAL = frozenset(
     "jog run step sidestep hop squat sit get put clap spin drop jab nod".split())
@@ -165,7 +165,8 @@ _PLURALS = {"hands": "hand", "arms": "arm", "legs": "leg", "feet": "foot", "knee
 # Words spaCy reads as a noun after a determiner, number or adjective ("does two squats",
 # "a quarter turn") and as a verb elsewhere ("squats twice").
 _NOUN_OR_VERB = frozenset(
-    "turn kick punch jump squat bow wave step hop circle spin clap jog salute nod point".split())
+    "turn kick punch jump squat bow wave step hop circle spin clap jog salute nod point "
+    "lunge".split())
 # Adjective right before a noun ("his left hand", "a fast pace"), noun after a determiner
 # ("to the left"), otherwise the listed tag ("turns left", "walks fast").
 _SIDE_WORDS = frozenset(("left", "right"))

@@ -121,7 +121,12 @@ def more_readings(joints: np.ndarray) -> dict[str, float]:
     # Crossed: each wrist on the far side of the midline, at chest height.
     r["arms_crossed_hold"] = _longest((lateral["left"] < -0.05) & (lateral["right"] > 0.05)
                                       & chest_level["left"] & chest_level["right"])
+    down = pelvis < _standing(pelvis) - 0.15
     for s in SIDES:
+        # A lunge: how far this ankle is ahead of the other while the pelvis is down.
+        split = np.einsum("ti,ti->t", joints[:, ANKLE[s]] - joints[:, ANKLE[_other(s)]],
+                          facing(joints))
+        r[f"lunge_split.{s}"] = float(split[down].max()) if down.any() else 0.0
         ankle = joints[:, ANKLE[s], 1]
         lifted = ankle - _standing(ankle)
         wrist = joints[:, WRIST[s]]
@@ -244,6 +249,29 @@ def _in_place_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
                   lambda r: r["airborne_frames"] <= 1)]
 
 
+def _lunge_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
+    """lunge: the named foot steps well ahead, the body sinks onto the back knee, each time."""
+    # GT: the front ankle 0.8-0.95 m ahead while down, the back knee 0.15-0.25 m over the floor,
+    # down 0.5 s each time; a kneel stays down 1.3 s or more, a squat keeps the feet level.
+    leg, count = params.get("leg"), params.get("count")
+    sides = (leg,) if leg else SIDES
+
+    def lunges(r: Readings, s: str) -> bool:
+        return r[f"lunge_split.{s}"] > 0.5 and r[f"knee_clearance.{_other(s)}"] < 0.3
+
+    checks = [Check("lunge.split", f"the {leg or 'one'} ankle 0.5 m ahead of the other while "
+                    "the pelvis is down, the back knee within 0.3 m of the floor",
+                    lambda r: any(lunges(r, s) for s in sides)),
+              Check("lunge.drop", "the pelvis sinks over 0.2 m and comes straight back up "
+                    "(down under 1 s at a time)",
+                    lambda r: r["pelvis_drop"] > 0.2 and r["low_hold"] < 1.0),
+              Check("lunge.grounded", "a foot always on the floor (at most 1 frame 5 cm up)",
+                    lambda r: r["airborne_frames"] <= 1)]
+    if count:
+        checks.append(Check("lunge.count", f"{count} lunges", lambda r: r["pelvis_dips"] == count))
+    return checks
+
+
 def _gesture_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
     """point, salute, hands_on_hips, cross_arms, nod: a pose of the arms or head, held."""
     hand = params.get("hand")
@@ -260,8 +288,11 @@ def _gesture_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
                                 "the head", lambda r: r[f"wrist_height.{other}"] < -0.3))
         return checks
     if family == "hands_on_hips":
+        # A pose stood in: lunges are often done with the hands on the hips too.
         return [Check("hands_on_hips.hold", "both wrists at hip height with the elbows 0.3 m "
-                      "out for 1 s", lambda r: r["hands_on_hips_hold"] >= 1.0)]
+                      "out for 1 s", lambda r: r["hands_on_hips_hold"] >= 1.0),
+                Check("hands_on_hips.standing", "the pelvis sinks less than 0.1 m",
+                      lambda r: r["pelvis_drop"] < 0.1)]
     if family == "cross_arms":
         return [Check("cross_arms.hold", "each wrist past the midline at chest height for 1 s",
                       lambda r: r["arms_crossed_hold"] >= 1.0)]
@@ -299,4 +330,5 @@ MORE_CHECKS: dict[str, Callable[[str, Mapping[str, Any]], list[Check]]] = {
     "march_in_place": _in_place_checks, "one_leg_stand": _in_place_checks,
     "point": _gesture_checks, "salute": _gesture_checks, "hands_on_hips": _gesture_checks,
     "cross_arms": _gesture_checks, "nod": _gesture_checks, "push_up": _push_up_checks,
+    "lunge": _lunge_checks,
 }

@@ -51,6 +51,7 @@ FAMILY_PARAMS: dict[str, dict[str, tuple[Any, ...]]] = {
     "nod": {"count": (2, 3)},
     "march_in_place": {},
     "push_up": {"count": (2, 3, 4)},
+    "lunge": {"leg": ("left", "right"), "count": (2, 3)},
 }
 FAMILIES: tuple[str, ...] = tuple(FAMILY_PARAMS)
 # The families each benchmark version samples: versions 1 and 2 have the first 21, and a

@@ -89,6 +89,14 @@ def _push_up(p: dict, rng: Rng) -> str:
                        f"<drop> down and <do> {n} pushups"))
 
 
+def _lunge(p: dict, rng: Rng) -> str:
+    s, n = p["leg"], p["count"]
+    return _pick(rng, (f"<do> {_count(n, rng)} lunges with HIS {s} leg",
+                       f"<lunge> forward with the {s} leg {_times(n, rng)}",
+                       f"<step> forward into a lunge with HIS {s} leg {_times(n, rng)}",
+                       f"<do> {_count(n, rng)} forward lunges on the {s} leg"))
+
+
 def _nod(p: dict, rng: Rng) -> str:
     t = _times(p["count"], rng)
     return _pick(rng, (f"<nod> {t}", f"<nod> HIS head {t}", f"<nod> HIS head forward {t}"))
@@ -117,7 +125,7 @@ BENCHMARK: dict[str, Phrase] = {
                         "<step> in place, lifting HIS knees high"),
     ),
     "pick_up": _pick_up, "jumping_jack": _jumping_jack, "one_leg_stand": _one_leg_stand,
-    "point": _point, "salute": _salute, "nod": _nod, "push_up": _push_up,
+    "point": _point, "salute": _salute, "nod": _nod, "push_up": _push_up, "lunge": _lunge,
 }
 
 
@@ -160,6 +168,12 @@ def _e_push_up(p: dict, rng: Rng) -> str:
                        f"<push> up off the floor {_times(p['count'], rng)} from a plank"))
 
 
+def _e_lunge(p: dict, rng: Rng) -> str:
+    s, n = p["leg"], p["count"]
+    return _pick(rng, (f"<sink> into {_count(n, rng)} lunges, the {s} foot in front",
+                       f"<stride> out onto the {s} foot and <sink> low, {_times(n, rng)}"))
+
+
 def _e_nod(p: dict, rng: Rng) -> str:
     t = _times(p["count"], rng)
     return _pick(rng, (f"<tilt> HIS head forward {t}", f"<bob> HIS head {t}",
@@ -185,6 +199,7 @@ EVERYDAY: dict[str, Phrase] = {
     ),
     "pick_up": _e_pick_up, "jumping_jack": _e_jumping_jack, "one_leg_stand": _e_one_leg_stand,
     "point": _e_point, "salute": _e_salute, "nod": _e_nod, "push_up": _e_push_up,
+    "lunge": _e_lunge,
 }
 # The verbs these everyday phrases add to the benchmark's and everyday.py's own.
 EVERYDAY_VERBS = {"grab": ("grabs", "grabbing"), "push": ("pushes", "pushing"),
@@ -225,6 +240,12 @@ def _c_push_up(p: dict, rng: Rng) -> str:
     return _pick(rng, (f"<knock> out {n} pushups", f"<bang> out {n} press-ups"))
 
 
+def _c_lunge(p: dict, rng: Rng) -> str:
+    s, n = p["leg"], p["count"]
+    return _pick(rng, (f"<knock> out {_count(n, rng)} lunges on the {s} leg",
+                       f"<dip> into a lunge on HIS {s} leg {_times(n, rng)}"))
+
+
 def _c_nod(p: dict, rng: Rng) -> str:
     t = _times(p["count"], rng)
     return _pick(rng, (f"<bob> HIS head {t}", f"<dip> HIS chin {t}"))
@@ -242,6 +263,7 @@ COLLOQUIAL: dict[str, Phrase] = {
     ),
     "pick_up": _c_pick_up, "jumping_jack": _c_jumping_jack, "one_leg_stand": _c_one_leg_stand,
     "point": _c_point, "salute": _c_salute, "nod": _c_nod, "push_up": _c_push_up,
+    "lunge": _c_lunge,
 }
 COLLOQUIAL_VERBS = {"scoop": ("scoops", "scooping"), "knock": ("knocks", "knocking"),
                     "bang": ("bangs", "banging"), "gesture": ("gestures", "gesturing"),
@@ -283,4 +305,5 @@ SHORT: dict[str, Phrase] = {
                                                        "<balance> on one leg")),
     "point": _s_sided("point", "hand", ("<point>", "<point>", "<point> forward")),
     "salute": _s_sided("salute", "hand", ("<salute>", "<salute>")),
+    "lunge": _s_sided("lunge", "leg", ("<lunge>", "<do> lunges", "<lunge> forward")),
 }

@@ -1,5 +1,5 @@
 """Exercises and held gestures done standing in place (benchmark version 3): jumping jacks,
-marching in place, standing on one leg, pointing, saluting, hands on the hips, crossed arms,
+marching in place, lunges, standing on one leg, pointing, saluting, hands on the hips, crossed arms,
 nodding.
 
 Wrist targets are in the chest frame relative to the shoulder (rig.pose_positions): x to the
@@ -146,6 +146,40 @@ def nod(rig: Rig, fps: float, style: Style, count: int) -> Clip:
     return clip
 
 
+
+def lunge(rig: Rig, fps: float, style: Style, leg: str, count: int) -> Clip:
+    """`count` forward lunges with the named leg: step it forward, sink until the back knee is
+    near the floor (front shin upright, back heel up), push back up and step back; 2.2 s each."""
+    period = 2.2 / style.tempo
+    n, t = _frames(0.3 + count * period + 0.2, fps)
+    clip = neutral(n, style)
+    ch = clip.channels
+    front, back = leg[0], ("r" if leg == "left" else "l")
+    split, depth, lift = np.zeros(n), np.zeros(n), np.zeros(n)
+    for k in range(count):
+        u = (t - 0.3 - k * period) / period
+        split += hold(u, 0.22, 0.56, 0.22)
+        depth += hold(u - 0.24, 0.2, 0.12, 0.2)
+        lift += bump(u / 0.22) + bump((u - 0.78) / 0.22)  # the stepping foot clears the floor
+    amp = style.amplitude ** 0.5
+    hip_f = (0.6 * split + 0.75 * depth) * amp
+    knee_f = 1.35 * depth * amp + 0.8 * lift
+    ch[f"hip_flex_{front}"] = hip_f + 0.3 * lift
+    ch[f"knee_{front}"] = knee_f
+    ch[f"ankle_{front}"] = (knee_f - hip_f) * (1 - lift) + 0.2 * lift  # flat once down
+    hip_b = (-0.45 * split + 0.3 * depth) * amp
+    knee_b = 1.3 * depth * amp
+    ch[f"hip_flex_{back}"] = hip_b
+    ch[f"knee_{back}"] = knee_b
+    ch[f"ankle_{back}"] = knee_b - hip_b - (0.35 * split + 0.5 * depth)  # the heel up
+    ch["spine_bend"] = 0.08 * depth
+    for side, sign in (("left", 1.0), ("right", -1.0)):  # hands on the hips for balance
+        _arm(clip, side, np.array([-sign * 0.04, -0.4, -0.02]), np.clip(split * 1.5, 0, 1),
+             np.array([sign, 0.0, -0.4]))
+    return clip
+
+
 UPRIGHT_CLIPS = {"jumping_jack": jumping_jack, "march_in_place": march_in_place,
                  "one_leg_stand": one_leg_stand, "point": point, "salute": salute,
-                 "hands_on_hips": hands_on_hips, "cross_arms": cross_arms, "nod": nod}
+                 "hands_on_hips": hands_on_hips, "cross_arms": cross_arms, "nod": nod,
+                 "lunge": lunge}
