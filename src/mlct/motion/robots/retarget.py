@@ -41,8 +41,14 @@ BLEND = 3  # frames over which a held foot fades in and out (as foot_lock's)
 FOOT_REST_PITCH = 0.32  # rad: a HumanML3D foot's ankle -> toe slope when flat (fallback)
 SOLE = 0.035  # m: the ankle roll link's origin above the sole when the foot is flat
 ITERATIONS = 30
-ARM_STARTS = 3  # analytic starts tried per arm
-ARM_SWITCH = 0.01  # m: how much closer another start must bring an arm for a frame to take it
+# the elbow's pull against the hand's (1): enough to pick the elbow's side, small enough that
+# an elbow the G1 cannot place with its hand costs the hand little
+ELBOW_WEIGHT = 0.05
+# analytic starts tried per arm: (rank of the splitting, with the motion's own elbow plane)
+ARM_STARTS = ((0, True), (1, True), (2, True), (0, False), (1, False))
+# m: an arm this near its targets (its weighted distance) tries no further start, and another
+# start must bring it this much nearer for the frame to take it (fewer switches of solution)
+ARM_SWITCH = 0.01
 SIDES = ("left", "right")
 
 
@@ -116,9 +122,9 @@ G1_ARM = _rest_length("left_shoulder_pitch_link", "left_elbow_link") + _rest_len
 
 
 def _arm_error(pose, targets: list[Target]) -> np.ndarray:
-    """(T,) the worst distance of an arm's points to their targets."""
-    return np.max([np.linalg.norm(pose.point(t.body, t.offset) - t.position, axis=-1)
-                   for t in targets], axis=0)
+    """(T,) an arm's distance to its targets, each weighed as the solver weighs it."""
+    return np.sqrt(sum(t.weight * np.sum((pose.point(t.body, t.offset) - t.position) ** 2, -1)
+                       for t in targets))
 
 
 def _foot_targets(h: np.ndarray, j: dict[str, int], side: str, on: np.ndarray, scale: float,
@@ -229,7 +235,7 @@ def retarget_g1(joints: np.ndarray, skeleton: Skeleton = HUMANML3D, fps: float |
                               h[:, j[f"{side}_shoulder"]]) * reach
             hung[part] = shoulder + np.einsum("tij,tj->ti", torso, local)
         hands[side] = hung["wrist"]
-        targets = [Target(CHAIN.body(f"{side}_elbow_link"), (0.0, 0.0, 0.0), hung["elbow"], 0.3),
+        targets = [Target(CHAIN.body(f"{side}_elbow_link"), (0.0, 0.0, 0.0), hung["elbow"], ELBOW_WEIGHT),
                    Target(CHAIN.body(f"{side}_wrist_yaw_link"), (0.0, 0.0, 0.0), hung["wrist"],
                           1.0)]
         arm = [CHAIN.joint(f"{side}_{name}_joint") for name in
@@ -237,19 +243,22 @@ def retarget_g1(joints: np.ndarray, skeleton: Skeleton = HUMANML3D, fps: float |
         # A few starts (the splittings nearest the limits): near a limit the nearest can lead
         # the solver into a corner another start avoids. Each frame keeps the best, the first
         # unless another is over a centimetre closer (fewer switches between solutions).
-        best, best_error = None, None
-        for rank in range(ARM_STARTS):
-            start = q.copy()
-            arm_start(start, torso, shoulder, hung["elbow"], hung["wrist"], side, rank)
-            _, solved = solve(CHAIN, root, pelvis, CHAIN.clamp(start), arm, targets,
+        best, best_error = q.copy(), np.full(frames, np.inf)
+        for rank, own_hinge in ARM_STARTS:
+            # only the frames the starts so far leave over a centimetre off try the next
+            rows = np.flatnonzero(best_error > ARM_SWITCH)
+            if not len(rows):
+                break
+            start = q[rows].copy()
+            arm_start(start, torso[rows], shoulder[rows], hung["elbow"][rows],
+                      hung["wrist"][rows], side, rank, own_hinge)
+            here = [Target(t.body, t.offset, t.position[rows], t.weight) for t in targets]
+            _, solved = solve(CHAIN, root[rows], pelvis[rows], CHAIN.clamp(start), arm, here,
                               iterations=iterations)
-            error = _arm_error(CHAIN.forward(root, pelvis, solved), targets)
-            if best is None:
-                best, best_error = solved, error
-                continue
-            better = error < best_error - ARM_SWITCH
-            best[better] = solved[better]
-            best_error = np.where(better, error, best_error)
+            error = _arm_error(CHAIN.forward(root[rows], pelvis[rows], solved), here)
+            better = error < best_error[rows] - (ARM_SWITCH if rank or not own_hinge else 0)
+            best[rows[better]] = solved[better]
+            best_error[rows[better]] = error[better]
         q[:, arm] = best[:, arm]
 
     quat = matrix_to_quat(pelvis)

@@ -79,10 +79,12 @@ def leg_start(q: np.ndarray, hip: np.ndarray, knee: np.ndarray, ankle: np.ndarra
 
 
 def arm_start(q: np.ndarray, torso: np.ndarray, shoulder: np.ndarray, elbow: np.ndarray,
-              wrist: np.ndarray, side: str, rank: int = 0) -> None:
+              wrist: np.ndarray, side: str, rank: int = 0, own_hinge: bool = True) -> None:
     """Shoulder pitch / roll / yaw and elbow into q (T, n) from the shoulder, elbow and wrist
     targets (world, (T, 3)) and the torso's rotation (T, 3, 3); rank 1, 2, ...: the splitting
-    next nearest the limits, another start for the solver where the nearest one is stuck."""
+    next nearest the limits, another start for the solver where the nearest one is stuck.
+    own_hinge False: the elbow's plane is not the motion's but the one the upper arm's pitch
+    and roll alone give (no twist), a start that keeps the yaw off its limits."""
     to_torso = np.swapaxes(torso, 1, 2)
     upper = _unit(_rotate(to_torso, elbow - shoulder))
     fore = _unit(_rotate(to_torso, wrist - elbow))
@@ -90,9 +92,11 @@ def arm_start(q: np.ndarray, torso: np.ndarray, shoulder: np.ndarray, elbow: np.
     # the forearm's is a turn about upper x fore. A near-straight arm has no such plane: the
     # hinge then leans to the torso's left-right axis (the G1's rest hinge).
     normal = np.cross(upper, fore)
-    rest = np.broadcast_to([0.0, -1.0, 0.0], upper.shape)
-    rest = rest - upper * np.sum(rest * upper, -1, keepdims=True)
-    hinge = _unit(normal + 0.1 * rest)  # the rest leaning weighs in under ~6 degrees of bend
+    untwisted = axis_rotation(1, np.arctan2(-upper[:, 0], -upper[:, 2])) @ axis_rotation(
+        0, np.arcsin(np.clip(upper[:, 1], -1, 1)))
+    rest = -untwisted[:, :, 1]  # the hinge of the upper arm turned by pitch and roll alone
+    # the rest hinge weighs in under ~6 degrees of bend
+    hinge = _unit(normal + 0.1 * rest) if own_hinge else rest
     z = -upper
     y = _unit(-hinge - z * np.sum(-hinge * z, -1, keepdims=True))
     frame = np.stack([np.cross(y, z), y, z], -1)  # the upper-arm link's frame in the torso's
