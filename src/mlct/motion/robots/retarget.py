@@ -235,7 +235,8 @@ def retarget_g1(joints: np.ndarray, skeleton: Skeleton = HUMANML3D, fps: float |
                               h[:, j[f"{side}_shoulder"]]) * reach
             hung[part] = shoulder + np.einsum("tij,tj->ti", torso, local)
         hands[side] = hung["wrist"]
-        targets = [Target(CHAIN.body(f"{side}_elbow_link"), (0.0, 0.0, 0.0), hung["elbow"], ELBOW_WEIGHT),
+        targets = [Target(CHAIN.body(f"{side}_elbow_link"), (0.0, 0.0, 0.0), hung["elbow"],
+                          ELBOW_WEIGHT),
                    Target(CHAIN.body(f"{side}_wrist_yaw_link"), (0.0, 0.0, 0.0), hung["wrist"],
                           1.0)]
         arm = [CHAIN.joint(f"{side}_{name}_joint") for name in
