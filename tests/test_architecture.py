@@ -23,6 +23,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     # files written atomically, device choice, the typed config, ONNX graphs written and run,
     # CUDA graphs captured and replayed
     ("io", "devices", "config", "onnx_io", "cuda_graphs"),
+    ("cpu_features",),  # what this CPU's kernels can run: the weights' precision
     ("motion",),  # skeletons, features <-> joints, BVH, rendering
     ("data",),  # the dataset layout, captions, statistics, torch datasets, the benchmark
     ("text",),  # frozen text encoders and their cache

@@ -24,7 +24,17 @@ import torch
 
 from mlct.devices import resolve_device
 from mlct.errors import MlctError, MlctWarning
-from mlct.nn.inference import weight_dtype
+
+WEIGHT_DTYPES = {"float32": torch.float32, "bfloat16": torch.bfloat16}
+
+
+def weight_dtype(name: str | torch.dtype) -> torch.dtype:
+    """The torch dtype for a weight-precision name; ValueError naming the choices otherwise."""
+    if isinstance(name, torch.dtype) and name in WEIGHT_DTYPES.values():
+        return name
+    if isinstance(name, str) and name in WEIGHT_DTYPES:
+        return WEIGHT_DTYPES[name]
+    raise ValueError(f"unknown weight dtype {name!r}; choose one of {', '.join(WEIGHT_DTYPES)}")
 
 
 @functools.cache  # the CPU does not change; the layers ask on every call

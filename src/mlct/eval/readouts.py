@@ -435,13 +435,21 @@ _READOUTS: dict[str, Callable[[np.ndarray], Any]] = {
 }
 
 
+# The families benchmark version 3 adds register their read-outs and checks here: their module
+# (readouts_more.py) builds on this one, and mlct.eval's __init__ imports it, so both are in
+# place whenever anything of mlct.eval is.
+EXTRA_READINGS: list[Callable[[np.ndarray], dict[str, float]]] = []
+EXTRA_CHECKS: dict[str, Callable[[str, Mapping[str, Any]], list]] = {}
+
+
 def read_all(joints: np.ndarray) -> dict[str, float]:
     """Every read-out of a motion as a flat {name: value} dict (see `Readouts.as_dict`), with
-    those of the families benchmark version 3 adds (readouts_more.more_readings)."""
-    from mlct.eval.readouts_more import more_readings  # it builds on this module
-
+    those of the families benchmark version 3 adds (EXTRA_READINGS)."""
     joints = as_joints(joints)
-    return {**Readouts.of(joints).as_dict(), **more_readings(joints)}
+    out = Readouts.of(joints).as_dict()
+    for more in EXTRA_READINGS:
+        out.update(more(joints))
+    return out
 
 
 # ---------------------------------------------------------------------------- windows
@@ -796,10 +804,8 @@ def checks_for(action: Mapping[str, Any]) -> list[Check]:
         return _strike_checks(family, params)
     if family in ("bow", "stretch", "stand"):
         return _posture_checks(family)
-    from mlct.eval.readouts_more import MORE_CHECKS
-
-    if family in MORE_CHECKS:
-        return MORE_CHECKS[family](family, params)
+    if family in EXTRA_CHECKS:
+        return EXTRA_CHECKS[family](family, params)
     raise ValueError(f"no checks for action family {family!r}")
 
 

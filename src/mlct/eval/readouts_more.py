@@ -16,8 +16,8 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from mlct.eval.readouts import (ANKLE, FPS, HEAD, NECK, PELVIS, SHOULDER, SIDES, WRIST,
-                                Check, Readings, _count_entries, _count_episodes, _count_rises,
+from mlct.eval.readouts import (ANKLE, EXTRA_CHECKS, EXTRA_READINGS, FPS, HEAD, NECK, PELVIS,
+                                SHOULDER, SIDES, WRIST, Check, Readings, _count_entries, _count_episodes, _count_rises,
                                 _other,
                                 _standing, facing)
 
@@ -332,3 +332,6 @@ MORE_CHECKS: dict[str, Callable[[str, Mapping[str, Any]], list[Check]]] = {
     "cross_arms": _gesture_checks, "nod": _gesture_checks, "push_up": _push_up_checks,
     "lunge": _lunge_checks,
 }
+
+EXTRA_READINGS.append(more_readings)
+EXTRA_CHECKS.update(MORE_CHECKS)

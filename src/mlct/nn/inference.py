@@ -28,16 +28,9 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-WEIGHT_DTYPES = {"float32": torch.float32, "bfloat16": torch.bfloat16}
+from mlct import cpu_features
+from mlct.cpu_features import WEIGHT_DTYPES, weight_dtype  # noqa: F401  (where callers find it)
 
-
-def weight_dtype(name: str | torch.dtype) -> torch.dtype:
-    """The torch dtype for a weight-precision name; ValueError naming the choices otherwise."""
-    if isinstance(name, torch.dtype) and name in WEIGHT_DTYPES.values():
-        return name
-    if isinstance(name, str) and name in WEIGHT_DTYPES:
-        return WEIGHT_DTYPES[name]
-    raise ValueError(f"unknown weight dtype {name!r}; choose one of {', '.join(WEIGHT_DTYPES)}")
 
 
 def _onednn_layout(weight: Tensor) -> Tensor | None:
@@ -192,9 +185,7 @@ class ChannelsLastConvs(nn.Module):
 
 
 def _onednn_bf16() -> bool:
-    from mlct.cpu_features import onednn_bf16
-
-    return onednn_bf16()
+    return cpu_features.onednn_bf16()  # looked up when called: tests stand in another CPU
 
 
 def _gelu(h: Tensor, approximate: str) -> Tensor:

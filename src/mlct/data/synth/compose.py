@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from mlct.data.synth.actions import ENDS_DOWN, STARTS_DOWN, Script
-from mlct.data.synth.motions import ANGLE_CHANNELS, ARM_CHANNELS, Clip, Style, action_clip, \
+from mlct.data.synth.more_clips import action_clip
+from mlct.data.synth.motions import ANGLE_CHANNELS, ARM_CHANNELS, Clip, Style, \
     held, neutral, overlay_upper
 from mlct.data.synth.rig import Rig, pose_positions, rot_y
 

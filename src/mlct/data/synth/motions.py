@@ -480,8 +480,8 @@ _UPPER: dict[str, Callable[..., Clip]] = {"wave": wave, "raise_arms": raise_arms
                                           "punch": punch}
 
 
-def action_clip(action: Action, rig: Rig, style: Style, fps: float) -> Clip:
-    """The clip of one action."""
+def base_clip(action: Action, rig: Rig, style: Style, fps: float) -> Clip:
+    """The clip of one action of benchmark version 2's families (more_clips.action_clip: any)."""
     p, f = action.params, action.family
     if f == "walk":
         return gait(fps, style, p["speed"], strides=3 + style.tempo)
@@ -518,10 +518,6 @@ def action_clip(action: Action, rig: Rig, style: Style, fps: float) -> Clip:
         return stand(fps, style)
     if f in _UPPER:
         return _UPPER[f](fps, style, **p)
-    # The families of benchmark version 3 live in their own modules, which build on this one.
-    from mlct.data.synth.more_clips import MORE_CLIPS
-    if f in MORE_CLIPS:
-        return MORE_CLIPS[f](rig, fps, style, **p)
     raise ValueError(f"no motion for action family {f!r}")
 
 
