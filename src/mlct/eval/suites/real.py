@@ -11,7 +11,8 @@ motion's label: a corpus content such as "wave-left-hand", or CMU's description)
   caption of it generated --seeds times at the label's median length; the variety is the mean
   joint distance between two seeds' motions (every pair, frame by frame over the shorter,
   both starting where the features put them: at the origin, facing +Z); the data's variety is
-  the same distance between its motions of the label (all splits, at most 12). Measured at the
+  the same distance between its motions of the label (all splits, at most 12 spread evenly over
+  its takes in name order, so that every style is among them). Measured at the
   defaults, with one candidate (no critic), and with the text anchors off, so that each pull
   towards one motion shows;
 - (c) foot skating (GMD's ratio) of the defaults' motions against the data's for the same labels.
@@ -114,7 +115,9 @@ def _variety(args: argparse.Namespace, layout: DatasetLayout,
     rows: dict[str, Any] = {}
     anchors = pipe.text_anchors
     for label in chosen:
-        names = by_label[label][:MAX_PER_LABEL]
+        every = by_label[label]  # sorted by name: takes of one style sit together
+        names = [every[i] for i in np.linspace(0, len(every) - 1, min(len(every),
+                                                                      MAX_PER_LABEL)).astype(int)]
         real = [features_to_joints(layout.load_features(n)) for n in names]
         seconds = float(np.median([len(j) for j in real])) / HUMANML3D.fps
         caption = layout.read_texts(names[0])[0].caption
