@@ -276,7 +276,7 @@ BAD_REQUESTS = [
     ({"text": "walk", "nfe": 1000}, 422, "nfe"),
     ({"text": "walk", "nfe": "5"}, 422, "nfe"),
     ({"text": "walk", "seed": -1}, 422, "seed"),
-    ({"text": "walk", "format": "fbx"}, 422, "format"),
+    ({"text": "walk", "format": "obj"}, 422, "format"),
     ({"texts": ["a", "b"], "format": "bvh"}, 422, "one motion"),
     ({"texts": ["a", "b"], "lengths": [10, 20, 30]}, 422, "3 values"),
     ({"texts": []}, 422, "texts"),
