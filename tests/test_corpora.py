@@ -336,3 +336,42 @@ def test_cmu_prefers_its_own_amc_take_to_a_bvh_conversion(tmp_path):
     found = {c.name: c.path.relative_to(tmp_path).as_posix() for c in CMU.find(tmp_path)}
     assert found == {"cmu_02_05": "amc/02_05.amc", "cmu_02_06": "amc/02_06.amc",
                      "cmu_07_01": "bvh/07_01.bvh"}
+
+
+def test_a_model_trained_on_non_commercial_data_says_so_when_loaded(release, tmp_path):
+    import shutil
+    import warnings
+
+    import mlct
+    from mlct.data.corpora import training_data
+    from mlct.data.merge import merge_datasets
+    from mlct.data.synth.build import synthesize_dataset
+    from mlct.errors import MlctWarning
+    from mlct.generate import bundle
+
+    root, _ = release
+    synthesize_dataset(tmp_path / "synth", num=6, seed=0, progress=False)
+    import_corpus("bandai-namco", root, tmp_path / "real", split=(1.0, 0.0, 0.0))
+    merge_datasets([tmp_path / "synth", tmp_path / "real"], tmp_path / "mixed")
+    summary = training_data(tmp_path / "mixed")
+    by_corpus = {c["corpus"]: c for c in summary["corpora"]}
+    assert by_corpus["bandai-namco"]["motions"] == 3
+    assert by_corpus["bandai-namco"]["commercial_use"] is False
+    assert by_corpus["procedural"]["commercial_use"] is True
+
+    model = tmp_path / "model"
+    shutil.copytree(Path(mlct.__file__).parent / "assets" / "model", model)
+    config = json.loads((model / "config.json").read_text())
+    config["training_data"] = summary
+    (model / "config.json").write_text(json.dumps(config))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        bundle.read_bundle(model)
+        bundle.read_bundle(model)  # once a process
+    said = [str(w.message) for w in caught if issubclass(w.category, MlctWarning)]
+    assert len(said) == 1 and "Bandai Namco Research Motion Dataset (CC BY-NC 4.0)" in said[0]
+    assert "non-commercial use only" in said[0]
+    with warnings.catch_warnings(record=True) as caught:  # the bundled model says nothing
+        warnings.simplefilter("always")
+        bundle.read_bundle(Path(mlct.__file__).parent / "assets" / "model")
+    assert not [w for w in caught if issubclass(w.category, MlctWarning)]

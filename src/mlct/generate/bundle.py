@@ -19,13 +19,14 @@ from its own package or directory).
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 from typing import Any
 
 import torch
 from safetensors.torch import load_file
 
-from mlct.errors import MlctError, first_line
+from mlct.errors import MlctError, MlctWarning, first_line
 from mlct.generate.durations import read_durations
 from mlct.generate.samplers import SAMPLERS
 from mlct.io import read_format_json, strip_prefix
@@ -78,6 +79,24 @@ def _check_meta(meta: dict[str, Any], config_path: Path) -> None:
         raise bad("config", "the run's config (a mapping)")
 
 
+_NOTED: set[str] = set()  # models whose training data's license has been said this process
+
+
+def training_data_notice(meta: dict[str, Any], path: str | os.PathLike) -> None:
+    """One MlctWarning, once a process per model, when its config's `training_data` names a
+    corpus whose license forbids commercial use (a model trained on Bandai Namco's, say):
+    whoever loads it is told, wherever it is loaded."""
+    corpora = (meta.get("training_data") or {}).get("corpora", [])
+    restricted = [c for c in corpora if c.get("commercial_use") is False]
+    if not restricted or str(path) in _NOTED:
+        return
+    _NOTED.add(str(path))
+    named = "; ".join(f"{c.get('source', c.get('corpus'))} ({c.get('license')})"
+                      for c in restricted)
+    warnings.warn(f"{path}: this model was trained on {named}: non-commercial use only",
+                  MlctWarning, stacklevel=3)
+
+
 def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
     """config.json and the tensors of a bundle; one-line MlctError when it is not one."""
     path = Path(path)
@@ -92,6 +111,7 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
     if missing:
         raise MlctError(f"{config_path}: incomplete model config (no {', '.join(missing)})")
     _check_meta(meta, config_path)
+    training_data_notice(meta, path)
     durations = read_durations(path, meta["text_encoder"], int(meta["text_dim"]))
     if durations is not None:  # the parts of a split prompt share the clip by it
         meta["durations"] = durations.to_json()

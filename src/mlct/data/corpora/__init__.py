@@ -9,8 +9,11 @@ under which license.
 
 from __future__ import annotations
 
+import json
 import os
+from collections import Counter
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -18,6 +21,7 @@ from mlct.data.corpora.bandai_namco import BANDAI_NAMCO
 from mlct.data.corpora.cmu import CMU
 from mlct.data.corpora.base import Corpus, RealClip
 from mlct.data.importer import DEFAULT_SPLIT, ImportSummary, import_dataset
+from mlct.data.layout import PROVENANCE_FILE
 from mlct.errors import MlctError
 
 CORPORA: dict[str, Corpus] = {c.name: c for c in (BANDAI_NAMCO, CMU)}
@@ -53,3 +57,26 @@ def import_corpus(name: str, src: str | os.PathLike, out: str | os.PathLike, *,
         between=chosen.between, scale=chosen.scale,
         provenance={c.name: chosen.provenance(c, root) for c in clips},
         split=split, seed=seed, overwrite=overwrite, progress=progress)
+
+
+def training_data(dataset: str | os.PathLike, split: str = "train") -> dict[str, Any]:
+    """What a model trained on `dataset`'s split learnt from, for its config.json's
+    `training_data` (generate/bundle.py says a non-commercial license wherever the model is
+    loaded): per corpus its motions, source, license and whether it allows commercial use."""
+    root = Path(dataset)
+    path = root / PROVENANCE_FILE
+    if not path.is_file():
+        raise MlctError(f"{path}: missing; a dataset made by `mlct data import --corpus` or a "
+                        f"merge with one has it")
+    names = Counter((root / f"{split}.txt").read_text(encoding="utf-8").split())
+    corpora: dict[str, dict[str, Any]] = {}
+    for line in path.read_text(encoding="utf-8").splitlines():
+        record = json.loads(line)
+        if record["name"] not in names:
+            continue
+        entry = corpora.setdefault(record["corpus"], {
+            "corpus": record["corpus"], "source": record.get("source", record["corpus"]),
+            "license": record.get("license"), "commercial_use": record.get("commercial_use"),
+            "motions": 0})
+        entry["motions"] += names[record["name"]]  # an oversampled split counts its repeats
+    return {"dataset": str(root), "split": split, "corpora": list(corpora.values())}
