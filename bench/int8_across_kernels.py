@@ -3,7 +3,7 @@
     python bench/int8_across_kernels.py      # a minute or two
 
 ONNX Runtime's u8 x s8 product saturates pairs of products in int16 on a CPU without VNNI
-(tests/int8_kernels.py, which rewrites a graph to compute what such a CPU computes). For four
+(mlct/serve/site/int8_emulation.py rewrites a graph to compute what such a CPU computes). For four
 dynamic quantizations of MiniLM (int8 weights as ONNX Runtime makes them; 7-bit weights,
 reduce_range; uint8 weights, U8U8; int8 weights with pair-safe scales, mlct's quantize_int8)
 prints the size, the cosine of the sentence vectors with float32's over the benchmark's 62
@@ -14,15 +14,13 @@ computes them, and the time of one prompt on this CPU (best of 20, one thread).
 from __future__ import annotations
 
 import json
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from int8_kernels import as_non_vnni  # noqa: E402
+from mlct.serve.site.int8_emulation import as_non_vnni
 
 PROMPTS = Path(__file__).parent / "data" / "quality_prompts.json"
 

@@ -107,14 +107,14 @@ def test_int8_weights_are_int8_on_disk_and_close_in_use(tmp_path) -> None:
 
 def test_int8_arithmetic_is_the_same_on_cpus_without_vnni(tmp_path) -> None:
     """The dynamic int8 graph as an AVX2-only CPU computes it (its kernel saturates pairs of
-    products in int16: tests/int8_kernels.py): the same numbers as this CPU's. ONNX Runtime's
+    products in int16: mlct/serve/site/int8_emulation.py): the same numbers as this CPU's. ONNX Runtime's
     own int8 weights, on this layer, came out 20 % off float32 there."""
     onnx = pytest.importorskip("onnx")
     ort = pytest.importorskip("onnxruntime")
     from onnx import numpy_helper
     from onnxruntime.quantization import QuantType, quantize_dynamic
 
-    from int8_kernels import as_non_vnni
+    from mlct.serve.site.int8_emulation import as_non_vnni
     from mlct.generate.onnx_compact import quantize_int8
     from mlct.generate.onnx_int8_pairs import max_pair
     from mlct.onnx_io import export_graph
