@@ -144,6 +144,9 @@ def _write_model_variants(models: Path) -> None:
     model("wrongformat", json.dumps({**config, "format": "other"}), weights)
     model("wrongversion", json.dumps({**config, "version": 99}), weights)
     model("missingkeys", json.dumps({k: v for k, v in config.items() if k != "sampler"}), weights)
+    # the default (auto) backend reads config.json alone first, to choose: that read says it too
+    model("notextencoder", json.dumps({k: v for k, v in config.items() if k != "text_encoder"}),
+          weights)
     model("badweights", json.dumps(config), b"\x00" * 64)
     model("mismatch", json.dumps(config), save_bytes({"norm.mean": torch.zeros(263)}))
     model("badskeleton", json.dumps({**config, "skeleton": "smpl"}), weights)
@@ -419,6 +422,10 @@ CLI_CASES = [
     (["generate", W, "--model", "models/wrongformat", "--out", "x.npy"], "format is not"),
     (["generate", W, "--model", "models/wrongversion", "--out", "x.npy"], "version 99"),
     (["generate", W, "--model", "models/missingkeys", "--out", "x.npy"], "(no sampler)"),
+    (["generate", W, "--model", "models/notextencoder", "--out", "x.npy"],
+     "incomplete model config (no text_encoder)"),
+    (["generate", W, "--model", "models/notextencoder", "--backend", "onnx", "--out", "x.npy"],
+     "incomplete model config (no text_encoder)"),
     (["generate", W, "--model", "models/badweights", "--out", "x.npy"], "unreadable weights"),
     (["generate", W, "--model", "models/mismatch", "--out", "x.npy"], "do not match"),
     (["generate", W, "--model", "models/badskeleton", "--out", "x.npy"], "'skeleton' is 'smpl'"),

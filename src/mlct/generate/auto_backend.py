@@ -35,8 +35,7 @@ from typing import Any
 import torch
 
 from mlct.errors import MlctError
-from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION, CONFIG
-from mlct.io import read_format_json
+from mlct.generate.bundle import CONFIG, read_config
 
 ENV = "MLCT_BACKEND"
 
@@ -62,7 +61,7 @@ def choose_backend(path: Path, device: Any, dtype: Any) -> tuple[str, Path | Non
     if not (path / CONFIG).is_file():  # not a model: loading it says so, in its words
         return "torch", None, "no model config"
     # config.json only: the weights are read once, by the backend that loads them
-    meta = read_format_json(path / CONFIG, BUNDLE_FORMAT, BUNDLE_VERSION, "an mlct model config")
+    meta = read_config(path)
     if str(meta.get("text_encoder", "")).strip().lower() not in ONNX_SPECS:
         return "torch", None, f"the text encoder {meta['text_encoder']!r} has no ONNX graph"
     runtime = f"ONNX Runtime {onnxruntime.__version__}"

@@ -66,12 +66,11 @@ def _cached(path: Path, device: torch.device | str | None, dtype: str | torch.dt
 def _config(path: Path) -> dict:
     """The model's config.json alone (the weights are read once, by the backend that loads
     them); one line saying what is wrong when `path` is not a model."""
-    from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION, CONFIG, read_bundle
-    from mlct.io import read_format_json
+    from mlct.generate.bundle import CONFIG, read_bundle, read_config
 
     if not (path / CONFIG).is_file():
         read_bundle(path)  # not a model: one line saying what is wrong, before converting
-    return read_format_json(path / CONFIG, BUNDLE_FORMAT, BUNDLE_VERSION, "an mlct model config")
+    return read_config(path)
 
 
 BACKENDS: dict[str, Callable[..., MotionGenerator]] = {

@@ -97,6 +97,17 @@ def training_data_notice(meta: dict[str, Any], path: str | os.PathLike) -> None:
                   MlctWarning, stacklevel=3)
 
 
+def read_config(path: str | os.PathLike) -> dict[str, Any]:
+    """A bundle's config.json alone, checked: a one-line MlctError naming a missing field."""
+    config_path = Path(path) / CONFIG
+    meta = read_format_json(config_path, BUNDLE_FORMAT, BUNDLE_VERSION, "an mlct model config")
+    missing = [k for k in META_KEYS if k not in meta]
+    if missing:
+        raise MlctError(f"{config_path}: incomplete model config (no {', '.join(missing)})")
+    _check_meta(meta, config_path)
+    return meta
+
+
 def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
     """config.json and the tensors of a bundle; one-line MlctError when it is not one."""
     path = Path(path)
@@ -106,11 +117,7 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
     if not config_path.is_file() or not weights.is_file():
         raise MlctError(f"{path}: not an mlct model (needs config.json and model.safetensors; "
                         f"make one with `mlct export RUN --out {path}`)")
-    meta = read_format_json(config_path, BUNDLE_FORMAT, BUNDLE_VERSION, "an mlct model config")
-    missing = [k for k in META_KEYS if k not in meta]
-    if missing:
-        raise MlctError(f"{config_path}: incomplete model config (no {', '.join(missing)})")
-    _check_meta(meta, config_path)
+    meta = read_config(path)
     training_data_notice(meta, path)
     durations = read_durations(path, meta["text_encoder"], int(meta["text_dim"]))
     if durations is not None:  # the parts of a split prompt share the clip by it
