@@ -26,16 +26,14 @@ VOCABULARY = Path(__file__).with_name("data") / "vocabulary.json"
 
 def real_labels(datasets: list[Path]) -> dict[str, int]:
     """'corpus:label' -> training motions of it, over the datasets' provenance.jsonl."""
+    from mlct.data.layout import provenance_label, read_provenance, read_split
+
     counts: dict[str, int] = defaultdict(int)
     for root in datasets:
-        train = set((root / "train.txt").read_text().split())
-        for line in (root / "provenance.jsonl").read_text().splitlines():
-            record = json.loads(line)
-            if record["name"] not in train:
-                continue
-            labels = record["labels"]
-            label = labels.get("content") or labels.get("description", "").lower()
-            counts[f"{record['corpus']}:{label}"] += 1
+        train = set(read_split(root / "train.txt"))
+        for record in read_provenance(root):
+            if record["name"] in train:
+                counts[f"{record['corpus']}:{provenance_label(record)}"] += 1
     return counts
 
 

@@ -375,3 +375,16 @@ def test_a_model_trained_on_non_commercial_data_says_so_when_loaded(release, tmp
         warnings.simplefilter("always")
         bundle.read_bundle(Path(mlct.__file__).parent / "assets" / "model")
     assert not [w for w in caught if issubclass(w.category, MlctWarning)]
+
+
+def test_provenance_is_read_in_one_place_and_a_broken_line_is_named(tmp_path):
+    from mlct.data.layout import BadFileError, provenance_label, read_provenance
+
+    assert read_provenance(tmp_path) == []
+    (tmp_path / "provenance.jsonl").write_text('{"name": "a", "labels": {"content": "bow"}}\n'
+                                               '{"name": "b", "labels": {"description": "Walk"}}'
+                                               '\n{broken\n')
+    with pytest.raises(BadFileError, match="line 3"):
+        read_provenance(tmp_path)
+    assert provenance_label({"labels": {"description": "Slow Walk"}}) == "slow walk"
+    assert provenance_label({"labels": {"content": "bow", "style": "old"}}) == "bow"

@@ -17,10 +17,12 @@ checker (mlct.data.check) collects the same messages as problems.
 
 from __future__ import annotations
 
+import json
 import os
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -372,3 +374,26 @@ def _header_shapes(directory: Path, limit: int = 200) -> list[tuple[int, ...]]:
 def is_mirrored(name: str) -> bool:
     """True for the mirrored copies of the standard datasets (`M000001` mirrors `000001`)."""
     return name.startswith(MIRROR_PREFIX)
+
+
+def read_provenance(root: str | os.PathLike) -> list[dict[str, Any]]:
+    """A dataset's provenance.jsonl records in file order ([] when it has none): per motion its
+    corpus, source file, labels and license (data/corpora, data/merge)."""
+    path = Path(root) / PROVENANCE_FILE
+    if not path.is_file():
+        return []
+    records = []
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+        if line.strip():
+            try:
+                records.append(json.loads(line))
+            except json.JSONDecodeError as error:
+                raise BadFileError(path, f"not JSON ({error.msg})", line=number) from None
+    return records
+
+
+def provenance_label(record: dict[str, Any]) -> str:
+    """What a motion shows, as its corpus labels it: the content (Bandai Namco), else the
+    description (CMU's index, lower case)."""
+    labels = record.get("labels", {})
+    return labels.get("content") or labels.get("description", "?").lower()

@@ -24,7 +24,7 @@ import numpy as np
 from mlct.data.labels import LABELS_FILE, SYNTH_META, read_labels, read_synth_meta
 from mlct.data.oversample import repeating_splits
 from mlct.data.layout import (FEATURES_DIR, JOINTS_DIR, OPTIONAL_SPLITS, PROVENANCE_FILE, SPLITS,
-                              TEXTS_DIR, read_split)
+                              TEXTS_DIR, read_provenance, read_split)
 from mlct.errors import MlctError
 from mlct.io import atomic_dir, link_or_copy, write_text
 
@@ -110,12 +110,8 @@ def _merged_provenance(sources: list[Path], metas: list[dict[str, Any]]
     records = []
     for index, (src, meta) in enumerate(zip(sources, metas)):
         prefix = source_prefix(index)
-        path = src / PROVENANCE_FILE
-        if path.is_file():
-            for line in path.read_text(encoding="utf-8").splitlines():
-                if line.strip():
-                    record = json.loads(line)
-                    records.append({**record, "name": prefix + record["name"]})
+        if (src / PROVENANCE_FILE).is_file():
+            records += [{**r, "name": prefix + r["name"]} for r in read_provenance(src)]
             continue
         default = PROCEDURAL if meta.get("generator") else UNKNOWN
         for f in sorted((src / FEATURES_DIR).iterdir()):

@@ -9,7 +9,6 @@ under which license.
 
 from __future__ import annotations
 
-import json
 import os
 from collections import Counter
 from pathlib import Path
@@ -21,7 +20,7 @@ from mlct.data.corpora.bandai_namco import BANDAI_NAMCO
 from mlct.data.corpora.cmu import CMU
 from mlct.data.corpora.base import Corpus, RealClip
 from mlct.data.importer import DEFAULT_SPLIT, ImportSummary, import_dataset
-from mlct.data.layout import PROVENANCE_FILE
+from mlct.data.layout import PROVENANCE_FILE, read_provenance, read_split
 from mlct.errors import MlctError
 
 CORPORA: dict[str, Corpus] = {c.name: c for c in (BANDAI_NAMCO, CMU)}
@@ -64,14 +63,13 @@ def training_data(dataset: str | os.PathLike, split: str = "train") -> dict[str,
     `training_data` (generate/bundle.py says a non-commercial license wherever the model is
     loaded): per corpus its motions, source, license and whether it allows commercial use."""
     root = Path(dataset)
-    path = root / PROVENANCE_FILE
-    if not path.is_file():
-        raise MlctError(f"{path}: missing; a dataset made by `mlct data import --corpus` or a "
-                        f"merge with one has it")
-    names = Counter((root / f"{split}.txt").read_text(encoding="utf-8").split())
+    records = read_provenance(root)
+    if not records:
+        raise MlctError(f"{root / PROVENANCE_FILE}: missing; a dataset made by `mlct data "
+                        f"import --corpus` or a merge with one has it")
+    names = Counter(read_split(root / f"{split}.txt"))
     corpora: dict[str, dict[str, Any]] = {}
-    for line in path.read_text(encoding="utf-8").splitlines():
-        record = json.loads(line)
+    for record in records:
         if record["name"] not in names:
             continue
         entry = corpora.setdefault(record["corpus"], {

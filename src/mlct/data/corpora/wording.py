@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Sequence
 
 from mlct.data.synth.colloquial import FORMS as _BENCHMARK_FORMS
-from mlct.data.synth.text import Rng, _pick, _render
+from mlct.data.synth.text import _SUBJECTS, Rng, _pick, _render
 
 # Verbs the benchmark's vocabularies lack, with (third person, gerund).
 _NEW_VERBS = {
@@ -38,8 +38,6 @@ _NEW_VERBS = {
 }
 FORMS = {**_BENCHMARK_FORMS, **_NEW_VERBS}
 
-_SUBJECTS = (("a person", "their"), ("a person", "their"), ("the person", "their"),
-             ("a man", "his"), ("a woman", "her"), ("someone", "their"), ("a figure", "their"))
 
 
 @dataclass(frozen=True)

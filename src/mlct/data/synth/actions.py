@@ -110,14 +110,14 @@ def sample_script(rng: np.random.Generator, version: int = 2) -> Script:
 
     version: of the benchmark (build.BENCHMARK_VERSION). Version 2 draws exactly as it always
     did; version 3 draws NEW_SHARE of its actions from the families it adds."""
-    if version >= 3:
-        return _sample_script_v3(rng)
     roll = rng.random()
-    if roll < 0.12:
+    if roll < 0.12:  # a 'while' pair: locomotion with an upper-body action over it
         base = sample_action(rng, LOCOMOTION[rng.integers(len(LOCOMOTION))])
         upper = sample_action(rng, UPPER_BODY[rng.integers(len(UPPER_BODY))])
         return Script((base,), concurrent=upper)
     count = 1 if roll < 0.55 else 2 if roll < 0.87 else 3
+    if version >= 3:
+        return _sequence_v3(rng, count)
     actions: list[Action] = []
     while len(actions) < count:
         action = sample_action(rng)
@@ -141,15 +141,9 @@ def _follows(previous: Action | None, family: str) -> bool:
     return True
 
 
-def _sample_script_v3(rng: np.random.Generator) -> Script:
-    """Version 3's scripts: version 2's forms, the actions drawn from all families; a floor
-    transition in a sequence only where the body can go on from it (lies down, then gets up)."""
-    roll = rng.random()
-    if roll < 0.12:
-        base = sample_action(rng, LOCOMOTION[rng.integers(len(LOCOMOTION))])
-        upper = sample_action(rng, UPPER_BODY[rng.integers(len(UPPER_BODY))])
-        return Script((base,), concurrent=upper)
-    count = 1 if roll < 0.55 else 2 if roll < 0.87 else 3
+def _sequence_v3(rng: np.random.Generator, count: int) -> Script:
+    """Version 3's sequence of `count` actions, drawn from all families; a floor transition
+    only where the body can go on from it (lies down, then gets up)."""
     old = FAMILIES_BY_VERSION[2]
     actions: list[Action] = []
     tries = 0

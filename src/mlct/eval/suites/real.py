@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from mlct.data.layout import DatasetLayout, PROVENANCE_FILE
+from mlct.data.layout import DatasetLayout, provenance_label, read_provenance
 from mlct.motion.features import features_to_joints
 from mlct.motion.physics import foot_skating_ratio
 from mlct.motion.skeleton import HUMANML3D
@@ -50,12 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def motion_labels(root: Path) -> dict[str, str]:
     """motion name -> its label (corpus content, else CMU's description)."""
-    labels = {}
-    for line in (root / PROVENANCE_FILE).read_text(encoding="utf-8").splitlines():
-        record = json.loads(line)
-        found = record.get("labels", {})
-        labels[record["name"]] = found.get("content") or found.get("description", "?").lower()
-    return labels
+    return {r["name"]: provenance_label(r) for r in read_provenance(root)}
 
 
 def pairwise_distance(motions: list[np.ndarray]) -> float:
