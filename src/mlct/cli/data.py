@@ -124,8 +124,9 @@ def add_parser(commands: Commands) -> None:
     synth.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
     synth.add_argument("--quiet", action="store_true", help="no progress bar")
     synth.add_argument("--benchmark-version", type=int, default=3, metavar="N",  # build's newest
-                       help="3 (default): all 36 action families; 2: the 21 families the "
-                            "bundled model was trained on, remade exactly as before")
+                       help="3 (default): 36 action families; 4: those and the families "
+                            "version 4 adds; 2: the 21 families the bundled model was trained "
+                            "on, remade exactly as before")
     synth.set_defaults(func=run_synth)
 
     rephrase = data_commands.add_parser(

@@ -21,6 +21,9 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+# the words of benchmark version 4's families (they import nothing that imports this module)
+from mlct.data.synth import families_arms, families_body
+
 SEPARATOR = "#"  # between the four fields of a line
 
 
@@ -134,6 +137,10 @@ def _gerund(lemma: str) -> str:
 
 
 VERB_FORMS = {v: _IRREGULAR.get(v, (_third_person(v), _gerund(v))) for v in VERBS}
+# the families of benchmark version 4, each module's own (synth/families_arms.py's interface)
+_VERSION_4_MODULES = (families_body, families_arms)
+for _module in _VERSION_4_MODULES:
+    VERB_FORMS.update(_module.VERBS["benchmark"])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -175,6 +182,9 @@ _MODIFIERS = frozenset("left right forward straight fast counterclockwise clockw
 _LEXICON: dict[str, tuple[str, str]] = {
     w: (w, pos) for pos, ws in _POS_WORDS.items() for w in ws.split()}
 _LEXICON.update({w: (lemma, "NOUN") for w, lemma in _PLURALS.items()})
+for _module in _VERSION_4_MODULES:
+    _LEXICON.update({w: (w, pos) for w, pos in _module.WORDS.items()})
+    _LEXICON.update({w: (lemma, "NOUN") for w, lemma in _module.PLURALS.items()})
 for _v, (_s, _g) in VERB_FORMS.items():
     _LEXICON[_s] = _LEXICON[_g] = (_v, "VERB")
 for _v in _NOUN_OR_VERB:

@@ -15,7 +15,9 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-# the read-outs of benchmark version 3's families register themselves with readouts.py
+# the read-outs of benchmark version 3's and 4's families register themselves with readouts.py
+from mlct.eval import readouts_arms as _readouts_arms  # noqa: F401
+from mlct.eval import readouts_body as _readouts_body  # noqa: F401
 from mlct.eval import readouts_more as _readouts_more  # noqa: F401
 
 # name -> the module that defines it

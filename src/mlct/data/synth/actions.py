@@ -12,6 +12,11 @@ from typing import Any
 
 import numpy as np
 
+from mlct.data.synth import families_arms, families_body
+
+# The modules of the families benchmark version 4 adds (the interface: families_arms.py).
+VERSION_4_MODULES = (families_body, families_arms)
+
 # Each family: its parameters and their possible values.
 FAMILY_PARAMS: dict[str, dict[str, tuple[Any, ...]]] = {
     "walk": {"speed": ("slow", "normal", "fast"), "direction": ("forward",)},
@@ -52,17 +57,26 @@ FAMILY_PARAMS: dict[str, dict[str, tuple[Any, ...]]] = {
     "march_in_place": {},
     "push_up": {"count": (2, 3, 4)},
     "lunge": {"leg": ("left", "right"), "count": (2, 3)},
+    # Added in benchmark version 4: whole-body and arm families, each module's own.
+    **{family: params for module in VERSION_4_MODULES for family, params in module.PARAMS.items()},
 }
 FAMILIES: tuple[str, ...] = tuple(FAMILY_PARAMS)
 # The families each benchmark version samples: versions 1 and 2 have the first 21, and a
-# version-2 dataset of a seed is remade only if its scripts are drawn from exactly these.
-FAMILIES_BY_VERSION: dict[int, tuple[str, ...]] = {2: FAMILIES[:21], 3: FAMILIES}
-NEW_FAMILIES = FAMILIES[21:]
+# version-2 (version-3) dataset of a seed is remade only if its scripts are drawn from exactly
+# these.
+FAMILIES_BY_VERSION: dict[int, tuple[str, ...]] = {2: FAMILIES[:21], 3: FAMILIES[:36],
+                                                   4: FAMILIES}
+NEW_FAMILIES = FAMILIES[21:36]  # the families version 3 adds
 NEW_SHARE = 0.3  # of the actions of a version-3 script drawn from the families it adds
+VERSION_4_FAMILIES = FAMILIES[36:]
+# Of the actions of a version-4 script, drawn from the families it adds; the rest are drawn
+# as version 3 draws them.
+VERSION_4_SHARE = 0.35
 # Floor transitions: a motion that ends lying or sitting on the floor can only go on by
 # getting up, and getting up starts lying on the back.
-ENDS_DOWN = frozenset({"lie_down", "sit_floor"})
-STARTS_DOWN = frozenset({"get_up"})
+ENDS_DOWN = frozenset({"lie_down", "sit_floor"}).union(
+    *(module.ENDS_DOWN for module in VERSION_4_MODULES))
+STARTS_DOWN = frozenset({"get_up"}).union(*(module.STARTS_DOWN for module in VERSION_4_MODULES))
 
 LOCOMOTION = ("walk", "walk_backward", "circle", "jog")
 UPPER_BODY = ("wave", "raise_arms", "clap", "punch")
@@ -108,8 +122,9 @@ def sample_action(rng: np.random.Generator, family: str | None = None) -> Action
 def sample_script(rng: np.random.Generator, version: int = 2) -> Script:
     """A random script: mostly single actions, some sequences of 2-3, some 'while' pairs.
 
-    version: of the benchmark (build.BENCHMARK_VERSION). Version 2 draws exactly as it always
-    did; version 3 draws NEW_SHARE of its actions from the families it adds."""
+    version: of the benchmark (build.VERSIONS). Version 2 draws exactly as it always did;
+    version 3 draws NEW_SHARE of its actions from the families it adds; version 4 draws
+    VERSION_4_SHARE of them from its own, the rest as version 3."""
     roll = rng.random()
     if roll < 0.12:  # a 'while' pair: locomotion with an upper-body action over it
         base = sample_action(rng, LOCOMOTION[rng.integers(len(LOCOMOTION))])
@@ -117,7 +132,7 @@ def sample_script(rng: np.random.Generator, version: int = 2) -> Script:
         return Script((base,), concurrent=upper)
     count = 1 if roll < 0.55 else 2 if roll < 0.87 else 3
     if version >= 3:
-        return _sequence_v3(rng, count)
+        return _sequence(rng, count, version)
     actions: list[Action] = []
     while len(actions) < count:
         action = sample_action(rng)
@@ -141,17 +156,24 @@ def _follows(previous: Action | None, family: str) -> bool:
     return True
 
 
-def _sequence_v3(rng: np.random.Generator, count: int) -> Script:
-    """Version 3's sequence of `count` actions, drawn from all families; a floor transition
-    only where the body can go on from it (lies down, then gets up)."""
-    old = FAMILIES_BY_VERSION[2]
+def _pool(rng: np.random.Generator, version: int) -> tuple[str, ...]:
+    """The families the next action of a version-3 or -4 sequence is drawn from. Version 3's
+    draws come first in the stream only for version 3, so its seeds stay as they were."""
+    if version >= 4 and VERSION_4_FAMILIES and rng.random() < VERSION_4_SHARE:
+        return VERSION_4_FAMILIES
+    return NEW_FAMILIES if rng.random() < NEW_SHARE else FAMILIES_BY_VERSION[2]
+
+
+def _sequence(rng: np.random.Generator, count: int, version: int) -> Script:
+    """A sequence of `count` actions of version 3 or 4's families; a floor transition only
+    where the body can go on from it (lies down, then gets up)."""
     actions: list[Action] = []
     tries = 0
     while len(actions) < count:
         tries += 1
         if tries > 200:  # a floor ending drawn early leaves no family to follow: start again
             actions, tries = [], 0
-        pool = NEW_FAMILIES if rng.random() < NEW_SHARE else old
+        pool = _pool(rng, version)
         action = sample_action(rng, pool[rng.integers(len(pool))])
         if action.family == "stand" and count > 1 and len(actions) in (0, count - 1):
             continue

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from mlct.data.synth.actions import VERSION_4_MODULES
 from mlct.data.synth.everyday import ALL_SUBJECTS
 from mlct.data.synth.everyday import FORMS as EVERYDAY_FORMS
 from mlct.data.synth.phrases_more import COLLOQUIAL as MORE_PHRASES
@@ -54,6 +55,8 @@ _NEW_VERBS = {
     "notstir": ("doesn't stir", "not stirring"), "notmovex": ("doesn't move", "not moving"),
 }
 _NEW_VERBS.update(MORE_VERBS)
+for _module in VERSION_4_MODULES:
+    _NEW_VERBS.update(_module.VERBS["colloquial"])
 COLLOQUIAL_VERBS = frozenset(v for v in _NEW_VERBS if not v.startswith("not"))
 FORMS: dict[str, tuple[str, str]] = {**EVERYDAY_FORMS, **_NEW_VERBS}  # the benchmark's too
 
@@ -299,6 +302,7 @@ PHRASES: dict[str, Callable[[dict, Rng], str]] = {
     "clap": _clap, "punch": _punch, "kick": _kick, "bow": _bow, "stretch": _stretch,
     "spin": _spin, "kneel": _kneel, "stand": _stand,
     **MORE_PHRASES,  # the families of benchmark version 3
+    **{f: phrase for m in VERSION_4_MODULES for f, phrase in m.PHRASES["colloquial"].items()},
 }
 assert set(PHRASES) == set(FAMILIES)
 

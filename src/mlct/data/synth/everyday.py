@@ -19,6 +19,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from mlct.data.captions import VERB_FORMS
+from mlct.data.synth.actions import VERSION_4_MODULES
 from mlct.data.synth.phrases_more import EVERYDAY as MORE_PHRASES
 from mlct.data.synth.phrases_more import EVERYDAY_VERBS as MORE_VERBS
 from mlct.data.synth.text import (_DEGREES, _ROTATION, _SUBJECTS, FAMILIES, Rng, Vocabulary,
@@ -47,6 +48,8 @@ _NEW_VERBS = {
     "plant": ("plants", "planting"), "lunge": ("lunges", "lunging"), "settle": ("settles", "settling"),
 }
 _NEW_VERBS.update(MORE_VERBS)
+for _module in VERSION_4_MODULES:
+    _NEW_VERBS.update(_module.VERBS["everyday"])
 EVERYDAY_VERBS = frozenset(_NEW_VERBS)
 FORMS: dict[str, tuple[str, str]] = {**VERB_FORMS, **_NEW_VERBS}
 
@@ -222,6 +225,7 @@ PHRASES: dict[str, Callable[[dict, Rng], str]] = {
     "clap": _clap, "punch": _punch, "kick": _kick, "bow": _bow, "stretch": _stretch,
     "spin": _spin, "kneel": _kneel, "stand": _stand,
     **MORE_PHRASES,  # the families of benchmark version 3
+    **{f: phrase for m in VERSION_4_MODULES for f, phrase in m.PHRASES["everyday"].items()},
 }
 assert set(PHRASES) == set(FAMILIES)
 

@@ -9,11 +9,10 @@ metres, time in seconds; `style` carries the per-motion natural variation (ampli
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable, Protocol
 
 import numpy as np
 
-from mlct.data.synth.actions import Action
 from mlct.data.synth.rig import SIDES, Rig
 
 ANGLE_CHANNELS = ("yaw", "spine_bend", "spine_side", "spine_twist", "head_nod") + tuple(
@@ -24,6 +23,14 @@ ARM_CHANNELS = tuple(f"{name}_{s}" for name in ("wrist", "pole") for s in "lr")
 # body_pitch tips the whole body about the pelvis, floor (0/1) says that the seat, back, head
 # and hands may bear weight (compose.place_on_ground).
 FLOOR_CHANNELS = ("body_pitch", "floor")
+
+
+class Action(Protocol):
+    """What a clip is made from (actions.Action; not imported, so that the family modules
+    that actions.py merges can build on this one)."""
+
+    family: str
+    params: dict[str, Any]
 
 
 @dataclass

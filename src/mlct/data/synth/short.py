@@ -19,6 +19,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from mlct.data.captions import VERB_FORMS
+from mlct.data.synth.actions import VERSION_4_MODULES
 from mlct.data.synth.everyday import ALL_SUBJECTS
 from mlct.data.synth.phrases_more import SHORT as MORE_PHRASES
 from mlct.data.synth.text import BENCHMARK, FAMILIES, Rng, Vocabulary, _pick, _times
@@ -109,6 +110,7 @@ PHRASES: dict[str, Callable[[dict, Rng], str]] = {
     **{family: _sided(family) for family in _RIGHT_SIDED},
     "jump": _jump, "turn": _turn, "spin": _spin, "circle": _circle, "side_step": _side_step,
     **MORE_PHRASES,  # the families of benchmark version 3
+    **{f: phrase for m in VERSION_4_MODULES for f, phrase in m.PHRASES["short"].items()},
 }
 assert set(PHRASES) == set(FAMILIES)
 

@@ -18,7 +18,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from mlct.data.captions import VERB_FORMS
-from mlct.data.synth.actions import FAMILY_PARAMS
+from mlct.data.synth.actions import FAMILY_PARAMS, VERSION_4_MODULES
 from mlct.data.synth.phrases_more import BENCHMARK as MORE_PHRASES
 
 # ---------------------------------------------------------------------------------------------
@@ -343,6 +343,7 @@ _PHRASES: dict[str, Callable[[dict, Rng], str]] = {
     "clap": _clap, "punch": _punch, "kick": _kick, "bow": _bow, "stretch": _stretch,
     "spin": _spin, "kneel": _kneel, "stand": _stand,
     **MORE_PHRASES,  # the families of benchmark version 3
+    **{f: phrase for m in VERSION_4_MODULES for f, phrase in m.PHRASES["benchmark"].items()},
 }
 assert set(_PHRASES) == set(FAMILIES)
 

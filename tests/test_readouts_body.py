@@ -1,0 +1,116 @@
+"""The whole-body families benchmark version 4 adds (synth/families_body.py): their motions are
+physical, their read-outs pass their own ground truth and reject the other families' motions;
+version 4 draws its families for a share of the actions and version 3 is remade as it was."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from mlct.data.synth import families_body
+from mlct.data.synth.actions import (ENDS_DOWN, FAMILIES, FAMILIES_BY_VERSION, FAMILY_PARAMS,
+                                     VERSION_4_FAMILIES, Action, Script, sample_script)
+from mlct.data.synth.build import VERSIONS, make_motion
+from mlct.data.synth.compose import compose
+from mlct.data.synth.motions import Style
+from mlct.data.synth.rig import make_rig
+from mlct.eval import readouts as ro
+from mlct.motion.skeleton import HUMANML3D as SK
+
+RIG = make_rig(SK)
+BODY = tuple(families_body.PARAMS)
+GROUND_TRUTH = 300  # motions of each family, over its parameter combinations and styles
+PASS_RATE = 0.95  # of a family's own motions that pass its checks, at least
+
+
+def _combos(family: str) -> list[dict]:
+    spec = FAMILY_PARAMS[family]
+    return [dict(zip(spec, values)) for values in itertools.product(*spec.values())]
+
+
+def _motion(family: str, params: dict, seed: int = 0) -> np.ndarray:
+    """Positions (T, 22, 3) in metres of one action, in a style of the benchmark's range."""
+    rng = np.random.default_rng([seed, 7])
+    style = Style(amplitude=float(rng.uniform(0.85, 1.15)), tempo=float(rng.uniform(0.85, 1.15)),
+                  arm_length=RIG.arm_length, shoulder_x=RIG.shoulder_x)
+    script = Script((Action(family, params),))
+    return compose(script, RIG, style, rng, SK.fps).positions / RIG.scale
+
+
+def _passes(joints: np.ndarray, family: str, params: dict) -> bool:
+    readings = ro.read_all(joints)
+    return all(check(readings) for check in ro.checks_for({"family": family, "params": params}))
+
+
+def test_version_three_is_remade_as_before_version_four():
+    # Motions 0-5 of seed 0, version 3, as the code before version 4 made them.
+    known = [("jumping_jack(count=2) > sit_floor", 10379.209627663251),
+             ("nod(count=3)", 5239.936274501306),
+             ("walk_backward(speed=normal) + wave(count=4,hand=right)", 7504.906089779486),
+             ("kick(count=2,leg=left)", 5449.2322857757035), ("cross_arms", 7513.854610158838),
+             ("hop(count=3,leg=left)", 6014.246677626566)]
+    motions = [make_motion(i, 0, SK, version=3) for i in range(6)]
+    assert [m.label["label"] for m in motions] == [label for label, _ in known]
+    assert [float(np.abs(m.features.astype(np.float32).astype(np.float64)).sum())
+            for m in motions] == pytest.approx([total for _, total in known], rel=1e-7)
+    assert motions[1].lines[0].startswith("a figure nods three times.#")
+
+
+def test_version_four_draws_its_families_for_a_share_of_the_actions():
+    assert 4 in VERSIONS and FAMILIES_BY_VERSION[4] == FAMILIES
+    assert set(FAMILIES_BY_VERSION[3]) | set(VERSION_4_FAMILIES) == set(FAMILIES)
+    assert set(BODY) <= set(VERSION_4_FAMILIES)
+    rng = np.random.default_rng(0)
+    scripts = [sample_script(rng, version=4) for _ in range(3000)]
+    actions = [a for s in scripts for a in s.actions]
+    if VERSION_4_FAMILIES:
+        share = np.mean([a.family in VERSION_4_FAMILIES for a in actions])
+        assert 0.25 < share < 0.45
+    assert {a.family for a in actions} == set(FAMILIES)
+    for script in scripts:  # nothing follows a fall or any other floor ending but getting up
+        families = [a.family for a in script.actions]
+        for before, after in zip(families[:-1], families[1:]):
+            if before in ENDS_DOWN:
+                assert (before, after) == ("lie_down", "get_up"), families
+
+
+@pytest.fixture(scope="module")
+def ground_truth() -> dict[str, list[tuple[dict, np.ndarray]]]:
+    """GROUND_TRUTH motions of each body family, its parameter combinations in turn."""
+    out = {}
+    for family in BODY:
+        combos = _combos(family)
+        out[family] = [(combos[k % len(combos)], _motion(family, combos[k % len(combos)], k))
+                       for k in range(GROUND_TRUTH)]
+    return out
+
+
+@pytest.fixture(scope="module")
+def others() -> list[tuple[str, dict, np.ndarray]]:
+    """Two motions of every parameter combination (up to 6) of every family."""
+    return [(f, p, _motion(f, p, seed)) for f in FAMILIES for p in _combos(f)[:6]
+            for seed in (11, 12)]
+
+
+def test_body_motions_keep_bone_lengths(ground_truth):
+    for family, motions in ground_truth.items():
+        for _, joints in motions[:30]:
+            bones = np.linalg.norm(joints[:, 1:] - joints[:, list(SK.parents[1:])], axis=-1)
+            assert np.abs(bones - SK.bone_lengths[1:]).max() < 1e-9, family
+
+
+@pytest.mark.parametrize("family", BODY)
+def test_ground_truth_passes_its_checks(family, ground_truth):
+    passed = [_passes(joints, family, p) for p, joints in ground_truth[family]]
+    assert np.mean(passed) >= PASS_RATE, (family, np.mean(passed))
+
+
+@pytest.mark.parametrize("family", BODY)
+def test_other_families_fail_the_checks(family, others):
+    """No motion of another family passes a body family's checks (each parameter combination)."""
+    for params in _combos(family):
+        passing = [(f, p) for f, p, joints in others if f != family
+                   and _passes(joints, family, params)]
+        assert not passing, (family, params, passing)
