@@ -8,7 +8,7 @@ from pathlib import Path
 from mlct.cli.parser import Commands, Parser
 
 # mlct.data.corpora's names, spelled here so that building the parser imports no importer
-CORPUS_NAMES = ("bandai-namco", "cmu")
+CORPUS_NAMES = ("bandai-namco", "cmu", "cmu-expmap")
 
 
 def run_synth(args: argparse.Namespace) -> int:

@@ -29,7 +29,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, Callable, Iterator
 
 import numpy as np
 import torch
@@ -223,18 +223,21 @@ class Between:
 
 def _load_bvh(path: Path, skeleton: Skeleton,
               mapping: dict[str, str] | tuple[dict[str, str], ...],
-              between: dict[str, tuple[Between, ...]] | None = None
-              ) -> tuple[np.ndarray, float]:
+              between: dict[str, tuple[Between, ...]] | None = None,
+              reader: Callable[[Path], Any] | None = None) -> tuple[np.ndarray, float]:
     """(T, J, 3) positions in the skeleton's joint order, in the file's units; and its fps.
     `mapping` may be several maps, one per rig naming a corpus mixes: the first under which
     every skeleton joint is found is taken. A skeleton joint no BVH joint maps to takes the
-    first of its `between` places whose two joints the file has."""
+    first of its `between` places whose two joints the file has. `reader` reads a corpus's
+    own format into a clip with joint_names, positions and fps."""
     from mlct.motion.bvh import read_bvh
 
-    if path.suffix.lower() == ".amc":  # CMU's own format (a corpus importer passes these)
+    if reader is not None:
+        clip: Any = reader(path)
+    elif path.suffix.lower() == ".amc":  # CMU's own format (a corpus importer passes these)
         from mlct.motion.asf_amc import read_amc
 
-        clip: Any = read_amc(path)
+        clip = read_amc(path)
     else:
         clip = read_bvh(path, end_sites=True)
     index = {name: i for i, name in enumerate(clip.joint_names)}
@@ -455,6 +458,7 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
                    | None = None,
                    between: dict[str, tuple[Between, ...]] | None = None,
                    provenance: dict[str, dict[str, Any]] | None = None,
+                   reader: Callable[[Path], Any] | None = None,
                    scale: float | str | None = None,
                    fps: float | None = None, split: tuple[float, float, float] = DEFAULT_SPLIT,
                    seed: int = 0, skip_uncaptioned: bool = False, overwrite: bool = False,
@@ -467,7 +471,8 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
     clip by its leg length instead (`leg_scale`).
     A corpus importer (mlct.data.corpora) passes its files, captions and joint map as
     mappings, the joints its rig lacks as `between`, and each clip's `provenance` (source,
-    license, labels), written per motion to provenance.jsonl.
+    license, labels), written per motion to provenance.jsonl; a corpus whose files are neither
+    BVH nor AMC passes its `reader`.
     """
     if (joints_dir is None) == (bvh_dir is None):
         raise MlctError("give one source: --joints DIR or --bvh DIR")
@@ -519,7 +524,7 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
         if path in loaded:
             return loaded.pop(path)
         if kind == "bvh":
-            positions, file_fps = _load_bvh(path, skel, mapping, between)
+            positions, file_fps = _load_bvh(path, skel, mapping, between, reader)
             positions = drop_reference_pose(positions, skel, fps or file_fps)
             if fps is None and not FPS_RANGE[0] <= file_fps <= FPS_RANGE[1]:
                 raise MlctError(f"{path}: its Frame Time makes {file_fps:g} fps, outside "

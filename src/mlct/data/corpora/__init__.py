@@ -18,12 +18,13 @@ import numpy as np
 
 from mlct.data.corpora.bandai_namco import BANDAI_NAMCO
 from mlct.data.corpora.cmu import CMU
+from mlct.data.corpora.cmu_expmap import CMU_EXPMAP
 from mlct.data.corpora.base import Corpus, RealClip
 from mlct.data.importer import DEFAULT_SPLIT, ImportSummary, import_dataset
 from mlct.data.layout import PROVENANCE_FILE, read_provenance, read_split
 from mlct.errors import MlctError
 
-CORPORA: dict[str, Corpus] = {c.name: c for c in (BANDAI_NAMCO, CMU)}
+CORPORA: dict[str, Corpus] = {c.name: c for c in (BANDAI_NAMCO, CMU, CMU_EXPMAP)}
 
 
 def corpus(name: str) -> Corpus:
@@ -53,7 +54,7 @@ def import_corpus(name: str, src: str | os.PathLike, out: str | os.PathLike, *,
     texts = {c.name: chosen.caption(c.labels, rng, captions_per_clip) for c in clips}
     return import_dataset(
         out, texts, bvh_dir={c.name: c.path for c in clips}, joint_map=chosen.joint_map,
-        between=chosen.between, scale=chosen.scale,
+        between=chosen.between, scale=chosen.scale, reader=chosen.read,
         provenance={c.name: chosen.provenance(c, root) for c in clips},
         split=split, seed=seed, overwrite=overwrite, progress=progress)
 

@@ -41,6 +41,8 @@ class Corpus:
     find: Callable[[Path], list[RealClip]]
     caption: Callable[[dict[str, Any], Any, int], list[str]]  # labels, rng, count -> captions
     between: dict[str, tuple[Between, ...]] = field(default_factory=dict)
+    # path -> a clip (joint_names, positions, fps) for files that are neither BVH nor AMC
+    read: Callable[[Path], Any] | None = None
 
     def provenance(self, clip: RealClip, root: Path) -> dict[str, Any]:
         """The record every motion of `clip` carries in provenance.jsonl."""

@@ -56,6 +56,7 @@ for _side in ("left", "right"):
                  f"{_s}foot": f"{_side}_ankle", f"{_s}toes": f"{_side}_foot",
                  f"{_s}clavicle": f"{_side}_collar", f"{_s}humerus": f"{_side}_shoulder",
                  f"{_s}radius": f"{_side}_elbow", f"{_s}wrist": f"{_side}_wrist"})
+ASF_JOINT_MAP = _ASF  # CMU's bone names, read also by the expmap set (cmu_expmap.py)
 JOINT_MAPS = (_CMU_BVH, _DAZ, _ASF)  # one per naming; a file takes the one that fits it
 # The Daz and ASF namings have one chest bone where SMPL has spine2 and spine3.
 BETWEEN = {"spine3": (Between("chest", "neck", 0.4), Between("thorax", "upperneck", 0.3))}
