@@ -154,6 +154,7 @@ def test_a_release_imports_as_a_clean_dataset_with_cmus_license(release, tmp_pat
     assert "mocap.cs.cmu.edu" in wash["citation"]
     walk = records["cmu_expmap_train_walking_extra_13"]["labels"]["content"]
     assert walk == "walking"
+    assert records["cmu_expmap_train_walking_1"]["labels"]["take"] == "02_01"  # CMU_TAKES
     said = (out / "texts" / "cmu_expmap_test_washwindow_1.txt").read_text()
     assert "window" in said and len(said.splitlines()) == 4
     joints = np.load(out / "new_joints" / "cmu_expmap_train_walking_1.npy")

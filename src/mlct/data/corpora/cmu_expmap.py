@@ -4,7 +4,7 @@ Model-for-Human-Dynamics under data/cmu_mocap): takes of the CMU Graphics Lab Mo
 Database as exponential maps of one CMU ASF skeleton (motion/cmu_expmap.py reads them), 120 fps,
 in eight actions, one folder each: `{train,test}/ACTION/ACTION_N.txt` (walking_extra holds more
 walks named walking_N). The files do not name their CMU take; a clip is captioned from its
-action, and its provenance names the set's file.
+action, and its provenance names the set's file and, for the sequences in CMU_TAKES, the take.
 
 The data is CMU's: free for research and commercial use; cite mocap.cs.cmu.edu (the text in
 cmu.py). The set's skeleton is CMU's bone naming, so the clips map onto the skeleton as CMU's
@@ -45,6 +45,20 @@ ACTIONS: dict[str, tuple[str, ...]] = {
 }
 
 
+# Sequences that are CMU takes also published as AMC or BVH (cmu.py): the same frame count to a
+# frame and the same pelvis, knee, ankle and wrist curves as the take. Merged with a CMU import
+# that has these takes, they would be duplicates.
+CMU_TAKES = {
+    "train/walking/walking_1": "02_01", "train/walking/walking_2": "05_01",
+    "train/walking/walking_3": "06_01", "train/walking/walking_4": "07_01",
+    "train/walking/walking_5": "07_02", "train/walking_extra/walking_15": "08_08",
+    "train/walking_extra/walking_16": "08_09", "train/walking_extra/walking_18": "10_04",
+    "train/walking_extra/walking_19": "12_01", "train/walking_extra/walking_20": "12_02",
+    "train/walking_extra/walking_21": "12_03", "train/jumping/jumping_1": "13_11",
+    "train/jumping/jumping_4": "13_32", "train/jumping/jumping_5": "13_39",
+}
+
+
 def find_clips(root: Path) -> list[RealClip]:
     """Every `ACTION_N.txt` in an action's folder under `root`, the split (train or test) the set
     put it in taken from the folder above."""
@@ -56,9 +70,13 @@ def find_clips(root: Path) -> list[RealClip]:
         if action not in ACTIONS or match is None or match.group(1) != action:
             continue
         split = path.parent.parent.name
-        clips.append(RealClip(
-            name=f"cmu_expmap_{split}_{folder}_{match.group(2)}", path=path,
-            labels={"content": action, "set_split": split, "sequence": int(match.group(2))}))
+        labels: dict[str, Any] = {"content": action, "set_split": split,
+                                  "sequence": int(match.group(2))}
+        take = CMU_TAKES.get(f"{split}/{folder}/{path.stem}")
+        if take is not None:
+            labels["take"] = take
+        clips.append(RealClip(name=f"cmu_expmap_{split}_{folder}_{match.group(2)}", path=path,
+                              labels=labels))
     if not clips:
         raise MlctError(f"{root}: no sequence of the CMU expmap set (ACTION/ACTION_N.txt for "
                         f"{', '.join(ACTIONS)})")
