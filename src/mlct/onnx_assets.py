@@ -1,0 +1,100 @@
+"""The bundled model's ONNX graphs, shipped inside the package, and the MiniLM they read.
+
+`pip install mlct` runs the bundled model with ONNX Runtime and no torch, so its graphs cannot
+be converted on first use (that traces the torch networks): they are made once, here, and
+committed beside the weights they come from:
+
+    assets/model/onnx/            denoiser.onnx, decoder.onnx, text_encoder.onnx, onnx.json
+                                  (backends/onnx/bundle.py's format: the manifest records the
+                                  sha256 of the model.safetensors they were made from, and the
+                                  loader refuses graphs of other weights)
+    assets/model/onnx/text_encoder.weights.json
+                                  the text encoder graph holds no weights: they are read from
+                                  assets/minilm/model.safetensors at load (onnx_io.
+                                  external_weights), the one copy the torch encoder reads too
+    assets/minilm/                sentence-transformers/all-MiniLM-L6-v2 (Apache-2.0): config,
+                                  tokenizer, weights, as the Hugging Face repository has them
+
+    python -m mlct.onnx_assets    write them again (after the bundled model changes; needs the
+                                  train extra: torch traces the networks)
+
+tests/test_onnx_assets.py checks that the shipped graphs match the bundled weights (the recorded
+digests, and the same motions for the same seed on the onnx and torch backends).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+ASSETS = Path(__file__).resolve().parent / "assets"
+MODEL_DIR = ASSETS / "model"  # the bundled model (generate's bundled_model_dir)
+SHIPPED_DIR = MODEL_DIR / "onnx"  # its graphs, where the loader looks for a model's own
+MINILM_DIR = ASSETS / "minilm"
+MINILM_WEIGHTS = "model.safetensors"
+# all-MiniLM-L6-v2's files that the encoders read (the tokenizer, BERT's sizes, the
+# sentence-transformers pipeline, the weights) and its model card (the license, where from)
+MINILM_FILES = ("config.json", "config_sentence_transformers.json", "modules.json",
+                "sentence_bert_config.json", "special_tokens_map.json", "tokenizer.json",
+                "tokenizer_config.json", "vocab.txt", "1_Pooling/config.json", "README.md",
+                MINILM_WEIGHTS)
+TEXT_ENCODER_WEIGHTS = "minilm_sha256"  # the manifest's record of the MiniLM weights' digest
+
+
+def file_digest(path: Path) -> str:
+    """The sha256 of a file (hex)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def copy_minilm(source: Path, into: Path = MINILM_DIR) -> Path:
+    """Copy all-MiniLM-L6-v2's files from a sentence-transformers directory into `into`."""
+    for name in MINILM_FILES:
+        (into / name).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(source / name, into / name)
+    return into
+
+
+def write_shipped_graphs(model_dir: Path = MODEL_DIR, into: Path = SHIPPED_DIR,
+                         minilm: Path = MINILM_DIR) -> Path:
+    """Write the float32 graphs of the model in model_dir into `into` (replaced whole), the text
+    encoder's weights left in minilm/model.safetensors; returns `into`."""
+    from mlct.generate.backends.onnx.bundle import MANIFEST, TEXT_ENCODER, write_onnx_graphs
+    from mlct.io import atomic_dir
+    from mlct.onnx_io import externalize_weights
+
+    weights = minilm / MINILM_WEIGHTS
+    with atomic_dir(into) as work:
+        write_onnx_graphs(model_dir, work)
+        relative = Path("..", *[".."] * (len(into.relative_to(ASSETS).parts) - 1),
+                        minilm.relative_to(ASSETS), MINILM_WEIGHTS)
+        externalize_weights(work / TEXT_ENCODER, weights, relative.as_posix())
+        manifest = json.loads((work / MANIFEST).read_text(encoding="utf-8"))
+        manifest[TEXT_ENCODER_WEIGHTS] = file_digest(weights)
+        (work / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+    return into
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m mlct.onnx_assets", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--minilm-from", type=Path, default=None,
+                        help="copy all-MiniLM-L6-v2 from this sentence-transformers directory "
+                             "into assets/minilm first")
+    args = parser.parse_args(argv)
+    if args.minilm_from is not None:
+        copy_minilm(args.minilm_from)
+    into = write_shipped_graphs()
+    for path in sorted(into.iterdir()):
+        print(f"{path}  {path.stat().st_size / 1e6:.2f} MB")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,87 @@
+"""The ONNX graphs shipped with the bundled model (mlct/onnx_assets.py): made from the weights
+beside them, read by the loader, the same motions as the torch backend for the same seed."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from mlct.errors import MlctError
+from mlct.onnx_assets import (MINILM_DIR, MINILM_WEIGHTS, MODEL_DIR, SHIPPED_DIR,
+                              TEXT_ENCODER_WEIGHTS, file_digest)
+from mlct.onnx_io import external_weights, safetensors_header_digest, session, weights_recipe
+
+REMAKE = "remake them: python -m mlct.onnx_assets"
+
+
+def _manifest() -> dict:
+    return json.loads((SHIPPED_DIR / "onnx.json").read_text(encoding="utf-8"))
+
+
+def test_shipped_graphs_were_made_from_the_bundled_weights():
+    manifest = _manifest()
+    assert manifest["weights_sha256"] == file_digest(MODEL_DIR / "model.safetensors"), REMAKE
+    assert manifest[TEXT_ENCODER_WEIGHTS] == file_digest(MINILM_DIR / MINILM_WEIGHTS), REMAKE
+    for name in manifest["graphs"].values():
+        assert (SHIPPED_DIR / name).is_file()
+    assert "int8" not in manifest  # the float32 graphs: auto's, the torch backend's motions
+
+
+def test_text_encoder_graph_reads_its_weights_from_the_shipped_minilm():
+    graph = SHIPPED_DIR / _manifest()["graphs"]["text_encoder"]
+    recipe = json.loads(weights_recipe(graph).read_text(encoding="utf-8"))
+    assert (graph.parent / recipe["safetensors"]).resolve() == (MINILM_DIR / MINILM_WEIGHTS)
+    assert recipe["header_sha256"] == safetensors_header_digest(MINILM_DIR / MINILM_WEIGHTS)
+    assert graph.stat().st_size < 1_000_000  # the weights are not a second time in the graph
+    names, values = external_weights(graph)
+    assert len(names) == len(recipe["initializers"]) >= 6 * 3  # each layer's products at least
+
+
+def test_text_encoder_graph_against_the_torch_network():
+    pytest.importorskip("torch")
+    from mlct.text.minilm import MiniLMEncoder
+
+    encoder = MiniLMEncoder(MINILM_DIR, name="minilm")
+    ids, mask = encoder._pad([[101, 1037, 2711, 7365, 2830, 102], [101, 1037, 102]])
+    pooled, states = encoder.network(ids, mask)
+    graph = SHIPPED_DIR / _manifest()["graphs"]["text_encoder"]
+    got = session(graph, threads=1).run(None, {"ids": ids.numpy(), "mask": mask.numpy()})
+    assert np.abs(got[0] - pooled.numpy()).max() < 1e-5
+    assert np.abs(got[1] - states.numpy()).max() < 1e-4
+
+
+def test_a_weights_file_other_than_the_recipes_is_refused(tmp_path):
+    graph = SHIPPED_DIR / _manifest()["graphs"]["text_encoder"]
+    copy = tmp_path / "onnx" / graph.name
+    copy.parent.mkdir()
+    shutil.copyfile(graph, copy)
+    recipe = json.loads(weights_recipe(graph).read_text(encoding="utf-8"))
+    recipe["safetensors"] = "../other.safetensors"
+    weights_recipe(copy).write_text(json.dumps(recipe), encoding="utf-8")
+    with pytest.raises(MlctError, match="missing"):
+        external_weights(copy)
+    from safetensors.numpy import save_file
+
+    save_file({"x": np.zeros(3, np.float32)}, str(tmp_path / "other.safetensors"))
+    with pytest.raises(MlctError, match="not the weights file"):
+        external_weights(copy)
+
+
+def test_bundled_model_runs_on_the_shipped_graphs_with_torchs_motions(monkeypatch):
+    torch = pytest.importorskip("torch")
+    import mlct
+
+    monkeypatch.delenv("MLCT_BACKEND")  # the suite pins torch (conftest.py); auto is asked
+
+    onnx = mlct.load(backend="auto", threads=1)
+    assert onnx.backend == "onnx" and str(SHIPPED_DIR) in onnx.backend_note
+    reference = mlct.load(backend="torch")
+    torch.set_num_threads(1)
+    for text in ("a person waves with the left hand", "a person walks forward, then jumps"):
+        a = onnx.generate(text, seconds=3, seed=11)[0].joints
+        b = reference.generate(text, seconds=3, seed=11)[0].joints
+        assert a.shape == b.shape
+        assert np.abs(a - b).max() < 1e-4  # metres: the same motion up to float rounding
