@@ -12,15 +12,98 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from mlct.eval.readouts import EXTRA_CHECKS, EXTRA_READINGS, Check
+from mlct.eval.readouts import (EXTRA_CHECKS, EXTRA_READINGS, FPS, KNEE, NECK, PELVIS, SHOULDER,
+                                SIDES, WRIST, Check, _standing, facing)
+from mlct.eval.readouts_more import (_chest_forward, _end, _floor_level, _forward, _lateral,
+                                     _tilt)
+
+_MOVING_SPEED = 0.25  # m/s of the pelvis over half a second: walking, however slowly
+
+
+def _moving(joints: np.ndarray) -> np.ndarray:
+    """(T,) whether the pelvis travels at _MOVING_SPEED or more, over the half second around."""
+    lag = max(1, int(0.25 * FPS))
+    ground = joints[:, PELVIS][:, [0, 2]]
+    padded = np.concatenate([np.repeat(ground[:1], lag, 0), ground, np.repeat(ground[-1:], lag, 0)])
+    speed = np.linalg.norm(padded[2 * lag:] - padded[:-2 * lag], axis=-1) * FPS / (2 * lag)
+    return speed > _MOVING_SPEED
+
+
+def _seconds(mask: np.ndarray) -> float:
+    """Seconds for which `mask` holds, in all."""
+    return float(np.count_nonzero(mask)) / FPS
 
 
 def body_readings(joints: np.ndarray) -> dict[str, float]:
-    """The read-outs of this module as a flat {name: value} dict."""
-    return {}
+    """The read-outs of this module as a flat {name: value} dict (metres, radians, seconds,
+    counts; per-side ones as 'name.left' / 'name.right'). `joints` as readouts.as_joints gives."""
+    moving = _moving(joints)
+    ahead = {s: _forward(joints, WRIST[s]) for s in SIDES}
+    out = {s: _lateral(joints, WRIST[s]) * (1 if s == "left" else -1) for s in SIDES}
+    height = {s: joints[:, WRIST[s], 1] for s in SIDES}
+    shoulder = {s: joints[:, SHOULDER[s], 1] for s in SIDES}
+    gap = np.linalg.norm(joints[:, WRIST["left"]] - joints[:, WRIST["right"]], axis=-1)
+    pelvis, neck = joints[:, PELVIS, 1], joints[:, NECK, 1]
+    both = lambda f: f("left") & f("right")  # noqa: E731
+    floor = _floor_level(joints)
+    r: dict[str, float] = {"start_pelvis_height": _standing(pelvis - floor),
+                           "end_pelvis_height": _end(pelvis - floor)}
+    # On hands and knees: both knees and both wrists near the floor, the trunk near horizontal
+    # with the chest facing down.
+    fours = (_tilt(joints) > 1.0) & (_chest_forward(joints)[:, 1] < -0.5) & (pelvis - floor < 0.7)
+    for joint in (*KNEE.values(), *WRIST.values()):
+        fours &= joints[:, joint, 1] - floor < 0.15
+    r["all_fours"] = _seconds(fours)
+    where = np.flatnonzero(fours)
+    r["all_fours_travel"] = float(
+        (joints[where[-1], PELVIS] - joints[where[0], PELVIS]) @ facing(joints)[where[0]]
+        if len(where) else 0.0)
+    # Carrying a box: both wrists in front of the belly, a box's width apart, while walking.
+    r["carry_walk"] = _seconds(moving & (gap > 0.15) & (gap < 0.55) & both(
+        lambda s: (ahead[s] > 0.15) & (ahead[s] < 0.5) & (height[s] > pelvis - 0.05)
+        & (height[s] < neck - 0.12)))
+    # Pushing: both arms reaching 0.4 m forward at chest height while walking.
+    r["push_walk"] = _seconds(moving & (gap < 0.6) & both(
+        lambda s: (ahead[s] > 0.42) & (np.abs(height[s] - shoulder[s]) < 0.25)))
+    # Arms out to the sides: both wrists 0.4 m out from the neck near shoulder height.
+    r["arms_out_walk"] = _seconds(moving & both(
+        lambda s: (out[s] > 0.4) & (np.abs(height[s] - shoulder[s]) < 0.2)))
+    return {k: float(v) for k, v in r.items()}
 
 
-BODY_CHECKS: dict[str, Callable[[str, Mapping[str, Any]], list[Check]]] = {}
+# ---------------------------------------------------------------------------- checks
+
+def _busy_walk_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
+    """carry, push, balance_walk: a walk forward with the arms held in the family's pose."""
+    # GT: forward 1.3-2.5 m, the pose held while walking 3-5 s; a pick-up holds the thing
+    # without walking, a walk swings the arms at the sides.
+    read, what = {"carry": ("carry_walk", "both wrists in front of the belly, 0.15-0.55 m "
+                            "apart"),
+                  "push": ("push_walk", "both wrists 0.42 m in front at shoulder height"),
+                  "balance_walk": ("arms_out_walk", "both wrists 0.4 m out to the sides at "
+                                   "shoulder height")}[family]
+    return [Check(f"{family}.forward", "the pelvis travels 0.8 m forward",
+                  lambda r: r["forward_displacement"] > 0.8),
+            Check(f"{family}.pose", f"{what} for 2 s in all while walking",
+                  lambda r: r[read] >= 2.0)]
+
+
+def _crawl_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
+    """crawl: down on the hands and knees, forward on them, back up."""
+    # GT: on all fours 3.4-4.6 s, 0.4-0.8 m forward meanwhile; a push-up's plank keeps the
+    # knees up and stays put.
+    return [Check("crawl.all_fours", "both knees and wrists within 0.15 m of the floor, the "
+                  "chest facing down, for 2 s in all", lambda r: r["all_fours"] >= 2.0),
+            Check("crawl.forward", "0.3 m forward on all fours",
+                  lambda r: r["all_fours_travel"] > 0.3),
+            Check("crawl.stands", "starts standing and ends within 0.1 m of that height",
+                  lambda r: r["start_pelvis_height"] > 0.7
+                  and r["end_pelvis_height"] > r["start_pelvis_height"] - 0.1)]
+
+
+BODY_CHECKS: dict[str, Callable[[str, Mapping[str, Any]], list[Check]]] = {
+    "crawl": _crawl_checks, "carry": _busy_walk_checks, "push": _busy_walk_checks, "balance_walk": _busy_walk_checks,
+}
 
 EXTRA_READINGS.append(body_readings)
 EXTRA_CHECKS.update(BODY_CHECKS)
