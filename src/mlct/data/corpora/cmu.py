@@ -111,6 +111,40 @@ DESCRIPTIONS: dict[str, tuple[str, ...]] = {
     "walk backwards and turn": ("<walk> backwards and <turn>",),
     "laugh": ("<laugh>",),
     "yoga": ("<do> yoga", "<hold> a yoga pose"),
+    # subject 131 (Michael Jackson styled motions), 135 (karate) and 5 (modern dance)
+    "start duck underneath stop": ("<walk> forward, <duck> under something and <stop>",
+                                   "<duck> low under something while walking forward",
+                                   "<walk> a few steps, <duck> down and <stop>"),
+    "jump stop": ("<jump> forward and <stop>", "<leap> forward, then <stop>"),
+    "start walk left": ("<walk> forward, veering to the left", "<walk> off to the left"),
+    "start walk right": ("<walk> forward, veering to the right", "<walk> off to the right"),
+    "bassai": ("<perform> a karate kata", "<do> a karate form",
+               "<perform> a sequence of karate moves"),
+    "empi": ("<perform> a karate kata", "<do> a karate form",
+             "<perform> a sequence of karate moves"),
+    "heiansyodan": ("<perform> a karate kata", "<do> a karate form",
+                    "<perform> a sequence of karate moves"),
+    "front kick": ("<do> karate front kicks", "<step> forward with front kicks in a karate stance"),
+    "mawashigeri": ("<do> karate roundhouse kicks", "<throw> roundhouse kicks"),
+    "yokogeri": ("<do> karate side kicks", "<kick> out to the side in a karate stance"),
+    "oiduki": ("<step> forward with karate lunge punches", "<do> karate lunge punches",
+               "<punch> forward while stepping in a karate stance"),
+    "gedanbarai": ("<do> karate low blocks",
+                   "<block> downward with HIS forearm in a karate stance"),
+    "syutouuke": ("<do> karate knife-hand blocks",
+                  "<block> with the edge of HIS hand in a karate stance"),
+    "dance - expressive arms, pirouette": ("<dance> with expressive arms and a pirouette",
+                                           "<do> a modern dance with a pirouette"),
+    "dance - sideways arabesque, turn step, folding arms": (
+        "<do> a modern dance with an arabesque and a turn", "<dance> gracefully, turning"),
+    "dance - sideways arabesque, folding arms, bending back": (
+        "<do> a modern dance with an arabesque, bending back", "<dance> gracefully"),
+    "dance - quasi-cou-de-pied, raised leg above hip-height, jete en tourant": (
+        "<dance> like a ballet dancer, raising a leg high and leaping while turning",
+        "<do> a ballet dance"),
+    "dance - small jetes, attitude/arabesque, shifted-axis pirouette, turn": (
+        "<do> a ballet dance with small leaps and pirouettes",
+        "<dance> like a ballet dancer, leaping and spinning"),
 }
 
 

@@ -35,6 +35,7 @@ _NEW_VERBS = {
     "shout": ("shouts", "shouting"), "stop": ("stops", "stopping"),
     "start": ("starts", "starting"), "fence": ("fences", "fencing"),
     "laugh": ("laughs", "laughing"), "fight": ("fights", "fighting"),
+    "duck": ("ducks", "ducking"), "block": ("blocks", "blocking"),
 }
 FORMS = {**_BENCHMARK_FORMS, **_NEW_VERBS}
 
