@@ -37,11 +37,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import torch
 
 from mlct.errors import MlctError, first_line
 from mlct.io import write_text
-from mlct.motion.quaternion import quat_to_matrix
+from mlct.motion.rotations import quat_to_matrix
 from mlct.motion.rigfit import check_joints, children_of, fit_rig
 from mlct.motion.rigs import Rig, get_rig
 from mlct.motion.skeleton import Skeleton
@@ -246,7 +245,7 @@ def read_bvh(path: str | os.PathLike, end_sites: bool = False) -> BvhClip:
                             f"the header says {n_frames}")
         local_pos = np.array([tuple(k.Position) for k in keys])  # (T, 3)
         quats = np.array([(k.Rotation.w, k.Rotation.x, k.Rotation.y, k.Rotation.z) for k in keys])
-        local_rot = quat_to_matrix(torch.from_numpy(quats)).numpy()  # (T, 3, 3)
+        local_rot = quat_to_matrix(quats)  # (T, 3, 3)
         parent = parents[i]
         if parent < 0:
             positions[:, i], world[:, i] = local_pos, local_rot

@@ -26,6 +26,7 @@ import torch
 from torch import Tensor
 
 from mlct.errors import MlctError
+from mlct.motion.joints import features_to_joints, n_joints_for_dim  # noqa: F401 (numpy)
 from mlct.motion.kinematics import facing_quaternion, inverse_kinematics, uniform_skeleton
 from mlct.motion.quaternion import qinv, qmul, qrot, quat_to_cont6d
 from mlct.motion.skeleton import FeatureLayout, Skeleton
@@ -39,13 +40,6 @@ class MotionFeatures:
     # (T, J, 3) normalized global positions (target skeleton, on the floor, facing +Z). The
     # standard new_joints files hold recover_from_ric(features) instead: the first T-1 of these.
     joints: np.ndarray
-
-
-def n_joints_for_dim(feature_dim: int) -> int:
-    """Number of joints J of a D = 12 J - 1 dimensional feature vector (263 -> 22, 251 -> 21)."""
-    if feature_dim < 11 or (feature_dim + 1) % 12:
-        raise MlctError(f"{feature_dim} is not a standard feature width (12 * joints - 1)")
-    return (feature_dim + 1) // 12
 
 
 def arm_feature_columns(feature_dim: int) -> list[int]:
@@ -204,11 +198,3 @@ def recover_from_ric(features: Tensor, n_joints: int | None = None) -> Tensor:
     ground = torch.stack([r_pos[..., 0], torch.zeros_like(r_pos[..., 1]), r_pos[..., 2]], dim=-1)
     world = world + ground[..., None, :]  # the root's x, z (no tensor from the host: graph-safe)
     return torch.cat([r_pos[..., None, :], world], dim=-2)
-
-
-def features_to_joints(features: np.ndarray, n_joints: int | None = None) -> np.ndarray:
-    """numpy convenience: (..., T, D) features -> (..., T, J, 3) joints, computed in float64."""
-    features = np.asarray(features)
-    dtype = features.dtype if features.dtype.kind == "f" else np.dtype(np.float32)
-    out = recover_from_ric(torch.from_numpy(features.astype(np.float64)), n_joints)
-    return out.numpy().astype(dtype)

@@ -25,11 +25,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import torch
 
 from mlct.errors import MlctError, first_line
 from mlct.io import write_bytes
-from mlct.motion.quaternion import matrix_to_quat, quat_to_matrix
+from mlct.motion.rotations import matrix_to_quat, quat_to_matrix
 from mlct.motion.rigfit import RigFit, fit_rig
 from mlct.motion.rigs import Rig, get_rig
 from mlct.motion.skeleton import Skeleton
@@ -190,7 +189,7 @@ def gltf_document(fit: RigFit, names: tuple[str, ...], fps: float, mesh: bool = 
     gltf.scene = 0
 
     times = buffer.add(np.arange(n_frames) / float(fps), "SCALAR", FLOAT, bounds=True)
-    quats = matrix_to_quat(torch.from_numpy(fit.local)).numpy()[..., [1, 2, 3, 0]]  # xyzw
+    quats = matrix_to_quat(fit.local)[..., [1, 2, 3, 0]]  # xyzw
     quats *= np.where(quats[..., 3:] < 0, -1.0, 1.0)  # one hemisphere per key...
     for t in range(1, n_frames):  # ...then continuous, so LINEAR never takes the long way
         flip = np.sum(quats[t] * quats[t - 1], axis=-1) < 0
@@ -311,7 +310,7 @@ def read_gltf(path: str | os.PathLike) -> GltfClip:
         elif channel.target.path == "translation":
             translation[:, target] = values
     rotation /= np.linalg.norm(rotation, axis=-1, keepdims=True)
-    matrices = quat_to_matrix(torch.from_numpy(rotation[..., [3, 0, 1, 2]])).numpy()  # glTF: xyzw
+    matrices = quat_to_matrix(rotation[..., [3, 0, 1, 2]])  # glTF: xyzw
     positions = np.empty((n_frames, len(joints), 3))
     world = np.empty((n_frames, len(joints), 3, 3))
     done: set[int] = set()  # glTF lists nodes in no order: each after its parent

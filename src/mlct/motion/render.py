@@ -114,14 +114,9 @@ def load_motion_npy(path: str | os.PathLike,
         if skel.feature_dim != array.shape[1]:
             raise MlctError(f"{path} has {array.shape[1]}-d features but the {skel.name} "
                             f"skeleton uses {skel.feature_dim}")
-        # Lazy: features.py pulls in the whole torch kinematics, which joints files never need.
-        import torch
+        from mlct.motion.joints import features_to_joints
 
-        from mlct.motion.features import recover_from_ric
-
-        with torch.no_grad():
-            joints = recover_from_ric(torch.from_numpy(array.astype(np.float32)),
-                                      skel.n_joints).numpy()
+        joints = features_to_joints(array.astype(np.float32), skel.n_joints)
         _check_finite(joints, f"joints recovered from {path}")
     else:
         if skel.n_joints != array.shape[1]:

@@ -49,10 +49,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import torch
 
 from mlct.errors import MlctError
-from mlct.motion.quaternion import qbetween, quat_to_matrix, rotvec_to_matrix
+from mlct.motion.rotations import qbetween, quat_to_matrix, rotvec_to_matrix
 from mlct.motion.skeleton import Skeleton
 
 PROCRUSTES_ITERATIONS = 3  # mean shape of a multi-child group: converges in 2 on real motion
@@ -133,7 +132,7 @@ def kabsch(source: np.ndarray, targets: np.ndarray) -> np.ndarray:
 
 def swing(current: np.ndarray, target: np.ndarray) -> np.ndarray:
     """(T, 3), (T, 3) -> (T, 3, 3) shortest rotations turning `current` towards `target`."""
-    return quat_to_matrix(qbetween(torch.from_numpy(current), torch.from_numpy(target))).numpy()
+    return quat_to_matrix(qbetween(current, target))
 
 
 def group_offsets(bones: np.ndarray, rest: np.ndarray) -> np.ndarray:
@@ -239,7 +238,7 @@ def moving_average(x: np.ndarray, size: int) -> np.ndarray:
 
 def _axis_rotation(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
     """(T, 3, 3) turns by `angles` (T,) radians about the unit `axis` (3,)."""
-    return rotvec_to_matrix(torch.from_numpy(angles[:, None] * axis[None])).numpy()
+    return rotvec_to_matrix(angles[:, None] * axis[None])
 
 
 def check_joints(joints: np.ndarray, skeleton: Skeleton, what: str = "rig export") -> np.ndarray:

@@ -32,11 +32,10 @@ import io
 import os
 
 import numpy as np
-import torch
 
 from mlct.errors import MlctError
 from mlct.io import write_bytes
-from mlct.motion.quaternion import matrix_to_quat, quat_to_rotvec, rotvec_to_matrix
+from mlct.motion.rotations import matrix_to_quat, quat_to_rotvec, rotvec_to_matrix
 from mlct.motion.rigfit import RigFit, fit_rig, forward
 from mlct.motion.rigs import get_rig
 from mlct.motion.skeleton import HUMANML3D, Skeleton
@@ -67,7 +66,7 @@ def smpl_params(joints: np.ndarray, skeleton: Skeleton, fps: float) -> dict[str,
     n_frames = len(fit.root)
     local = fit.local.copy()
     local[:, 0] = TO_AMASS @ local[:, 0]  # the global orientation, into AMASS's world
-    rotvec = quat_to_rotvec(matrix_to_quat(torch.from_numpy(local))).numpy()  # (T, 22, 3)
+    rotvec = quat_to_rotvec(matrix_to_quat(local))  # (T, 22, 3)
     poses = np.zeros((n_frames, SMPLH_JOINTS * 3))
     poses[:, :BODY_JOINTS * 3] = rotvec.reshape(n_frames, -1)
     return {
@@ -98,7 +97,7 @@ def smpl_joints(params) -> np.ndarray:
     poses = np.asarray(params["poses"], dtype=np.float64)
     n_frames = len(poses)
     rotvec = poses[:, :BODY_JOINTS * 3].reshape(n_frames, BODY_JOINTS, 3)
-    local = rotvec_to_matrix(torch.from_numpy(rotvec)).numpy()  # (T, 22, 3, 3)
+    local = rotvec_to_matrix(rotvec)  # (T, 22, 3, 3)
     parents = HUMANML3D.parents
     order = tuple(range(BODY_JOINTS))  # SMPL lists every parent before its children
     positions, _ = forward(parents, order, np.asarray(params["rest_offsets"], np.float64),

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
-import torch
-from torch import Tensor
+import numpy as np
 
 from mlct.errors import MlctError
+
+if TYPE_CHECKING:
+    from torch import Tensor
 
 
 class TextEncoder(ABC):
@@ -23,6 +25,7 @@ class TextEncoder(ABC):
     name: str
     dim: int
     _null: Tensor | None = None
+    _null_array: np.ndarray | None = None
 
     @property
     def cache_key(self) -> str:
@@ -32,14 +35,32 @@ class TextEncoder(ABC):
         """Embed a batch of captions: (B,) strings -> (B, dim) float32 on the CPU."""
         texts = _text_list(texts)
         if not texts:
+            import torch
+
             return torch.zeros(0, self.dim)
         out = self._encode(texts)
-        if out.shape != (len(texts), self.dim):  # a contract check on subclasses, cheap
-            raise MlctError(
-                f"text encoder {self.name!r} returned shape {tuple(out.shape)}, "
-                f"expected {(len(texts), self.dim)}"
-            )
+        self._check_shape(out, texts)
         return out
+
+    def encode_numpy(self, texts: Sequence[str]) -> np.ndarray:
+        """encode's embeddings as a (B, dim) float32 numpy array; an encoder that runs without
+        torch (minilm_onnx.py) computes them so, and its encode wraps this."""
+        texts = _text_list(texts)
+        if not texts:
+            return np.zeros((0, self.dim), np.float32)
+        out = self._encode_numpy(texts)
+        self._check_shape(out, texts)
+        return out
+
+    def _encode_numpy(self, texts: list[str]) -> np.ndarray:
+        return self._encode(texts).numpy()
+
+    def _check_shape(self, out: object, texts: list[str]) -> None:
+        """A contract check on subclasses, cheap."""
+        shape = tuple(getattr(out, "shape", ()))
+        if shape != (len(texts), self.dim):
+            raise MlctError(f"text encoder {self.name!r} returned shape {shape}, "
+                            f"expected {(len(texts), self.dim)}")
 
     @abstractmethod
     def _encode(self, texts: list[str]) -> Tensor:
@@ -50,6 +71,12 @@ class TextEncoder(ABC):
         if self._null is None:
             self._null = self.encode([""])[0]
         return self._null.clone()  # a copy: callers may write into it
+
+    def null_embedding_numpy(self) -> np.ndarray:
+        """null_embedding as a numpy array (dim,)."""
+        if self._null_array is None:
+            self._null_array = self.encode_numpy([""])[0]
+        return self._null_array.copy()
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r}, dim={self.dim})"

@@ -12,56 +12,13 @@ post-LayerNorm layers, no pooler (sentence embeddings are mean-pooled by the cal
 
 from __future__ import annotations
 
-import json
 import math
-from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
 
 import torch
 from torch import Tensor, nn
 from torch.nn import functional as F
 
-
-@dataclass(frozen=True)
-class BertConfig:
-    """The sizes of a BERT encoder, as its Hugging Face config.json gives them."""
-
-    vocab_size: int
-    hidden_size: int
-    num_hidden_layers: int
-    num_attention_heads: int
-    intermediate_size: int
-    max_position_embeddings: int
-    type_vocab_size: int
-    layer_norm_eps: float
-
-    @classmethod
-    def from_dict(cls, config: dict[str, Any]) -> BertConfig:
-        """The sizes of a config.json dict; ValueError for a model this module cannot run."""
-        unsupported = {
-            "model_type": (config.get("model_type"), "bert"),
-            "hidden_act": (config.get("hidden_act", "gelu"), "gelu"),
-            "position_embedding_type": (config.get("position_embedding_type", "absolute"),
-                                        "absolute"),
-        }
-        for key, (found, wanted) in unsupported.items():
-            if found != wanted:
-                raise ValueError(f"{key} is {found!r}; only {wanted!r} is supported")
-        try:
-            sizes = {name: int(config[name]) for name in (
-                "vocab_size", "hidden_size", "num_hidden_layers", "num_attention_heads",
-                "intermediate_size", "max_position_embeddings", "type_vocab_size")}
-            eps = float(config.get("layer_norm_eps", 1e-12))
-        except (KeyError, TypeError, ValueError) as e:
-            raise ValueError(f"config.json lacks a usable {e}") from None
-        if sizes["hidden_size"] % sizes["num_attention_heads"]:
-            raise ValueError("hidden_size is not a multiple of num_attention_heads")
-        return cls(**sizes, layer_norm_eps=eps)
-
-    @classmethod
-    def from_file(cls, path: str | Path) -> BertConfig:
-        return cls.from_dict(json.loads(Path(path).read_text(encoding="utf-8")))
+from mlct.text.minilm_files import BertConfig  # (sizes only: read without torch)
 
 
 class _Uninitialized(nn.Module):

@@ -22,16 +22,9 @@ from torch import Tensor
 
 from mlct.errors import MlctError, first_line
 from mlct.text.base import TextEncoder
-from mlct.text.sides import SIDES_SUFFIX
+from mlct.text.minilm_files import (MINILM, MINILM_SPECS, TOKEN_SLOTS, TOKENS_SUFFIX,  # noqa: F401
+                                    bundled_minilm_path, token_slots_of)
 
-MINILM = "minilm"  # the spec (and cache name) of the bundled all-MiniLM-L6-v2
-# Suffix of a spec whose embedding also carries the token states: "minilm+tokens" gives
-# [pooled (384), TOKEN_SLOTS x token state (384), zero rows past the caption's end].
-TOKENS_SUFFIX = "+tokens"
-TOKEN_SLOTS = 20  # wordpieces kept, [CLS] included; a two-action caption takes ~15
-# The bundled MiniLM's specs: pooled, pooled + token states, pooled with the sides contrasted
-# (text/sides.py).
-MINILM_SPECS = (MINILM, MINILM + TOKENS_SUFFIX, MINILM + SIDES_SUFFIX)
 CLIP_MAX_LENGTH = 77  # CLIP's context length; longer captions are truncated as in the paper
 SPEC_FORMS = ("'minilm', 'minilm+tokens', 'minilm+sides', 'clip:/path/to/dir', 'st:/path/to/dir' or a model "
               "directory path")
@@ -131,11 +124,6 @@ class SentenceTransformerEncoder(TextEncoder):
         return torch.stack(rows).clone()  # out of inference mode: later layers train on it
 
 
-def token_slots_of(spec: str) -> int:
-    """The number of token-state slots in the embeddings of text encoder `spec` (0: pooled)."""
-    return TOKEN_SLOTS if spec.strip().lower().endswith(TOKENS_SUFFIX) else 0
-
-
 class ClipTextEncoder(TextEncoder):
     """CLIP text tower from a local directory: the projected pooled `text_embeds` (the paper's c).
 
@@ -186,16 +174,6 @@ class ClipTextEncoder(TextEncoder):
             out = self.model(input_ids=tok["input_ids"], attention_mask=tok["attention_mask"])
             chunks.append(out.text_embeds.float().cpu())  # (b, projection_dim)
         return torch.cat(chunks)
-
-
-def bundled_minilm_path() -> Path:
-    """Directory of the all-MiniLM-L6-v2 shipped in the package (assets/minilm, Apache-2.0):
-    the torch encoder (minilm.py) and the shipped ONNX graph (onnx_assets.py) read its files."""
-    from mlct.onnx_assets import MINILM_DIR, MINILM_WEIGHTS
-
-    if not (MINILM_DIR / MINILM_WEIGHTS).is_file():
-        raise MlctError(f"the bundled MiniLM is missing from {MINILM_DIR}; reinstall mlct")
-    return MINILM_DIR
 
 
 def load_text_encoder(spec: str = MINILM, device: str | torch.device | None = None) -> TextEncoder:

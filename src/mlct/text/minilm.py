@@ -11,7 +11,6 @@ and checkpoints made with either path stay valid.
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 from typing import Any
@@ -20,16 +19,10 @@ import torch
 from torch import Tensor, nn
 
 from mlct.errors import MlctError, first_line
-from mlct.text.bert import BertConfig, BertModel, mean_pool
+from mlct.text.bert import BertModel, mean_pool
+from mlct.text.minilm_files import BertConfig, check_pipeline, load_tokenizer  # noqa: F401
 from mlct.text.base import TextEncoder
 from mlct.text.sides import MIRROR_VERSION, SIDES_SUFFIX, contrast_sides, mirror_sides
-
-# The sentence-transformers pipeline this loader reproduces, module by module (modules.json).
-_PIPELINE = ("Transformer", "Pooling", "Normalize")
-_MEAN_POOLING = {"pooling_mode_mean_tokens": True, "pooling_mode_cls_token": False,
-                 "pooling_mode_max_tokens": False, "pooling_mode_mean_sqrt_len_tokens": False}
-_DEFAULT_MAX_SEQ_LENGTH = 256  # sentence-transformers' default when the model names none
-
 
 GRAPH_TOKEN_STEP = 16  # caption lengths are padded to a multiple of this under CUDA graphs
 
@@ -69,20 +62,7 @@ class MiniLMEncoder(TextEncoder):
                         batch_size: int, token_slots: int) -> BertConfig:
         """Everything but the network: the tokenizer, the sizes and the settings; returns the
         BERT sizes (config.json)."""
-        try:
-            from tokenizers import Tokenizer
-        except ImportError as e:
-            raise MlctError(f"the MiniLM text encoder needs {e.name}: pip install {e.name}")
-        try:
-            config = BertConfig.from_file(path / "config.json")
-            max_length = min(check_pipeline(path), config.max_position_embeddings)
-            tokenizer = Tokenizer.from_file(str(path / "tokenizer.json"))
-        except Exception as e:  # noqa: BLE001 - tokenizers raises its own kinds
-            raise MlctError(f"cannot load the MiniLM text encoder from {path}: {first_line(e)}")
-        # tokenizer.json pads and truncates to 128; sentence-transformers pads a batch to its
-        # longest caption and truncates at the model's max_seq_length instead.
-        tokenizer.no_padding()
-        tokenizer.enable_truncation(max_length)
+        tokenizer, max_length, config = load_tokenizer(path)
         self.tokenizer = tokenizer
         self.max_length = max_length  # tokens per caption, [CLS] and [SEP] included
         self.device = torch.device("cpu" if device is None else device)
@@ -179,25 +159,3 @@ class SentenceNetwork(nn.Module):
     def forward(self, ids: Tensor, mask: Tensor) -> tuple[Tensor, Tensor]:
         states = self.bert(ids, mask)  # (b, L, D)
         return torch.nn.functional.normalize(mean_pool(states, mask), dim=-1), states
-
-
-def check_pipeline(path: Path) -> int:
-    """The max_seq_length of a sentence-transformers directory this module can run exactly;
-    ValueError naming what differs (another pooling, a Dense layer, no Normalize...)."""
-    modules = _read_json(path / "modules.json")
-    kinds = tuple(str(m.get("type", "")).rsplit(".", 1)[-1] for m in modules)
-    if kinds != _PIPELINE:
-        raise ValueError(f"modules {kinds} are not {_PIPELINE}")
-    pooling = _read_json(path / modules[1].get("path", "") / "config.json")
-    for key, wanted in _MEAN_POOLING.items():
-        if bool(pooling.get(key, False)) != wanted:
-            raise ValueError(f"pooling {key} is {pooling.get(key)}, expected {wanted}")
-    st_config = path / "sentence_bert_config.json"
-    settings = _read_json(st_config) if st_config.is_file() else {}
-    if settings.get("do_lower_case"):  # an extra lower-casing step; this tokenizer is uncased
-        raise ValueError("do_lower_case is set")
-    return int(settings.get("max_seq_length") or _DEFAULT_MAX_SEQ_LENGTH)
-
-
-def _read_json(path: Path) -> Any:
-    return json.loads(path.read_text(encoding="utf-8"))

@@ -16,9 +16,10 @@ e'(left) - e'(right) = (1 + 2 alpha) (e(left) - e(right)).
 from __future__ import annotations
 
 import re
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
-from torch import Tensor
+if TYPE_CHECKING:
+    from torch import Tensor
 
 SIDES_SUFFIX = "+sides"  # a text encoder spec ending so ("minilm+sides") contrasts the sides
 # alpha = 4 puts the two sides of a sentence 0.19 x 9 = 1.7 apart, about as far as two actions.
@@ -53,12 +54,13 @@ def mirror_sides(text: str) -> str:
 def contrast_sides(texts: list[str], embeddings: Tensor,
                    encode: Callable[[list[str]], Tensor], alpha: float = SIDE_CONTRAST) -> Tensor:
     """(B, D) embeddings of texts -> the side-contrasted embeddings; `encode` embeds the mirror
-    captions (only of the texts that name a side, in one batch)."""
+    captions (only of the texts that name a side, in one batch). A torch tensor or a numpy
+    array, and the same kind back."""
     mirrors = [mirror_sides(t) for t in texts]
     sided = [i for i, (t, m) in enumerate(zip(texts, mirrors)) if t != m]
     if not sided:
         return embeddings
     mirrored = encode([mirrors[i] for i in sided])  # (S, D)
-    out = embeddings.clone()
+    out = embeddings.copy() if hasattr(embeddings, "copy") else embeddings.clone()
     out[sided] = embeddings[sided] + alpha * (embeddings[sided] - mirrored)
     return out
