@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from mlct.errors import MlctError
-from mlct.onnx_assets import (MINILM_DIR, MINILM_WEIGHTS, MODEL_DIR, SHIPPED_DIR,
-                              TEXT_ENCODER_WEIGHTS, file_digest)
+from mlct.onnx_assets import (CRITIC_WEIGHTS, MINILM_DIR, MINILM_WEIGHTS, MODEL_DIR,
+                              SHIPPED_DIR, TEXT_ENCODER_WEIGHTS, file_digest)
 from mlct.onnx_io import external_weights, safetensors_header_digest, session, weights_recipe
 
 REMAKE = "remake them: python -m mlct.onnx_assets"
@@ -25,6 +25,7 @@ def test_shipped_graphs_were_made_from_the_bundled_weights():
     manifest = _manifest()
     assert manifest["weights_sha256"] == file_digest(MODEL_DIR / "model.safetensors"), REMAKE
     assert manifest[TEXT_ENCODER_WEIGHTS] == file_digest(MINILM_DIR / MINILM_WEIGHTS), REMAKE
+    assert manifest[CRITIC_WEIGHTS] == file_digest(MODEL_DIR / "critic.safetensors"), REMAKE
     for name in manifest["graphs"].values():
         assert (SHIPPED_DIR / name).is_file()
     assert "int8" not in manifest  # the float32 graphs: auto's, the torch backend's motions
@@ -51,6 +52,24 @@ def test_text_encoder_graph_against_the_torch_network():
     got = session(graph, threads=1).run(None, {"ids": ids.numpy(), "mask": mask.numpy()})
     assert np.abs(got[0] - pooled.numpy()).max() < 1e-5
     assert np.abs(got[1] - states.numpy()).max() < 1e-4
+
+
+def test_critic_graph_against_the_torch_critic():
+    torch = pytest.importorskip("torch")
+    from mlct.generate.compose.critic import read_critic
+
+    meta = json.loads((MODEL_DIR / "config.json").read_text(encoding="utf-8"))
+    ae = meta["config"]["ae"]
+    critic = read_critic(MODEL_DIR, meta["text_encoder"], meta["text_dim"],
+                         ae["n_tokens"] * ae["latent_dim"])
+    probe = torch.Generator().manual_seed(1)
+    z = torch.randn(16, ae["n_tokens"], ae["latent_dim"], generator=probe)
+    frames = torch.randint(20, 197, (16,), generator=probe).float()
+    text = torch.nn.functional.normalize(torch.randn(16, meta["text_dim"], generator=probe), dim=1)
+    graph = SHIPPED_DIR / _manifest()["graphs"]["critic"]
+    (got,) = session(graph, threads=1).run(None, {"z": z.numpy(), "frames": frames.numpy(),
+                                                  "text": text.numpy()})
+    assert np.abs(got - critic.network.score(z, frames, text).numpy()).max() < 1e-5
 
 
 def test_a_weights_file_other_than_the_recipes_is_refused(tmp_path):

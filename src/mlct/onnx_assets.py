@@ -7,7 +7,9 @@ committed beside the weights they come from:
     assets/model/onnx/            denoiser.onnx, decoder.onnx, text_encoder.onnx, onnx.json
                                   (backends/onnx/bundle.py's format: the manifest records the
                                   sha256 of the model.safetensors they were made from, and the
-                                  loader refuses graphs of other weights)
+                                  loader refuses graphs of other weights), and critic.onnx, the
+                                  critic's score (z (B, n, d), frames (B,), text (B, c)) -> (B,),
+                                  with the sha256 of the critic.safetensors it came from
     assets/model/onnx/text_encoder.weights.json
                                   the text encoder graph holds no weights: they are read from
                                   assets/minilm/model.safetensors at load (onnx_io.
@@ -42,6 +44,8 @@ MINILM_FILES = ("config.json", "config_sentence_transformers.json", "modules.jso
                 "tokenizer_config.json", "vocab.txt", "1_Pooling/config.json", "README.md",
                 MINILM_WEIGHTS)
 TEXT_ENCODER_WEIGHTS = "minilm_sha256"  # the manifest's record of the MiniLM weights' digest
+CRITIC, CRITIC_WEIGHTS = "critic.onnx", "critic_sha256"  # the graph, its weights' digest
+CRITIC_IO = (("z", "frames", "text"), ("score",))
 
 
 def file_digest(path: Path) -> str:
@@ -65,7 +69,8 @@ def write_shipped_graphs(model_dir: Path = MODEL_DIR, into: Path = SHIPPED_DIR,
                          minilm: Path = MINILM_DIR) -> Path:
     """Write the float32 graphs of the model in model_dir into `into` (replaced whole), the text
     encoder's weights left in minilm/model.safetensors; returns `into`."""
-    from mlct.generate.backends.onnx.bundle import MANIFEST, TEXT_ENCODER, write_onnx_graphs
+    from mlct.generate.backends.onnx.bundle import MANIFEST, TEXT_ENCODER
+    from mlct.generate.backends.onnx.convert import write_onnx_graphs
     from mlct.io import atomic_dir
     from mlct.onnx_io import externalize_weights
 
@@ -77,8 +82,49 @@ def write_shipped_graphs(model_dir: Path = MODEL_DIR, into: Path = SHIPPED_DIR,
         externalize_weights(work / TEXT_ENCODER, weights, relative.as_posix())
         manifest = json.loads((work / MANIFEST).read_text(encoding="utf-8"))
         manifest[TEXT_ENCODER_WEIGHTS] = file_digest(weights)
+        if write_critic_graph(model_dir, work / CRITIC):
+            manifest["graphs"]["critic"] = CRITIC
+            manifest[CRITIC_WEIGHTS] = file_digest(model_dir / "critic.safetensors")
         (work / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
     return into
+
+
+def write_critic_graph(model_dir: Path, path: Path) -> bool:
+    """Write the critic's score of the model in model_dir as an ONNX graph at path, checked
+    against the torch network; False (nothing written) when the model has no critic."""
+    import torch
+
+    from mlct.config import config_from_dict
+    from mlct.generate.bundle import read_config
+    from mlct.generate.compose.critic import read_critic
+    from mlct.onnx_io import export_graph, session
+
+    meta = read_config(model_dir)
+    ae = config_from_dict(meta["config"], "model config").ae
+    critic = read_critic(model_dir, meta["text_encoder"], int(meta["text_dim"]),
+                         ae.n_tokens * ae.latent_dim)
+    if critic is None:
+        return False
+    net, info = critic.network, critic.info
+    probe = torch.Generator().manual_seed(0)
+
+    class Score(torch.nn.Module):
+        def forward(self, z, frames, text):  # noqa: D102 - (B, n, d), (B,), (B, c) -> (B,)
+            return net.score(z, frames, text)
+
+    z = torch.randn(3, ae.n_tokens, ae.latent_dim, generator=probe)
+    frames = torch.tensor([40.0, 100.0, 196.0])
+    text = torch.randn(3, info["text_dim"], generator=probe)
+    batch = {0: "batch"}
+    export_graph(Score(), (z, frames, text), path, *CRITIC_IO,
+                 {name: batch for name in (*CRITIC_IO[0], *CRITIC_IO[1])})
+    (got,) = session(path, threads=1).run(None, {"z": z.numpy(), "frames": frames.numpy(),
+                                                 "text": text.numpy()})
+    with torch.no_grad():
+        gap = float(abs(got - Score()(z, frames, text).numpy()).max())
+    if not gap <= 1e-5:
+        raise ValueError(f"{path.name}: the critic's graph differs from its network by {gap:.3g}")
+    return True
 
 
 def main(argv: list[str] | None = None) -> int:
