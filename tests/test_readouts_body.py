@@ -114,3 +114,37 @@ def test_other_families_fail_the_checks(family, others):
         passing = [(f, p) for f, p, joints in others if f != family
                    and _passes(joints, family, params)]
         assert not passing, (family, params, passing)
+
+
+def test_stairs_put_each_foot_on_its_tread_and_the_script_goes_on_from_there(ground_truth):
+    from mlct.data.synth.families_body import RISER, STAIR_STEPS
+
+    for family, sign in (("walk_downstairs", -1), ("walk_upstairs", 1)):
+        for _, joints in ground_truth[family][:20]:
+            feet = joints[:, [7, 8, 10, 11], 1]
+            assert feet.min(axis=1)[-1] == pytest.approx(sign * RISER * STAIR_STEPS, abs=0.03)
+            # A toe still at a tread's level (a whole number of risers from where it
+            # started) slides less than 5 mm a frame on average.
+            for toe in (10, 11):
+                level = (joints[:, toe, 1] - joints[0, toe, 1]) / RISER
+                still = np.abs(level - np.round(level)) < 0.05
+                still = still[1:] & still[:-1] & (np.abs(np.diff(joints[:, toe, 1])) < 0.002)
+                still = np.convolve(still, np.ones(5), "same") == 5  # for a fifth of a second
+                slide = np.linalg.norm(np.diff(joints[:, toe][:, [0, 2]], axis=0), axis=1)
+                assert slide[still].mean() < 0.005, family
+    # The dataset's features keep the flight of stairs (the root's height is absolute).
+    import torch
+
+    from mlct.motion.features import joints_to_features, recover_from_ric
+
+    _, joints = ground_truth["walk_downstairs"][0]
+    features = joints_to_features(joints * RIG.scale, SK).features
+    back = recover_from_ric(torch.from_numpy(features)).numpy()
+    assert ro.read_all(back)["feet_level_change"] == pytest.approx(-RISER * STAIR_STEPS, abs=0.03)
+    # A walk after the stairs walks on the lower floor.
+    script = Script((Action("walk_downstairs", {}), Action("walk", {"speed": "normal",
+                                                                    "direction": "forward"})))
+    joints = compose(script, RIG, Style(arm_length=RIG.arm_length, shoulder_x=RIG.shoulder_x),
+                     np.random.default_rng(3), SK.fps).positions / RIG.scale
+    walking = joints[-40:, [7, 8, 10, 11], 1].min(axis=1)
+    assert np.all(np.abs(walking + RISER * STAIR_STEPS) < 0.03)

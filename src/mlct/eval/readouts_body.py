@@ -12,7 +12,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from mlct.eval.readouts import (EXTRA_CHECKS, EXTRA_READINGS, FPS, KNEE, NECK, PELVIS, SHOULDER,
+from mlct.eval.readouts import (ANKLE, EXTRA_CHECKS, EXTRA_READINGS, FPS, KNEE, NECK, PELVIS, SHOULDER,
                                 SIDES, WRIST, Check, _standing, facing)
 from mlct.eval.readouts_more import (_chest_forward, _end, _floor_level, _forward, _lateral,
                                      _tilt)
@@ -54,6 +54,10 @@ def body_readings(joints: np.ndarray) -> dict[str, float]:
     for joint in (*KNEE.values(), *WRIST.values()):
         fours &= joints[:, joint, 1] - floor < 0.15
     r["all_fours"] = _seconds(fours)
+    # Stairs: how much higher the feet end than they started (the lower foot of each frame).
+    feet = np.minimum(joints[:, ANKLE["left"], 1], joints[:, ANKLE["right"], 1])
+    r["feet_level_change"] = _end(feet) - _standing(feet)
+    r["end_stands_tall"] = _end(pelvis - feet)
     where = np.flatnonzero(fours)
     r["all_fours_travel"] = float(
         (joints[where[-1], PELVIS] - joints[where[0], PELVIS]) @ facing(joints)[where[0]]
@@ -101,8 +105,23 @@ def _crawl_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
                   and r["end_pelvis_height"] > r["start_pelvis_height"] - 0.1)]
 
 
+def _stairs_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
+    """walk_downstairs, walk_upstairs: forward, the feet end a flight lower (higher), upright."""
+    # GT: the feet end 0.68 m lower (higher), 0.9-1.1 m forward; on the flat floor they end
+    # where they started, within a few centimetres.
+    down = family == "walk_downstairs"
+    return [Check(f"{family}.forward", "the pelvis travels 0.4 m forward",
+                  lambda r: r["forward_displacement"] > 0.4),
+            Check(f"{family}.level", f"the feet end 0.35 m {'lower' if down else 'higher'} "
+                  "than they started",
+                  lambda r: (-1 if down else 1) * r["feet_level_change"] > 0.35),
+            Check(f"{family}.upright", "ends standing: the pelvis 0.75 m over the lower ankle",
+                  lambda r: r["end_stands_tall"] > 0.75)]
+
+
 BODY_CHECKS: dict[str, Callable[[str, Mapping[str, Any]], list[Check]]] = {
-    "crawl": _crawl_checks, "carry": _busy_walk_checks, "push": _busy_walk_checks, "balance_walk": _busy_walk_checks,
+    "crawl": _crawl_checks, "walk_downstairs": _stairs_checks, "walk_upstairs": _stairs_checks,
+    "carry": _busy_walk_checks, "push": _busy_walk_checks, "balance_walk": _busy_walk_checks,
 }
 
 EXTRA_READINGS.append(body_readings)

@@ -14,11 +14,12 @@ import numpy as np
 
 from mlct.data.synth.actions import ENDS_DOWN, STARTS_DOWN, Script
 from mlct.data.synth.more_clips import action_clip
-from mlct.data.synth.motions import ANGLE_CHANNELS, ARM_CHANNELS, Clip, Style, \
-    held, neutral, overlay_upper
+from mlct.data.synth.motions import ANGLE_CHANNELS, ARM_CHANNELS, GROUND_CHANNELS, Clip, \
+    Style, held, neutral, overlay_upper
 from mlct.data.synth.rig import Rig, pose_positions, rot_y
 
 BLEND_SECONDS = 0.4
+CONTINUING = ("yaw", *GROUND_CHANNELS)  # channels a clip takes up from where the last one ended
 CONTACT_SOFTNESS = 0.01  # metres: a contact point this much higher than the lowest bears 1/e as much
 SEAT_GRIP = 10.0  # how much more a touching seat or back holds than a touching foot or hand
 MAX_ACCELERATION = 12.0  # m/s^2: bound on the root's horizontal acceleration (sprint starts reach ~10)
@@ -43,7 +44,8 @@ def smooth_noise(rng: np.random.Generator, n: int, fps: float, scale: float,
 
 
 def concatenate(clips: list[Clip], fps: float) -> tuple[Clip, list[tuple[int, int]]]:
-    """Cross-fade consecutive clips over BLEND_SECONDS; yaw continues from where it ended."""
+    """Cross-fade consecutive clips over BLEND_SECONDS; the heading and the ground's height
+    (CONTINUING) go on from where they ended."""
     overlap = int(round(BLEND_SECONDS * fps))
     out = clips[0]
     segments = [(0, out.n)]
@@ -51,10 +53,9 @@ def concatenate(clips: list[Clip], fps: float) -> tuple[Clip, list[tuple[int, in
         k = min(overlap, out.n // 2, clip.n // 2)
         w = 0.5 - 0.5 * np.cos(np.linspace(0, np.pi, k))  # 0 -> 1
         start = out.n - k
-        yaw_end = out.channels["yaw"][-1]
         channels = {}
         for name, a in out.channels.items():
-            b = clip.channels[name] + (yaw_end if name == "yaw" else 0.0)
+            b = clip.channels[name] + (a[-1] if name in CONTINUING else 0.0)
             wk = w if a.ndim == 1 else w[:, None]
             mixed = (1 - wk) * a[start:] + wk * b[:k]
             channels[name] = np.concatenate([a[:start], mixed, b[k:]])
@@ -72,6 +73,19 @@ def concatenate(clips: list[Clip], fps: float) -> tuple[Clip, list[tuple[int, in
     return out, segments
 
 
+def _ground(rig: Rig, clip: Clip, joints: tuple[int, ...]) -> np.ndarray | None:
+    """(T, len(joints)) height of the ground under each joint in skeleton units: its side's
+    ground channel, the mean of both for the joints of the midline; None on the flat floor."""
+    left, right = (clip.channels[name] for name in GROUND_CHANNELS)
+    if not (left.any() or right.any()):
+        return None  # the flat floor: heights left as the very floats they always were
+    sides = {j: side for side in ("left", "right") for j in (
+        rig.hip[side], rig.knee[side], rig.ankle[side], *rig.foot[side], rig.shoulder[side],
+        rig.elbow[side], rig.wrist[side])}
+    level = {"left": left, "right": right, None: 0.5 * (left + right)}
+    return np.stack([level[sides.get(j)] for j in joints], -1) * rig.scale
+
+
 def place_on_ground(rig: Rig, body: np.ndarray, clip: Clip, fps: float) -> np.ndarray:
     """World positions (T, J, 3) from pelvis-relative positions `body` (T, J, 3).
 
@@ -86,6 +100,9 @@ def place_on_ground(rig: Rig, body: np.ndarray, clip: Clip, fps: float) -> np.nd
     n = len(body)
     points = body[:, list(rig.contact_points)]  # (T, P, 3)
     heights = points[..., 1]
+    ground = _ground(rig, clip, rig.contact_points)
+    if ground is not None:  # stairs: each point's height over the ground under its foot
+        heights = heights - ground
     root = np.zeros((n, 3))
     root[:, 1] = -heights.min(axis=1) + clip.clearance * rig.scale
     on_floor = clip.channels["floor"] > 0.5
@@ -97,6 +114,9 @@ def place_on_ground(rig: Rig, body: np.ndarray, clip: Clip, fps: float) -> np.nd
         joints, flesh = zip(*rig.floor_points.items())
         floor_points = body[:, list(joints)]
         floor_heights = floor_points[..., 1] - np.array(flesh) * rig.scale
+        floor_ground = _ground(rig, clip, joints)
+        if floor_ground is not None:
+            floor_heights = floor_heights - floor_ground
         grip = np.array([SEAT_GRIP if j in (0, *rig.spine, *rig.wrist.values()) else 1.0
                          for j in joints])
         root[on_floor, 1] = -floor_heights[on_floor].min(axis=1) + clip.clearance[on_floor] \

@@ -92,6 +92,110 @@ def balance_walk(rig: Rig, fps: float, style: Style) -> Clip:
     return clip
 
 
+# ---------------------------------------------------------------------------- stairs
+# Stairs are stepped foot over foot, one tread a step, as most adults do; the legs are posed by
+# inverse kinematics from the feet's paths over the treads, and the ground channels say which
+# tread each foot is over, so that compose.place_on_ground stands each foot on its own step.
+
+RISER, TREAD = 0.17, 0.28  # metres: a common domestic stair
+STAIR_STEPS = 4  # treads climbed or descended
+
+
+def _leg_angles(rig: Rig, hip: np.ndarray, ankle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(hip flexion, knee flexion), each (T,), that put the ankle at `ankle` (T, 3) from the
+    hip joint at `hip` (3,) in the body frame (the sagittal plane; the bones' rest tilt kept)."""
+    sk = rig.skeleton
+    thigh = sk.bone_lengths[rig.knee["left"]] / rig.scale
+    shin = sk.bone_lengths[rig.ankle["left"]] / rig.scale
+    rest_thigh, rest_shin = (sk.rest_directions[rig.knee["left"]],
+                             sk.rest_directions[rig.ankle["left"]])
+    tilt_thigh = np.arctan2(rest_thigh[2], -rest_thigh[1])  # forward of straight down
+    tilt_shin = np.arctan2(rest_shin[2], -rest_shin[1])
+    dz, dy = ankle[:, 2] - hip[2], ankle[:, 1] - hip[1]
+    reach = np.clip(np.hypot(dz, dy), abs(thigh - shin) + 1e-6, 0.999 * (thigh + shin))
+    toward = np.arctan2(dz, -dy)  # direction hip -> ankle, forward of straight down
+    bend = np.arccos(np.clip((thigh**2 + reach**2 - shin**2) / (2 * thigh * reach), -1, 1))
+    a_thigh = toward + bend  # the knee in front of the line hip -> ankle
+    knee_at = np.stack([thigh * np.sin(a_thigh), -thigh * np.cos(a_thigh)], -1)
+    lower = np.stack([np.sin(toward), -np.cos(toward)], -1) * reach[:, None] - knee_at
+    a_shin = np.arctan2(lower[:, 0], -lower[:, 1])
+    hip_flex = a_thigh - tilt_thigh
+    return hip_flex, hip_flex + tilt_shin - a_shin
+
+
+def _smooth(x: np.ndarray, fps: float, seconds: float) -> np.ndarray:
+    """`x` (T,) smoothed by a Gaussian of `seconds` s (the ends held)."""
+    k = max(1, int(round(2 * seconds * fps)))
+    kernel = np.exp(-0.5 * (np.arange(-k, k + 1) / (seconds * fps)) ** 2)
+    padded = np.concatenate([np.repeat(x[:1], k), x, np.repeat(x[-1:], k)])
+    return np.convolve(padded, kernel / kernel.sum(), mode="valid")
+
+
+def _stairs(rig: Rig, fps: float, style: Style, rise: float) -> Clip:
+    """Walks STAIR_STEPS treads up (rise > 0) or down (rise < 0, metres a step) foot over foot,
+    the last step bringing the feet together on the last tread."""
+    tempo = style.tempo
+    step = (0.62 if rise < 0 else 0.72) / tempo  # seconds a step
+    swing = 0.8 * step
+    n, t = _frames(0.3 + (STAIR_STEPS + 1) * step + 0.3, fps)
+    clip = neutral(n, style)
+    ch = clip.channels
+    rest = pose_positions(rig, neutral(1, style).channels)[0] / rig.scale
+    feet = {s: np.tile(rest[rig.ankle[s]], (n, 1)) for s in SIDES}
+    treads = {s: np.zeros(n) for s in SIDES}
+    lift = 0.05 if rise < 0 else 0.07
+    for i in range(1, STAIR_STEPS + 2):  # step i lands on tread i, the last joins the other foot
+        side = SIDES[(i + 1) % 2]
+        tread = min(i, STAIR_STEPS)
+        t0 = 0.3 + (i - 1) * step
+        u = np.clip((t - t0) / swing, 0, 1)
+        start = feet[side][np.searchsorted(t, t0)].copy()
+        goal = rest[rig.ankle[side]] + np.array([0.0, rise * tread, TREAD * tread])
+        if rise < 0:  # down: out over the edge first, then down onto the tread
+            along, up = ease(u), ease((u - 0.25) / 0.75)
+        else:  # up: lift over the riser first, then forward onto the tread
+            along, up = ease((u - 0.2) / 0.8), ease(u / 0.6)
+        later = t >= t0
+        feet[side][later, 2] = start[2] + (goal[2] - start[2]) * along[later]
+        feet[side][later, 1] = start[1] + (goal[1] - start[1]) * up[later] \
+            + lift * np.sin(np.pi * u[later])
+    for s in SIDES:  # the tread under the middle of each foot
+        over = np.floor((feet[s][:, 2] + 0.06 - rest[rig.ankle[s], 2]) / TREAD + 0.5)
+        treads[s] = np.clip(over, 0, STAIR_STEPS) * rise
+    # The pelvis: over the feet, as high as the lower foot lets it (the upper knee bends),
+    # 4 cm down on straight legs so that the lower foot reaches its tread ahead or behind.
+    low = np.minimum(feet["left"][:, 1], feet["right"][:, 1]) - rest[rig.ankle["left"], 1]
+    pelvis = np.stack([np.zeros(n), _smooth(low, fps, 0.1) - 0.04 * hold(t - 0.1, 0.3, n / fps - 0.8, 0.3),
+                       _smooth(0.5 * (feet["left"][:, 2] + feet["right"][:, 2])
+                               - rest[rig.ankle["left"], 2], fps, 0.1)], -1)
+    for side in SIDES:
+        s = side[0]
+        target = feet[side] - pelvis
+        target[:, 0] = rest[rig.ankle[side], 0]
+        hip, knee = _leg_angles(rig, rest[rig.hip[side]], target)
+        ch[f"hip_flex_{s}"], ch[f"knee_{s}"] = hip, knee
+        airborne = feet[side][:, 1] - rest[rig.ankle[side], 1] - treads[side] > 0.01
+        ch[f"ankle_{s}"] = knee - hip + (0.25 if rise > 0 else -0.1) * airborne  # flat on a tread
+        ch[f"ground_{s}"] = treads[side]
+    ch["spine_bend"] = (0.16 if rise > 0 else 0.06) * hold(t - 0.1, 0.4, n / fps - 0.9, 0.4)
+    phase = np.pi * np.clip(t - 0.3, 0, None) / step
+    for side, sign in (("left", 1.0), ("right", -1.0)):  # a small swing against the legs
+        wrist = np.stack([np.full(n, 0.04 * sign), np.full(n, -0.93 * style.arm_length),
+                          0.03 + 0.1 * sign * np.sin(phase)], -1)
+        _arm(clip, side, wrist, hold(t - 0.1, 0.4, n / fps - 0.9, 0.4))
+    return clip
+
+
+def walk_downstairs(rig: Rig, fps: float, style: Style) -> Clip:
+    """Walks down a flight of STAIR_STEPS stairs, a foot to each step."""
+    return _stairs(rig, fps, style, -RISER)
+
+
+def walk_upstairs(rig: Rig, fps: float, style: Style) -> Clip:
+    """Walks up a flight of STAIR_STEPS stairs, a foot to each step, leaning into them."""
+    return _stairs(rig, fps, style, RISER)
+
+
 # ---------------------------------------------------------------------------- on the floor
 
 CRAWL_PITCH = 1.5  # body_pitch on hands and knees: the shoulders a little higher than the hips
@@ -156,6 +260,11 @@ def crawl(rig: Rig, fps: float, style: Style) -> Clip:
 # a count always (short: never); <verb> marks and HIS as in text.py.
 
 BENCHMARK: dict[str, Phrase] = _table(
+    walk_downstairs=("<walk> down the stairs", "<walk> down a flight of stairs",
+                     "<go> down the stairs", "<walk> downstairs", "<descend> the stairs",
+                     "<walk> down some stairs"),
+    walk_upstairs=("<walk> up the stairs", "<climb> the stairs", "<go> up a flight of stairs",
+                   "<walk> upstairs", "<climb> up some stairs", "<walk> up a flight of stairs"),
     crawl=("<crawl> forward on HIS hands and knees", "<get> down on all fours and <crawl> forward",
            "<crawl> forward", "<crawl> on the floor on hands and knees",
            "<go> down on HIS hands and knees, <crawl> forward and <stand> up again"),
@@ -174,6 +283,10 @@ BENCHMARK: dict[str, Phrase] = _table(
 )
 
 EVERYDAY: dict[str, Phrase] = _table(
+    walk_downstairs=("<head> down the staircase", "<make> HIS way down the stairs",
+                     "<come> down the steps"),
+    walk_upstairs=("<head> up the staircase", "<make> HIS way up the stairs",
+                   "<mount> the steps one after another"),
     crawl=("<creep> along the floor on all fours", "<move> ahead on hands and knees like a baby",
            "<drop> to all fours and <shuffle> forward"),
     carry=("<lug> a box along in both arms", "<bring> a box along in front of HIS body",
@@ -186,6 +299,8 @@ EVERYDAY: dict[str, Phrase] = _table(
 )
 
 COLLOQUIAL: dict[str, Phrase] = _table(
+    walk_downstairs=("<trot> down the stairs", "<clatter> down the steps"),
+    walk_upstairs=("<trudge> up the stairs", "<clamber> up the steps"),
     crawl=("<scuttle> along on all fours", "<go> across the floor on all fours like a toddler"),
     carry=("<schlep> a box along", "<lug> a big box across the room"),
     push=("<muscle> something heavy forward", "<shove> a load along, leaning into it"),
@@ -194,6 +309,8 @@ COLLOQUIAL: dict[str, Phrase] = _table(
 )
 
 SHORT: dict[str, Phrase] = _table(
+    walk_downstairs=("<walk> downstairs", "<go> down the stairs", "<walk> down stairs"),
+    walk_upstairs=("<walk> upstairs", "<climb> stairs", "<go> up the stairs"),
     crawl=("<crawl>", "<crawl>", "<crawl> on all fours"),
     carry=("<carry> a box", "<carry> a box", "<walk> carrying a box"),
     push=("<push> something", "<push> something", "<push> something forward"),
@@ -204,10 +321,11 @@ SHORT: dict[str, Phrase] = _table(
 # ---------------------------------------------------------------------------- the interface
 
 PARAMS: dict[str, dict[str, tuple]] = {
-    "crawl": {}, "carry": {}, "push": {}, "balance_walk": {},
+    "crawl": {}, "walk_downstairs": {}, "walk_upstairs": {}, "carry": {}, "push": {}, "balance_walk": {},
 }
 CLIPS: dict[str, Callable[..., Clip]] = {
-    "crawl": crawl, "carry": carry, "push": push, "balance_walk": balance_walk,
+    "crawl": crawl, "walk_downstairs": walk_downstairs, "walk_upstairs": walk_upstairs,
+    "carry": carry, "push": push, "balance_walk": balance_walk,
 }
 PHRASES: dict[str, dict[str, Phrase]] = {"benchmark": BENCHMARK, "everyday": EVERYDAY,
                                          "colloquial": COLLOQUIAL, "short": SHORT}
@@ -223,15 +341,16 @@ def _forms(*lemmas: str) -> dict[str, tuple[str, str]]:
 
 
 VERBS: dict[str, dict[str, tuple[str, str]]] = {
-    "benchmark": _forms("carry", "push", "hold", "crawl"),
+    "benchmark": _forms("carry", "push", "hold", "crawl", "climb", "descend"),
     "everyday": {**_forms("lug", "tote", "cart", "shove", "heave", "drive", "tiptoe", "steady", "inch",
-                        "creep"),
+                        "creep", "mount"),
                  "lug": ("lugs", "lugging"), "tiptoe": ("tiptoes", "tiptoeing")},
-    "colloquial": {**_forms("muscle", "wobble", "totter", "scuttle"), "schlep": ("schleps", "schlepping")},
+    "colloquial": {**_forms("muscle", "wobble", "totter", "scuttle", "clatter"), "schlep": ("schleps", "schlepping")},
 }
 WORDS: dict[str, str] = {"box": "NOUN", "body": "NOUN", "heavy": "ADJ", "carefully": "ADV",
                          "spread": "VERB",
-                         "fours": "NOUN"}
-PLURALS: dict[str, str] = {"sides": "side"}
+                         "fours": "NOUN", "flight": "NOUN", "downstairs": "ADV",
+                         "upstairs": "ADV", "some": "DET"}
+PLURALS: dict[str, str] = {"sides": "side", "stairs": "stair"}
 ENDS_DOWN: frozenset[str] = frozenset()
 STARTS_DOWN: frozenset[str] = frozenset()

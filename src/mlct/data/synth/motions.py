@@ -23,6 +23,10 @@ ARM_CHANNELS = tuple(f"{name}_{s}" for name in ("wrist", "pole") for s in "lr")
 # body_pitch tips the whole body about the pelvis, floor (0/1) says that the seat, back, head
 # and hands may bear weight (compose.place_on_ground).
 FLOOR_CHANNELS = ("body_pitch", "floor")
+# The height (metres) of the ground under each foot, for stairs (zero on the flat floor, and
+# zero in every family before benchmark version 4): compose.place_on_ground puts each side's
+# contact points on its own ground, and a script goes on from the level a clip ended on.
+GROUND_CHANNELS = ("ground_l", "ground_r")
 
 
 class Action(Protocol):
@@ -89,7 +93,7 @@ def hanging_wrist(style: Style, sign: float) -> np.ndarray:
 
 def neutral(n: int, style: Style) -> Clip:
     """The standing pose held for n frames."""
-    channels = {name: np.zeros(n) for name in ANGLE_CHANNELS + FLOOR_CHANNELS}
+    channels = {name: np.zeros(n) for name in ANGLE_CHANNELS + FLOOR_CHANNELS + GROUND_CHANNELS}
     for s, sign in (("l", 1.0), ("r", -1.0)):
         channels[f"wrist_{s}"] = np.tile(hanging_wrist(style, sign), (n, 1))
         channels[f"pole_{s}"] = np.tile(np.array([0.3 * sign, 0.0, -1.0]), (n, 1))
