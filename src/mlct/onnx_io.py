@@ -258,10 +258,11 @@ def safetensors_header_digest(path: str | os.PathLike) -> str:
 
 def external_weights(graph: str | os.PathLike) -> tuple[list[str], list[Any]]:
     """(names, OrtValues) of the graph's initializers, built with numpy from the safetensors
-    file its recipe names (weights_recipe); MlctError when that file is missing or another."""
+    file its recipe names (weights_recipe); MlctError when that file is missing or another.
+    The file is mapped, not read: a tensor the graph takes as it is (the word embeddings, half
+    the MiniLM) is a view of the page cache, only the transposed and joined ones are copied."""
     import numpy as np
     import onnxruntime as ort
-    from safetensors import safe_open
 
     recipe_path = weights_recipe(graph)
     try:
@@ -277,15 +278,37 @@ def external_weights(graph: str | os.PathLike) -> tuple[list[str], list[Any]]:
     if (source.stat().st_size != recipe.get("size")
             or safetensors_header_digest(source) != recipe.get("header_sha256")):
         raise MlctError(f"{graph}: {source} is not the weights file the graph was made for")
+    tensors = mapped_safetensors(source)
     names, values = [], []
-    with safe_open(str(source), framework="numpy") as tensors:
-        for entry in recipe["initializers"]:
-            parts = [tensors.get_tensor(key).T if transpose else tensors.get_tensor(key)
-                     for key, transpose in entry["parts"]]
-            array = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=entry["axis"])
-            names.append(entry["name"])
-            values.append(ort.OrtValue.ortvalue_from_numpy(np.ascontiguousarray(array)))
+    for entry in recipe["initializers"]:
+        parts = [tensors[key].T if transpose else tensors[key] for key, transpose in entry["parts"]]
+        array = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=entry["axis"])
+        names.append(entry["name"])
+        values.append(ort.OrtValue.ortvalue_from_numpy(np.ascontiguousarray(array)))
     return names, values
+
+
+_SAFETENSORS_DTYPES = {"F32": "<f4", "F16": "<f2", "I64": "<i8", "I32": "<i4", "I8": "i1"}
+
+
+def mapped_safetensors(path: str | os.PathLike) -> dict[str, Any]:
+    """A safetensors file's tensors as read-only numpy views of the file mapped in memory (the
+    format: an 8-byte little-endian header size, a JSON header of dtype, shape and byte
+    offsets per tensor, then the data)."""
+    import numpy as np
+
+    data = np.memmap(path, dtype=np.uint8, mode="r")
+    size = int.from_bytes(data[:8].tobytes(), "little")
+    header = json.loads(data[8:8 + size].tobytes())
+    start = 8 + size
+    out = {}
+    for name, info in header.items():
+        if name == "__metadata__" or info["dtype"] not in _SAFETENSORS_DTYPES:
+            continue
+        begin, end = info["data_offsets"]
+        out[name] = data[start + begin:start + end].view(_SAFETENSORS_DTYPES[info["dtype"]]
+                                                         ).reshape(info["shape"])
+    return out
 
 
 def externalize_weights(graph: str | os.PathLike, source: str | os.PathLike,
