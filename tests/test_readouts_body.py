@@ -148,3 +148,23 @@ def test_stairs_put_each_foot_on_its_tread_and_the_script_goes_on_from_there(gro
                      np.random.default_rng(3), SK.fps).positions / RIG.scale
     walking = joints[-40:, [7, 8, 10, 11], 1].min(axis=1)
     assert np.all(np.abs(walking + RISER * STAIR_STEPS) < 0.03)
+
+
+def test_checks_tell_the_sides_and_counts_apart(ground_truth):
+    wrong = {"step_over": ("leg", {"left": "right", "right": "left"}),
+             "sit_ups": ("count", {2: 3, 3: 4, 4: 2})}
+    for family, (key, other) in wrong.items():
+        if family not in ground_truth:
+            continue
+        passed = [_passes(joints, family, dict(params, **{key: other[params[key]]}))
+                  for params, joints in ground_truth[family]]
+        assert np.mean(passed) < 0.05, (family, np.mean(passed))
+
+
+def test_falls_are_quick_and_lying_down_is_not_a_fall(ground_truth):
+    for family in ("fall_forward", "fall_backward"):
+        for _, joints in ground_truth[family][:30]:
+            assert ro.read_all(joints)["descent_time"] < 0.75
+            assert not _passes(joints, "lie_down", {})
+    for seed in range(10):
+        assert not _passes(_motion("lie_down", {}, seed), "fall_backward", {})

@@ -12,8 +12,9 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from mlct.eval.readouts import (ANKLE, EXTRA_CHECKS, EXTRA_READINGS, FPS, KNEE, NECK, PELVIS, SHOULDER,
-                                SIDES, WRIST, Check, _standing, facing)
+from mlct.eval.readouts import (ANKLE, EXTRA_CHECKS, EXTRA_READINGS, FPS, KNEE, NECK, PELVIS,
+                                SHOULDER, SIDES, WRIST, Check, _count_rises, _other, _standing,
+                                facing)
 from mlct.eval.readouts_more import (_chest_forward, _end, _floor_level, _forward, _lateral,
                                      _tilt)
 
@@ -58,6 +59,16 @@ def body_readings(joints: np.ndarray) -> dict[str, float]:
     feet = np.minimum(joints[:, ANKLE["left"], 1], joints[:, ANKLE["right"], 1])
     r["feet_level_change"] = _end(feet) - _standing(feet)
     r["end_stands_tall"] = _end(pelvis - feet)
+    for side in SIDES:  # stepping over: how high each knee lifts over standing, and when
+        lifted = joints[:, KNEE[side], 1] - floor
+        lifted = lifted - _standing(lifted)
+        r[f"high_step.{side}"] = float(lifted.max())
+        r[f"high_step_at.{side}"] = float(np.argmax(lifted)) / FPS
+    raised = pelvis - floor
+    # Sit-ups: the trunk's rises from lying (elevation 0) towards upright (pi/2).
+    elevation = np.pi / 2 - _tilt(joints)
+    r["trunk_rises"] = float(_count_rises(elevation, 0.8, 0.4))
+    r["max_pelvis_height"] = float(raised.max())
     where = np.flatnonzero(fours)
     r["all_fours_travel"] = float(
         (joints[where[-1], PELVIS] - joints[where[0], PELVIS]) @ facing(joints)[where[0]]
@@ -119,9 +130,62 @@ def _stairs_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
                   lambda r: r["end_stands_tall"] > 0.75)]
 
 
+def _step_over_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
+    """step_over: walking forward, the named ankle lifts knee-high, then the other one."""
+    # GT: the leading knee 0.2-0.3 m over its standing height, the other 0.1-0.2 m; a walk lifts a
+    # knee 0.05 m, marching in place stays put, stairs end on another level.
+    leg = params.get("leg")
+    sides = (leg,) if leg else SIDES
+
+    def over(r: Mapping[str, float], s: str) -> bool:
+        o = _other(s)
+        return (r[f"high_step.{s}"] > 0.15 and r[f"high_step.{o}"] > 0.1
+                and 0.1 < r[f"high_step_at.{o}"] - r[f"high_step_at.{s}"] < 1.5)
+
+    return [Check("step_over.forward", "the pelvis travels 0.8 m forward on level ground, never "
+                  "airborne", lambda r: r["forward_displacement"] > 0.8
+                  and abs(r["feet_level_change"]) < 0.1 and r["airborne_frames"] <= 2),
+            Check("step_over.high_step", f"the {leg or 'one'} knee lifts 0.15 m, then the other "
+                  "0.1 m within 1.5 s", lambda r: any(over(r, s) for s in sides))]
+
+
+def _fall_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
+    """fall_forward, fall_backward: from standing to lying in a second or so."""
+    # GT: down in 0.35-0.6 s (readouts_more's descent_time); lying down takes 0.9 s or more. Forward ends on the front (chest
+    # down), backward on the back (chest up).
+    front = family == "fall_forward"
+    return [Check(f"{family}.starts_standing", "the pelvis starts over 0.7 m up",
+                  lambda r: r["start_pelvis_height"] > 0.7),
+            Check(f"{family}.quick", "the pelvis goes from 0.1 m under standing to its lying "
+                  "height in under 0.75 s", lambda r: r["descent_time"] < 0.75),
+            Check(f"{family}.lies", "ends lying: the pelvis within 0.35 m of the floor, the "
+                  "torso over 1.1 rad from vertical",
+                  lambda r: r["end_pelvis_height"] < 0.35 and r["end_torso_tilt"] > 1.1),
+            Check(f"{family}.side", f"the chest ends facing {'down' if front else 'up'}",
+                  lambda r: (-1 if front else 1) * r["end_chest_up"] > 0.5)]
+
+
+def _sit_ups_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
+    """sit_ups: lying on the back, the trunk rises towards upright and back, count times."""
+    # GT: the trunk from 1.4 rad to 0.3 rad from vertical each time, the pelvis 0.1-0.2 m up.
+    count = params.get("count")
+    checks = [Check("sit_ups.lying", "starts lying: the pelvis within 0.3 m of the floor, the "
+                    "torso over 1.2 rad from vertical", lambda r: r["start_pelvis_height"] < 0.3
+                    and r["start_torso_tilt"] > 1.2),
+              Check("sit_ups.stays_down", "the pelvis stays within 0.35 m of the floor",
+                    lambda r: r["max_pelvis_height"] < 0.35),
+              Check("sit_ups.rises", "the trunk rises within 0.77 rad of upright at least twice",
+                    lambda r: r["trunk_rises"] >= 2)]
+    if count:
+        checks.append(Check("sit_ups.count", f"{count} sit-ups",
+                            lambda r: r["trunk_rises"] == count))
+    return checks
+
+
 BODY_CHECKS: dict[str, Callable[[str, Mapping[str, Any]], list[Check]]] = {
     "crawl": _crawl_checks, "walk_downstairs": _stairs_checks, "walk_upstairs": _stairs_checks,
-    "carry": _busy_walk_checks, "push": _busy_walk_checks, "balance_walk": _busy_walk_checks,
+    "step_over": _step_over_checks, "fall_forward": _fall_checks, "fall_backward": _fall_checks,
+    "sit_ups": _sit_ups_checks, "carry": _busy_walk_checks, "push": _busy_walk_checks, "balance_walk": _busy_walk_checks,
 }
 
 EXTRA_READINGS.append(body_readings)

@@ -255,11 +255,159 @@ def crawl(rig: Rig, fps: float, style: Style) -> Clip:
     return clip
 
 
+# ---------------------------------------------------------------------------- stepping over, falling
+
+def _swing_window(t: np.ndarray, style: Style, kind: str, offset: float,
+                  after: float) -> np.ndarray:
+    """0 -> 1 over the first swing of a gait's leg (phase `offset`: left 0, right 0.5) that
+    starts after `after` s, 0 elsewhere (the gait of motions.gait with this style)."""
+    from mlct.data.synth.motions import _GAITS
+
+    freq, duty = _GAITS[kind][0] * style.tempo, _GAITS[kind][5]
+    u = np.mod(freq * t + offset, 1.0)
+    swinging = u > duty
+    starts = np.flatnonzero(swinging[1:] & ~swinging[:-1]) + 1
+    first = starts[t[starts] > after][0]
+    end = first + int(np.argmax(~swinging[first:]))
+    window = np.zeros(len(t))
+    window[first:end] = np.linspace(0, 1, end - first, endpoint=False)
+    return window
+
+
+def step_over(rig: Rig, fps: float, style: Style, leg: str) -> Clip:
+    """Walks forward and steps over something knee-high: the named leg lifts high over it
+    (the knee up to the hip), then the other follows, the foot tucked up behind."""
+    clip = gait(fps, style, "slow", strides=3 + style.tempo)
+    ch = clip.channels
+    t = np.arange(clip.n) / fps
+    lead, trail = leg[0], ("r" if leg == "left" else "l")
+    offsets = {"l": 0.0, "r": 0.5}
+    first = _swing_window(t, style, "slow", offsets[lead], 1.0)
+    begun = t[np.argmax(first > 0)]
+    second = _swing_window(t, style, "slow", offsets[trail], begun)
+    for s, window, hip, knee in ((lead, first, 1.05, 1.0), (trail, second, 0.85, 1.35)):
+        high = bump(window) * (window > 0)
+        ch[f"hip_flex_{s}"] = ch[f"hip_flex_{s}"] + hip * style.amplitude * high
+        ch[f"knee_{s}"] = ch[f"knee_{s}"] + knee * high
+        ch[f"ankle_{s}"] = ch[f"ankle_{s}"] + 0.3 * high
+    over = bump(np.clip((t - begun + 0.2) / 1.6, 0, 1))
+    ch["spine_bend"] = ch["spine_bend"] + 0.1 * over  # watching the obstacle
+    ch["head_nod"] = ch["head_nod"] + 0.25 * over
+    for side, sign in (("left", 1.0), ("right", -1.0)):  # the arms out a little for balance
+        _arm(clip, side, np.array([0.25 * sign, -0.4, 0.12]), over)
+    return clip
+
+
+def fall_forward(rig: Rig, fps: float, style: Style) -> Clip:
+    """Trips and falls forward: the body pitches over the feet faster and faster, the hands
+    shoot out to the floor, the knees buckle, and it lands on the front and lies there."""
+    tempo = style.tempo
+    n, t = _frames(0.3 + 1.1 / tempo + 1.4, fps)
+    clip = neutral(n, style)
+    ch = clip.channels
+    trip = 0.25
+    u = np.clip((t - trip) / (1.0 / tempo), 0, 1)
+    tip = u ** 2 * (3 - 2 * u) ** 0.5 / 1.0  # speeding up as it goes over, then stopped
+    tip = np.clip(tip, 0, 1)
+    ch["body_pitch"] = (np.pi / 2 - 0.05) * tip
+    buckle = bump(np.clip(u / 1.1, 0, 1))
+    for s in "lr":
+        ch[f"hip_flex_{s}"] = 0.35 * buckle
+        ch[f"knee_{s}"] = 0.7 * buckle
+        ch[f"ankle_{s}"] = -0.5 * tip  # the toes pointing back once lying
+    ch["head_nod"] = -0.45 * tip  # the face kept off the floor
+    ch["floor"] = (tip > 0.4).astype(float)
+    zero = np.zeros(n)
+    hands = _hands_down(rig, clip, {s: zero - 0.05 for s in SIDES}, {s: zero for s in SIDES})
+    out = ease((t - trip) / 0.35)
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        # Out in front to break the fall, then flat beside the shoulders, the elbows bent out.
+        ahead = np.array([0.1 * sign, 0.15, 0.45])
+        reach = ease((u - 0.45) / 0.4)[:, None]
+        wrist = (1 - reach) * ahead + reach * hands[side]
+        _arm(clip, side, wrist, out, np.array([sign, 0.3, 0.0]))
+    return clip
+
+
+def fall_backward(rig: Rig, fps: float, style: Style) -> Clip:
+    """Loses balance backwards: the knees give, the body drops onto the seat and rolls back
+    onto the back in about a second, the arms flung out, and it lies there."""
+    from mlct.data.synth.floor import SUPINE, _squat_and_sit
+
+    tempo = style.tempo
+    n, t = _frames(0.3 + 1.0 / tempo + 1.4, fps)
+    clip = neutral(n, style)
+    t0 = 0.25
+    squat = ease((t - t0) / (0.35 / tempo))  # the knees buckle
+    sit = ease((t - t0 - 0.15 / tempo) / (0.4 / tempo))  # down onto the seat
+    down = ease((t - t0 - 0.45 / tempo) / (0.55 / tempo))  # back onto the floor
+    _squat_and_sit(clip, squat * 0.7, sit, down, SUPINE, 0.35, 0.0)
+    ch = clip.channels
+    for s in "lr":  # the knees stay a little bent where the legs land
+        ch[f"knee_{s}"] = ch[f"knee_{s}"] + 0.6 * down
+        ch[f"hip_flex_{s}"] = ch[f"hip_flex_{s}"] + 0.0 * down
+    ch["head_nod"] = ch["head_nod"] + 0.3 * down  # the chin tucked against the fall
+    flung = ease((t - t0) / 0.3)
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        # Out to the sides and back, to catch the floor, then lying beside the body.
+        out = np.array([sign * 0.45, -0.15, -0.1])
+        side_down = np.array([sign * 0.4, -0.3, -0.05])
+        lie = down[:, None]
+        _arm(clip, side, (1 - lie) * out + lie * side_down, flung, np.array([0.0, -1.0, 0.0]))
+    return clip
+
+
+SIT_UP_HIP, SIT_UP_KNEE = 1.0, 1.9  # lying with the knees up, the feet flat by the seat
+SIT_UP_RISE = 1.2  # body_pitch the trunk rises by: the chest up over the thighs
+
+
+def sit_ups(rig: Rig, fps: float, style: Style, count: int) -> Clip:
+    """Lying on the back with the knees bent and the hands behind the head, sits up `count`
+    times, the chest coming up to the knees, and lies back down; the feet stay on the floor."""
+    from mlct.data.synth.floor import SUPINE
+
+    period = 1.6 / style.tempo
+    n, t = _frames(0.3 + count * period + 0.4, fps)
+    clip = neutral(n, style)
+    ch = clip.channels
+    rise = sum((hold(t - 0.3 - k * period, 0.6 * period / 1.2, 0.1 * period / 1.2,
+                     0.5 * period / 1.2) for k in range(count)), np.zeros(n))
+    pitch = SUPINE + SIT_UP_RISE * rise
+    ch["body_pitch"] = pitch
+    ch["spine_bend"] = 0.35 * rise  # the back curls up
+    ch["head_nod"] = 0.3 + 0.1 * rise
+    for s in "lr":  # the legs keep their place on the floor while the trunk pitches
+        ch[f"hip_flex_{s}"] = SIT_UP_HIP + (pitch - SUPINE)
+        ch[f"knee_{s}"] = np.full(n, SIT_UP_KNEE)
+        ch[f"ankle_{s}"] = np.full(n, SIT_UP_KNEE - SIT_UP_HIP - np.pi / 2 + 0.2)
+    ch["floor"] = np.ones(n)
+    for side, sign in (("left", 1.0), ("right", -1.0)):  # the fingers laced behind the head
+        _arm(clip, side, np.array([-sign * 0.1, 0.2, -0.1]), np.ones(n),
+             np.array([sign, 0.2, -0.2]))
+    return clip
+
+
 # ---------------------------------------------------------------------------- phrases
 # The rules of phrases_more.py: a side is said in the benchmark's words and never the other side,
 # a count always (short: never); <verb> marks and HIS as in text.py.
 
-BENCHMARK: dict[str, Phrase] = _table(
+def _step_over(p: dict, rng: Rng) -> str:
+    s = p["leg"]
+    return _pick(rng, (f"<step> over an obstacle with HIS {s} leg first",
+                       f"<walk> forward and <step> over something, leading with the {s} leg",
+                       f"<walk> and <step> high over an obstacle with the {s} foot first",
+                       f"<step> over something in HIS way, {s} leg first"))
+
+
+def _sit_ups(p: dict, rng: Rng) -> str:
+    n = p["count"]
+    return _pick(rng, (f"<do> {_count(n, rng)} situps", f"<perform> {_count(n, rng)} situps",
+                       f"<lie> on HIS back and <do> {_count(n, rng)} situps",
+                       f"<do> {_count(n, rng)} situps with HIS hands behind HIS head",
+                       f"<sit> up from lying on HIS back {_times(n, rng)}"))
+
+
+BENCHMARK: dict[str, Phrase] = {**_table(
     walk_downstairs=("<walk> down the stairs", "<walk> down a flight of stairs",
                      "<go> down the stairs", "<walk> downstairs", "<descend> the stairs",
                      "<walk> down some stairs"),
@@ -280,9 +428,47 @@ BENCHMARK: dict[str, Phrase] = _table(
                   "<walk> carefully with HIS arms spread out",
                   "<balance> with HIS arms out and <walk> forward",
                   "<stretch> HIS arms out to the sides and <walk> forward slowly"),
-)
+    fall_forward=("<fall> forward onto the floor", "<trip> and <fall> forward",
+                  "<trip> over something and <fall> flat on the ground",
+                  "<stumble> and <fall> forward onto HIS hands", "<fall> down on HIS face"),
+    fall_backward=("<fall> backward onto the floor", "<fall> over backward onto HIS back",
+                   "<fall> back and <land> on HIS back", "<fall> down backward",
+                   "<tip> over backward and <land> on the floor"),
+), "step_over": _step_over, "sit_ups": _sit_ups}
 
-EVERYDAY: dict[str, Phrase] = _table(
+
+def _e_step_over(p: dict, rng: Rng) -> str:
+    s = p["leg"]
+    return _pick(rng, (f"<clear> an obstacle with a high step of the {s} leg",
+                       f"<raise> the {s} knee high and <clear> something on the floor",
+                       f"<stride> over a low barrier, {s} foot first"))
+
+
+def _e_sit_ups(p: dict, rng: Rng) -> str:
+    n = p["count"]
+    return _pick(rng, (f"<crunch> up from the floor {_times(n, rng)}",
+                       f"<curl> up off HIS back {_times(n, rng)}",
+                       f"<work> HIS abs with {_count(n, rng)} sit-ups"))
+
+
+def _c_step_over(p: dict, rng: Rng) -> str:
+    s = p["leg"]
+    return _pick(rng, (f"<hike> HIS {s} leg over something in the way",
+                       f"<clamber> over something, {s} leg first"))
+
+
+def _c_sit_ups(p: dict, rng: Rng) -> str:
+    n = _count(p["count"], rng)
+    return _pick(rng, (f"<bang> out {n} sit-ups", f"<crank> out {n} crunches"))
+
+
+def _s_step_over(p: dict, rng: Rng) -> str:
+    """The bare phrase for the right leg, the benchmark's (which names it) for the left."""
+    if p["leg"] == "left":
+        return _step_over(p, rng)
+    return _pick(rng, ("<step> over something", "<step> over something", "<step> over it"))
+
+EVERYDAY: dict[str, Phrase] = {**_table(
     walk_downstairs=("<head> down the staircase", "<make> HIS way down the stairs",
                      "<come> down the steps"),
     walk_upstairs=("<head> up the staircase", "<make> HIS way up the stairs",
@@ -296,9 +482,13 @@ EVERYDAY: dict[str, Phrase] = _table(
     balance_walk=("<tiptoe> along with HIS arms spread wide",
                   "<inch> forward with HIS arms out like a tightrope walker",
                   "<steady> HIS body with outstretched arms and <walk> on"),
-)
+    fall_forward=("<topple> forward to the floor", "<go> sprawling face down",
+                  "<pitch> forward onto HIS hands and <sprawl> face down"),
+    fall_backward=("<topple> over backward", "<tumble> back onto HIS back",
+                   "<go> down backward and <sprawl> flat on HIS back"),
+), "step_over": _e_step_over, "sit_ups": _e_sit_ups}
 
-COLLOQUIAL: dict[str, Phrase] = _table(
+COLLOQUIAL: dict[str, Phrase] = {**_table(
     walk_downstairs=("<trot> down the stairs", "<clatter> down the steps"),
     walk_upstairs=("<trudge> up the stairs", "<clamber> up the steps"),
     crawl=("<scuttle> along on all fours", "<go> across the floor on all fours like a toddler"),
@@ -306,26 +496,34 @@ COLLOQUIAL: dict[str, Phrase] = _table(
     push=("<muscle> something heavy forward", "<shove> a load along, leaning into it"),
     balance_walk=("<wobble> along with HIS arms out like on a tightrope",
                   "<totter> ahead, arms flung out"),
-)
+    fall_forward=("<faceplant> onto the floor", "<go> flying and <land> face first"),
+    fall_backward=("<land> flat on HIS back with a thud", "<keel> over backward"),
+), "step_over": _c_step_over, "sit_ups": _c_sit_ups}
 
-SHORT: dict[str, Phrase] = _table(
+SHORT: dict[str, Phrase] = {**_table(
     walk_downstairs=("<walk> downstairs", "<go> down the stairs", "<walk> down stairs"),
     walk_upstairs=("<walk> upstairs", "<climb> stairs", "<go> up the stairs"),
     crawl=("<crawl>", "<crawl>", "<crawl> on all fours"),
     carry=("<carry> a box", "<carry> a box", "<walk> carrying a box"),
     push=("<push> something", "<push> something", "<push> something forward"),
     balance_walk=("<walk> with arms out", "<walk> with HIS arms out"),
-)
+    fall_forward=("<fall> forward", "<fall> forward", "<fall> down"),
+    fall_backward=("<fall> backward", "<fall> backward", "<fall> back"),
+    sit_ups=("<do> situps", "<do> situps"),
+), "step_over": _s_step_over}
 
 
 # ---------------------------------------------------------------------------- the interface
 
 PARAMS: dict[str, dict[str, tuple]] = {
-    "crawl": {}, "walk_downstairs": {}, "walk_upstairs": {}, "carry": {}, "push": {}, "balance_walk": {},
+    "crawl": {}, "walk_downstairs": {}, "walk_upstairs": {}, "step_over": {"leg": ("left", "right")},
+    "fall_forward": {}, "fall_backward": {}, "sit_ups": {"count": (2, 3, 4)}, "carry": {},
+    "push": {}, "balance_walk": {},
 }
 CLIPS: dict[str, Callable[..., Clip]] = {
     "crawl": crawl, "walk_downstairs": walk_downstairs, "walk_upstairs": walk_upstairs,
-    "carry": carry, "push": push, "balance_walk": balance_walk,
+    "step_over": step_over, "fall_forward": fall_forward, "fall_backward": fall_backward,
+    "sit_ups": sit_ups, "carry": carry, "push": push, "balance_walk": balance_walk,
 }
 PHRASES: dict[str, dict[str, Phrase]] = {"benchmark": BENCHMARK, "everyday": EVERYDAY,
                                          "colloquial": COLLOQUIAL, "short": SHORT}
@@ -341,16 +539,23 @@ def _forms(*lemmas: str) -> dict[str, tuple[str, str]]:
 
 
 VERBS: dict[str, dict[str, tuple[str, str]]] = {
-    "benchmark": _forms("carry", "push", "hold", "crawl", "climb", "descend"),
+    "benchmark": {**_forms("carry", "push", "hold", "crawl", "climb", "descend", "lead", "fall",
+                          "stumble", "land"), "trip": ("trips", "tripping"),
+                  "tip": ("tips", "tipping")},
     "everyday": {**_forms("lug", "tote", "cart", "shove", "heave", "drive", "tiptoe", "steady", "inch",
-                        "creep", "mount"),
+                        "creep", "mount", "clear", "topple", "pitch", "sprawl", "tumble",
+                        "crunch", "curl", "work"),
                  "lug": ("lugs", "lugging"), "tiptoe": ("tiptoes", "tiptoeing")},
-    "colloquial": {**_forms("muscle", "wobble", "totter", "scuttle", "clatter"), "schlep": ("schleps", "schlepping")},
+    "colloquial": {**_forms("muscle", "wobble", "totter", "scuttle", "clatter", "hike",
+                            "faceplant", "keel", "crank"), "schlep": ("schleps", "schlepping")},
 }
 WORDS: dict[str, str] = {"box": "NOUN", "body": "NOUN", "heavy": "ADJ", "carefully": "ADV",
                          "spread": "VERB",
                          "fours": "NOUN", "flight": "NOUN", "downstairs": "ADV",
-                         "upstairs": "ADV", "some": "DET"}
-PLURALS: dict[str, str] = {"sides": "side", "stairs": "stair"}
-ENDS_DOWN: frozenset[str] = frozenset()
-STARTS_DOWN: frozenset[str] = frozenset()
+                         "upstairs": "ADV", "some": "DET",
+                         "obstacle": "NOUN", "face": "NOUN", "behind": "ADP", "onto": "ADP"}
+PLURALS: dict[str, str] = {"sides": "side", "stairs": "stair", "situps": "situp"}
+# A fall ends lying on the floor, and sit-ups start and end lying on the back with the knees up:
+# nothing follows them in a script, and sit-ups come first.
+ENDS_DOWN: frozenset[str] = frozenset({"fall_forward", "fall_backward", "sit_ups"})
+STARTS_DOWN: frozenset[str] = frozenset({"sit_ups"})
