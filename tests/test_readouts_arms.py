@@ -138,3 +138,20 @@ def test_every_vocabulary_says_the_hand_and_only_it(family):
             assert not re.search(rf"\b{other}\b", said), (params, said)
             if vocabulary is not SHORT or hand == "left":  # short says the right hand bare
                 assert all(re.search(rf"\b{hand}\b", c) for c in caps), (params, said)
+
+
+@pytest.mark.parametrize("family", ARMS)
+def test_arm_families_pass_in_their_windows_of_a_sequence(family):
+    """After or before another action, each arm family's checks pass in its own window."""
+    before = ("walk", {"speed": "normal", "direction": "forward"})
+    after = ("turn", {"side": "left", "angle": 90})
+    params = _combos(family)[-1]
+    script = Script((Action(*before), Action(family, params), Action(*after)))
+    composed = compose(script, RIG, Style(arm_length=RIG.arm_length, shoulder_x=RIG.shoulder_x),
+                       np.random.default_rng(3), SK.fps)
+    joints = composed.positions / RIG.scale
+    label = {"actions": [dict(a.to_json(), start=s / SK.fps, end=e / SK.fps)
+                         for a, (s, e) in zip(script.actions, composed.segments)],
+             "frames": len(joints)}
+    failed = [name for name, ok in ro.evaluate_label(joints, label) if not ok]
+    assert not failed, (family, failed)

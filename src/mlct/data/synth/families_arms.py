@@ -137,7 +137,7 @@ def golf_swing(rig: Rig, fps: float, style: Style) -> Clip:
     # standing, addressing, address held, top of the backswing, (pause), impact, finish, finish
     # held, standing
     address = np.array([0.0, -0.42, 0.2])
-    top = np.array([-0.32, 0.08, -0.02])
+    top = np.array([-0.26, 0.16, 0.12])  # over the right shoulder, the left arm across the chest
     impact = np.array([0.02, -0.42, 0.2])
     finish = np.array([0.3, 0.12, -0.04])
     stand = np.array([0.0, -0.42, 0.18])
