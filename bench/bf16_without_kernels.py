@@ -32,10 +32,11 @@ def measure(dtype: str, out: str) -> None:
     import torch
 
     from mlct import cpu_features
-    from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
+    from mlct.generate.load import load_torch
+    from mlct.generate.bundle import bundled_model_dir
 
     torch.set_num_threads(1)
-    gen = MotionGenerator.load(bundled_model_dir(), "cpu", dtype)  # as asked: no fallback
+    gen = load_torch(bundled_model_dir(), "cpu", dtype)  # as asked: no fallback
     gen.generate(PROMPTS[0], seconds=4, seed=0)
     times = []
     for _ in range(7):

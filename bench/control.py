@@ -40,8 +40,8 @@ from mlct.data.layout import DatasetLayout
 from mlct.eval.judge.action_classifier import read_labels
 from mlct.eval.readouts import evaluate_label
 from mlct.eval.suites.common import MAX_FRAMES, Tally  # the read-outs' tally
-from mlct.generate.control import Control, Keyframe, control_from_dict, part_joints
-from mlct.generate.controlled import ControlMethod, generate_controlled
+from mlct.generate.control.schema import Control, Keyframe, control_from_dict, part_joints
+from mlct.generate.control.controlled import ControlMethod, generate_controlled
 from mlct.motion.features import features_to_joints
 from mlct.motion.physics import foot_skating_ratio
 

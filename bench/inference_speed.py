@@ -127,25 +127,29 @@ def variant(meta: dict[str, Any], tensors: dict[str, Any], layers: str, text_onc
 
     from mlct.nn.build import build_autoencoder, build_denoiser
     from mlct.nn.inference import for_inference
-    from mlct.generate.pipeline import MotionGenerator
+    from mlct.generate.load import torch_generator
     from mlct.io import strip_prefix
 
-    gen = MotionGenerator(meta, tensors, dtype=dtype)
+    gen = torch_generator(meta, tensors, dtype=dtype)
     if layers != "packed":
         ae = build_autoencoder(gen.config, meta["feature_dim"])
         ae.load_state_dict(strip_prefix(tensors, "decoder"), strict=False)
         den = build_denoiser(gen.config, meta["text_dim"])
         den.load_state_dict(strip_prefix(tensors, "denoiser"))
-        gen.ae, gen.denoiser = ae.eval().requires_grad_(False), den.eval().requires_grad_(False)
+        nets = gen.networks
+        nets.decoder, nets.denoiser = (ae.eval().requires_grad_(False),
+                                       den.eval().requires_grad_(False))
         if layers == "fast":
             for_inference(gen.ae, dtype, prepack=False)
             for_inference(gen.denoiser, dtype, prepack=False)
     if not text_once:
         gen.denoiser.condition_terms = None  # the samplers then call it without a cache
     if not inference_mode:
-        for name in ("sample_latents", "decode"):
-            plain = getattr(MotionGenerator, name).__wrapped__  # under the decorator
-            setattr(gen, name, torch.no_grad()(plain.__get__(gen)))
+        from mlct.generate.backends.pytorch import TorchNetworks
+
+        for name in ("latents", "decode"):
+            plain = getattr(TorchNetworks, name).__wrapped__  # under the decorator
+            setattr(gen.networks, name, torch.no_grad()(plain.__get__(gen.networks)))
     return gen
 
 
@@ -277,7 +281,7 @@ def throughput(gen: Any, budget_s: float, sync: Callable[[], None]) -> list[dict
             run()  # the onnx backend builds its sampler graph at the second call
         # the onnx backend hands its first batch of torch_min_batch or more to torch networks
         # it builds then (a one-off, as the sampler graph): warmed up whatever it costs
-        handover = getattr(gen, "torch_min_batch", None)
+        handover = getattr(gen.networks, "torch_min_batch", None)
         first_torch = (handover is not None and batch >= handover
                        and (not rows or rows[-1]["batch"] < handover))
         if not rows or first_torch or rows[-1]["seconds"] * batch / rows[-1]["batch"] < 2.0:
@@ -317,31 +321,29 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
     import torch
 
     from mlct.eval.aits import time_inference
-    from mlct.generate.pipeline import MotionGenerator
+    from mlct.generate.load import cuda_graph_generator, torch_generator
     from mlct.text import load_text_encoder
 
     if spec["threads"]:
         torch.set_num_threads(spec["threads"])
-    import mlct.generate.onnx_backend as onnx_backend
+    import mlct.generate.backends.onnx.networks as onnx_backend
 
     if spec.get("one_thread_max_batch") is not None:
         onnx_backend.ONE_THREAD_MAX_BATCH = spec["one_thread_max_batch"]
     if spec.get("torch_min_batch") is not None:
-        onnx_backend.TORCH_MIN_BATCH = spec["torch_min_batch"] or None  # 0: never
+        onnx_backend.TORCH_MIN_BATCH = max(1, spec["torch_min_batch"])
     preset, sampler, nfes = MODELS[spec["model"]]
     bundle = bundle_in_memory(preset, sampler)  # read (or built) once for every generator here
-    gen = MotionGenerator(*bundle, spec["device"], spec["dtype"])
+    gen = torch_generator(*bundle, spec["device"], spec["dtype"])
     device = gen.device
     sync = _syncer(device)
     if device.type == "cuda":
-        gen._text_encoder = load_text_encoder(gen.meta["text_encoder"], device=device)
+        gen.networks._text_encoder = load_text_encoder(gen.meta["text_encoder"], device=device)
     gen.encode_text([""])  # loads the text encoder: loading is not timed
     costs = part_costs(gen)  # the model's, counted on its eager torch modules
     if spec["backend"] == "cuda-graphs":
-        from mlct.generate.cuda_graph_backend import CudaGraphMotionGenerator
-
-        gen = CudaGraphMotionGenerator(*bundle, spec["device"],
-                                       spec["dtype"])  # its text encoder on the GPU, graphed
+        gen = cuda_graph_generator(*bundle, spec["device"],
+                                   spec["dtype"])  # its text encoder on the GPU, graphed
         gen.encode_text([""])
     elif spec["backend"] == "torch-compiled" and device.type == "cuda":
         _compile_for_cuda(gen)
@@ -349,9 +351,9 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
         folder = tempfile.mkdtemp(prefix="mlct-bench-onnx-")
         gen = onnx_generator(preset, sampler, folder, int8=spec["backend"] == "onnx-int8")
         if spec["backend"] == "onnx-int8":  # its step reads int8 weights and their scales
-            costs["step"]["bytes"] = float(_graph_weight_bytes(gen.graphs.denoiser))
+            costs["step"]["bytes"] = float(_graph_weight_bytes(gen.networks.graphs.denoiser))
         if spec["backend"] == "onnx-spinning":  # what a machine of 4 cores or more runs
-            gen.spinning_steps = True
+            gen.networks.spinning = True
         gen.encode_text([""])
     elif spec["backend"] == "torch-compiled" and device.type == "cpu":
         # inductor cannot lower the packed products
@@ -416,7 +418,7 @@ def run_model(spec: dict[str, Any]) -> dict[str, Any]:
         import shutil
 
         shutil.rmtree(folder, ignore_errors=True)
-    from mlct.generate.onnx_backend import ONE_THREAD_MAX_BATCH, TORCH_MIN_BATCH
+    from mlct.generate.backends.onnx.networks import ONE_THREAD_MAX_BATCH, TORCH_MIN_BATCH
 
     return {"model": spec["model"], "dtype": spec["dtype"], "backend": spec["backend"],
             "one_thread_max_batch": ONE_THREAD_MAX_BATCH, "torch_min_batch": TORCH_MIN_BATCH,
@@ -435,14 +437,13 @@ def ablations(reps: int, onnx: bool = False) -> list[dict[str, Any]]:
     import numpy as np
     import torch
 
-    from mlct.generate.onnx_backend import OnnxMotionGenerator
-    from mlct.generate.pipeline import MotionGenerator
+    from mlct.generate.load import load_onnx, torch_generator
 
     threads = torch.get_num_threads()
     rows = []
     for model in ("small CM", "paper CM"):
         meta, tensors = bundle_in_memory(*MODELS[model][:2])
-        default = MotionGenerator(meta, tensors)
+        default = torch_generator(meta, tensors)
         variants: list[tuple[str, Any, int]] = [  # name, generator, threads
             ("before: torch layers, conditions every step, no_grad",
              variant(meta, tensors, "torch", False, False), threads),
@@ -454,7 +455,7 @@ def ablations(reps: int, onnx: bool = False) -> list[dict[str, Any]]:
              variant(meta, tensors, "packed", True, False), threads),
             ("+ inference_mode (the float32 default)", default, threads),
             ("  the same with bfloat16 products",
-             MotionGenerator(meta, tensors, dtype="bfloat16"), threads)]
+             torch_generator(meta, tensors, dtype="bfloat16"), threads)]
         if threads > 1:
             variants.append(("  the float32 default on 1 thread", default, 1))
         if onnx:  # the other backend, interleaved with the rest: a busy machine hits all alike
@@ -463,7 +464,7 @@ def ablations(reps: int, onnx: bool = False) -> list[dict[str, Any]]:
             variants.append(("  the onnx backend (ONNX Runtime, float32)", onnx_gen, threads))
             if threads > 1:  # ONNX Runtime's threads are set when its sessions are made
                 variants.append(("  the onnx backend on 1 thread",
-                                 OnnxMotionGenerator.load(folder, threads=1), 1))
+                                 load_onnx(folder, threads=1), 1))
         cond = torch.randn(1, TEXT_DIM, generator=torch.Generator().manual_seed(0))
         cond = cond / cond.norm()
         times = np.zeros((len(variants), reps, 2))
@@ -683,8 +684,8 @@ def main() -> None:
                         help="onnx backends: batches up to B run the sampler graph on one thread "
                              "(default: the backend's ONE_THREAD_MAX_BATCH; 0: never)")
     parser.add_argument("--torch-min-batch", type=int, default=None, metavar="B",
-                        help="onnx backends: batches of B or more are run by the torch networks "
-                             "(default: the backend's TORCH_MIN_BATCH; 0: never)")
+                        help="onnx backends: batches of B (>= 1) or more are run by the torch "
+                             "networks (default: the backend's TORCH_MIN_BATCH)")
     parser.add_argument("--runs", type=int, default=20, help="timed runs per AITS figure (at "
                         "most; fewer where a run is slow)")
     parser.add_argument("--json", default=None, help="write every figure to this file")

@@ -31,9 +31,9 @@ def main() -> None:
     from onnxruntime.quantization import QuantType, quantize_dynamic
     from tokenizers import Tokenizer
 
-    from mlct.generate.onnx_bundle import write_onnx_graphs
-    from mlct.generate.onnx_compact import QUANTIZED_OPS, quantize_int8
-    from mlct.generate.pipeline import bundled_model_dir
+    from mlct.generate.backends.onnx.convert import write_onnx_graphs
+    from mlct.generate.backends.onnx.compact import QUANTIZED_OPS, quantize_int8
+    from mlct.generate.bundle import bundled_model_dir
     from mlct.text.encoders import bundled_minilm_path
 
     data = json.loads(PROMPTS.read_text())

@@ -11,24 +11,18 @@ round (paired), so the host's drift cancels.
 
 MODEL is a model directory, "bundled", or "paper" / "paper-int8" (bench/inference_speed.py's
 paper-size networks, seeded random weights, converted in float32 / with --int8), optionally with variants after a colon, joined by
-"+" (bundled:one-graph+matmul-add-fusion), each as the graphs were before a change:
+"+" (bundled:whole-grid+matmul-add-fusion), each as the graphs were before a change:
 "unfused-text" the text encoder of standard ONNX operators (write_minilm_graph(fused=False))
 instead of the fused one; "whole-grid" a decoder that convolves every grid cell whatever the
-clip's length (before nn/conv_autoencoder.py's DECODE_MARGIN); "one-graph" batch 1's steps and
-decoder in one sampler graph on one thread (before onnx_backend.DECODE_APART);
+clip's length (before nn/conv_autoencoder.py's DECODE_MARGIN);
 "matmul-add-fusion" ONNX Runtime's MatMulAddFusion on (before onnx_io.DISABLED_OPTIMIZERS);
-"one-decoder" the decoder apart as one session on all threads, not its halves side by side
-(before onnx_backend.DECODE_HALVES); "spinning-steps" / "one-thread-steps" batch 1's steps on
-two threads spinning within the run / on one thread, whatever the machine's load (onnx_io.spin_now
-decides otherwise); "sleeping-big-graph" batch 1 of a sampler graph too big for one thread
-(the paper-size model's) on threads that sleep between operators, whatever the machine's load
-(before onnx_backend.SPIN_BIG_GRAPH); "static-spinning" the steps and the text encoder spinning by the machine's
-size alone (onnx_io.spare_cores: 4 logical CPUs or more), not by how idle it is now;
-"unfused-attention" the sampler graph's attentions as torch.onnx wrote them (before
-onnx_backend.FUSE_ATTENTION); "candidates-loop" generate()'s best-of-N latents by the step loop
-and its chosen latent by the whole decoder (before onnx_backend._steps_session and the halves in
-decode()); "torch-glue" the torch work around the graphs on torch's threads (before
-onnx_backend.TORCH_GLUE_THREADS).
+"spinning-steps" / "one-thread-steps" batch 1's steps on two threads spinning within the run /
+on one thread, whatever the machine's load (onnx_io.spin_now decides otherwise);
+"static-spinning" the steps and the text encoder spinning by the machine's size alone
+(onnx_io.spare_cores: 4 logical CPUs or more), not by how idle it is now. The onnx backend's
+other choices measured here once (the steps apart from the decoder, the decoder's halves, the
+fused attentions, the big graph spinning, the candidates through the steps' graph, the torch
+work on one thread) are fixed now (backends/onnx/networks.py says why, with their figures).
 --generate also times generate() itself, as a user calls it: a 5 s motion of a caption seen
 before, the model's best of N candidates, keep-going and planted feet included (column "gen").
 --busy N runs N busy loops beside the rounds (started after loading), the load spin_now is to
@@ -55,9 +49,8 @@ from typing import Any
 from mlct.eval.speed import FRAMES, TEXTS, onnx_generator
 
 
-VARIANTS = ("unfused-text", "whole-grid", "one-graph", "matmul-add-fusion", "one-decoder",
-            "spinning-steps", "one-thread-steps", "sleeping-big-graph", "static-spinning",
-            "unfused-attention", "candidates-loop", "torch-glue")
+VARIANTS = ("unfused-text", "whole-grid", "matmul-add-fusion", "spinning-steps",
+            "one-thread-steps", "static-spinning")
 
 
 def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
@@ -65,8 +58,9 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
     import mlct
     import mlct.nn.conv_autoencoder as conv
     import mlct.onnx_io as onnx_io
-    from mlct.generate.onnx_bundle import ONNX_DIR, TEXT_ENCODER, convert_to_onnx
-    from mlct.generate.pipeline import bundled_model_dir
+    from mlct.generate.backends.onnx.bundle import ONNX_DIR, TEXT_ENCODER
+    from mlct.generate.backends.onnx.convert import convert_to_onnx
+    from mlct.generate.bundle import bundled_model_dir
     from mlct.text.minilm_onnx import write_minilm_graph
 
     name, _, variant = spec.partition(":")
@@ -86,7 +80,7 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
         if paper:  # written to folder/model, converted beside it
             (folder / "model").mkdir(parents=True)
             out = onnx_generator("humanml3d", "consistency", str(folder / "model"),
-                                 int8=name == "paper-int8").graphs.denoiser.parent.parent
+                                 int8=name == "paper-int8").networks.graphs.denoiser.parent.parent
         else:
             out = convert_to_onnx(model, folder, read_only=name == "bundled")
         if "unfused-text" in chosen:
@@ -95,20 +89,12 @@ def load(spec: str, folder: Path, frames: int = FRAMES) -> Any:
             spec_name = json.loads((out / "config.json").read_text())["text_encoder"]
             write_minilm_graph(spec_name, out / ONNX_DIR / TEXT_ENCODER, fused=False)
         gen = mlct.load(out, backend="onnx")  # ONNX Runtime threads follow torch's
-        gen.decode_apart = "one-graph" not in chosen
-        gen.decode_halves = "one-decoder" not in chosen
-        gen.fuse_attention = "unfused-attention" not in chosen
-        if "candidates-loop" in chosen:  # the instance's own methods, as before the change
-            gen._steps_session = lambda steps, batch: None
-            gen._single_decodes = -10**9  # never a second single decode: the whole decoder
-        gen.spin_big_graph = "sleeping-big-graph" not in chosen
-        if "torch-glue" in chosen:
-            gen.torch_glue_threads = None
+        nets = gen.networks
         if chosen & {"spinning-steps", "one-thread-steps"}:
-            gen.spinning_steps = "spinning-steps" in chosen
+            nets.spinning = "spinning-steps" in chosen
         if "static-spinning" in chosen:
-            if gen.spinning_steps is None:
-                gen.spinning_steps = gen.threads >= 2 and onnx_io.spare_cores(2)
+            if nets.spinning is None:
+                nets.spinning = nets.threads >= 2 and onnx_io.spare_cores(2)
             gen.text_encoder.spinning = onnx_io.spare_cores(gen.text_encoder.threads)
         warm_ms(gen, len(TEXTS) + 2, 0, frames)  # the text memo and the sampler graph's
         text_ms(gen, 4, 0)  # sessions, made here under the switches

@@ -4,7 +4,7 @@ and how few it flags of the prompts the model can do.
     python bench/unknown_prompts.py [--model MODEL_DIR] [--data SYNTH] [--passes SEEDS]
 
 A prompt is flagged when some part of it lies too far from every training caption
-(generate/unknown_prompts.py: its cosine with the nearest one under UNKNOWN_BELOW). The sets:
+(generate/compose/unknown_prompts.py: its cosine with the nearest one under UNKNOWN_BELOW). The sets:
 
 tuning (they chose UNKNOWN_BELOW; the rule is printed and applied again here):
   unknown  bench/data/unknown_prompts.json "tuning": 30 everyday activities no family covers
@@ -47,7 +47,7 @@ import torch
 import mlct
 from mlct.data.synth.build import _split, make_motion
 from mlct.data.synth.rephrase import everyday_captions
-from mlct.generate.unknown_prompts import UNKNOWN_BELOW, unknown_below
+from mlct.generate.compose.unknown_prompts import UNKNOWN_BELOW, unknown_below
 from mlct.motion.skeleton import get_skeleton
 
 DATA = Path(__file__).parent / "data"
@@ -80,8 +80,9 @@ def split_records(data: Path | None, split: str) -> list[dict[str, Any]]:
 def nearest(pipe: Any, texts: list[str], split: bool = True) -> np.ndarray:
     """Each prompt's lowest part cosine with its nearest training caption (generate()'s
     parts: a prompt is flagged when any part is)."""
-    from mlct.generate.pipeline import parts_as_made, stated_lengths
-    from mlct.generate.prompts import clean_prompt
+    from mlct.generate.compose.reading import parts_as_made
+    from mlct.generate.compose.lengths import stated_lengths
+    from mlct.generate.compose.prompts import clean_prompt
 
     clean, _ = stated_lengths([clean_prompt(t) for t in texts], split)
     plans = [[*body, *([arms] if arms else [])]

@@ -11,7 +11,7 @@ times window.mlct.generate on new sentences (each runs the text encoder; nothing
 (performance.now() around tokenize -> text encoder -> sampler -> decoder -> joints) and of its
 parts, after WARMUP sentences. For comparison, on the same machine at the same time: the same
 graphs and steps in Python (ONNX Runtime's native CPU build, --python-threads threads,
-mlct.generate.portable_noise.generate_with_portable_noise). --candidates: best of N by the
+mlct.generate.samplers.portable_noise.generate_with_portable_noise). --candidates: best of N by the
 critic (the page's default is the model's, 8 for the bundled model); --sequences also times
 two-action prompts ("A, then B": two parts, each encoded and sampled, chained), 6 s.
 

@@ -23,7 +23,7 @@ def test_text_memo_is_bounded_and_keeps_recent_texts(monkeypatch) -> None:
     """A server sees unboundedly many prompts: the embedding memo is an LRU."""
     import torch
 
-    from mlct.generate import pipeline
+    from mlct.generate import core
 
     gen = mlct.load()
     calls: list[list[str]] = []
@@ -34,12 +34,12 @@ def test_text_memo_is_bounded_and_keeps_recent_texts(monkeypatch) -> None:
             return torch.stack([torch.full((gen.meta["text_dim"],), float(len(t)))
                                 for t in texts])
 
-    gen._text_encoder = Counting()
-    monkeypatch.setattr(pipeline, "TEXT_MEMO_SIZE", 2)
+    gen.networks._text_encoder = Counting()
+    monkeypatch.setattr(core, "TEXT_MEMO_SIZE", 2)
     gen.encode_text(["a", "bb"])
     gen.encode_text(["a"])  # "a" becomes the most recent; "bb" the oldest
     out = gen.encode_text(["ccc", "a"])  # "bb" is dropped, "a" kept
-    assert calls == [["a", "bb"], ["ccc"]] and list(gen._text_memo) == ["ccc", "a"]
+    assert calls == [["a", "bb"], ["ccc"]] and list(gen.core._text_memo) == ["ccc", "a"]
     assert out[0, 0] == 3 and out[1, 0] == 1
     gen.encode_text(["bb"])
-    assert calls[-1] == ["bb"] and len(gen._text_memo) == 2
+    assert calls[-1] == ["bb"] and len(gen.core._text_memo) == 2

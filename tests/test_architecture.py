@@ -36,11 +36,27 @@ LAYERS: tuple[tuple[str, ...], ...] = (
 )
 
 
+# Inside generate, lowest first (docs/architecture.md, "generate"): a part imports its own
+# modules and the parts below it. The core (text -> latents -> features) sits on the backends'
+# networks; the composer (what generate() makes of prompts) on the core and the controls;
+# load puts a backend's networks under a core under a composer.
+GENERATE_LAYERS: tuple[tuple[str, ...], ...] = (
+    ("output", "seeds"),  # GeneratedMotion and its writers; a seed's items and noise
+    ("samplers",),  # the sampler objects and their registry
+    ("bundle",),  # the bundle format
+    ("backends",),  # the networks of one backend: torch, onnx/, cuda graphs; auto's choice
+    ("core",),  # text -> latents -> features -> joints, one batch a call
+    ("control",),  # paths, keyframes, edits, prefixes and how they are met
+    ("compose",),  # the prompt composer: MotionGenerator and what it reads of a prompt
+    ("files", "load"),  # `mlct generate`'s files for a request; mlct.load
+)
+
+
 @dataclass(frozen=True)
 class Import:
     module: str  # the importing module, mlct.eval.run
     line: int
-    target: str  # the imported module, mlct.generate.pipeline
+    target: str  # the imported module, mlct.generate.compose.generator
 
 
 def rank(unit: str) -> int:
@@ -102,6 +118,44 @@ def layer_violations(src: Path) -> list[str]:
     return out
 
 
+def part_of(module: str) -> str | None:
+    """mlct.generate.backends.onnx.networks -> backends; mlct.generate -> None."""
+    parts = module.split(".")
+    return parts[2] if len(parts) > 2 and parts[1] == "generate" else None
+
+
+def generate_violations(src: Path) -> list[str]:
+    """One line per import inside generate that points up GENERATE_LAYERS or across."""
+    rank_of = {part: i for i, layer in enumerate(GENERATE_LAYERS) for part in layer}
+    out = []
+    for imp in imports(src):
+        here, there = part_of(imp.module), part_of(imp.target)
+        if here is None or there is None or here == there:
+            continue
+        if rank_of[there] >= rank_of[here]:
+            side = "a sibling of" if rank_of[there] == rank_of[here] else "above"
+            out.append(f"{imp.module}:{imp.line} imports {imp.target}: {there} is {side} {here}")
+    return out
+
+
+def import_floors(src: Path, package: str) -> int:
+    """The longest chain of imports between the modules of `package` (mlct.generate): how many
+    floors its modules stand on."""
+    inside = [m for m in module_names(src) if m.startswith(package + ".")]
+    graph: dict[str, set[str]] = {m: set() for m in inside}
+    for imp in imports(src):
+        if imp.module in graph and imp.target in graph:
+            graph[imp.module].add(imp.target)
+    floor: dict[str, int] = {}
+
+    def height(m: str) -> int:
+        if m not in floor:
+            floor[m] = 1 + max((height(t) for t in graph[m]), default=0)
+        return floor[m]
+
+    return max(height(m) for m in inside)
+
+
 def cycles(src: Path) -> list[list[str]]:
     """The import cycles between modules (strongly connected components of 2 or more)."""
     graph: dict[str, set[str]] = {m: set() for m in module_names(src)}
@@ -147,6 +201,24 @@ def test_no_import_points_up_or_across_the_layers() -> None:
 
 def test_no_import_cycle_between_modules() -> None:
     assert cycles(SRC) == []
+
+
+def test_generate_parts_import_down_their_layers() -> None:
+    placed = {part for layer in GENERATE_LAYERS for part in layer}
+    parts = {part_of(m) for m in module_names(SRC)} - {None}
+    assert parts == placed, "place the new part of generate in GENERATE_LAYERS"
+    assert generate_violations(SRC) == []
+
+
+def test_generate_stays_a_few_modules_a_folder_on_few_floors() -> None:
+    """Past a dozen modules a folder wants grouping; past 8 floors the imports tangle (the flat
+    generate/ of 29 modules stood on 10)."""
+    per_folder: dict[Path, int] = {}
+    for path in (SRC / "generate").rglob("*.py"):
+        if path.name != "__init__.py":
+            per_folder[path.parent] = per_folder.get(path.parent, 0) + 1
+    assert max(per_folder.values()) <= 15
+    assert import_floors(SRC, "mlct.generate") <= 8
 
 
 def test_the_checks_catch_an_upward_import_and_a_cycle(tmp_path: Path) -> None:

@@ -1,4 +1,4 @@
-"""backend="auto" (generate/auto_backend.py): onnx where it can run, its graphs found in the
+"""backend="auto" (generate/backends/auto.py): onnx where it can run, its graphs found in the
 model directory (int8 ones too) or made once into the cache, atomically; torch otherwise;
 --verbose says which. onnx-int8 asked for by name."""
 
@@ -13,9 +13,10 @@ import pytest
 import mlct
 from mlct.cli import main
 from mlct.errors import MlctError
-from mlct.generate import auto_backend
-from mlct.generate.onnx_bundle import MANIFEST, convert_to_onnx
-from mlct.generate.pipeline import bundled_model_dir
+from mlct.generate.backends import auto as auto_backend
+from mlct.generate.backends.onnx.bundle import MANIFEST
+from mlct.generate.backends.onnx.convert import convert_to_onnx
+from mlct.generate.bundle import bundled_model_dir
 
 pytest.importorskip("onnxruntime")
 pytest.importorskip("onnx")
@@ -51,7 +52,7 @@ def test_first_use_converts_into_the_cache_atomically_and_once(auto, monkeypatch
     def fail(*args):
         raise AssertionError("converted again")
 
-    monkeypatch.setattr("mlct.generate.onnx_bundle.write_onnx_graphs", fail)
+    monkeypatch.setattr("mlct.generate.backends.onnx.convert.write_onnx_graphs", fail)
     gen = mlct.load()
     assert gen.backend == "onnx" and str(entries[0]) in gen.backend_note
     assert gen.backend_note.startswith("onnx (auto: ONNX Runtime")
@@ -80,7 +81,7 @@ def test_onnx_int8_moves_the_joints_by_millimetres_not_metres(auto) -> None:
                                                candidates=1)
     gen = mlct.load(backend="onnx-int8")
     assert gen.backend == "onnx-int8" and gen.backend_note == "onnx-int8 (asked for)"
-    assert gen.graphs.manifest["int8"] == ["denoiser"]
+    assert gen.networks.graphs.manifest["int8"] == ["denoiser"]
     for _ in range(2):
         got = gen.generate(texts, lengths=[120, 80], nfe=5, seed=2, candidates=1)
         assert 0 < _gap(want, got)[0] < 0.02  # 6 mm with blocks of 32 (2026-11-26)
@@ -101,10 +102,10 @@ def test_onnx_by_name_on_a_model_without_graphs_takes_the_caches(auto, monkeypat
     def fail(*args):
         raise AssertionError("converted again")
 
-    monkeypatch.setattr("mlct.generate.onnx_bundle.write_onnx_graphs", fail)
+    monkeypatch.setattr("mlct.generate.backends.onnx.convert.write_onnx_graphs", fail)
     gen = mlct.load(backend="onnx")
-    assert gen.backend_note == "onnx (asked for)" and "int8" not in gen.graphs.manifest
-    assert Path(gen.graphs.denoiser).parent == auto_backend.default_graph_dir(bundled_model_dir())
+    assert gen.backend_note == "onnx (asked for)" and "int8" not in gen.networks.graphs.manifest
+    assert Path(gen.networks.graphs.denoiser).parent == auto_backend.default_graph_dir(bundled_model_dir())
 
 
 def test_threads_set_torch_and_every_graph(auto, tmp_path, capsys) -> None:
@@ -115,10 +116,10 @@ def test_threads_set_torch_and_every_graph(auto, tmp_path, capsys) -> None:
     before = torch.get_num_threads()
     try:
         gen = mlct.load(backend="onnx", threads=1)
-        assert torch.get_num_threads() == 1 and gen.threads == 1
+        assert torch.get_num_threads() == 1 and gen.networks.threads == 1
         assert gen.text_encoder.threads == 1
         assert gen.ae.session.get_session_options().intra_op_num_threads == 1
-        assert mlct.load(threads=2).threads == 2  # auto: onnx here
+        assert mlct.load(threads=2).networks.threads == 2  # auto: onnx here
         for bad in (0, -1, 1.5, "2", True):
             with pytest.raises(MlctError, match="threads must be a whole number of at least 1"):
                 mlct.load(threads=bad)
@@ -143,7 +144,7 @@ def test_a_dtype_or_device_onnx_cannot_run_is_refused_before_converting(tmp_path
     def fail(*args):
         raise AssertionError("converted for a dtype or device it cannot run")
 
-    monkeypatch.setattr("mlct.generate.onnx_bundle.write_onnx_graphs", fail)
+    monkeypatch.setattr("mlct.generate.backends.onnx.convert.write_onnx_graphs", fail)
     for backend in ("onnx", "onnx-int8"):
         with pytest.raises(MlctError, match="runs float32 graphs; dtype 'bfloat16'"):
             mlct.load(backend=backend, dtype="bfloat16")
@@ -160,7 +161,7 @@ def test_a_concurrent_conversion_keeps_the_first(tmp_path, monkeypatch) -> None:
         (entry / MANIFEST).write_text("theirs")
         (Path(into) / MANIFEST).write_text("ours")
 
-    monkeypatch.setattr("mlct.generate.onnx_bundle.write_onnx_graphs",
+    monkeypatch.setattr("mlct.generate.backends.onnx.convert.write_onnx_graphs",
                         other_process_finishes_first)
     assert auto_backend.convert_into_cache(bundled_model_dir(), entry) == entry
     assert (entry / MANIFEST).read_text() == "theirs"
@@ -175,7 +176,7 @@ def test_a_failed_conversion_leaves_nothing_and_falls_back(tmp_path, monkeypatch
         (Path(into) / "half.onnx").write_text("x")
         raise MlctError("the ONNX graph differs from the torch network")
 
-    monkeypatch.setattr("mlct.generate.onnx_bundle.write_onnx_graphs", broken)
+    monkeypatch.setattr("mlct.generate.backends.onnx.convert.write_onnx_graphs", broken)
     gen = mlct.load()
     assert gen.backend == "torch" and "converting to ONNX failed" in gen.backend_note
     assert list((tmp_path / "onnx").iterdir()) == []
@@ -206,7 +207,7 @@ def test_cli_verbose_says_which_backend(auto, tmp_path, capsys) -> None:
                  "--out", str(out), "--quiet", "--verbose"]) == 0
     err = capsys.readouterr().err
     assert "mlct: backend onnx (auto: ONNX Runtime" in err
-    from mlct.generate.onnx_backend import TORCH_MIN_BATCH
+    from mlct.generate.backends.onnx.networks import TORCH_MIN_BATCH
 
     assert f"batches of {TORCH_MIN_BATCH} or more latents on the torch networks" in err
     assert np.load(out).shape == (20, 22, 3)

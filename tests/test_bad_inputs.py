@@ -28,7 +28,7 @@ from dataset_factory import make_dataset, rest_pose
 import mlct
 from mlct.cli import main
 from mlct.errors import MlctError
-from mlct.generate.pipeline import bundled_model_dir
+from mlct.generate.bundle import bundled_model_dir
 from mlct.motion.bvh import write_bvh
 from mlct.motion.skeleton import HUMANML3D
 
@@ -372,7 +372,7 @@ CLI_CASES = [
     (["generate", W, "--seconds", "inf", "--out", "x.npy"], "seconds must be a positive number"),
     (["generate", W, "--seconds", "abc", "--out", "x.npy"],
      "--seconds: not a number of seconds or 'auto'"),
-    # past the window: a gait keeps going up to 120 s (generate/keep_going.py), nothing else
+    # past the window: a gait keeps going up to 120 s (generate/compose/keep_going.py), nothing else
     (["generate", "a person jumps", "--seconds", "60", "--out", "x.npy"],
      "outside 1..196 (9.80 s at 20 fps) for this prompt: only a gait"),
     (["generate", W, "--seconds", "121", "--out", "x.npy"], "another gait keeps going up to 120 s"),

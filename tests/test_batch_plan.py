@@ -1,5 +1,5 @@
 """A list of prompts is sampled in a few large batches, whatever each prompt becomes
-(generate/batch_plan.py), and every motion is the one its prompt makes alone."""
+(generate/compose/batch_plan.py), and every motion is the one its prompt makes alone."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import mlct
-from mlct.generate.batch_plan import Sample, planned_samples
+from mlct.generate.compose.batch_plan import Sample, planned_samples
 
 MIXED = ["a person walks forward, then waves with the right hand",  # a sequence
          "a person walks forward while waving the left hand",  # a body and its arms
@@ -46,12 +46,15 @@ class Recorder:
 
 
 def made(generator, texts, seconds, seed, ahead: bool, **kwargs):
-    generator.make_ahead = ahead
-    try:
-        with Recorder(generator) as recorder:
+    """The motions of texts made as one list (ahead: its samples made in a few batches) or
+    one prompt at a time, a call each, with the seeds and seconds the list gives them."""
+    with Recorder(generator) as recorder:
+        if ahead:
             out = generator.generate(texts, seconds=seconds, seed=seed, **kwargs)
-    finally:
-        generator.make_ahead = True
+        else:
+            each = seconds if isinstance(seconds, list) else [seconds] * len(texts)
+            out = [generator.generate(text, seconds=n, seed=seed + i, **kwargs)[0]
+                   for i, (text, n) in enumerate(zip(texts, each))]
     return out, recorder
 
 
@@ -86,7 +89,7 @@ def test_gaits_that_keep_going_get_their_takes_in_one_batch(generator):
     alone, before = made(generator, texts, 9.0, 0, False, candidates=1)
     assert all(len(m.seams) >= 1 for m in out)  # each kept going
     assert len(ahead.calls) == 2  # the prompts, then every prompt's takes
-    assert len(before.calls) == 4  # the prompts, then each prompt's takes
+    assert len(before.calls) == 6  # each prompt, then its takes
     assert Counter(ahead.items) == Counter(before.items)
     for a, b in zip(out, alone):
         np.testing.assert_allclose(a.joints, b.joints, atol=1e-4)
@@ -95,13 +98,13 @@ def test_gaits_that_keep_going_get_their_takes_in_one_batch(generator):
 def test_an_unforeseen_sample_is_still_made(generator):
     """A sample the memo does not hold (other settings than the plan's) is sampled where it is
     asked for: best_features falls through to sample_best."""
-    from mlct.generate.batch_plan import SampleMemo
+    from mlct.generate.compose.batch_plan import SampleMemo
 
-    generator._nesting.memo = SampleMemo(generator.check_nfe(None), None, 1)
+    generator.nesting.memo = SampleMemo(generator.check_nfe(None), None, 1)
     try:
         out = generator.generate("a person jumps", seconds=3.0, seed=0, candidates=1)[0]
     finally:
-        generator._nesting.memo = None
+        generator.nesting.memo = None
     alone = generator.generate("a person jumps", seconds=3.0, seed=0, candidates=1)[0]
     np.testing.assert_allclose(out.joints, alone.joints, atol=1e-5)
 
@@ -109,7 +112,7 @@ def test_an_unforeseen_sample_is_still_made(generator):
 def test_the_samples_are_made_a_few_dozen_latents_a_call_on_a_cpu(generator, monkeypatch):
     """Past ~64 latents a call the CPU's time per motion grows (the cache), so the memo is
     filled in calls of PREFETCH_LATENTS latents: here 16, two prompts of 8 candidates each."""
-    from mlct.generate import batch_plan
+    from mlct.generate.compose import batch_plan
 
     monkeypatch.setitem(batch_plan.PREFETCH_LATENTS, "cpu", 16)
     out, ahead = made(generator, MIXED, MIXED_SECONDS, 3, True)

@@ -12,8 +12,8 @@ from scipy.spatial.transform import Rotation
 
 from mlct.data.synth.build import make_motion
 from mlct.errors import MlctError
-from mlct.generate.exports import save_motion
-from mlct.generate.generated import GeneratedMotion
+from mlct.generate.output.exports import save_motion
+from mlct.generate.output.generated import GeneratedMotion
 from mlct.motion.bvh import TO_CENTIMETRES, bvh_text, read_bvh, write_bvh
 from mlct.motion.skeleton import HUMANML3D, KIT, Skeleton
 

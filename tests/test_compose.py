@@ -9,9 +9,9 @@ import torch
 import pytest
 
 import mlct
-from mlct.generate.compose import in_order, split_actions, split_concurrent
-from mlct.generate.durations import split_frames
-from mlct.generate.long_motion import LongMotion
+from mlct.generate.compose.actions import in_order, split_actions, split_concurrent
+from mlct.generate.compose.durations import split_frames
+from mlct.generate.compose.long_motion import LongMotion
 
 
 @pytest.mark.parametrize("text, parts", [
@@ -229,7 +229,7 @@ def test_a_clause_splits_into_actions_in_order() -> None:
     ("walks forward, then waves", "walks forward, then waves"),  # no subject
 ])
 def test_a_subject_the_captions_never_used_is_read_as_a_person(text: str, read: str) -> None:
-    from mlct.generate.compose import plain_subject
+    from mlct.generate.compose.actions import plain_subject
 
     assert plain_subject(text) == read
 

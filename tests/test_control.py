@@ -1,4 +1,4 @@
-"""Controls (generate/control.py, control_fit.py, controlled.py): the schema and its errors,
+"""Controls (generate/control/schema.py, control/fit.py, control/controlled.py): the schema and its errors,
 and each control met on a motion the bundled model generates."""
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ import pytest
 import mlct
 from mlct.cli import main
 from mlct.errors import MlctError
-from mlct.generate.control import Control, Keyframe, control_from_dict, part_joints
-from mlct.generate.control_files import read_path_file
-from mlct.generate.control_fit import fabrik, offset_curve
-from mlct.generate.controlled import ControlMethod, generate_controlled
+from mlct.generate.control.schema import Control, Keyframe, control_from_dict, part_joints
+from mlct.generate.control.files import read_path_file
+from mlct.generate.control.fit import fabrik, offset_curve
+from mlct.generate.control.controlled import ControlMethod, generate_controlled
 from mlct.motion.skeleton import get_skeleton
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -143,7 +143,7 @@ def test_path_is_met_and_guidance_brings_the_motion_near_it(pipe) -> None:
 
 
 def test_heading_turns_the_body_to_face_the_given_way(pipe) -> None:
-    from mlct.generate.long_motion import heading
+    from mlct.generate.control.facing import heading
 
     path = [{"x": 0, "z": 0, "frame": 0, "heading": 90}, {"x": 2, "z": 0, "frame": 99}]
     made = pipe.generate("a person walks forward", lengths=100, seed=1,

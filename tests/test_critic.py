@@ -1,5 +1,5 @@
 """Best-of-N sampling: the latent text-motion critic (nn/critic.py), its file beside a model
-(generate/critic.py), `mlct train critic` (train/critic.py) and the pipeline's `candidates`."""
+(generate/compose/critic.py), `mlct train critic` (train/critic.py) and the pipeline's `candidates`."""
 
 from __future__ import annotations
 
@@ -15,8 +15,8 @@ import torch
 
 import mlct
 from mlct.errors import MlctError
-from mlct.generate.critic import FILE, Critic, check_candidates, read_critic, save_critic
-from mlct.generate.pipeline import bundled_model_dir
+from mlct.generate.compose.critic import FILE, Critic, check_candidates, read_critic, save_critic
+from mlct.generate.bundle import bundled_model_dir
 from mlct.nn.critic import LatentCritic
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -97,7 +97,7 @@ def test_best_of_n_keeps_the_critics_choice_and_replays(trained: Path) -> None:
     plain = gen.generate(text, lengths=frames, seed=5, candidates=1)[0]
     # candidate 0 is the plain sample of the seed; the pick is the critic's argmax of the 4
     cond = gen.encode_text([text]).repeat(4, 1)
-    from mlct.generate.pipeline import SEED_STRIDE, MAX_SEED
+    from mlct.generate.seeds import SEED_STRIDE, MAX_SEED
     seeds = [(5 + k * SEED_STRIDE) % (MAX_SEED + 1) for k in range(4)]
     z = gen.sample_latents(cond, None, seeds)
     scores = gen.critic.network.score(z / gen.config.schedule.latent_scale,

@@ -1,4 +1,4 @@
-"""The cuda-graphs backend (generate/cuda_graph_backend.py) against the torch backend.
+"""The cuda-graphs backend (generate/backends/cuda_graphs.py) against the torch backend.
 
 On the CPU the backend's own code runs without graphs (the noise handed to the graph as an
 input, the padded batch and length buckets, the de-normalisation on the device): it must give
@@ -15,8 +15,10 @@ import torch
 import mlct
 from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
-from mlct.generate.cuda_graph_backend import CudaGraphMotionGenerator, QueuedNoise
-from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
+from mlct.generate.backends.cuda_graphs import QueuedNoise
+from mlct.generate.load import cuda_graph_generator, load_torch
+from mlct.generate.compose.generator import MotionGenerator
+from mlct.generate.bundle import bundled_model_dir
 from mlct.cuda_graphs import GraphCache
 
 from bundle_factory import random_bundle
@@ -29,10 +31,10 @@ TEXTS = ["a person walks forward", "a person jumps up high", "someone waves with
 
 
 @pytest.fixture(scope="module", params=DEVICES)
-def pair(request) -> tuple[MotionGenerator, CudaGraphMotionGenerator]:
+def pair(request) -> tuple[MotionGenerator, MotionGenerator]:
     folder = bundled_model_dir()
-    return (MotionGenerator.load(folder, request.param),
-            CudaGraphMotionGenerator(*read_bundle(folder), request.param))
+    return (load_torch(folder, request.param),
+            cuda_graph_generator(*read_bundle(folder), request.param))
 
 
 def largest_gap(a, b) -> float:
@@ -76,8 +78,8 @@ def test_ddim_and_transformer_decoder(tmp_path) -> None:
     after x_T, and a decoder that masks padded frames."""
     folder = random_bundle(tmp_path / "tiny", "ddim", "minilm")
     for device in DEVICES:
-        eager = MotionGenerator.load(folder, device)
-        graphed = CudaGraphMotionGenerator(*read_bundle(folder), device)
+        eager = load_torch(folder, device)
+        graphed = cuda_graph_generator(*read_bundle(folder), device)
         a = eager.generate(TEXTS[:2], lengths=[64, 9], nfe=3, seed=1, split_actions=False)
         b = graphed.generate(TEXTS[:2], lengths=[64, 9], nfe=3, seed=1, split_actions=False)
         assert largest_gap(a, b) < JOINTS_M
@@ -141,7 +143,7 @@ def test_time_terms_taken_in_order_match_the_lookup() -> None:
     instead of looking them up by t (a read of the device): the same terms, so the same F."""
     from mlct.nn.denoiser import ConditionCache
 
-    gen = MotionGenerator.load(bundled_model_dir())
+    gen = load_torch(bundled_model_dir())
     cond = gen.encode_text(["a person walks forward"])
     times = gen.sampler.times(5)
     looked_up = gen.denoiser.condition_terms(cond, times)
@@ -160,6 +162,6 @@ def test_the_gpu_gives_the_cpus_motions() -> None:
     """Eager on both devices, float32: the seeds' noise is drawn on the host and the time terms
     come in order on the GPU, so the motions agree."""
     kwargs = dict(lengths=[120, 60], nfe=5, seed=[4, 5], candidates=1, split_actions=False)
-    a = MotionGenerator.load(bundled_model_dir(), "cpu").generate(TEXTS[:2], **kwargs)
-    b = MotionGenerator.load(bundled_model_dir(), "cuda").generate(TEXTS[:2], **kwargs)
+    a = load_torch(bundled_model_dir(), "cpu").generate(TEXTS[:2], **kwargs)
+    b = load_torch(bundled_model_dir(), "cuda").generate(TEXTS[:2], **kwargs)
     assert largest_gap(a, b) < 5 * JOINTS_M

@@ -1,4 +1,4 @@
-"""generate/durations.py: the parts of a split prompt share the clip by how long each action takes."""
+"""generate/compose/durations.py: the parts of a split prompt share the clip by how long each action takes."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import pytest
 
 import mlct
 from mlct.errors import MlctError
-from mlct.generate.durations import (FILE, DurationModel, place_names, read_durations, split_frames,
+from mlct.generate.compose.durations import (FILE, DurationModel, place_names, read_durations, split_frames,
                                     squeeze_longest_first)
-from mlct.generate.pipeline import bundled_model_dir
+from mlct.generate.bundle import bundled_model_dir
 from mlct.train.durations import (SequenceExample, cut_errors, fit_durations, fit_offsets,
                                   sequence_examples, single_action_captions)
 

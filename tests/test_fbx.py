@@ -174,8 +174,8 @@ def test_one_frame_is_a_clip_of_length_zero(rigid):
 
 def test_save_motion_cli_and_server_bytes_write_the_fbx(rigid, tmp_path, capsys):
     from mlct.cli import main
-    from mlct.generate.exports import check_rig, export_bytes, save_motion
-    from mlct.generate.generated import GeneratedMotion
+    from mlct.generate.output.exports import check_rig, export_bytes, save_motion
+    from mlct.generate.output.generated import GeneratedMotion
 
     motion = GeneratedMotion("a person walks", np.zeros((len(rigid), 263)), rigid, 20.0,
                              "humanml3d", 0)

@@ -180,7 +180,7 @@ def test_foot_contacts_label_each_foot_frame_by_frame() -> None:
 
 
 def test_the_motion_json_carries_the_contacts_of_a_walk(bundled) -> None:
-    from mlct.generate.exports import motion_json
+    from mlct.generate.output.exports import motion_json
 
     record = motion_json(bundled.generate("a person walks forward", seconds=4, seed=0)[0])
     contacts = np.asarray(record["foot_contacts"], dtype=bool)

@@ -15,8 +15,8 @@ from mlct.data.synth.compose import compose
 from mlct.data.synth.motions import Style
 from mlct.data.synth.rig import make_rig
 from mlct.errors import MlctError
-from mlct.generate.exports import export_bytes, save_motion
-from mlct.generate.generated import GeneratedMotion
+from mlct.generate.output.exports import export_bytes, save_motion
+from mlct.generate.output.generated import GeneratedMotion
 from mlct.motion.features import joints_to_features, recover_from_ric
 from mlct.motion.robots import g1
 from mlct.motion.robots.chain import quat_to_matrix

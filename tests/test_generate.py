@@ -12,9 +12,10 @@ import mlct
 from mlct.cli import main
 from mlct.errors import MlctError
 from mlct.generate.files import output_paths, slug
-from mlct.generate.long_motion import chain_segments, heading, seam_speeds, generate_long
+from mlct.generate.compose.long_motion import chain_segments, generate_long, seam_speeds
+from mlct.generate.control.facing import heading
 from mlct.motion.skeleton import get_skeleton
-from mlct.generate.prompts import MAX_PROMPT_CHARS, clean_prompt, read_prompts, stated_seconds
+from mlct.generate.compose.prompts import MAX_PROMPT_CHARS, clean_prompt, read_prompts, stated_seconds
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 SKELETON = get_skeleton("humanml3d")
@@ -121,7 +122,7 @@ def test_long_motion_with_the_bundled_model(bundled) -> None:
     assert speeds["seam_max"] <= speeds["segments_max"]
     with pytest.raises(MlctError, match="one each"):
         generate_long(bundled, ["a", "b"], [3], nfe=1)
-    # past the window only a gait keeps going (generate/keep_going.py)
+    # past the window only a gait keeps going (generate/compose/keep_going.py)
     with pytest.raises(MlctError, match="'a person jumps': .* only a gait"):
         generate_long(bundled, ["a person jumps", "b"], [9.8, 3], nfe=1)
     bundled.keep_going = False
@@ -185,7 +186,7 @@ def test_cli_generate_variations_prompts_file_and_long(tmp_path: Path, capsys) -
 def test_damaged_model_directories_give_one_line_errors(tmp_path: Path, capsys) -> None:
     import shutil
 
-    from mlct.generate.pipeline import bundled_model_dir
+    from mlct.generate.bundle import bundled_model_dir
 
     model = tmp_path / "model"
     shutil.copytree(bundled_model_dir(), model)

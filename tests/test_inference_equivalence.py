@@ -18,7 +18,9 @@ from mlct.nn.build import build_autoencoder, build_denoiser
 from mlct.motion.features import recover_from_ric
 from mlct.nn.inference import (ChannelsLastConvs, FastEncoderLayer, FastLinear,
                                 for_inference)
-from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
+from mlct.generate.compose.generator import MotionGenerator
+from mlct.generate.load import torch_generator
+from mlct.generate.bundle import bundled_model_dir
 from mlct.io import strip_prefix
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -34,12 +36,13 @@ def bundle() -> tuple[dict, dict]:
 
 def reference(meta: dict, tensors: dict) -> MotionGenerator:
     """A generator whose networks are the plain modules (nn.TransformerEncoderLayer, nn.Linear)."""
-    gen = MotionGenerator(meta, tensors)
+    gen = torch_generator(meta, tensors)
     ae = build_autoencoder(gen.config, meta["feature_dim"])
     ae.load_state_dict(strip_prefix(tensors, "decoder"), strict=False)
     den = build_denoiser(gen.config, meta["text_dim"])
     den.load_state_dict(strip_prefix(tensors, "denoiser"))
-    gen.ae, gen.denoiser = ae.eval().requires_grad_(False), den.eval().requires_grad_(False)
+    gen.networks.decoder = ae.eval().requires_grad_(False)
+    gen.networks.denoiser = den.eval().requires_grad_(False)
     return gen
 
 
@@ -66,7 +69,7 @@ def deviation_mm(a: list[torch.Tensor], b: list[torch.Tensor], pose: bool = Fals
 
 def test_fp32_pipeline_matches_plain_modules_within_1mm(bundle):
     meta, tensors = bundle
-    gen = MotionGenerator(meta, tensors)
+    gen = torch_generator(meta, tensors)
     assert isinstance(gen.denoiser.backbone.middle_block, FastEncoderLayer)
     cond = conds(meta)
     dev = deviation_mm(joints(gen, cond), joints(reference(meta, tensors), cond))
@@ -85,7 +88,7 @@ def test_bfloat16_pipeline_stays_within_stated_tolerance(bundle):
     # the test now conditions on real captions, as users do: mean 0.6-18.8 mm, max 33 mm, pose
     # mean 0.2-0.5 mm, max 11 mm (the random vectors: pose max 3, 11 and 224 mm).
     meta, tensors = bundle
-    gen = MotionGenerator(meta, tensors, dtype="bfloat16")
+    gen = torch_generator(meta, tensors, dtype="bfloat16")
     assert gen.denoiser.backbone.middle_block.linear1.weight.dtype == torch.bfloat16
     ref = reference(meta, tensors)
     cond = ref.encode_text(CAPTIONS).float()
@@ -98,7 +101,7 @@ def test_bfloat16_pipeline_stays_within_stated_tolerance(bundle):
 
 def test_unknown_dtype_is_a_one_line_error(bundle):
     with pytest.raises(MlctError, match="unknown weight dtype 'float8'.*float32, bfloat16"):
-        MotionGenerator(*bundle, dtype="float8")
+        torch_generator(*bundle, dtype="float8")
 
 
 @pytest.mark.parametrize("activation", ["gelu", "relu"])
@@ -133,7 +136,7 @@ def test_for_inference_swaps_in_place_and_shares_fp32_weights():
 
 
 def test_the_condition_cache_computes_the_terms_once_for_the_calls_given_it(bundle):
-    gen = MotionGenerator(*bundle)
+    gen = torch_generator(*bundle)
     den = gen.denoiser
     times = torch.tensor([0.9, 0.5, 0.2])
     x, cond = torch.randn(2, *gen.ae.latent_shape), conds(bundle[0])[:2]

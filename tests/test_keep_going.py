@@ -1,4 +1,4 @@
-"""Keep-going (generate/keep_going.py): locomotion asked for longer than its natural length is
+"""Keep-going (generate/compose/keep_going.py): locomotion asked for longer than its natural length is
 chained from takes instead of stopping; on hand-built walkers, and through the bundled model."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mlct.generate.keep_going import (ground_speed, is_gait, keep_going, moving_stretch,
+from mlct.generate.compose.keep_going import (ground_speed, is_gait, keep_going, moving_stretch,
                                       names_an_end, retime, segment_count, stops_early)
 from mlct.motion.skeleton import HUMANML3D
 
@@ -84,7 +84,7 @@ def spinner(seconds: float, spin_for: float, rate_deg: float = 200.0, radius: fl
             ) -> np.ndarray:
     """(T, J, 3) a body spinning on the spot at rate_deg a second for spin_for seconds (its
     pelvis circling `radius` m around the feet, ~0.35 m/s), then standing."""
-    from mlct.generate.long_motion import _turn_y
+    from mlct.generate.compose.long_motion import _turn_y
 
     frames = int(round(seconds * FPS))
     t = np.minimum(np.arange(frames) / FPS, spin_for)
@@ -187,7 +187,7 @@ def test_the_bundled_model_keeps_jogging(generator):
     assert travel(before[-two:]) < 0.1 * travel(before[:two])
     assert travel(after[-two:]) > 0.5 * travel(after[:two])
     # a chained motion, as a chain of prompts is: its seams stay within the takes' speeds
-    from mlct.generate.long_motion import LongMotion, seam_speeds
+    from mlct.generate.compose.long_motion import LongMotion, seam_speeds
 
     made = generator.generate("a person jogs forward", seconds=8.0, seed=0)[0]
     assert isinstance(made, LongMotion) and len(made.seams) >= 1
@@ -262,7 +262,7 @@ def test_a_sequence_or_a_chain_may_hold_a_gait_past_the_window(generator):
     jump the rest; a chain of prompts may give a walk 15 s; a part that is not a gait may not
     pass the window, and the error names it."""
     from mlct.errors import MlctError
-    from mlct.generate.long_motion import generate_long
+    from mlct.generate.compose.long_motion import generate_long
 
     fps = generator.skeleton.fps
     both = generator.generate("a person walks forward, then jumps", seconds=15.0, seed=0)[0]
@@ -276,7 +276,7 @@ def test_a_sequence_or_a_chain_may_hold_a_gait_past_the_window(generator):
 
 
 def test_the_takes_seeds_wrap_at_the_largest_seed(generator):
-    from mlct.generate.pipeline import MAX_SEED
+    from mlct.generate.seeds import MAX_SEED
 
     made = generator.generate("a person jogs forward", seconds=8.0, seed=MAX_SEED)[0]
     assert made.seed == MAX_SEED and made.joints.shape[0] == 160 and len(made.seams) >= 1

@@ -1,4 +1,4 @@
-"""The onnx backend (generate/onnx_backend.py) against the torch backend: same seeds, same motions.
+"""The onnx backend (generate/backends/onnx/networks.py) against the torch backend: same seeds, same motions.
 
 The bundled model is converted once (`mlct convert bundled --onnx --out DIR`); a random tiny
 model covers what the bundled one does not use: the transformer decoder (frames free in the
@@ -18,8 +18,11 @@ import torch
 import mlct
 from mlct.cli import main
 from mlct.errors import MlctError
-from mlct.generate.onnx_bundle import MANIFEST, ONNX_DIR, convert_to_onnx
-from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
+from mlct.generate.backends.onnx.bundle import MANIFEST, ONNX_DIR
+from mlct.generate.backends.onnx.convert import convert_to_onnx
+from mlct.generate.compose.generator import MotionGenerator
+from mlct.generate.load import load_onnx
+from mlct.generate.bundle import bundled_model_dir
 
 from bundle_factory import random_bundle
 
@@ -84,13 +87,13 @@ def test_text_embeddings_match_the_torch_encoder(backends) -> None:
     # ... by ONNX Runtime's fused operators: one Attention per layer (write_minilm_graph)
     import onnx
 
-    ops = [node.op_type for node in onnx.load(str(onnx_gen.graphs.text_encoder)).graph.node]
+    ops = [node.op_type for node in onnx.load(str(onnx_gen.networks.graphs.text_encoder)).graph.node]
     assert ops.count("Attention") == 6 and "Softmax" not in ops
     # its threads spin within a run and stop with it while the machine is idle beside them
     # (onnx_io.spin_now), and sleep while other processes keep its CPUs busy
     import mlct.onnx_io as onnx_io
 
-    encoder = OnnxMiniLMEncoder(onnx_gen.graphs.text_encoder, spec, threads=2)
+    encoder = OnnxMiniLMEncoder(onnx_gen.networks.graphs.text_encoder, spec, threads=2)
     made_at_load = set(encoder._sessions)
     with pytest.MonkeyPatch.context() as patch:  # the first run: the session made at load,
         patch.setattr(onnx_io, "OTHER_LOAD", lambda: 0.0)  # whatever the load says then
@@ -117,7 +120,7 @@ def test_text_embeddings_match_the_torch_encoder(backends) -> None:
         torch.testing.assert_close(got, ours[:2], rtol=0, atol=1e-5)
     assert set(encoder._sessions) == {False, True}  # each kind made once, then kept
     # the same graph serves "minilm+tokens": the token slots are filled around it
-    tokens = OnnxMiniLMEncoder(onnx_gen.graphs.text_encoder, "minilm+tokens")
+    tokens = OnnxMiniLMEncoder(onnx_gen.networks.graphs.text_encoder, "minilm+tokens")
     torch.testing.assert_close(tokens.encode(texts), load_text_encoder("minilm+tokens").encode(
         texts), rtol=0, atol=1e-4)
 
@@ -212,18 +215,17 @@ def test_fused_attention_keeps_a_transformer_decoders_padding(tmp_path, monkeypa
     import onnx
     import onnxruntime as ort
 
-    from mlct.generate.onnx_attention import fuse_attention
-    from mlct.generate.onnx_backend import OnnxMotionGenerator
+    from mlct.generate.backends.onnx.attention import fuse_attention
 
     model = convert_to_onnx(random_bundle(tmp_path / "tiny", "consistency", "minilm"))
-    gen = OnnxMotionGenerator.load(model)
+    gen = load_onnx(model)
     layers, heads = gen.config.ae.layers, gen.config.ae.heads
-    decoder = onnx.load(str(gen.graphs.decoder))
+    decoder = onnx.load(str(gen.networks.graphs.decoder))
     assert fuse_attention(decoder, heads) == 0  # masked: not the plain pattern
     assert fuse_attention(decoder, heads, padded=True) == layers
     kinds = [node.op_type for node in decoder.graph.node]
     assert kinds.count("Attention") == layers and "Softmax" not in kinds
-    exported = ort.InferenceSession(str(gen.graphs.decoder), providers=["CPUExecutionProvider"])
+    exported = ort.InferenceSession(str(gen.networks.graphs.decoder), providers=["CPUExecutionProvider"])
     fused = ort.InferenceSession(decoder.SerializeToString(), providers=["CPUExecutionProvider"])
     latent = np.random.default_rng(0).standard_normal((2, *gen.ae.latent_shape))
     valid = np.arange(64)[None] < np.array([[64], [9]])  # the second mostly padding
@@ -232,25 +234,25 @@ def test_fused_attention_keeps_a_transformer_decoders_padding(tmp_path, monkeypa
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-5)
     assert np.abs(got[1, :9]).max() > 0.1 and not got[1, 9:].any()
 
-    import mlct.generate.onnx_backend as onnx_backend
+    import mlct.generate.backends.onnx.networks as onnx_backend
 
     def cannot(*args, **kwargs):
         raise ValueError("not this graph")
 
     with monkeypatch.context() as patch:  # a graph the rewrite fails on loads as written
         patch.setattr(onnx_backend, "fuse_attention", cannot)
-        plain = OnnxMotionGenerator.load(model).ae
+        plain = load_onnx(model).ae
     lengths = torch.tensor([64, 9])
     np.testing.assert_allclose(plain.decode(torch.from_numpy(feeds["latent"]), lengths, 64),
                                want, rtol=0, atol=1e-6)
 
     torch_gen = mlct.load(model)
     for threads in (1, 2):  # the decoder apart (one thread's steps) or in the sampler graph
-        gen = OnnxMotionGenerator.load(model, threads=threads)
+        gen = load_onnx(model, threads=threads)
         gen.keep_going = False
         for _ in range(2):  # the second call builds the sampler graph
             got = gen.generate(TEXTS[:2], lengths=[64, 9], nfe=2, seed=1, candidates=1)
-        graph = onnx.ModelProto.FromString(gen._fused[2]).graph
+        graph = onnx.ModelProto.FromString(gen.networks.graph_sessions.fused[2]).graph
         assert sum(node.op_type == "Attention" for node in graph.node) >= layers
         want = torch_gen.generate(TEXTS[:2], lengths=[64, 9], nfe=2, seed=1, candidates=1)
         assert largest_gap(want, got) < JOINTS_M
@@ -269,12 +271,11 @@ def test_fused_attention_after_a_blockwise_quantized_product(tmp_path) -> None:
     from onnxruntime.quantization.matmul_nbits_quantizer import (
         DefaultWeightOnlyQuantConfig, MatMulNBitsQuantizer)
 
-    from mlct.generate.onnx_attention import fuse_attention
-    from mlct.generate.onnx_backend import OnnxMotionGenerator
+    from mlct.generate.backends.onnx.attention import fuse_attention
 
-    gen = OnnxMotionGenerator.load(convert_to_onnx(random_bundle(tmp_path / "tiny",
+    gen = load_onnx(convert_to_onnx(random_bundle(tmp_path / "tiny",
                                                                  "consistency", "minilm")))
-    quantizer = MatMulNBitsQuantizer(onnx.load(str(gen.graphs.denoiser)),
+    quantizer = MatMulNBitsQuantizer(onnx.load(str(gen.networks.graphs.denoiser)),
                                      algo_config=DefaultWeightOnlyQuantConfig(
                                          block_size=32, is_symmetric=True, accuracy_level=1,
                                          bits=8))
@@ -315,19 +316,20 @@ def test_conv_decoder_with_its_own_arm_pair(tmp_path) -> None:
     b = onnx_gen.generate(TEXTS[:2], lengths=[64, 9], nfe=2, seed=1)
     assert largest_gap(a, b) < JOINTS_M
     # batch 1 on two threads: the steps apart, then the decoder's halves side by side
-    # (onnx_decoder_halves.py), operator for operator the whole decoder's arithmetic
-    from mlct.generate.onnx_backend import OnnxMotionGenerator
+    # (backends/onnx/decoder_halves.py), operator for operator the whole decoder's arithmetic
 
-    features = {}
-    for halves in (False, True):  # the last generator, the halves', is compared with torch
-        gen = OnnxMotionGenerator.load(model, threads=2)
-        gen.decode_halves = halves
-        cond = gen.encode_text(TEXTS[:1])
-        for _ in range(2):  # the second call builds the sampler graph
-            features[halves] = gen.sample_features(cond, 2, [5], None, [37])[0]
-        assert (gen._halves is not None and gen._halves is not False) == halves
-    assert features[True].shape == (37, features[False].shape[1])
-    np.testing.assert_allclose(features[True], features[False], rtol=0, atol=1e-5)
+    gen = load_onnx(model, threads=2)
+    cond = gen.encode_text(TEXTS[:1])
+    for _ in range(2):  # the second call builds the sampler graph: the steps, then the halves
+        features = gen.sample_features(cond, 2, [5], None, [37])[0]
+    nets = gen.networks
+    assert nets._halves is not None and nets._halves is not False
+    assert features.shape[0] == 37
+    z = gen.sample_latents(cond, 2, [5]).numpy() / np.float32(gen.config.schedule.latent_scale)
+    valid = np.arange(37)[None] < 37
+    (whole,) = nets.decoder.session.run(None, {"latent": z, "valid": valid})  # one session
+    np.testing.assert_allclose(nets._decoder_halves()(z, valid), whole * nets._std + nets._mean,
+                               rtol=0, atol=1e-5)
     want = torch_gen.generate(TEXTS[:1], lengths=[37], nfe=2, seed=5, candidates=1)
     got = gen.generate(TEXTS[:1], lengths=[37], nfe=2, seed=5, candidates=1)
     assert largest_gap(want, got) < JOINTS_M
@@ -338,7 +340,7 @@ def test_conv_decoder_with_its_own_arm_pair(tmp_path) -> None:
         _FORKED.update(gen=gen, cond=gen.encode_text(TEXTS[:1]))
         with multiprocessing.get_context("fork").Pool(1) as pool:
             child = pool.apply_async(_sample_in_child, (37,)).get(60)
-        np.testing.assert_allclose(child, features[True], rtol=0, atol=1e-5)
+        np.testing.assert_allclose(child, features, rtol=0, atol=1e-5)
 
 
 _FORKED: dict = {}  # what a forked child inherits (a generator does not pickle)
@@ -356,14 +358,14 @@ def test_a_model_without_graphs_gets_them_from_the_cache(tmp_path, monkeypatch) 
     monkeypatch.setenv("MLCT_CACHE", str(tmp_path / "cache"))
     plain = random_bundle(tmp_path / "plain", "consistency", "minilm")
     gen = mlct.load(plain, backend="onnx")
-    assert gen.backend_note == "onnx (asked for)" and "int8" not in gen.graphs.manifest
-    assert Path(gen.graphs.denoiser).is_relative_to(tmp_path / "cache" / "onnx")
+    assert gen.backend_note == "onnx (asked for)" and "int8" not in gen.networks.graphs.manifest
+    assert Path(gen.networks.graphs.denoiser).is_relative_to(tmp_path / "cache" / "onnx")
     assert not (plain / ONNX_DIR).exists()  # the model directory is not written
     want = mlct.load(plain, backend="torch").generate(["a person walks"], lengths=[40], seed=3,
                                                       candidates=1)
     got = gen.generate(["a person walks"], lengths=[40], seed=3, candidates=1)
     assert largest_gap(want, got) < 1e-3
-    assert mlct.load(plain, backend="onnx").graphs.denoiser == gen.graphs.denoiser  # made once
+    assert mlct.load(plain, backend="onnx").networks.graphs.denoiser == gen.networks.graphs.denoiser  # made once
     monkeypatch.setenv("MLCT_CACHE", str(tmp_path / "empty"))
     monkeypatch.setitem(sys.modules, "onnx", None)
     with pytest.raises(MlctError, match=r"no ONNX graphs and the onnx package .*pip install"):
@@ -448,7 +450,7 @@ def test_int8_quantizes_the_denoiser_only_and_moves_the_joints_little(converted,
     for _ in range(2):  # the second call runs the fused sampler graph built from the int8 one
         a = full.generate(TEXTS, seconds=4, seed=3, candidates=1)
         b = small.generate(TEXTS, seconds=4, seed=3, candidates=1)
-    (graph,) = [onnx.ModelProto.FromString(g).graph for g in small._fused.values() if g]
+    (graph,) = [onnx.ModelProto.FromString(g).graph for g in small.networks.graph_sessions.fused.values() if g]
     kinds = [node.op_type for node in graph.node]  # the int8 products' attentions fused
     per_pass = sum(node.op_type == "MatMulNBits" for node in onnx.load(
         str(converted_int8 / ONNX_DIR / "denoiser.onnx")).graph.node)
@@ -474,8 +476,8 @@ def test_controls_on_the_onnx_backend_and_guidance_refused(backends) -> None:
     """The default CPU backend meets a path and a keyframe as the torch one does (candidates
     and the correction need only the decoder's forward pass); guidance, which needs the
     decoder's gradients, is a typed error there rather than silently skipped."""
-    from mlct.generate.control import control_from_dict
-    from mlct.generate.controlled import ControlMethod, generate_controlled
+    from mlct.generate.control.schema import control_from_dict
+    from mlct.generate.control.controlled import ControlMethod, generate_controlled
 
     torch_gen, onnx_gen = backends
     path = [[0.0, 0.0, 0], [0.2, 1.2, 40], [0.9, 2.2, 80], [1.9, 2.6, 119]]

@@ -11,8 +11,8 @@ from mlct.data.synth.build import make_motion
 from mlct.eval.pipeline_recon import (action_cuts, arms_over_standing, as_features,
                                       pipeline_reconstruction)
 from mlct.eval.readouts import evaluate_label
-from mlct.generate.control import part_joints
-from mlct.generate.long_motion import BLEND_SECONDS
+from mlct.generate.control.schema import part_joints
+from mlct.generate.compose.long_motion import BLEND_SECONDS
 from mlct.motion.features import features_to_joints
 from mlct.motion.skeleton import HUMANML3D
 
@@ -96,7 +96,7 @@ def test_lost_arms_are_lost_in_the_composition_too():
 
     def no_arms(features: np.ndarray) -> np.ndarray:
         joints = features_to_joints(features)
-        from mlct.generate.control_fit import reattach
+        from mlct.generate.control.fit import reattach
         return reattach(np.repeat(joints[:1], len(joints), axis=0), joints, arms, HUMANML3D)
 
     made = pipeline_reconstruction(motion.features, motion.label, no_arms, HUMANML3D)

@@ -30,7 +30,7 @@ def test_the_second_held_out_set_covers_every_family_with_judgeable_labels() -> 
 
 
 def test_the_three_action_prompts_split_into_their_actions_with_judgeable_labels() -> None:
-    from mlct.generate.compose import split_actions
+    from mlct.generate.compose.actions import split_actions
 
     prompts = json.loads((DATA / "quality_prompts_three_actions.json").read_text())
     prompts = prompts["three_actions"]

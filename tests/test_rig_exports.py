@@ -1,4 +1,4 @@
-"""The rig formats through the one writer (generate/exports.py): the Python API, the CLI's
+"""The rig formats through the one writer (generate/output/exports.py): the Python API, the CLI's
 --rig, and the one-line errors for a rig a format cannot take."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ import pytest
 from mlct.cli import main
 from mlct.data.synth.build import make_motion
 from mlct.errors import MlctError
-from mlct.generate.exports import check_rig, export_bytes, save_motion
-from mlct.generate.generated import GeneratedMotion
+from mlct.generate.output.exports import check_rig, export_bytes, save_motion
+from mlct.generate.output.generated import GeneratedMotion
 from mlct.motion.bvh import read_bvh
 from mlct.motion.skeleton import HUMANML3D
 

@@ -22,7 +22,7 @@ from fastapi.testclient import TestClient
 import mlct
 from mlct.errors import MlctError
 from mlct.motion.skeleton import get_skeleton
-from mlct.generate.pipeline import GeneratedMotion
+from mlct.generate.output.generated import GeneratedMotion
 from mlct.serve import ServeSettings, create_app
 
 pytestmark = pytest.mark.usefixtures("one_thread")

@@ -1,5 +1,5 @@
 """Text anchors: far prompts pulled towards the nearest training captions (generate/
-text_anchors.py), their file beside a model, `mlct train anchors` (train/text_anchors.py) and
+compose/text_anchors.py), their file beside a model, `mlct train anchors` (train/text_anchors.py) and
 the pipeline sampling from the pulled vector while the critic judges the prompt's own."""
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ import mlct
 from mlct.data.labels import read_labels
 from mlct.data.layout import DatasetLayout
 from mlct.errors import MlctError
-from mlct.generate.pipeline import bundled_model_dir
-from mlct.generate.text_anchors import FILE, TextAnchors, read_text_anchors, save_text_anchors
+from mlct.generate.bundle import bundled_model_dir
+from mlct.generate.compose.text_anchors import FILE, TextAnchors, read_text_anchors, save_text_anchors
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -81,7 +81,7 @@ def test_neighbours_that_all_say_the_same_pull_a_far_prompt_further() -> None:
 
 
 def test_a_row_seen_before_comes_from_the_memo_which_stays_bounded(monkeypatch) -> None:
-    from mlct.generate import text_anchors
+    from mlct.generate.compose import text_anchors
 
     monkeypatch.setattr(text_anchors, "MEMO_ROWS", 3)
     anchors = _anchors()

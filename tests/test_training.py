@@ -412,7 +412,7 @@ def test_latent_scale_is_undone_before_decoding(trained: Path, tmp_path: Path) -
     settings = gen.config.to_dict()
     settings["schedule"]["latent_scale"] = 2.5
     scaled = config_from_dict(settings)
-    gen.config = scaled
+    gen.networks.config = scaled  # what the backend decodes with
     again = gen.decode(2.5 * z, [20, 30])
     assert all(np.allclose(a, b, atol=1e-5) for a, b in zip(plain, again))
     assert latent_clamp(scaled) == 2.5

@@ -1,4 +1,4 @@
-"""Prompts the model does not know are said to be so (generate/unknown_prompts.py): in the
+"""Prompts the model does not know are said to be so (generate/compose/unknown_prompts.py): in the
 motions generate() returns, on `mlct generate`'s stderr and in POST /generate's reply; the
 motions themselves stay as they were."""
 
@@ -14,8 +14,8 @@ from fastapi.testclient import TestClient
 import mlct
 from mlct.cli import main
 from mlct.data.synth.build import _split, make_motion
-from mlct.generate.text_anchors import TextAnchors
-from mlct.generate.unknown_prompts import UNKNOWN_BELOW, unknown_notice, unknown_rows
+from mlct.generate.compose.text_anchors import TextAnchors
+from mlct.generate.compose.unknown_prompts import UNKNOWN_BELOW, unknown_notice, unknown_rows
 from mlct.motion.skeleton import get_skeleton
 from mlct.serve import ServeSettings, create_app
 
@@ -95,10 +95,10 @@ def test_generate_marks_the_motions_and_changes_nothing_else(pipe):
     np.testing.assert_array_equal(made.joints, plain.joints)
     assert [m.seed for m in made] == [m.seed for m in plain]
     # judging a prompt the motions never encoded leaves the text memo as it was
-    memo = list(pipe._text_memo)
+    memo = list(pipe.core._text_memo)
     assert pipe.unknown_parts("a person juggles three balls") == [
         ("a person juggles three balls",)]
-    assert list(pipe._text_memo) == memo
+    assert list(pipe.core._text_memo) == memo
     # a copy keeps what was said of its prompt
     assert made[0].in_place().unknown_parts == (GUITAR,)
 

@@ -13,7 +13,7 @@ import torch
 from mlct.cli import main
 from mlct.diffusion.samplers import draw_noise
 from mlct.errors import MlctError
-from mlct.generate.portable_noise import PortableNoise, seed_key
+from mlct.generate.samplers.portable_noise import PortableNoise, seed_key
 
 
 def test_portable_noise_is_a_seeded_standard_normal_stream() -> None:
@@ -41,7 +41,7 @@ def test_the_samplers_draw_the_portable_noise() -> None:
 def test_float16_storage_keeps_every_number(tmp_path) -> None:
     pytest.importorskip("onnx")
     ort = pytest.importorskip("onnxruntime")
-    from mlct.generate.onnx_compact import float16_storage
+    from mlct.generate.backends.onnx.compact import float16_storage
     from mlct.onnx_io import export_graph
 
     layer = torch.nn.Sequential(torch.nn.Linear(64, 128), torch.nn.GELU(), torch.nn.Linear(128, 32))
@@ -84,7 +84,7 @@ def test_export_web_refuses_a_bad_out_or_vendor_before_any_work(tmp_path, capsys
 def test_int8_weights_are_int8_on_disk_and_close_in_use(tmp_path) -> None:
     pytest.importorskip("onnx")
     ort = pytest.importorskip("onnxruntime")
-    from mlct.generate.onnx_compact import quantize_int8, quantize_int8_weights
+    from mlct.generate.backends.onnx.compact import quantize_int8, quantize_int8_weights
     from mlct.onnx_io import export_graph
 
     torch.manual_seed(0)
@@ -115,8 +115,8 @@ def test_int8_arithmetic_is_the_same_on_cpus_without_vnni(tmp_path) -> None:
     from onnxruntime.quantization import QuantType, quantize_dynamic
 
     from mlct.serve.site.int8_emulation import as_non_vnni
-    from mlct.generate.onnx_compact import quantize_int8
-    from mlct.generate.onnx_int8_pairs import max_pair
+    from mlct.generate.backends.onnx.compact import quantize_int8
+    from mlct.generate.backends.onnx.int8_pairs import max_pair
     from mlct.onnx_io import export_graph
 
     torch.manual_seed(0)
@@ -206,8 +206,8 @@ def test_the_reference_makes_a_sequence_as_generate_chains_it() -> None:
     generate() does: the parts' shares from the duration model, part k drawn with seed + k
     at its share plus the next part's blend, chained by long_motion.chain_segments, planted."""
     import mlct
-    from mlct.generate.compose import split_actions
-    from mlct.generate.long_motion import chain_segments
+    from mlct.generate.compose.actions import split_actions
+    from mlct.generate.compose.long_motion import chain_segments
     from mlct.serve.site.reference import generate_with_portable_noise
     from mlct.motion.foot_lock import lock_feet
 
@@ -244,11 +244,11 @@ def test_the_site_description_carries_the_sequence_rules_and_durations() -> None
     model without its fit record, the blend and the facing joints."""
     import mlct
     from mlct.generate.bundle import read_bundle
-    from mlct.generate.compose import portable_rules
-    from mlct.generate.long_motion import BLEND_SECONDS
+    from mlct.generate.compose.actions import portable_rules
+    from mlct.generate.compose.long_motion import BLEND_SECONDS
     from mlct.serve.site.export import site_description
 
-    folder = mlct.generate.pipeline.bundled_model_dir()
+    folder = mlct.generate.bundle.bundled_model_dir()
     meta, tensors = read_bundle(folder)
     description = site_description(meta, tensors, folder, {}, (6, 64), "int8", "float16")
     assert description["sequence"]["rules"] == portable_rules()
@@ -264,11 +264,11 @@ def test_the_reference_makes_an_arm_action_apart_and_keeps_a_gait_going() -> Non
     """The page's Python reference follows generate() further: "jogs in place while clapping"
     is the jog with the clap's arms re-attached (control_fit.reattach), and a run asked for
     9.8 s, which the model stops after ~4 s, is made again as takes chained into one run that
-    is still running until its last half second (generate/keep_going.py)."""
+    is still running until its last half second (generate/compose/keep_going.py)."""
     import mlct
-    from mlct.generate.control import part_joints
-    from mlct.generate.control_fit import reattach
-    from mlct.generate.keep_going import ground_speed
+    from mlct.generate.control.schema import part_joints
+    from mlct.generate.control.fit import reattach
+    from mlct.generate.compose.keep_going import ground_speed
     from mlct.serve.site.reference import _one_with_portable_noise, generate_with_portable_noise
 
     generator = mlct.load(backend="torch")
@@ -289,5 +289,5 @@ def test_the_reference_makes_an_arm_action_apart_and_keeps_a_gait_going() -> Non
     once_speed, kept_speed = ground_speed(once, 20), ground_speed(kept, 20)
     assert once_speed[-20:].mean() < 0.3 * np.median(once_speed[10:70])  # stopped
     # still running over its last 2 s but the final half second, where the last take keeps its
-    # stop (keep_going.py; the run slows from its pace to rest in ~0.6 s on the last 2 bundles)
+    # stop (compose/keep_going.py; the run slows from its pace to rest in ~0.6 s on the last 2 bundles)
     assert kept_speed[-40:-10].mean() > 0.5 * np.median(kept_speed[10:70])

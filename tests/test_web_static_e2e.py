@@ -35,7 +35,7 @@ pytest.importorskip("onnxruntime")
 Image = pytest.importorskip("PIL.Image")
 
 from mlct.errors import MlctError
-from mlct.generate.portable_noise import PortableNoise
+from mlct.generate.samplers.portable_noise import PortableNoise
 from mlct.motion.foot_lock import foot_contacts
 from mlct.motion.skeleton import get_skeleton
 from mlct.serve.site import export_site, load_site_reference
@@ -380,7 +380,7 @@ def test_actions_are_split_as_in_python(page):
     """The page's splits (static/compose.js) give compose.split_actions' parts and
     split_concurrent's body and arms: on the benchmark's hand-written prompts and on the
     phrasings each rule is for."""
-    from mlct.generate.compose import plain_subject, split_actions, split_concurrent
+    from mlct.generate.compose.actions import plain_subject, split_actions, split_concurrent
 
     texts = [SEQUENCE, "after walking forward, a man turns left", "a man walks before turning",
              "a person squats, then stands back up and walks away", "sits down, then stands still",
@@ -426,7 +426,7 @@ def test_a_sequence_is_made_in_parts_as_in_python(page, reference):
     """A prompt of two actions: the page makes each part with its share of the clip (the
     duration model's) and chains them, as generate() does; the same joints as the Python
     reference of the page (generate_with_portable_noise), and the parts show in the status."""
-    from mlct.generate.compose import split_actions
+    from mlct.generate.compose.actions import split_actions
 
     got = typed_in(page, SEQUENCE, seed=11, seconds=6)  # 120 frames
     parts = split_actions(SEQUENCE)
@@ -522,7 +522,7 @@ def test_best_of_n_picks_what_the_python_critic_picks(page, reference):
     k * SEED_STRIDE mod 2^63, in BigInt) and keeps the one its critic graph rates best: the
     scores are the torch critic's, the motion Python's; candidates 1 is the plain sample, and a
     count past the critic's limit is refused with a message."""
-    from mlct.generate.pipeline import MAX_SEED, SEED_STRIDE
+    from mlct.generate.seeds import MAX_SEED, SEED_STRIDE
 
     text = "a person kicks with the left leg"
     assert page.evaluate("window.mlct.model.defaultCandidates") == reference.candidates == 8
@@ -579,7 +579,7 @@ def test_a_stated_duration_sets_the_length_as_in_python(page, reference):
     """"... for 6 seconds": the page reads the phrase as prompts.stated_seconds does (the same
     pattern, from model.json) and makes the prompt without it at that length; the motion keeps
     the prompt as typed."""
-    from mlct.generate.prompts import stated_seconds
+    from mlct.generate.compose.prompts import stated_seconds
 
     texts = ["a person jogs in place for 6 seconds", "walks forward, for about half a minute",
              "a person waves For Five Seconds", "claps for 2.5 s", "walks for 5 seconds, then "
@@ -601,8 +601,8 @@ def test_a_stated_duration_sets_the_length_as_in_python(page, reference):
 def test_a_gait_asked_for_longer_than_it_lasts_keeps_going_as_in_python(page, reference):
     """"a person runs forward" for 9.8 s: the model's run stops after ~4 s; the page makes it
     again as takes of its natural length chained into one run (keepgoing.js, the port of
-    generate/keep_going.py), as generate() does: Python's joints, still running at the end."""
-    from mlct.generate.keep_going import ground_speed
+    generate/compose/keep_going.py), as generate() does: Python's joints, still running at the end."""
+    from mlct.generate.compose.keep_going import ground_speed
 
     text = "a person runs forward"
     got = typed_in(page, text, seed=4, seconds=9.8)  # 196 frames

@@ -32,7 +32,7 @@ from mlct.io import atomic_dir
 
 def resolve(name: str) -> Path:
     if name == "bundled":
-        from mlct.generate.pipeline import bundled_model_dir
+        from mlct.generate.bundle import bundled_model_dir
 
         return bundled_model_dir()
     return Path(name)

@@ -16,8 +16,9 @@ import numpy as np
 import torch
 
 from mlct.generate.bundle import read_bundle
-from mlct.generate.cuda_graph_backend import CudaGraphMotionGenerator, _to_host
-from mlct.generate.pipeline import bundled_model_dir
+from mlct.generate.backends.cuda_graphs import _to_host
+from mlct.generate.load import cuda_graph_generator
+from mlct.generate.bundle import bundled_model_dir
 
 FRAMES, NFE = 196, 5
 
@@ -29,7 +30,7 @@ def main() -> None:
     args = parser.parse_args()
     if not torch.cuda.is_available():
         parser.error("needs a GPU")
-    gen = CudaGraphMotionGenerator(*read_bundle(bundled_model_dir()), "cuda", args.dtype)
+    gen = cuda_graph_generator(*read_bundle(bundled_model_dir()), "cuda", args.dtype)
     cond1 = gen.encode_text(["a person walks forward"])
     print(f"{'batch':>6} {'noise on':>8} {'noise':>7} {'replay':>7} {'to host':>8} {'total':>7} "
           f"{'motions/s':>10}")

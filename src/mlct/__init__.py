@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Any
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:
-    from mlct.generate.pipeline import MotionGenerator
+    from mlct.generate.compose.generator import MotionGenerator
 
 
 def load(path: Any = None, device: Any = None, dtype: Any = "float32",
@@ -20,6 +20,6 @@ def load(path: Any = None, device: Any = None, dtype: Any = "float32",
     $MLCT_BACKEND overrides "auto"; the generator's backend_note says which ran and why.
     threads: the CPU threads inference uses (PyTorch's intra-op threads, process-wide, and ONNX
     Runtime's per graph); default: PyTorch's, one per core or $OMP_NUM_THREADS."""
-    from mlct.generate.backends import load as _load  # lazy: `import mlct` stays light
+    from mlct.generate.load import load as _load  # lazy: `import mlct` stays light
 
     return _load(path, device, dtype, backend, threads)

@@ -21,6 +21,13 @@ from mlct.cli import eval as evaluate  # (not the builtin)
 from mlct.cli.parser import Parser
 from mlct.errors import MlctError, MlctWarning
 
+# The extra that brings each library a light install (`pip install mlct`) leaves out: a command
+# that reaches one says so in one line (exit 2) instead of a traceback.
+EXTRA_OF = {"torch": "train", "transformers": "train", "sentence_transformers": "train",
+            "tensorboard": "train", "onnx_ir": "train", "bvhio": "train", "fastapi": "serve",
+            "fastapi_offline": "serve", "uvicorn": "serve", "plotly": "serve",
+            "pygltflib": "export"}
+
 # in the order `mlct --help` lists their commands
 COMMANDS = (data, demo, train, evaluate, export, export_web, convert, serve, generate, render,
             retarget)
@@ -78,6 +85,13 @@ def main(argv: list[str] | None = None) -> int:
             return args.func(args)
     except MlctError as error:
         print(f"mlct: error: {error}", file=sys.stderr)
+        return 2
+    except ModuleNotFoundError as error:
+        library = (error.name or "").split(".")[0]
+        if library not in EXTRA_OF:
+            raise
+        print(f"mlct: error: mlct {args.command} needs {library}, which this install lacks: "
+              f"pip install 'mlct[{EXTRA_OF[library]}]'", file=sys.stderr)
         return 2
     except BrokenPipeError:
         # `mlct ... | head`: the reader left; that is not an error. Point stdout at devnull so

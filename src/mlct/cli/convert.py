@@ -11,8 +11,8 @@ from mlct.errors import MlctError
 
 
 def run(args: argparse.Namespace) -> int:
-    from mlct.generate.onnx_bundle import convert_to_onnx
-    from mlct.generate.pipeline import bundled_model_dir
+    from mlct.generate.backends.onnx.convert import convert_to_onnx
+    from mlct.generate.bundle import bundled_model_dir
 
     if not args.onnx and args.decoder_from is None:
         raise MlctError("say what to convert the model to: --onnx (ONNX graphs for "

@@ -18,7 +18,7 @@ MAX_MOTIONS = 100_000  # motions one `mlct generate` makes (files and names are 
 def run(args: argparse.Namespace) -> int:
     import mlct
     from mlct.generate import files as generate_files
-    from mlct.generate.prompts import clean_prompt, read_prompts
+    from mlct.generate.compose.prompts import clean_prompt, read_prompts
 
     if args.prompts is not None and args.text:
         raise MlctError("give prompts on the command line or with --prompts FILE, not both")
@@ -39,10 +39,10 @@ def run(args: argparse.Namespace) -> int:
         raise MlctError("--num makes variations of one prompt; several prompts make one long "
                         "motion")
     if args.candidates is not None:
-        from mlct.generate.critic import check_candidates
+        from mlct.generate.compose.critic import check_candidates
 
         check_candidates(args.candidates)
-    from mlct.generate.backends import check_options
+    from mlct.generate.load import check_options
 
     check_options(args.device, args.dtype, args.backend)  # a combination no model runs
     request = generate_files.Request(prompts, args.seconds, args.length, args.num, args.nfe,
@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
         if status:
             print(" " * 50, end="\r", file=sys.stderr, flush=True)
         if args.verbose:
-            handoff = getattr(generator, "torch_min_batch", None)  # the onnx backends'
+            handoff = getattr(generator.networks, "torch_min_batch", None)  # the onnx ones'
             print(f"mlct: backend {generator.backend_note}"
                   + (f"; batches of {handoff} or more latents on the torch networks"
                      if handoff else ""), file=sys.stderr, flush=True)
@@ -123,8 +123,8 @@ def _hide_decisions() -> None:
 
 def _control(args: argparse.Namespace) -> Any:
     """The control of --control/--path/--keyframes/--edit/--parts/--prefix, read before the
-    model loads (generate/control.py); None when none is given."""
-    from mlct.generate.control_files import control_from_files
+    model loads (generate/control/schema.py); None when none is given."""
+    from mlct.generate.control.files import control_from_files
     from mlct.motion.skeleton import get_skeleton
 
     given = (args.control, args.path, args.keyframes, args.edit, args.parts, args.prefix)

@@ -17,8 +17,8 @@ SUFFIXES = (".bvh", ".glb", ".fbx", ".vrma", ".npz", ".g1.csv", ".g1.npz")
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from mlct.generate.exports import ROBOT_FORMATS, check_rig, save_motion
-    from mlct.generate.generated import GeneratedMotion
+    from mlct.generate.output.exports import ROBOT_FORMATS, check_rig, save_motion
+    from mlct.generate.output.generated import GeneratedMotion
     from mlct.io import check_writable_dir
     from mlct.motion.render import load_motion_npy
 

@@ -9,7 +9,7 @@ from mlct.cli.parser import THREADS_HELP, Commands, thread_count
 
 
 def run(args: argparse.Namespace) -> int:
-    from mlct.generate.backends import check_options
+    from mlct.generate.load import check_options
     from mlct.serve import run_server
 
     check_options(args.device, "float32", args.backend)  # before the model loads

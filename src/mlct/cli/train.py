@@ -21,7 +21,7 @@ def run_stage(args: argparse.Namespace) -> int:
         raise MlctError("--init takes the model's own config; drop --config (key=value "
                         "overrides still apply)")
     if args.init == "bundled":
-        from mlct.generate.pipeline import bundled_model_dir
+        from mlct.generate.bundle import bundled_model_dir
 
         args.init = bundled_model_dir()
     saved = args.resume or args.init is not None  # the config comes from the run or the model
@@ -75,9 +75,10 @@ def run_durations(args: argparse.Namespace) -> int:
     import mlct
     from mlct.data.layout import DatasetLayout
     from mlct.eval.judge.action_classifier import read_labels
-    from mlct.generate.compose import split_actions
-    from mlct.generate.durations import describe
-    from mlct.generate.pipeline import MIN_PART_SECONDS, bundled_model_dir
+    from mlct.generate.compose.actions import split_actions
+    from mlct.generate.compose.durations import describe
+    from mlct.generate.compose.lengths import MIN_PART_SECONDS
+    from mlct.generate.bundle import bundled_model_dir
     from mlct.train.durations import (CUT_SHIFT, cut_errors, fit_durations, fit_offsets,
                                       memoized_embedder, sequence_examples,
                                       single_action_captions, single_action_extra)
@@ -131,8 +132,8 @@ def run_durations(args: argparse.Namespace) -> int:
 
 def run_critic(args: argparse.Namespace) -> int:
     """Train the best-of-N critic (train/critic.py) and write it beside the model's weights."""
-    from mlct.generate.critic import check_candidates
-    from mlct.generate.pipeline import bundled_model_dir
+    from mlct.generate.compose.critic import check_candidates
+    from mlct.generate.bundle import bundled_model_dir
     from mlct.eval.readouts import evaluate_label
     from mlct.train.critic import train_critic
 
@@ -152,7 +153,7 @@ def run_critic(args: argparse.Namespace) -> int:
 
 def run_anchors(args: argparse.Namespace) -> int:
     """Make the model's text anchors (train/text_anchors.py) and write them beside its weights."""
-    from mlct.generate.pipeline import bundled_model_dir
+    from mlct.generate.bundle import bundled_model_dir
     from mlct.train.text_anchors import make_text_anchors
 
     model_dir = bundled_model_dir() if args.model == "bundled" else Path(args.model)

@@ -22,7 +22,7 @@ GuideFn = Callable[[Tensor], Tensor]  # x0 (B, n, d) -> x0 moved towards a contr
 
 
 # one generator for the batch, or one per batch item; or any object with randn(shape) -> Tensor
-# (the web page's portable noise, mlct.generate.portable_noise)
+# (the web page's portable noise, mlct.generate.samplers.portable_noise)
 Generators = Union[torch.Generator, Sequence[torch.Generator], object, None]
 
 
@@ -35,7 +35,7 @@ def draw_noise(shape: tuple[int, ...], generator: Generators, like: Tensor) -> T
         if len(generator) != shape[0]:
             raise ValueError(f"{len(generator)} generators for a batch of {shape[0]}")
         return torch.stack([draw_noise(shape[1:], g, like) for g in generator])
-    if hasattr(generator, "randn"):  # a portable stream (generate/portable_noise.py)
+    if hasattr(generator, "randn"):  # a portable stream (generate/samplers/portable_noise.py)
         return generator.randn(shape).to(like.device, like.dtype)
     device = generator.device if generator is not None else like.device
     return torch.randn(shape, generator=generator, device=device,

@@ -38,22 +38,29 @@ class TorchRandn:
 
     def randn(self, shape: Sequence[int]) -> np.ndarray:
         """torch.randn(*shape, generator=g) as a float32 array, g advanced as torch does."""
+        return self.randn_many(shape, 1)[0]
+
+    def randn_many(self, shape: Sequence[int], count: int) -> np.ndarray:
+        """`count` successive randn(shape) draws at once: (count, *shape), float32."""
         shape = tuple(int(s) for s in shape)
         size = int(np.prod(shape))
         if size < BLOCK:  # torch draws these one at a time, with another transform
             raise ValueError(f"TorchRandn draws 16 values or more, not {size}")
-        out = np.empty(size, np.float32)
+        tail = BLOCK if size % BLOCK else 0  # the words of the recomputed last block
+        words = self._uniform(count * (size + tail)).reshape(count, size + tail)
         whole = size - size % BLOCK
-        out[:whole] = _box_muller(self._uniform(size)[:whole])
-        if size % BLOCK:
-            out[size - BLOCK:] = _box_muller(self._uniform(BLOCK))
-        return out.reshape(shape)
+        out = np.empty((count, size), np.float32)
+        out[:, :whole] = _box_muller(words[:, :whole])
+        if tail:
+            out[:, size - BLOCK:] = _box_muller(words[:, size:])
+        return out.reshape((count, *shape))
 
 
 def _box_muller(uniform: np.ndarray) -> np.ndarray:
-    """Blocks of 16 uniforms -> 16 normals each (normal_fill_16), float32 throughout."""
-    blocks = uniform.reshape(-1, BLOCK)
+    """Rows of blocks of 16 uniforms (k, 16 m) -> 16 normals each (normal_fill_16), float32."""
+    blocks = uniform.reshape(len(uniform), -1, BLOCK)
     half = BLOCK // 2
-    radius = np.sqrt(np.float32(-2.0) * np.log(np.float32(1.0) - blocks[:, :half]))
-    theta = np.float32(2.0 * np.pi) * blocks[:, half:]
-    return np.concatenate([radius * np.cos(theta), radius * np.sin(theta)], axis=1).reshape(-1)
+    radius = np.sqrt(np.float32(-2.0) * np.log(np.float32(1.0) - blocks[..., :half]))
+    theta = np.float32(2.0 * np.pi) * blocks[..., half:]
+    return np.concatenate([radius * np.cos(theta), radius * np.sin(theta)],
+                          axis=-1).reshape(len(uniform), -1)

@@ -20,7 +20,7 @@ import numpy as np
 import torch
 
 from mlct.errors import MlctError
-from mlct.generate.pipeline import MotionGenerator
+from mlct.generate.compose.generator import MotionGenerator
 
 
 def _sync(device: torch.device) -> None:

@@ -3,7 +3,7 @@
 The motion suite's reconstructions (bench/quality.py motion --ae) are there to say where
 quality is lost, stage 1 or stage 2: the best any stage 2 could reach is what the autoencoder
 can give back. The bundled pipeline does
-not ask the autoencoder for every motion whole (generate/pipeline.py):
+not ask the autoencoder for every motion whole (generate/compose/generator.py):
 
 - a prompt that names actions in turn is made one action at a time, each part its own latent,
   and the parts are chained (long_motion.chain_segments) when each gets at least
@@ -27,10 +27,10 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from mlct.generate.control import part_joints
-from mlct.generate.control_fit import reattach
-from mlct.generate.long_motion import blend_frames, chain_segments
-from mlct.generate.pipeline import MIN_PART_SECONDS
+from mlct.generate.control.schema import part_joints
+from mlct.generate.control.fit import reattach
+from mlct.generate.compose.long_motion import blend_frames, chain_segments
+from mlct.generate.compose.lengths import MIN_PART_SECONDS
 from mlct.motion.features import features_to_joints, joints_to_features
 from mlct.motion.skeleton import Skeleton
 

@@ -60,7 +60,7 @@ from mlct.eval.metrics import (
     r_precision_batched,
 )
 from mlct.motion.skeleton import Skeleton
-from mlct.generate.pipeline import MotionGenerator
+from mlct.generate.compose.generator import MotionGenerator
 
 REPLICATIONS = 20
 MM_TEXTS = 100  # mm_num_samples

@@ -26,7 +26,8 @@ from mlct.generate.bundle import read_bundle
 from mlct.devices import resolve_device
 from mlct.errors import MlctError
 from mlct.eval.protocol import Log, ProtocolConfig, check_model, open_protocol
-from mlct.generate.pipeline import MotionGenerator
+from mlct.generate.compose.generator import MotionGenerator
+from mlct.generate.load import torch_generator
 from mlct.generate.samplers import sampler_class
 
 REPORT_FORMAT = "mlct-eval-report"
@@ -101,7 +102,7 @@ def run_evaluation(models: Sequence[str | Path], data_dir: str | Path,
                              classifier_dir=classifier_dir)
     dataset = protocol.dataset
     dtype = str(kernel_dtype(dtype, dev)).removeprefix("torch.")  # the report says what ran
-    gens = [MotionGenerator(meta, tensors, dev, dtype) for meta, tensors in bundles]
+    gens = [torch_generator(meta, tensors, dev, dtype) for meta, tensors in bundles]
     grids = [_grid(g, steps, guidance) for g in gens]
     for path, gen, grid in zip(paths, gens, grids):
         check_model(protocol, gen, [count for count, _ in grid], path)

@@ -24,7 +24,7 @@ SMALL_MODEL_ENV = "MLCT_BENCH_SMALL_MODEL"  # --small-model, for the child proce
 
 def small_model_dir() -> Path:
     """The bundle timed as the small CM: $MLCT_BENCH_SMALL_MODEL's, else the bundled model."""
-    from mlct.generate.pipeline import bundled_model_dir
+    from mlct.generate.bundle import bundled_model_dir
 
     return Path(os.environ.get(SMALL_MODEL_ENV) or bundled_model_dir())
 
@@ -59,12 +59,12 @@ def onnx_generator(preset: str, sampler: str, folder: str, threads: int | None =
     from safetensors.torch import save_file
 
     from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION
-    from mlct.generate.onnx_backend import OnnxMotionGenerator
-    from mlct.generate.onnx_bundle import convert_to_onnx
+    from mlct.generate.load import load_onnx
+    from mlct.generate.backends.onnx.convert import convert_to_onnx
 
     meta, tensors = bundle_in_memory(preset, sampler)
     save_file({k: v.contiguous() for k, v in tensors.items()},
               str(Path(folder) / "model.safetensors"))
     (Path(folder) / "config.json").write_text(json.dumps(
         {**meta, "format": BUNDLE_FORMAT, "version": BUNDLE_VERSION}), encoding="utf-8")
-    return OnnxMotionGenerator.load(convert_to_onnx(folder, int8=int8), threads=threads)
+    return load_onnx(convert_to_onnx(folder, int8=int8), threads=threads)

@@ -1,16 +1,15 @@
 """The inference wing: from a model bundle and text to motions and files.
 
-- bundle.py: the bundle format (`mlct export` writes it through train/export.py, this reads it);
-- pipeline.py: `MotionGenerator`, a loaded model: text encoder, sampler, decoder;
-- samplers/: the samplers as objects (consistency, DDIM + CFG), one file each, and the registry
-  that turns a bundle's sampler name into one;
-- generated.py: `GeneratedMotion` / `Generation`, what a call returns;
-- exports.py: one writer per output format (.gif .mp4 .png .npy .json .bvh);
-- long_motion.py: several prompts chained into one long motion;
-- prompts.py: prompt cleaning and prompt files;
-- files.py: what `mlct generate` writes for a request.
+- core.py: `MotionCore`, text -> latents -> features -> joints, one batch a call, its networks
+  behind the backend interface (backends/: torch, onnx, cuda graphs);
+- compose/: the prompt composer, `MotionGenerator`, which makes what generate() asks of
+  prompts (their actions, lengths, best of N, gaits that keep going, chains) from the core;
+- control/: paths, keyframes, edits and prefixes, and how a motion meets them;
+- samplers/: the samplers as objects and their registry; bundle.py: the bundle format;
+- output/: what a call returns and one writer per format; files.py: `mlct generate`'s files;
+- load.py: `mlct.load`, a backend by name.
 
-Import order: this package reads bundles and never imports train/ (train/ writes runs and
-exports them into bundles). Nothing here is imported by `import mlct`; `mlct.load` imports it
-on first use.
+Import order: docs/architecture.md ("generate"). This package reads bundles and never imports
+train/ (train/ writes runs and exports them into bundles). Nothing here is imported by
+`import mlct`; `mlct.load` imports it on first use.
 """

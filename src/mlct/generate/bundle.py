@@ -9,9 +9,9 @@ A bundle is a directory:
 - config.json: the full run config, the sampler's name (mlct.generate.samplers), feature
   width, skeleton, text encoder;
 - Mean.npy, Std.npy: the dataset statistics, in the standard layout's names;
-- optionally onnx/: the networks as ONNX graphs for the onnx backend (onnx_bundle.py owns them);
+- optionally onnx/: the networks as ONNX graphs for the onnx backend (backends/onnx/bundle.py owns them);
 - optionally durations.json (durations.py), critic.safetensors (critic.py) and
-  text_anchors.safetensors (text_anchors.py).
+  text_anchors.safetensors (compose/text_anchors.py).
 It holds no optimizer state and no text-encoder weights (the text encoder is named and loaded
 from its own package or directory).
 """
@@ -27,7 +27,6 @@ import torch
 from safetensors.torch import load_file
 
 from mlct.errors import MlctError, MlctWarning, first_line
-from mlct.generate.durations import read_durations
 from mlct.generate.samplers import SAMPLERS
 from mlct.io import read_format_json, strip_prefix
 
@@ -39,7 +38,7 @@ ENCODER_KEY = "ae_encoder"  # the AE encoder's tensors in a bundle (since stage-
 META_KEYS = ("sampler", "config", "feature_dim", "skeleton", "text_encoder", "text_dim")
 CONFIG, WEIGHTS = "config.json", "model.safetensors"
 BUNDLE_FILES = (CONFIG, WEIGHTS, "Mean.npy", "Std.npy")  # a bundle's files (its onnx/ aside)
-# what a model may carry besides (generate/durations.py, critic.py, text_anchors.py)
+# what a model may carry besides (generate/compose/durations.py, critic.py, compose/text_anchors.py)
 OPTIONAL_FILES = ("durations.json", "critic.safetensors", "text_anchors.safetensors")
 
 
@@ -119,9 +118,6 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
                         f"make one with `mlct export RUN --out {path}`)")
     meta = read_config(path)
     training_data_notice(meta, path)
-    durations = read_durations(path, meta["text_encoder"], int(meta["text_dim"]))
-    if durations is not None:  # the parts of a split prompt share the clip by it
-        meta["durations"] = durations.to_json()
     # where the bundle was read from: the generator reads its critic.safetensors (critic.py)
     # from there; set on every read, so a config.json copied elsewhere never points back
     meta["model_dir"] = str(path)
@@ -130,3 +126,8 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
     except Exception as err:  # safetensors raises several kinds on a damaged file
         raise MlctError(f"{weights}: unreadable weights ({first_line(err)})") from None
     return meta, {k: (v.float() if v.dtype == torch.float16 else v) for k, v in tensors.items()}
+
+
+def bundled_model_dir() -> Path:
+    """The model shipped inside the package (docs/model_card.md): small preset, MiniLM text."""
+    return Path(__file__).resolve().parent.parent / "assets" / "model"

@@ -3,7 +3,7 @@
 Three ways to call it:
 - one prompt: one motion (or --num variations, seeds seed, seed + 1, ...);
 - several prompts on the command line with one duration each: one continuous long motion that
-  does them in order (long_motion.py);
+  does them in order (compose/long_motion.py);
 - --prompts FILE: one motion per line (times --num), generated in batches.
 Every output path is checked before the model loads, so a typo costs no generation time.
 """
@@ -22,15 +22,15 @@ from typing import TYPE_CHECKING, Any, Callable, Sequence
 from tqdm import tqdm
 
 from mlct.errors import MlctError
-from mlct.generate.exports import check_format, check_rig
-from mlct.generate.prompts import clean_prompt
+from mlct.generate.output.exports import check_format, check_rig
+from mlct.generate.compose.prompts import clean_prompt
 from mlct.io import check_writable_dir
 
 _LOG = logging.getLogger("mlct.generate")  # --verbose shows its INFO lines
 
 if TYPE_CHECKING:
-    from mlct.generate.generated import GeneratedMotion
-    from mlct.generate.pipeline import MotionGenerator
+    from mlct.generate.output.generated import GeneratedMotion
+    from mlct.generate.compose.generator import MotionGenerator
 
 BATCH = 64  # motions per generate() call: big enough to batch, small enough to show progress
 
@@ -102,8 +102,8 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     """Generate the request's motions and write each to its path; returns the paths.
 
     `load` makes the model: it is called only after every argument has been checked.
-    `notice` gets one line per distinct prompt the model does not know (unknown_prompts.py)."""
-    from mlct.generate.pipeline import MAX_SEED  # what load() imports anyway
+    `notice` gets one line per distinct prompt the model does not know (compose/unknown_prompts.py)."""
+    from mlct.generate.seeds import MAX_SEED  # what load() imports anyway
 
     # Every check that needs no model comes first: a mistake costs no loading, no progress bar.
     count = len(request.prompts) * request.num  # motion (or part) i uses seed + i
@@ -125,7 +125,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     if request.long and request.control is not None:
         raise MlctError("controls go with one prompt, not a long motion of several")
     if request.long:
-        from mlct.generate.long_motion import generate_long
+        from mlct.generate.compose.long_motion import generate_long
 
         if request.seconds is None:
             raise MlctError("a long motion needs one duration a prompt: --seconds 3 2 2")
@@ -195,7 +195,7 @@ def _tell_unknown(notice: Callable[[str], None], judged: Any, told: set[str] | N
                   ) -> set[str]:
     """notice() the line of each (text, unknown parts) with parts, once per text; the texts
     told so far."""
-    from mlct.generate.unknown_prompts import unknown_notice
+    from mlct.generate.compose.unknown_prompts import unknown_notice
 
     told = set() if told is None else told
     for text, parts in judged:

@@ -1,6 +1,6 @@
 """Named body parts as joint sets: one table for every consumer (ours).
 
-The body-part edits (generate/control.py, `--parts upper`) and the autoencoder's arm pair
+The body-part edits (generate/control/schema.py, `--parts upper`) and the autoencoder's arm pair
 (motion/features.py `arm_feature_columns`) both ask "which joints are the arms"; they ask here.
 A part names the joints its limbs hang from and takes their descendants too, so a chosen joint
 never leaves a child behind. Each limb root lists the names it goes by in the skeletons we know,

@@ -1,5 +1,5 @@
 """Steps: how often the lower foot changes side, on any skeleton. One owner for the read-outs'
-foot_swaps (eval/readouts.py) and keep-going's test of a gait (generate/keep_going.py)."""
+foot_swaps (eval/readouts.py) and keep-going's test of a gait (generate/compose/keep_going.py)."""
 
 from __future__ import annotations
 

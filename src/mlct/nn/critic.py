@@ -5,7 +5,7 @@ fraction of the horizon) and the frozen text vector into one 256-d space; the sc
 cosine. Trained contrastively (train/critic.py) as CLIP and the text-motion evaluators are
 (Guo et al. 2022; TMR, Petrovich et al. 2023), but on latents, not frames: scoring N sampled
 latents costs two matrix products and no decoder, so a consistency model can sample N motions
-for a prompt and keep the one the critic rates best (generate/critic.py) for a fraction of a
+for a prompt and keep the one the critic rates best (generate/compose/critic.py) for a fraction of a
 millisecond more than the sampling.
 """
 

@@ -37,8 +37,8 @@ from starlette.exceptions import HTTPException
 
 from mlct import __version__
 from mlct.errors import MlctError, first_line
-from mlct.generate.critic import MAX_CANDIDATES
-from mlct.generate.exports import export_bytes, motion_json
+from mlct.generate.compose.critic import MAX_CANDIDATES
+from mlct.generate.output.exports import export_bytes, motion_json
 from mlct.generate.files import slug
 from mlct.serve.batcher import DEFAULT_LENGTH, Batcher, QueueFull, ServerClosing
 from mlct.serve.schemas import Limits, one_line, request_model
@@ -114,7 +114,7 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
             # no length asked: the model's default for each text, picked on its thread
             # (batcher.DEFAULT_LENGTH: 5 s, or what the prompt's actions take, as the CLI's)
             frames, control = body.frames(DEFAULT_LENGTH), None
-            if body.control is not None:  # one motion, generated alone (generate/controlled.py)
+            if body.control is not None:  # one motion, generated alone (generate/control/controlled.py)
                 frames, control = _control_of(generator, body, default_frames)
             elif body.lengths is None and body.seconds is None:
                 frames = _stated_frames(texts, frames, limits)
@@ -142,7 +142,7 @@ def create_app(generator: Any, settings: ServeSettings | None = None) -> FastAPI
             result.motions = [m.in_place() for m in result.motions]
         if body.format == "json":
             # unknown_parts: the prompt's parts the model does not know (generate/
-            # unknown_prompts.py), [] when it knows them all
+            # compose/unknown_prompts.py), [] when it knows them all
             motions = await run_in_threadpool(
                 lambda: [{**motion_json(m), "seed": s, "nfe": nfe, "candidates": candidates,
                           "unknown_parts": list(getattr(m, "unknown_parts", ()))}
@@ -230,7 +230,7 @@ def _bearer_matches(header: str | None, token: str) -> bool:
 def _control_of(generator: Any, body: Any, default_frames: int) -> tuple[list[int], Any]:
     """The frames and the Control of a request's "control" field (the length an edit implies
     when none was asked); MlctError (422) for a control that does not fit."""
-    from mlct.generate.control import control_from_dict
+    from mlct.generate.control.schema import control_from_dict
 
     frames = body.frames(default_frames)[0]
     control = control_from_dict(body.control, generator.skeleton, "control", frames)
@@ -247,7 +247,7 @@ def _stated_frames(texts: list[str], frames: list[int | None], limits: Limits
                    ) -> list[int | None]:
     """The default length, except where a prompt says how long ("... for 8 seconds"), as the
     CLI and the Python API read it (pipeline.stated_lengths); MlctError (422) past the limit."""
-    from mlct.generate.pipeline import stated_lengths
+    from mlct.generate.compose.lengths import stated_lengths
 
     _, stated = stated_lengths(texts)
     out = []

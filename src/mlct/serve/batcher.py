@@ -230,13 +230,14 @@ class Batcher:
 
 
     def _spin_unless_overlapping(self, overlapping: bool, now: float) -> None:
-        """The generator's `spinning` (where it has one, the onnx backend): False within
-        OVERLAP_WINDOW_S of requests overlapping, else None (the machine's load decides)."""
+        """The `spinning` of the generator's networks (where they have one, the onnx
+        backend's): False within OVERLAP_WINDOW_S of requests overlapping, else None (the
+        machine's load decides)."""
         if overlapping:
             self._overlapped = now
-        if hasattr(self.generator, "spinning"):
-            self.generator.spinning = (False if now - self._overlapped < OVERLAP_WINDOW_S
-                                       else None)
+        networks = getattr(self.generator, "networks", self.generator)
+        if hasattr(networks, "spinning"):
+            networks.spinning = False if now - self._overlapped < OVERLAP_WINDOW_S else None
 
     def _default_lengths(self, texts: list[str], lengths: list[int]) -> list[int]:
         """Each DEFAULT_LENGTH replaced by the model's default for its text, as the CLI's."""

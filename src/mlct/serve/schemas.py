@@ -15,8 +15,8 @@ from pydantic import (AfterValidator, BaseModel, BeforeValidator, ConfigDict, Fi
                       PlainValidator, ValidationError, model_validator)
 
 from mlct.errors import MlctError
-from mlct.generate.critic import MAX_CANDIDATES
-from mlct.generate.prompts import clean_prompt
+from mlct.generate.compose.critic import MAX_CANDIDATES
+from mlct.generate.compose.prompts import clean_prompt
 
 Format = Literal["json", "npy", "bvh", "gif", "glb", "fbx", "vrma", "npz"]
 RigName = Literal["mixamo", "unreal", "unity", "vrm", "smpl"]  # motion/rigs.py's presets
@@ -39,7 +39,7 @@ class Limits:
 
 
 def check_text(text: str, max_chars: int) -> str:
-    """The prompt as the pipeline reads it (mlct.generate.prompts.clean_prompt: whitespace collapsed; no
+    """The prompt as the pipeline reads it (mlct.generate.compose.prompts.clean_prompt: whitespace collapsed; no
     control characters), within the server's length limit; ValueError naming the problem."""
     collapsed = " ".join(text.split())
     if len(collapsed) > max_chars:
@@ -97,12 +97,12 @@ def request_model(limits: Limits) -> type[BaseModel]:
         seconds: Annotated[list[Seconds] | None, BeforeValidator(_as_list)] = Field(
             None, min_length=1, max_length=limits.max_texts)
         nfe: int | None = Field(None, strict=True, ge=1, le=limits.max_nfe)
-        # best of N by the model's critic (generate/critic.py); omitted: the model's default
+        # best of N by the model's critic (generate/compose/critic.py); omitted: the model's default
         candidates: int | None = Field(None, strict=True, ge=1, le=MAX_CANDIDATES)
         seed: Annotated[list[Seed] | None, BeforeValidator(_as_list)] = Field(
             None, min_length=1, max_length=limits.max_texts)
         format: Format = "json"
-        # path, keyframes, edit + parts, prefix, start/end pose (mlct.generate.control); one text
+        # path, keyframes, edit + parts, prefix, start/end pose (mlct.generate.control.schema); one text
         control: dict[str, Any] | None = None
         rig: RigName | None = None
         # the pelvis kept over its start (GeneratedMotion.in_place): an engine's root motion
@@ -127,7 +127,7 @@ def request_model(limits: Limits) -> type[BaseModel]:
             if self.control is not None and "auto" in (self.seconds or []):
                 raise ValueError("seconds 'auto' does not go with a control; give the seconds")
             if self.rig is not None:
-                from mlct.generate.exports import check_rig
+                from mlct.generate.output.exports import check_rig
 
                 try:
                     check_rig(self.rig, f".{self.format}")

@@ -6,7 +6,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from mlct.errors import MlctError
-from mlct.generate.prompts import MAX_PROMPT_CHARS
+from mlct.generate.compose.prompts import MAX_PROMPT_CHARS
 
 
 @dataclass(frozen=True)
@@ -33,7 +33,7 @@ class ServeSettings:
                                 f"got {getattr(self, name)}")
         if self.max_text_chars > MAX_PROMPT_CHARS:
             raise MlctError(f"serve setting max_text_chars ({self.max_text_chars}) exceeds the "
-                            f"prompt limit of {MAX_PROMPT_CHARS} (mlct.generate.prompts)")
+                            f"prompt limit of {MAX_PROMPT_CHARS} (mlct.generate.compose.prompts)")
         if self.max_frames is not None and self.max_frames < 1:
             raise MlctError(f"serve setting max_frames must be at least 1, got {self.max_frames}")
         if not 0 <= self.batch_wait_ms <= 1000:

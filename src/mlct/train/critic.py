@@ -1,5 +1,5 @@
 """`mlct train critic`: the text-motion critic of best-of-N sampling (nn/critic.py), trained on a
-model's own latents and text vectors, written beside its weights (generate/critic.py).
+model's own latents and text vectors, written beside its weights (generate/compose/critic.py).
 
 The motions of one split are encoded once by the model's autoencoder encoder (the bundle ships
 it) and their captions once by the model's text encoder (through the disk cache). The loss is
@@ -32,7 +32,7 @@ from mlct.data.labels import LABELS_FILE, read_labels
 from mlct.data.layout import DatasetLayout
 from mlct.errors import MlctError
 from mlct.generate.bundle import bundle_autoencoder_state, read_bundle
-from mlct.generate.critic import DEFAULT_CANDIDATES, save_critic
+from mlct.generate.compose.critic import DEFAULT_CANDIDATES, save_critic
 from mlct.nn.build import build_autoencoder
 from mlct.nn.critic import LatentCritic
 from mlct.text.sides import mirror_sides

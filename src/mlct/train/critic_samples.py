@@ -99,7 +99,7 @@ def sample_foils(model_dir: str | os.PathLike, layout: DatasetLayout, names: lis
     the judge's read-outs disagree."""
     if samples < 2:
         raise MlctError(f"--samples must be >= 2 (candidates to rank), got {samples}")
-    from mlct.generate.backends import load
+    from mlct.generate.load import load
 
     pipe = load(model_dir, backend="torch")
     single = one_action_names(names, labels)

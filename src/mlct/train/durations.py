@@ -1,4 +1,4 @@
-"""Fitting the part-duration model (generate/durations.py) on a labelled dataset.
+"""Fitting the part-duration model (generate/compose/durations.py) on a labelled dataset.
 
 Two kinds of examples, both with the label's own duration of the action (end - start):
 - each caption of a single-action motion;
@@ -22,7 +22,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from mlct.errors import MlctError
-from mlct.generate.durations import (PLACES, DurationModel, place_names, split_frames)
+from mlct.generate.compose.durations import (PLACES, DurationModel, place_names, split_frames)
 
 HIDDEN = 64
 STEPS, BATCH, LR, WEIGHT_DECAY = 4000, 256, 1e-3, 1e-2

@@ -14,7 +14,8 @@ from safetensors.torch import load_file, save_file
 
 from mlct.errors import MlctError
 from mlct.generate.bundle import BUNDLE_FORMAT, BUNDLE_VERSION, ENCODER_KEY, ENCODER_PREFIXES
-from mlct.generate.onnx_bundle import ONNX_DIR, write_onnx_graphs
+from mlct.generate.backends.onnx.bundle import ONNX_DIR
+from mlct.generate.backends.onnx.convert import write_onnx_graphs
 from mlct.generate.samplers import sampler_for_stage
 from mlct.io import atomic_dir, readable_by_umask, strip_prefix
 from mlct.train.checkpoint import latest_checkpoint, load_checkpoint
@@ -26,7 +27,7 @@ def export_run(run: str | os.PathLike, out: str | os.PathLike, stage: str | None
                half: bool = False, onnx: bool = False,
                decoder_from: str | os.PathLike | None = None) -> Path:
     """Write the inference bundle of RUN's latest `cm` (default) or `diffusion` checkpoint;
-    onnx: with its networks as ONNX graphs too (generate/onnx_bundle.py); decoder_from: an
+    onnx: with its networks as ONNX graphs too (generate/backends/onnx/bundle.py); decoder_from: an
     autoencoder run (or checkpoint) whose decoder replaces the run's, trained with the same
     encoder frozen (`ae.freeze_encoder`): refused when its encoder differs, since the denoiser's
     latents are that encoder's."""

@@ -1,4 +1,4 @@
-"""`mlct train anchors`: a model's text anchors (generate/text_anchors.py) from a dataset's
+"""`mlct train anchors`: a model's text anchors (generate/compose/text_anchors.py) from a dataset's
 training captions, written beside its weights.
 
 The anchors are the model's text vectors of one split's captions, each caption once; with
@@ -24,7 +24,7 @@ from mlct.data.labels import LABELS_FILE, read_labels
 from mlct.data.layout import DatasetLayout
 from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
-from mlct.generate.text_anchors import TextAnchors, int8_rows, save_text_anchors
+from mlct.generate.compose.text_anchors import TextAnchors, int8_rows, save_text_anchors
 
 SIZE = 12000
 PULL, SPAN, NEIGHBOURS, QUANTILE = 0.5, 0.2, 5, 0.05

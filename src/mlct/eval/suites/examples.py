@@ -40,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> None:
     gen = mlct.load(args.model)
-    from mlct.generate.long_motion import generate_long
+    from mlct.generate.compose.long_motion import generate_long
 
     total = passed = 0
     for prompts, seconds, actions in EXAMPLES:

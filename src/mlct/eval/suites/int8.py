@@ -24,16 +24,21 @@ import numpy as np
 
 import mlct
 from mlct.data.layout import DatasetLayout
-from mlct.generate.onnx_bundle import convert_to_onnx
+from mlct.generate.backends.onnx.convert import convert_to_onnx
 from mlct.eval.suites.common import prompt_file
-from mlct.generate.pipeline import bundled_model_dir
+from mlct.generate.bundle import bundled_model_dir
 
+
+
+# Prompts per generate() call: under the onnx backends' TORCH_MIN_BATCH, so that every batch
+# runs the graphs under test, not the float32 torch networks that large batches go to.
+BATCH = 16
 
 
 def joints(gen: mlct.MotionGenerator, texts: list[str], lengths: list[int]) -> list[np.ndarray]:
     out = []
-    for k in range(0, len(texts), 50):
-        part = slice(k, k + 50)
+    for k in range(0, len(texts), BATCH):
+        part = slice(k, k + BATCH)
         out += [m.joints for m in gen.generate(texts[part], lengths=lengths[part],
                                                seed=[0] * len(texts[part]), candidates=1,
                                                split_actions=False)]
@@ -96,8 +101,6 @@ def run(args: argparse.Namespace) -> None:
         dirs = [convert_to_onnx(model, Path(tmp) / name, read_only=True, int8=int8)
                 for name, int8 in (("f32", False), ("i8", True))]
         gens = [mlct.load(d, backend=backend) for d, backend in zip(dirs, ("onnx", "onnx-int8"))]
-        for gen in gens:  # batches of 50: the graphs, not the torch networks that large
-            gen.torch_min_batch = None  # batches are handed to (onnx_backend.TORCH_MIN_BATCH)
         plans = [p for p in args.plans.split(",") if p]
         steps = gens[0].check_nfe(None)
         for plan in plans:
@@ -111,7 +114,9 @@ def run(args: argparse.Namespace) -> None:
                    joints(torch_backend, captions, lengths))
         for plan in plans:
             mixed = mlct.load(dirs[0], backend="onnx")
-            mixed.torch_min_batch, mixed.fused = None, False  # the step loop, run_steps
+            # the step loop (run_steps), as where the onnx package is missing: no sampler graph
+            # of the steps, whose denoiser calls the plan chooses
+            mixed.networks.graph_sessions._onnx = False
             mixed.denoiser.session = StepPlan(plan, mixed.denoiser.session,
                                               gens[1].denoiser.session)
             report(f"plan {plan}, {len(names)} test captions", float32,

@@ -5,7 +5,7 @@
 For locomotion prompts (and, as controls, prompts whose motion should end: jumps, a wave, a
 counted walk, a sit, spins and turns on the spot) at lengths past their natural one, each
 generated twice with the same seed, the generator's keep-going off (as before
-generate/keep_going.py) and on, it prints per prompt:
+generate/compose/keep_going.py) and on, it prints per prompt:
 - `still s`: seconds after the first half second that the pelvis moves slower than 0.1 m/s;
 - `last/first`: ground travel of the last 2 s over that of the first 2 s (0: stopped);
 - `skate`: the foot-skating ratio (GMD's definition, motion/physics.py) over the frames that
@@ -28,8 +28,8 @@ import numpy as np
 
 import mlct
 from mlct.eval.readouts import evaluate_label
-from mlct.generate.keep_going import ground_speed
-from mlct.generate.long_motion import LongMotion, seam_speeds
+from mlct.generate.compose.keep_going import ground_speed
+from mlct.generate.compose.long_motion import LongMotion, seam_speeds
 from mlct.motion.physics import foot_skating_mask
 
 LOCOMOTION = [

@@ -145,7 +145,7 @@ def run(args: argparse.Namespace) -> None:
         for key in ("held-out 1", "held-out 2", "held-out 3"):
             prompts[key] = prompt_file(args.prompt_dir, key)["paraphrases"]
         # "two actions" as a user gets them (each action made alone and chained,
-        # generate/compose.py), and "... whole": the model given the whole prompt at once.
+        # generate/compose/actions.py), and "... whole": the model given the whole prompt at once.
         for key, titles, seconds, split in (
                 ("paraphrases", ("paraphrases",), 4.0, not args.whole_prompt),
                 ("held-out 1", ("held-out para",), 4.0, not args.whole_prompt),

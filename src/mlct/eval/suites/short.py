@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import mlct
-import mlct.generate.durations as durations
+import mlct.generate.compose.durations as durations
 from mlct.eval.readouts import evaluate_in_order, evaluate_label
 
 SUBJECTS = ("a person", "a woman", "a man", "someone")
@@ -78,7 +78,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--pairs", action="store_true", help="the two-action prompts only")
     parser.add_argument("--squeeze-alike", action="store_true",
                         help="squeeze a sequence's parts alike however short the clip (the rule "
-                             "before generate/durations.py's FASTEST_TEMPO_SHARE), to compare")
+                             "before generate/compose/durations.py's FASTEST_TEMPO_SHARE), to compare")
 
 
 def run(args: argparse.Namespace) -> None:
@@ -100,7 +100,7 @@ def run(args: argparse.Namespace) -> None:
     names = [str(m) if m else "bundled" for m in models]
     print(f"{len(items)} short prompts ({len(SUBJECTS)} subjects each), {args.seeds} seeds, "
           f"{args.seconds:g} s, candidates {args.candidates or 'default'}, a sequence's parts "
-          f"squeezed {'alike' if args.squeeze_alike else 'as generate/durations.py does'}; "
+          f"squeezed {'alike' if args.squeeze_alike else 'as generate/compose/durations.py does'}; "
           "read-out pass rates")
     print(f"{'family':<22}" + "".join(f"{n[-22:]:>24}" for n in names))
     totals = [[0, 0] for _ in models]

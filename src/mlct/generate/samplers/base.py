@@ -72,7 +72,7 @@ class Sampler(ABC):
 
         model: the network F(x_t, t, c); uncond: the null condition (1, c), needed when `cfg`;
         generator: the noise that a stochastic sampler draws after x; guide: moves each step's
-        clean estimate towards a control (generate/controlled.py)."""
+        clean estimate towards a control (generate/control/controlled.py)."""
 
     def describe(self, scale: float | None = None) -> str:
         """The sampler and its guidance, for a report's method name: 'MLCT, w=1'."""

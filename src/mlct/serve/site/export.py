@@ -8,14 +8,14 @@ SITE/ holds
   noise, the model pipeline, features -> joints, the BVH and GLB writers, the 3D view);
 - model/: text_encoder.onnx.gz (MiniLM, int8, gzipped: pack.py), denoiser.onnx and
   decoder.onnx (the onnx backend's graphs, weights stored as float16: the same numbers;
-  generate/onnx_compact.py), vocab.txt (the WordPiece vocabulary) and model.json (sampler
+  generate/backends/onnx/compact.py), vocab.txt (the WordPiece vocabulary) and model.json (sampler
   times and constants, normalisation statistics, skeleton and rest pose, sizes);
 - vendor/: onnxruntime-web's WASM runtime (its binary gzipped) and three, from the npm
   packages that vendor.py pins.
 
-The browser runs what the onnx backend runs (generate/onnx_backend.py): tokenizer, text
+The browser runs what the onnx backend runs (generate/backends/onnx/networks.py): tokenizer, text
 encoder, the consistency sampler around the denoiser (Algorithm 2), the decoder, the
-denormalisation and features -> joints, with the noise of generate/portable_noise.py in place
+denormalisation and features -> joints, with the noise of generate/samplers/portable_noise.py in place
 of torch's, and makes a prompt as generate() makes it (split, re-attached, kept going, best of
 N), so `load_site_reference` and reference.py give the page's joints in Python (the end-to-end
 test).
@@ -34,19 +34,22 @@ import torch
 
 from mlct.errors import MlctError
 from mlct.generate.bundle import read_bundle
-from mlct.generate.compose import portable_rules
-from mlct.generate.critic import MAX_CANDIDATES, Critic
-from mlct.generate.control import part_joints
-from mlct.generate.durations import FASTEST_TEMPO_SHARE, MIN_WEIGHT, read_durations
-from mlct.generate.keep_going import portable_rules as portable_keep_going
-from mlct.generate.long_motion import BLEND_SECONDS
-from mlct.generate.onnx_backend import OnnxMotionGenerator
-from mlct.generate.onnx_bundle import OnnxGraphs, weights_digest, write_onnx_graphs
-from mlct.generate.onnx_compact import (float16_storage, quantize_int8,
+from mlct.generate.compose.actions import portable_rules
+from mlct.generate.compose.critic import MAX_CANDIDATES, Critic
+from mlct.generate.control.schema import part_joints
+from mlct.generate.compose.durations import FASTEST_TEMPO_SHARE, MIN_WEIGHT, read_durations
+from mlct.generate.compose.keep_going import portable_rules as portable_keep_going
+from mlct.generate.compose.long_motion import BLEND_SECONDS
+from mlct.generate.compose.generator import MotionGenerator
+from mlct.generate.load import onnx_generator
+from mlct.generate.backends.onnx.bundle import OnnxGraphs, weights_digest
+from mlct.generate.backends.onnx.convert import write_onnx_graphs
+from mlct.generate.backends.onnx.compact import (float16_storage, quantize_int8,
                                         quantize_int8_weights, require_onnx)
-from mlct.generate.pipeline import (DEFAULT_SECONDS, MAX_GAIT_SECONDS, MAX_SEED,
-                                    MIN_PART_SECONDS, SEED_STRIDE, bundled_model_dir)
-from mlct.generate.prompts import MAX_PROMPT_CHARS, portable_stated
+from mlct.generate.compose.lengths import DEFAULT_SECONDS, MAX_GAIT_SECONDS, MIN_PART_SECONDS
+from mlct.generate.seeds import MAX_SEED, SEED_STRIDE
+from mlct.generate.bundle import bundled_model_dir
+from mlct.generate.compose.prompts import MAX_PROMPT_CHARS, portable_stated
 from mlct.generate.samplers import ConsistencySampler, sampler_class
 from mlct.io import atomic_dir, check_writable_dir, read_format_json
 from mlct.motion.foot_lock import ANKLE_HEIGHT, FootLock
@@ -68,7 +71,7 @@ GRAPHS = {"text_encoder": "text_encoder.onnx", "denoiser": "denoiser.onnx",
 CRITIC_GRAPH = "critic.onnx"  # best-of-N in the page, for a model with a critic
 VOCAB = "vocab.txt"
 WASM = "ort-wasm-simd-threaded.wasm"  # in vendor/: what the page gives ONNX Runtime Web itself
-# MiniLM's graph in the site (generate/onnx_compact.py): int8 arithmetic (the fastest in the
+# MiniLM's graph in the site (generate/backends/onnx/compact.py): int8 arithmetic (the fastest in the
 # browser), int8 weights computed in float32 (closer to the float32 embeddings, several times
 # slower in ONNX Runtime Web, which dequantizes them on every run), or MiniLM's float32 (90 MB)
 TEXT_ENCODER_PRECISIONS = ("int8", "int8-weights", "float32")
@@ -159,17 +162,17 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
         # planted feet (motion/foot_lock.py; static/motion.js: lockFeet), as generate() does
         "foot_lock": {**dataclasses.asdict(FootLock()), "ankle_height": ANKLE_HEIGHT},
         # a prompt that names actions in turn, made one part each and chained, as generate()
-        # does (static/compose.js: generate/compose.py's rules; static/chain.js: long_motion.py)
+        # does (static/compose.js: generate/compose/actions.py's rules; static/chain.js: compose/long_motion.py)
         "sequence": {"rules": portable_rules(), "min_part_seconds": MIN_PART_SECONDS,
                      "blend_seconds": BLEND_SECONDS},
-        # a gait asked for longer than it lasts keeps going (generate/keep_going.py; keepgoing.js)
+        # a gait asked for longer than it lasts keeps going (generate/compose/keep_going.py; keepgoing.js)
         "keep_going": {**portable_keep_going(), "max_gait_seconds": MAX_GAIT_SECONDS},
         # "... for 8 seconds": the clip's length, the phrase taken out (prompts.stated_seconds)
         "stated": portable_stated(),
         # a clip's length when the page is not given one (pipeline.default_seconds)
         "default_seconds": DEFAULT_SECONDS,
         "durations": _portable_durations(model_dir, meta),
-        # best of N by the critic (generate/critic.py, pipeline.best_features): its graph, the
+        # best of N by the critic (generate/compose/critic.py, pipeline.best_features): its graph, the
         # model's N, and how candidate k's seed comes from the motion's (64-bit: strings)
         "critic": None if critic is None else {
             "graph": (stored or {}).get("critic", CRITIC_GRAPH), "candidates": critic.candidates,
@@ -179,7 +182,7 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
 
 
 def _write_critic_graph(critic: Critic, path: Path) -> Path:
-    """The model's critic (generate/critic.py) as an ONNX graph (z, frames, text) -> score, for
+    """The model's critic (generate/compose/critic.py) as an ONNX graph (z, frames, text) -> score, for
     the page's best-of-N: z the (B, n, d) latents over latent_scale, frames (B,) float."""
     class Score(torch.nn.Module):
         def __init__(self) -> None:
@@ -200,7 +203,7 @@ def _write_critic_graph(critic: Critic, path: Path) -> Path:
 
 
 def _portable_durations(model_dir: Path, meta: dict) -> dict[str, Any] | None:
-    """The model's duration model (generate/durations.py) for the page's parts' shares, without
+    """The model's duration model (generate/compose/durations.py) for the page's parts' shares, without
     its fit's record; None when the model has none (the parts then share alike)."""
     model = read_durations(model_dir, meta["text_encoder"], int(meta["text_dim"]))
     if model is None:
@@ -257,7 +260,7 @@ def export_site(model: str | os.PathLike | None, out: str | os.PathLike,
         else:
             shutil.copyfile(graphs / GRAPHS["text_encoder"], folder / GRAPHS["text_encoder"])
         shutil.copyfile(bundled_minilm_path() / VOCAB, folder / VOCAB)
-        generator = OnnxMotionGenerator(meta, tensors, _graphs(folder))
+        generator = onnx_generator(meta, tensors, _graphs(folder))
         latent = generator.ae.latent_shape
         if generator.critic is not None:  # float16 storage: the critic's own float16 numbers
             float16_storage(_write_critic_graph(generator.critic, graphs / CRITIC_GRAPH),
@@ -284,7 +287,7 @@ def _graphs(folder: Path) -> OnnxGraphs:
 
 
 def load_site_reference(site: str | os.PathLike, model: str | os.PathLike | None = None,
-                        threads: int | None = None) -> OnnxMotionGenerator:
+                        threads: int | None = None) -> MotionGenerator:
     """The onnx backend running the site's own graphs (the int8 text encoder included), for
     the model the site was made from: what the page computes, in Python. With
     serve.site.reference.generate_with_portable_noise, the page's motion for a seed."""
@@ -300,7 +303,7 @@ def load_site_reference(site: str | os.PathLike, model: str | os.PathLike | None
     paths, scratch = unpacked({k: folder / v for k, v in description["graphs"].items()})
     graphs = OnnxGraphs(*(paths[k] for k in ("text_encoder", "denoiser", "decoder")),
                         manifest={})
-    generator = OnnxMotionGenerator(meta, tensors, graphs, threads=threads)
+    generator = onnx_generator(meta, tensors, graphs, threads=threads)
     remove_with(generator, scratch)  # the unpacked graphs live as long as the generator
     return generator
 

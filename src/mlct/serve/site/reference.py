@@ -1,7 +1,7 @@
 """The static site's motion in Python: what the page (serve/site/static/model.js) computes for a
 prompt, a length and a seed, step for step, with the same functions generate() uses.
 
-The page draws its noise from generate/portable_noise.py, encodes each text in a run of its own
+The page draws its noise from generate/samplers/portable_noise.py, encodes each text in a run of its own
 (page_text_vector), and makes a prompt as generate() makes it: an arm action during another
 apart, a sequence one part each and chained, a gait kept going, the best of the critic's
 candidates, the feet planted. With load_site_reference (the onnx backend on the site's own
@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from mlct.generate.compose import plain_subject
-from mlct.generate.portable_noise import PortableNoise
+from mlct.generate.compose.actions import plain_subject
+from mlct.generate.samplers.portable_noise import PortableNoise
 
 
 def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: int | None,
@@ -41,9 +41,9 @@ def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: 
     None: its seconds, else the default length (MotionGenerator.default_seconds).
     Returns (features (T, D), or None for a motion joined from parts, joints (T, J, 3)),
     float32."""
-    from mlct.generate.prompts import clean_prompt
+    from mlct.generate.compose.prompts import clean_prompt
 
-    from mlct.generate.pipeline import stated_lengths
+    from mlct.generate.compose.lengths import stated_lengths
 
     text = clean_prompt(text)
     (text,), (stated,) = stated_lengths([text], split_actions)  # "... for 8 seconds"
@@ -67,13 +67,13 @@ def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: 
 def _made_as_the_page(generator, text: str, frames: int, steps: int, seed: int, split: bool,
                       candidates: int) -> tuple[np.ndarray | None, np.ndarray]:
     """generate_with_portable_noise's motion before its feet are planted (static/model.js: make)."""
-    from mlct.generate.compose import split_actions, split_concurrent
-    from mlct.generate.long_motion import blend_frames, chain_segments
-    from mlct.generate.pipeline import MIN_PART_SECONDS
+    from mlct.generate.compose.actions import split_actions, split_concurrent
+    from mlct.generate.compose.long_motion import blend_frames, chain_segments
+    from mlct.generate.compose.lengths import MIN_PART_SECONDS
 
     if split and (pair := split_concurrent(text)) is not None:
-        from mlct.generate.control import part_joints
-        from mlct.generate.control_fit import reattach
+        from mlct.generate.control.schema import part_joints
+        from mlct.generate.control.fit import reattach
 
         _, body = _made_as_the_page(generator, pair[0], frames, steps, seed, split, candidates)
         _, arms = _whole_as_the_page(generator, pair[1], frames, steps, seed, candidates)
@@ -98,12 +98,13 @@ def _whole_as_the_page(generator, text: str, frames: int, steps: int, seed: int,
     items and _keep_going): a one-action gait asked for clearly longer than its natural length
     that stopped early, or for longer than the window (made at the window's length first), is
     made again as takes of that length (take k with seed + k), chained into one continuing
-    motion (generate/keep_going.py); (None, joints) then. Past the window anything else is the
+    motion (generate/compose/keep_going.py); (None, joints) then. Past the window anything else is the
     window's error, as in generate()."""
-    from mlct.generate.compose import split_actions, split_concurrent
-    from mlct.generate.keep_going import continue_gait, names_an_end
-    from mlct.generate.long_motion import blend_frames
-    from mlct.generate.pipeline import MAX_SEED, MIN_PART_SECONDS
+    from mlct.generate.compose.actions import split_actions, split_concurrent
+    from mlct.generate.compose.keep_going import continue_gait, names_an_end
+    from mlct.generate.compose.long_motion import blend_frames
+    from mlct.generate.seeds import MAX_SEED
+    from mlct.generate.compose.lengths import MIN_PART_SECONDS
 
     window = generator.max_frames
     features, joints = _one_with_portable_noise(generator, text, min(frames, window), steps,
@@ -132,7 +133,7 @@ def _one_with_portable_noise(generator, text: str, frames: int, steps: int, seed
                              candidates: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """(features, joints) of one prompt as the model draws it, feet as decoded; the best of
     `candidates` latents by the model's critic (one sample without a critic)."""
-    from mlct.generate.pipeline import MAX_SEED, SEED_STRIDE
+    from mlct.generate.seeds import MAX_SEED, SEED_STRIDE
     from mlct.motion.features import recover_from_ric
 
     seeds = [seed] if candidates <= 1 or generator.critic is None else [

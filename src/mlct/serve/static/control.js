@@ -1,4 +1,4 @@
-// Controls on the web page (mlct.generate.control's schema): draw the root's path on a top view
+// Controls on the web page (mlct.generate.control.schema's schema): draw the root's path on a top view
 // of the floor with the mouse, and pin the pose on screen at its frame. app.js asks
 // window.mlctControl.control() for the request's "control" field before each generation.
 // The floor view: x to the right, z up the canvas (the 3D view's floor seen from above).

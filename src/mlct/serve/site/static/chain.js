@@ -1,4 +1,4 @@
-// Segments chained into one continuous motion: the page's port of generate/long_motion.py's
+// Segments chained into one continuous motion: the page's port of generate/compose/long_motion.py's
 // chain_segments. Each segment overlaps the next by `blend` frames; in the overlap the poses in
 // the body's own frame are cross-faded, and so are the root's velocity and the heading's rate of
 // turn, which are then integrated (blending world positions would drag the root between two

@@ -1,6 +1,6 @@
 // A prompt that names actions in turn ("walks forward, then waves"), split into one prompt per
-// action, and each part's share of the clip: the page's port of generate/compose.py's
-// split_actions and generate/durations.py's part_weights and split_frames. The word lists and
+// action, and each part's share of the clip: the page's port of generate/compose/actions.py's
+// split_actions and generate/compose/durations.py's part_weights and split_frames. The word lists and
 // patterns are Python's, read from model.json ("sequence.rules": compose.portable_rules), so
 // only the steps are written here; tests/test_web_static_e2e.py compares the parts and the
 // shares with Python's on the benchmark's captions and hand-written prompts.
@@ -232,7 +232,7 @@ export class ActionSplitter {
   }
 }
 
-// generate/durations.py's DurationModel (model.json "durations"): log seconds from a part's text
+// generate/compose/durations.py's DurationModel (model.json "durations"): log seconds from a part's text
 // vector, a share per place in the sequence, and the weights split_frames shares a clip by.
 export class Durations {
   constructor(spec) { this.spec = spec; }

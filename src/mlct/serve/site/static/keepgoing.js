@@ -1,5 +1,5 @@
 // A gait asked for longer than its natural length that stopped early, made again as takes of its
-// natural length chained into one continuing motion: the page's port of generate/keep_going.py
+// natural length chained into one continuing motion: the page's port of generate/compose/keep_going.py
 // (its docstring says why and how). The patterns and constants are Python's, read from
 // model.json ("keep_going": keep_going.portable_rules). Joints are flat (frames * J * 3) arrays.
 "use strict";

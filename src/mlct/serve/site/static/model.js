@@ -1,6 +1,6 @@
 // The model in the browser: text -> MiniLM (int8 ONNX) -> consistency sampler around the
 // denoiser graph (Algorithm 2) -> decoder graph -> denormalize -> joints. The same steps as
-// mlct's onnx backend (generate/onnx_backend.py, generate/samplers/consistency.py), with the
+// mlct's onnx backend (generate/backends/onnx/networks.py, generate/samplers/consistency.py), with the
 // portable noise (noise.js) so that Python can give the same joints for a seed.
 "use strict";
 
@@ -16,7 +16,7 @@ import { roundHalfEven } from "./pymath.js";
 const PY_SPACE = /[\s\x1c-\x1f\x85]/u; // what Python's str.split() splits on (U+FEFF is no space)
 const CONTROL = /[\p{Cc}\p{Cf}\p{Cs}]/u;
 
-// mlct.generate.prompts.clean_prompt: white space runs collapsed; controls, empty, too long refused.
+// mlct.generate.compose.prompts.clean_prompt: white space runs collapsed; controls, empty, too long refused.
 // text/sides.py's mirror: every side word swapped, capitals kept. Python's \b is Unicode-aware,
 // hence the lookarounds on letters, marks, digits and "_" instead of JS's ASCII \b.
 const SIDE_MIRROR = { left: "right", right: "left", clockwise: "counterclockwise",
@@ -202,7 +202,7 @@ export class MotionModel {
   }
 
   // The clean latent (n * d) of one text: a single sample, or the best of `candidates` by the
-  // critic (generate/critic.py: the cosine of the latent's motion with the text).
+  // critic (generate/compose/critic.py: the cosine of the latent's motion with the text).
   async bestLatent(cond, steps, seed, frames, candidates) {
     if (candidates <= 1 || !this.sessions.critic) return this.sample(cond, steps, [new PortableNoise(seed)]);
     const noises = this.candidateSeeds(seed, candidates).map((s) => new PortableNoise(s));

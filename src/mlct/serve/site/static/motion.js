@@ -1,5 +1,5 @@
 // Features -> joints and the motion's files, as mlct.motion.features.recover_from_ric and
-// mlct.generate.exports write them (same formulas; float64 here, float32 results).
+// mlct.generate.output.exports write them (same formulas; float64 here, float32 results).
 "use strict";
 
 // qrot(q, v) for a yaw quaternion q = (c, 0, s, 0): v + 2 (w (u x v) + u x (u x v)), u = (0, s, 0).
@@ -40,7 +40,7 @@ export function recoverFromRic(features, frames, dim) {
   return out;
 }
 
-// The .json of mlct.generate.exports.motion_json: joints as nested [T][J][3] lists, 0.1 mm.
+// The .json of mlct.generate.output.exports.motion_json: joints as nested [T][J][3] lists, 0.1 mm.
 export function motionJson(motion) {
   const { skeleton, frames, joints } = motion;
   const J = skeleton.joint_names.length;

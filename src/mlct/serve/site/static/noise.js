@@ -1,4 +1,4 @@
-// The portable noise of mlct.generate.portable_noise (its docstring says why): a counter-based
+// The portable noise of mlct.generate.samplers.portable_noise (its docstring says why): a counter-based
 // stream of 32-bit words, lowbias32(key ^ lowbias32(i)), two words per 53-bit uniform, Box-Muller
 // pairs in float64 stored as float32. Same seed, same numbers as the Python side.
 "use strict";

@@ -35,7 +35,7 @@ import torch
 
 from mlct.diffusion.consistency import c_out, c_skip
 from mlct.diffusion.samplers import Generators, draw_noise
-from mlct.generate.onnx_attention import fuse_attention
+from mlct.generate.backends.onnx.attention import fuse_attention
 
 INPUTS = ("x", "noise", "text", "times", "coef", "valid")
 COEFFICIENTS = ("times", "coef")  # inputs, or constants when sampler_model gets them
@@ -50,13 +50,13 @@ def sampler_model(denoiser: str | os.PathLike, decoder: str | os.PathLike | None
     (x_t, t, text -> f) and decoder.onnx (latent, valid -> features); the clamp, latent_scale
     and the feature mean and std are the bundle's, baked in as constants. decoder None: the
     steps alone (inputs x, noise, text and the coefficients; output latent), for a caller that
-    decodes in a session of its own (onnx_backend.py: the decoder on more threads).
+    decodes in a session of its own (backends/onnx/networks.py: the decoder on more threads).
 
     coefficients: step_coefficients' times and coef, baked in as constants instead of inputs
     (they depend on the step count alone): ONNX Runtime then folds the denoiser's time terms
     (its sinusoid and time projections) into constants once, not per call.
     attention_heads: the denoiser's head count; given, its self-attentions become ONNX
-    Runtime's fused Attention operator (onnx_attention.py), a graph only ONNX Runtime runs.
+    Runtime's fused Attention operator (backends/onnx/attention.py), a graph only ONNX Runtime runs.
     decoder_heads: the same for a transformer decoder's attentions, with their padding mask."""
     import onnx
     from onnx import TensorProto, helper, numpy_helper

@@ -10,7 +10,7 @@ The method, chosen by measurement (bench/control.py, docs/control.md), without t
    the next step re-noises the moved x0. It pulls the motion towards far controls, but off
    the model's motions (an arm thrown up, a sudden slide), and costs 3-5x plain generation;
    the candidates do better for less (docs/control.md);
-3. the correction (control_fit.py): root path, heading and the keyframes' root places by one
+3. the correction (control/fit.py): root path, heading and the keyframes' root places by one
    smooth low-frequency shift; keyframes by eased per-joint offsets with bone lengths restored
    (FABRIK for single joints); feet that stood in the model's motion held in stance (two-bone
    IK); body-part edits by copying the kept joints and re-attaching the edited bones.
@@ -33,10 +33,10 @@ import torch
 from torch import Tensor
 
 from mlct.errors import MlctError
-from mlct.generate.control import Control
-from mlct.generate.control_fit import (REACH_SECONDS, fit_heading, fit_keyframes, fit_path,
+from mlct.generate.control.schema import Control
+from mlct.generate.control.fit import (REACH_SECONDS, fit_heading, fit_keyframes, fit_path,
                                        lock_feet, reattach, turn_y)
-from mlct.generate.generated import GeneratedMotion, Generation
+from mlct.generate.output.generated import GeneratedMotion, Generation
 from mlct.motion.features import joints_to_features, recover_from_ric
 
 # pipeline.MotionGenerator, which calls generate_with_control: named, not imported (a cycle)
@@ -84,7 +84,7 @@ class Anchor:
 
 def anchor_of(control: Control, skeleton: Any) -> Anchor:
     """The frame the motion starts in: see the module docstring."""
-    from mlct.generate.long_motion import heading
+    from mlct.generate.control.facing import heading
 
     start = control.prefix if control.prefix is not None else control.edit
     pose = None if start is None else start[0]
@@ -311,7 +311,8 @@ def generate_controlled(pipe: MotionGenerator, text: str, frames: int, control: 
 def generate_with_control(pipe: MotionGenerator, texts: list[str], lengths: Any, seconds: Any,
                           nfe: int | None, seed: Any, control: Any) -> Generation:
     """MotionGenerator.generate's path for a control: one text, its length checked."""
-    from mlct.generate.control import control_from_dict
+    from mlct.generate.control.schema import control_from_dict
+    from mlct.generate.seeds import item_seeds
 
     if len(texts) != 1:
         raise MlctError(f"a control goes with one text, got {len(texts)}")
@@ -326,7 +327,7 @@ def generate_with_control(pipe: MotionGenerator, texts: list[str], lengths: Any,
         lengths = control.natural_length()
     frames = pipe._lengths(1, lengths, seconds)[0]
     pipe.check_nfe(nfe)
-    seeds = pipe._seeds(1, seed)
+    seeds = item_seeds(1, seed)
     motion = generate_controlled(pipe, texts[0], frames, control, nfe, seeds[0])
     if (control.path is not None and not control.keyframes and control.edit is None
             and control.prefix is None):

@@ -3,7 +3,7 @@
 "a person walks forward, then waves with the right hand" is two motions in a row. The model
 draws one action per prompt far better than a sequence in one latent (docs/model_card.md: the
 two-action prompts pass 0.00 of their checks as one prompt), and the long-motion chaining
-(long_motion.py) already joins prompts into one continuous motion. So the pipeline splits such a
+(compose/long_motion.py) already joins prompts into one continuous motion. So the pipeline splits such a
 prompt at its sequencing words and chains the parts, each with an equal share of the length.
 
 Words that put the next action after the previous one split: "then", "and then", "after that",
@@ -23,7 +23,7 @@ same time") are split too when one of the two is an arm action (split_concurrent
 autoencoder's three latent tokens hold a gait or an arm action, not both (the "+ concurrent"
 row of bench/quality.py motion: 0.02 of such motions survive reconstruction), so the body is
 made from the rest of the prompt and the arms from the arm action alone, grafted on
-(generate/control_fit.py's reattach, a body-part edit).
+(generate/control/fit.py's reattach, a body-part edit).
 """
 
 from __future__ import annotations

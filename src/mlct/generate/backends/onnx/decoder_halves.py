@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from mlct.generate.onnx_bundle import DECODER_IO
-from mlct.generate.onnx_sampler import fixed_batch
+from mlct.generate.backends.onnx.bundle import DECODER_IO
+from mlct.generate.backends.onnx.sampler import fixed_batch
 from mlct.onnx_io import session_from_bytes
 
 # the stacks' module names, as the exporter writes them into the node names

@@ -28,7 +28,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from mlct.generate.long_motion import _decompose, chain_segments, heading
+from mlct.generate.compose.long_motion import _decompose, chain_segments
+from mlct.generate.control.facing import heading
 from mlct.motion.gait import foot_swaps
 from mlct.motion.skeleton import Skeleton
 

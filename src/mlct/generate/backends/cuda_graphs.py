@@ -21,9 +21,10 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from mlct.diffusion.samplers import draw_noise
-from mlct.generate.pipeline import MotionGenerator, generators_for
 from mlct.cuda_graphs import GraphCache
+from mlct.diffusion.samplers import draw_noise
+from mlct.generate.backends.pytorch import TorchNetworks
+from mlct.generate.seeds import generators_for
 
 FRAME_STEP = 32  # decoded lengths are padded up to a multiple of this (at most max_frames)
 
@@ -42,28 +43,24 @@ class QueuedNoise:
         return self.rows[self.used - 1]
 
 
-class CudaGraphMotionGenerator(MotionGenerator):
-    """MotionGenerator whose sampling, decoding and text network replay CUDA graphs."""
+MAX_GRAPHS = 16  # graphs kept per generator (each holds its activations' memory pool)
 
-    backend = "cuda-graphs"
+
+class CudaGraphNetworks(TorchNetworks):
+    """The torch networks whose sampling, decoding and text network replay CUDA graphs (on the
+    CPU the same code runs the functions, as the tests do)."""
+
+    name = "cuda-graphs"
 
     def __init__(self, meta: dict, tensors: dict[str, Tensor],
                  device: torch.device | str | None = None,
-                 dtype: str | torch.dtype = "float32", max_graphs: int = 16) -> None:
+                 dtype: str | torch.dtype = "float32") -> None:
         super().__init__(meta, tensors, device, dtype)
         self._mean = self.mean.to(self.device)
         self._std = self.std.to(self.device)
-        self._graphs = GraphCache(self._graph_body, max_graphs)
+        self._graphs = GraphCache(self._graph_body, MAX_GRAPHS)
+        self.max_frames = self.config.data.max_motion_length
 
-    @classmethod
-    def load(cls, path: Any, device: torch.device | str | None = None,
-             dtype: str | torch.dtype = "float32") -> MotionGenerator:
-        """The backend of mlct.load: a CUDA device only (constructed directly, the class runs
-        the same code without graphs anywhere, as the tests do on the CPU)."""
-        check_cuda_device(device)
-        return super().load(path, device, dtype)
-
-    @property
     def text_encoder(self) -> Any:
         """The frozen text encoder on the generator's device, its network graphed if it can be."""
         if self._text_encoder is None:
@@ -98,18 +95,16 @@ class CudaGraphMotionGenerator(MotionGenerator):
 
     def _features(self, z: Tensor, lengths: Tensor, frames: int) -> Tensor:
         """Denormalised features (B, frames, D), float32: MotionGenerator.decode's arithmetic."""
-        feats = self.ae.decode(z / self.config.schedule.latent_scale, lengths, frames)
+        feats = self.decoder.decode(z / self.config.schedule.latent_scale, lengths, frames)
         return feats.float() * self._std + self._mean
 
     # -- the host side: buckets, noise, copies -------------------------------------------------
 
     @torch.inference_mode()
-    def sample_latents(self, cond: Tensor, nfe: int | None = None,
-                       seed: int | Sequence[int] | None = None, guidance: float | None = None
-                       ) -> Tensor:
-        steps = self.check_nfe(nfe)
+    def latents(self, cond: Tensor, steps: int, seed: int | Sequence[int] | None,
+                guidance: float | None, uncond: Tensor | None) -> Tensor:
         batch = cond.shape[0]
-        inputs = self._sampler_inputs(cond, steps, seed)
+        inputs = self._sampler_inputs(cond, steps, seed, uncond)
         return self._graphs(("latents", steps, guidance), *inputs,
                             read=lambda z: z[:batch].clone())
 
@@ -121,23 +116,23 @@ class CudaGraphMotionGenerator(MotionGenerator):
                             read=lambda out: _to_host(out, lengths))
 
     @torch.inference_mode()
-    def sample_features(self, cond: Tensor, nfe: int | None, seed: int | Sequence[int] | None,
-                        guidance: float | None, lengths: Sequence[int]) -> list[np.ndarray]:
+    def features(self, cond: Tensor, steps: int, seed: int | Sequence[int] | None,
+                 guidance: float | None, uncond: Tensor | None, lengths: Sequence[int]
+                 ) -> list[np.ndarray]:
         """Sampling, decoding and de-normalisation as one graph: one replay per batch."""
-        steps = self.check_nfe(nfe)
         frames = self._frames(lengths)
-        cond, noise, *uncond = self._sampler_inputs(cond, steps, seed)
+        cond, noise, *uncond = self._sampler_inputs(cond, steps, seed, uncond)
         return self._graphs(("features", steps, guidance, frames), cond, noise,
                             self._lengths_tensor(lengths, frames), *uncond,
                             read=lambda out: _to_host(out, lengths))
 
-    def _sampler_inputs(self, cond: Tensor, steps: int, seed: int | Sequence[int] | None
-                        ) -> list[Tensor]:
+    def _sampler_inputs(self, cond: Tensor, steps: int, seed: int | Sequence[int] | None,
+                        uncond: Tensor | None) -> list[Tensor]:
         """cond and the noise (1 + draws, B, n, d), padded to the batch's bucket; the null
         condition last when the sampler uses classifier-free guidance."""
         batch = cond.shape[0]
         pad = _bucket(batch) - batch
-        shape = (1 + self.sampler.noise_draws(steps), batch, *self.ae.latent_shape)
+        shape = (1 + self.sampler.noise_draws(steps), batch, *self.decoder.latent_shape)
         if seed is None and self.device.type == "cuda":
             # Nothing to reproduce: drawn where it is used (on the host, a big batch's noise
             # would take longer to draw than the GPU takes to sample).
@@ -148,8 +143,8 @@ class CudaGraphMotionGenerator(MotionGenerator):
                                  for _ in range(shape[0])])
         inputs = [_pad_rows(cond.to(self.device), pad),
                   _pad_rows(noise.to(self.device, non_blocking=True), pad, dim=1)]
-        if self.sampler.cfg:
-            inputs.append(self.encode_text([""]))
+        if uncond is not None:
+            inputs.append(uncond)
         return inputs
 
     def _frames(self, lengths: Sequence[int]) -> int:

@@ -20,16 +20,18 @@ never change a motion beyond float rounding.
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 import torch
 from torch import Tensor
 
-from mlct.generate.compose import split_actions as split_actions_of
-from mlct.generate.compose import split_concurrent
-from mlct.generate.prompts import clean_prompt
+from mlct.generate.compose.actions import split_actions as split_actions_of
+from mlct.generate.compose.actions import split_concurrent
+from mlct.generate.compose.lengths import MIN_PART_SECONDS, frame_lengths, longest_gait
+from mlct.generate.compose.prompts import clean_prompt
 
 # Latents per sampler call when filling the memo (a sample is `candidates` latents). On a CPU
 # the time per motion is least near 64 and grows past a few hundred, where a batch's
@@ -54,10 +56,11 @@ def planned_samples(pipe: Any, texts: Sequence[str], frames: Sequence[int],
     model for, as far as the prompts alone decide them (keep-going takes depend on the first
     sample and are not listed). Mirrors MotionGenerator._made and generate_long; `pipe` is
     the MotionGenerator (not imported: it imports this module)."""
-    from mlct.generate.long_motion import blend_frames
+    from mlct.generate.compose.long_motion import blend_frames
+    from mlct.generate.compose.timing import part_frames
 
     blend = blend_frames(pipe.skeleton.fps)
-    min_part = pipe.min_part_frames()
+    min_part = pipe.frames_for(MIN_PART_SECONDS)
     out: list[Sample] = []
     for text, n, seed in zip(texts, frames, seeds):
         if split_actions and (pair := split_concurrent(text)) is not None:
@@ -70,8 +73,8 @@ def planned_samples(pipe: Any, texts: Sequence[str], frames: Sequence[int],
             continue
         # _chained -> generate_long: each part but the last also covers the next one's blend,
         # item k seeded seed + k, lengths through the same seconds round trip
-        seconds = [k / pipe.skeleton.fps for k in pipe.part_frames(parts, n)]
-        lengths = pipe._lengths(len(parts), None, seconds, pipe.longest_gait())
+        seconds = [k / pipe.skeleton.fps for k in part_frames(pipe, parts, n)]
+        lengths = frame_lengths(pipe, len(parts), None, seconds, longest_gait(pipe))
         lengths = [k + blend for k in lengths[:-1]] + [lengths[-1]]
         out += [Sample(clean_prompt(p), min(k, pipe.max_frames), seed + j)
                 for j, (p, k) in enumerate(zip(parts, lengths))]
@@ -116,3 +119,60 @@ def fill(pipe: Any, memo: SampleMemo, samples: Sequence[Sample]) -> None:
                                 [s.frames for s in chunk], memo.candidates)
         for s, feats in zip(chunk, made):
             memo.put(rows[s.text], s.frames, s.seed, feats)
+
+
+@contextlib.contextmanager
+def made_ahead(gen: Any, texts: Sequence[str], frames: Sequence[int], seeds: Sequence[int],
+               split_actions: bool, nfe: int | None, guidance: float | None,
+               candidates: int) -> Iterator[None]:
+    """The outermost generate() makes every sample its prompts' paths will ask for in a
+    few large batches first, where some prompt is more than one sample; the paths then read
+    them (best_features)."""
+    # One prompt's path already makes its own samples in one call (a sequence's parts,
+    # a gait's takes), so only a list is planned: a batch of 1 pays nothing for it.
+    if len(texts) < 2 or getattr(gen.nesting, "memo", None) is not None:
+        yield  # one prompt, or an inner call (the outer made them)
+        return
+    planned = planned_samples(gen, texts, frames, seeds, split_actions)
+    if [s.text for s in planned] == list(texts):  # one sample each: one batch already
+        yield
+        return
+    with samples_ahead(gen, planned, nfe, guidance, candidates):
+        yield
+
+
+@contextlib.contextmanager
+def samples_ahead(gen: Any, samples: Sequence[Sample], nfe: int | None,
+                  guidance: float | None, candidates: int) -> Iterator[None]:
+    """Within it, best_features reads these Samples, made now in a few large batches (added
+    to the memo of an outer call with the same settings, else a new one)."""
+    steps = gen.check_nfe(nfe)
+    outer = getattr(gen.nesting, "memo", None)
+    if outer is not None and outer.serves(steps, guidance, candidates):
+        fill(gen, outer, samples)
+        yield
+        return
+    gen.nesting.memo = SampleMemo(steps, guidance, candidates)
+    try:
+        fill(gen, gen.nesting.memo, samples)
+        yield
+    finally:
+        gen.nesting.memo = outer
+
+
+def best_features(gen: Any, cond: Tensor, nfe: int | None, seeds: Sequence[int],
+                  guidance: float | None, lengths: Sequence[int], candidates: int
+                  ) -> list[np.ndarray]:
+    """sample_best's features, taken from the samples the outermost generate() made ahead
+    for its whole list of prompts where it made them."""
+    memo = getattr(gen.nesting, "memo", None)
+    if memo is None or not memo.serves(gen.check_nfe(nfe), guidance, candidates):
+        return gen.sample_best(cond, nfe, seeds, guidance, lengths, candidates)
+    found = [memo.get(row, n, s) for row, n, s in zip(cond, lengths, seeds)]
+    missing = [i for i, f in enumerate(found) if f is None]
+    if missing:
+        made = gen.sample_best(cond[missing], nfe, [seeds[i] for i in missing], guidance,
+                               [lengths[i] for i in missing], candidates)
+        for i, feats in zip(missing, made):
+            found[i] = feats
+    return found  # type: ignore[return-value]

@@ -6,7 +6,7 @@ a gait), "a person lies down" a squat, "picks up a box" both arms raised. Nothin
 says it is wrong, so the prompt is judged instead, before anyone looks at the motion:
 
     a part of a prompt is unknown when its text vector's cosine with the nearest training
-    caption (the text anchors' vectors, generate/text_anchors.py) is below UNKNOWN_BELOW.
+    caption (the text anchors' vectors, generate/compose/text_anchors.py) is below UNKNOWN_BELOW.
 
 A prompt is judged part by part, as generate() makes it (its actions in turn, an arm action done
 during the rest: pipeline.parts_as_made), each part as the text encoder reads it (a subject the
@@ -38,7 +38,7 @@ from __future__ import annotations
 
 from torch import Tensor
 
-from mlct.generate.text_anchors import TextAnchors
+from mlct.generate.compose.text_anchors import TextAnchors
 
 UNKNOWN_BELOW = 0.62  # cosine with the nearest training caption; chosen as the docstring says
 

@@ -1,65 +1,117 @@
-"""The inference backends and `load`, which picks one by name: a new backend is a loader here.
+"""`load`: a model's generator on the backend asked for by name; a new backend is a loader here.
 
+A generator is the composer (compose/generator.py) over the core (core.py), which holds the
+model's networks as one backend runs them (backends/):
 - torch: the networks in PyTorch (mlct.nn.inference's layers), on the CPU or a GPU, float32 or
-  bfloat16 products (pipeline.py);
-- cuda-graphs: the torch pipeline on a GPU, replayed from CUDA graphs (cuda_graph_backend.py);
-- onnx: the same pipeline with the three networks as ONNX graphs run by ONNX Runtime on the CPU
-  (onnx_backend.py; the graphs `mlct convert MODEL_DIR --onnx` put in the model directory, else
-  made once into the cache, as auto does); a batch of TORCH_MIN_BATCH latents or more is handed
-  to the torch networks, faster there;
+  bfloat16 products (backends/pytorch.py);
+- cuda-graphs: the torch networks on a GPU, replayed from CUDA graphs (backends/cuda_graphs.py);
+- onnx: the three networks as ONNX graphs run by ONNX Runtime on the CPU
+  (backends/onnx/networks.py; the graphs `mlct convert MODEL_DIR --onnx` put in the model
+  directory, else made once into the cache, as auto does); a batch of TORCH_MIN_BATCH latents
+  or more is handed to the torch networks, faster there;
 - onnx-int8: the same with the denoiser's matrix products in int8 (the graphs from `mlct
   convert MODEL_DIR --onnx --int8` or made once into the cache): ~2x faster sampling, motions
   as good by the read-outs but not the float32 ones (asked for by name: docs/performance.md);
 - auto (the default): the fastest of them that can run the model here and gives its own
-  motions (float32; auto_backend.py).
+  motions (float32; backends/auto.py).
 """
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import torch
 
 from mlct.cpu_features import kernel_dtype
 from mlct.devices import resolve_device
 from mlct.errors import MlctError
-from mlct.generate.auto_backend import ENV, choose_backend, find_graphs
-from mlct.generate.cuda_graph_backend import CudaGraphMotionGenerator, check_cuda_device
-from mlct.generate.onnx_backend import OnnxMotionGenerator, check_device_and_dtype
-from mlct.generate.pipeline import MotionGenerator, bundled_model_dir
+from mlct.generate.backends.auto import ENV, choose_backend, find_graphs
+from mlct.generate.backends.cuda_graphs import CudaGraphNetworks, check_cuda_device
+from mlct.generate.backends.onnx.networks import OnnxNetworks, check_device_and_dtype
+from mlct.generate.backends.pytorch import TorchNetworks
+from mlct.generate.bundle import bundled_model_dir, read_bundle
+from mlct.generate.compose.actions import plain_subject
+from mlct.generate.compose.generator import MotionGenerator
+from mlct.generate.core import MotionCore
 from mlct.nn.inference import weight_dtype
 
 
+def torch_generator(meta: dict, tensors: dict[str, torch.Tensor],
+                    device: torch.device | str | None = None,
+                    dtype: str | torch.dtype = "float32") -> MotionGenerator:
+    """A bundle's (bundle.read_bundle) generator on the torch backend."""
+    return MotionGenerator(MotionCore(TorchNetworks(meta, tensors, device, dtype), plain_subject))
+
+
+def cuda_graph_generator(meta: dict, tensors: dict[str, torch.Tensor],
+                         device: torch.device | str | None = None,
+                         dtype: str | torch.dtype = "float32") -> MotionGenerator:
+    """A bundle's generator on the cuda-graphs backend (on the CPU it runs the same code
+    without graphs, as the tests do there)."""
+    return MotionGenerator(MotionCore(CudaGraphNetworks(meta, tensors, device, dtype), plain_subject))
+
+
+def onnx_generator(meta: dict, tensors: dict[str, torch.Tensor], graphs: Any,
+                   threads: int | None = None) -> MotionGenerator:
+    """A bundle's generator on the onnx backend, on these graphs (onnx/bundle.read_onnx)."""
+    return MotionGenerator(MotionCore(OnnxNetworks(meta, tensors, graphs, threads), plain_subject))
+
+
+def load_torch(path: str | os.PathLike, device: torch.device | str | None = None,
+               dtype: str | torch.dtype = "float32") -> MotionGenerator:
+    return torch_generator(*read_bundle(path), device, dtype)
+
+
+def load_cuda_graphs(path: str | os.PathLike, device: torch.device | str | None = None,
+                     dtype: str | torch.dtype = "float32") -> MotionGenerator:
+    """The cuda-graphs backend of mlct.load: a CUDA device only."""
+    check_cuda_device(device)
+    return cuda_graph_generator(*read_bundle(path), device, dtype)
+
+
+def load_onnx(path: str | os.PathLike, device: torch.device | str | None = None,
+              dtype: str | torch.dtype = "float32", threads: int | None = None,
+              graphs: str | os.PathLike | None = None) -> MotionGenerator:
+    """The onnx backend on the graphs in `graphs` (default: path/onnx)."""
+    from mlct.generate.backends.onnx.bundle import read_onnx
+    from mlct.onnx_io import onnxruntime_module
+
+    onnxruntime_module()  # its absence first: the fix for it comes before converting
+    check_device_and_dtype(device, dtype)
+    meta, tensors = read_bundle(path)
+    return onnx_generator(meta, tensors, read_onnx(path, meta["text_encoder"], graphs), threads)
+
+
 def _onnx(path: Path, device: torch.device | str | None = None,
-          dtype: str | torch.dtype = "float32") -> OnnxMotionGenerator:
+          dtype: str | torch.dtype = "float32") -> MotionGenerator:
     """The onnx backend on the graphs `mlct convert --onnx [--int8]` put in the model folder, as
     they are (checked: graphs of other weights are refused, saying how to make them again);
     without any there (the bundled model, which cannot hold graphs of its own), on the cache's
     float32 graphs, made once as auto makes them."""
-    from mlct.generate.onnx_bundle import MANIFEST, ONNX_DIR
+    from mlct.generate.backends.onnx.bundle import MANIFEST, ONNX_DIR
 
     if (path / ONNX_DIR / MANIFEST).is_file():
-        return OnnxMotionGenerator.load(path, device, dtype)
+        return load_onnx(path, device, dtype)
     return _cached(path, device, dtype, int8=False)
 
 
 def _onnx_int8(path: Path, device: torch.device | str | None = None,
-               dtype: str | torch.dtype = "float32") -> OnnxMotionGenerator:
+               dtype: str | torch.dtype = "float32") -> MotionGenerator:
     """The onnx backend on graphs whose denoiser products are int8: the model folder's when
     `mlct convert --onnx --int8` made them, else the cache's (made once)."""
     return _cached(path, device, dtype, int8=True)
 
 
 def _cached(path: Path, device: torch.device | str | None, dtype: str | torch.dtype,
-            int8: bool) -> OnnxMotionGenerator:
+            int8: bool) -> MotionGenerator:
     """The onnx backend on auto_backend.find_graphs' graphs of this kind."""
     from mlct.onnx_io import onnxruntime_module
 
     onnxruntime_module()  # its absence first: the fix for it comes before converting
     check_device_and_dtype(device, dtype)  # and a device or dtype it cannot run
-    return OnnxMotionGenerator.load(path, device, dtype,
+    return load_onnx(path, device, dtype,
                                     graphs=find_graphs(path, _config(path)["text_encoder"], int8))
 
 
@@ -74,10 +126,10 @@ def _config(path: Path) -> dict:
 
 
 BACKENDS: dict[str, Callable[..., MotionGenerator]] = {
-    "torch": MotionGenerator.load,
+    "torch": load_torch,
     "onnx": _onnx,
     "onnx-int8": _onnx_int8,
-    "cuda-graphs": CudaGraphMotionGenerator.load,
+    "cuda-graphs": load_cuda_graphs,
 }
 
 
@@ -122,7 +174,7 @@ def load(path: str | os.PathLike | None = None, device: torch.device | str | Non
     """Load an inference bundle written by `mlct export`; with no path, the bundled model.
     dtype: "float32" or "bfloat16" matrix products (the torch backend); backend: a BACKENDS
     name, or "auto" (the default): the fastest one that can run the model here
-    (auto_backend.py; $MLCT_BACKEND overrides it). The generator's `backend_note` says which
+    (backends/auto.py; $MLCT_BACKEND overrides it). The generator's `backend_note` says which
     backend runs it and why. threads: PyTorch's intra-op threads (process-wide: the torch
     backends and the torch work around the graphs) and ONNX Runtime's per graph; None keeps
     PyTorch's (one per core, or $OMP_NUM_THREADS)."""
@@ -142,13 +194,13 @@ def load(path: str | os.PathLike | None = None, device: torch.device | str | Non
     chosen, graphs, why = choose_backend(folder, device, dtype)
     if chosen in ("onnx", "onnx-int8"):
         try:
-            generator = OnnxMotionGenerator.load(folder, device, dtype, graphs=graphs)
+            generator = load_onnx(folder, device, dtype, graphs=graphs)
             generator.backend = chosen
         except MlctError as err:  # e.g. a graph ONNX Runtime cannot load: torch still can
             chosen, why = "torch", f"the {chosen} backend failed to load ({err})"
     if chosen == "cuda-graphs":
-        generator = CudaGraphMotionGenerator.load(folder, device, dtype)
+        generator = load_cuda_graphs(folder, device, dtype)
     if chosen == "torch":
-        generator = MotionGenerator.load(folder, device, dtype)
+        generator = load_torch(folder, device, dtype)
     generator.backend_note = f"{chosen} (auto: {why})"
     return generator

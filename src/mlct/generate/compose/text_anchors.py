@@ -102,7 +102,7 @@ class TextAnchors:
 
     def nearest(self, cond: Tensor) -> Tensor:
         """(B,) each row's cosine with its nearest training caption: how far the prompt lies
-        from everything the model was trained on (generate/unknown_prompts.py reads it)."""
+        from everything the model was trained on (generate/compose/unknown_prompts.py reads it)."""
         return (F.normalize(cond.float().cpu(), dim=1) @ self._columns).amax(dim=1)
 
     def __call__(self, cond: Tensor) -> Tensor:

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from mlct.errors import MlctError
-from mlct.generate.onnx_int8_pairs import make_pairs_safe
+from mlct.generate.backends.onnx.int8_pairs import make_pairs_safe
 
 MIN_FP16_SIZE = 1024  # smaller initializers (biases of norms, shapes) stay as they are
 QUANTIZED_OPS = ("MatMul", "Gather")  # the matrix products and the word-embedding table
@@ -81,7 +81,7 @@ def quantize_int8(src: str | os.PathLike, dst: str | os.PathLike,
                   op_types: tuple[str, ...] = QUANTIZED_OPS) -> Path:
     """ONNX Runtime's dynamic int8 quantization (weights per channel, symmetric; activations
     at run time) of src's operators of op_types, written to dst; each column's scale such that
-    every CPU's int8 kernels compute the same sums (onnx_int8_pairs.py)."""
+    every CPU's int8 kernels compute the same sums (backends/onnx/int8_pairs.py)."""
     onnx = require_onnx()
     try:
         from onnxruntime.quantization import QuantType, quantize_dynamic

@@ -16,7 +16,7 @@ Coordinates are metres, y up, in the world of the result. A path's heading is in
 +y, 0 facing +Z, 90 facing +X. Frames index the result (0 .. frames-1); waypoints given without
 frames are spread over the whole motion in proportion to the path's length. `Control.check`
 validates against a length and a skeleton and raises MlctError with one line naming the problem.
-The command line's files: control_files.py. How controls are met: controlled.py.
+The command line's files: control/files.py. How controls are met: control/controlled.py.
 """
 
 from __future__ import annotations

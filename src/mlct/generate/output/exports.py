@@ -36,7 +36,7 @@ from mlct.motion.skeleton import get_skeleton
 
 
 class GeneratedMotion(Protocol):
-    """What a writer reads from a motion (mlct.generate.generated.GeneratedMotion has it): a
+    """What a writer reads from a motion (mlct.generate.output.generated.GeneratedMotion has it): a
     protocol, so that this module does not import the one that imports it."""
 
     text: str

@@ -55,7 +55,7 @@ def choose_backend(path: Path, device: Any, dtype: Any) -> tuple[str, Path | Non
         import onnxruntime
     except ImportError:
         return "torch", None, "onnxruntime is not installed (pip install 'mlct[onnx]')"
-    from mlct.generate.onnx_bundle import MANIFEST, ONNX_DIR, read_onnx
+    from mlct.generate.backends.onnx.bundle import MANIFEST, ONNX_DIR, read_onnx
     from mlct.text.minilm_onnx import ONNX_SPECS
 
     if not (path / CONFIG).is_file():  # not a model: loading it says so, in its words
@@ -85,7 +85,7 @@ def find_graphs(path: Path, text_encoder: str, int8: bool) -> Path:
     """The folder of the model's ONNX graphs of this kind (float32, or the denoiser's products in
     int8): MODEL_DIR/onnx when `mlct convert` put such graphs there, else the cache's entry,
     converted on first use. MlctError saying why when there are none and none can be made."""
-    from mlct.generate.onnx_bundle import MANIFEST, ONNX_DIR, read_onnx
+    from mlct.generate.backends.onnx.bundle import MANIFEST, ONNX_DIR, read_onnx
 
     if (path / ONNX_DIR / MANIFEST).is_file():
         try:
@@ -115,7 +115,7 @@ def find_graphs(path: Path, text_encoder: str, int8: bool) -> Path:
 def default_graph_dir(path: Path, int8: bool = False) -> Path:
     """The cache entry of the ONNX graphs of the model in `path` (int8: with the denoiser's
     products in int8)."""
-    from mlct.generate.onnx_bundle import ONNX_VERSION, weights_digest
+    from mlct.generate.backends.onnx.bundle import ONNX_VERSION, weights_digest
     from mlct.text import default_cache_dir
 
     key = hashlib.sha256()
@@ -130,7 +130,7 @@ def default_graph_dir(path: Path, int8: bool = False) -> Path:
 
 def convert_into_cache(path: Path, entry: Path, int8: bool = False) -> Path:
     """Write the model's graphs into the cache entry `entry` (see the module docstring)."""
-    from mlct.generate.onnx_bundle import write_onnx_graphs
+    from mlct.generate.backends.onnx.convert import write_onnx_graphs
 
     try:
         entry.parent.mkdir(parents=True, exist_ok=True)

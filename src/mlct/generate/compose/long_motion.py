@@ -20,7 +20,8 @@ from typing import Any, ContextManager, Protocol, Sequence
 import numpy as np
 
 from mlct.errors import MlctError
-from mlct.generate.generated import GeneratedMotion
+from mlct.generate.control.facing import heading
+from mlct.generate.output.generated import GeneratedMotion
 from mlct.motion.skeleton import Skeleton
 
 
@@ -64,15 +65,6 @@ class LongMotion(GeneratedMotion):
     texts: tuple[str, ...] = ()
     blend: int = 0
     segments: tuple[np.ndarray, ...] = ()  # the joints of each segment as generated
-
-
-def heading(joints: np.ndarray, skeleton: Skeleton) -> np.ndarray:
-    """(..., J, 3) -> (...,) facing angle about +y, 0 when facing +Z (atan2 of forward x, z)."""
-    r_hip, l_hip, r_shoulder, l_shoulder = skeleton.face_joints
-    across = (joints[..., r_hip, :] - joints[..., l_hip, :]
-              + joints[..., r_shoulder, :] - joints[..., l_shoulder, :])
-    forward_x, forward_z = across[..., 2], -across[..., 0]  # forward = y x across
-    return np.arctan2(forward_x, forward_z)
 
 
 def _turn_y(points: np.ndarray, angle: float) -> np.ndarray:
@@ -155,7 +147,7 @@ def generate_long(generator: SegmentMaker, texts: Sequence[str], seconds: Sequen
     # every segment but the last also covers the next one's blend
     lengths = [n + blend for n in frames[:-1]] + [frames[-1]]
     # A gait may go past the window when the generator keeps gaits going (generate/
-    # keep_going.py); generate() itself refuses any other segment that long.
+    # compose/keep_going.py); generate() itself refuses any other segment that long.
     if max(lengths) > generator.longest_gait():
         raise MlctError(f"a segment may last at most {(generator.max_frames - blend) / fps:.1f} s "
                         f"(the model's window, less the {blend / fps:.1f} s blend); split it")

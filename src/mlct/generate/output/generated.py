@@ -37,7 +37,7 @@ class GeneratedMotion:
     seed: int | None = None
     # the parts of the prompt (all of it, or some of its actions as generate() splits them)
     # that lie too far from every training caption for the model to know them: their motion
-    # is likely not what was asked (generate/unknown_prompts.py); () when it knows them all
+    # is likely not what was asked (generate/compose/unknown_prompts.py); () when it knows them all
     unknown_parts: tuple[str, ...] = ()
 
     @property
@@ -66,9 +66,9 @@ class GeneratedMotion:
     def save(self, path: str | os.PathLike, features: bool = False,
              rig: str | os.PathLike | None = None) -> Path:
         """Write to path: .gif .mp4 .png .npy .json .bvh .glb .fbx .vrma .npz
-        (mlct.generate.exports); rig: mixamo, unreal, unity, vrm, smpl or a .json rig, for .bvh,
+        (mlct.generate.output.exports); rig: mixamo, unreal, unity, vrm, smpl or a .json rig, for .bvh,
         .glb and .fbx."""
-        from mlct.generate.exports import save_motion
+        from mlct.generate.output.exports import save_motion
 
         return save_motion(self, path, features, rig)
 

@@ -1,30 +1,12 @@
-"""A bundle's ONNX graphs: `mlct convert MODEL_DIR --onnx` and `mlct export RUN --onnx` write
-them, the onnx backend (onnx_backend.py) reads them; this module owns their format.
-
-MODEL_DIR/onnx/ holds
-- text_encoder.onnx: the MiniLM network, (ids, mask) -> (embedding, states)
-  (text/minilm_onnx.py; the tokenizer stays the `tokenizers` library);
-- denoiser.onnx: the network F of Eq. 11, (x_t (B, n, d), t (B,), text (B, c)) -> F (B, n, d).
-  F, not the consistency function S: the sampler objects (generate/samplers) apply the
-  parameterization (Eq. 11, or DDIM's noise prediction), the clamp and the re-noising around it,
-  as they do around the torch network. One sampler code for both backends, and its noise drawn
-  from the same torch.Generator, so a seed gives the same motion on either;
-- decoder.onnx: the AE decoder, (latent (B, n, d), valid (B, T) bool) -> normalized features
-  (B, T, D), T free (the longest length asked for); the pipeline divides by latent_scale before
-  it and denormalizes after it, as for the torch decoder;
-- onnx.json: format and version, the sha256 of the model.safetensors the graphs were made from
-  (graphs of another model are refused, not run), the text encoder, the opset.
-"""
+"""Writing a bundle's ONNX graphs (`mlct convert MODEL_DIR --onnx`, `mlct export RUN --onnx`)
+in the format bundle.py owns: the torch modules exported and each graph checked against them."""
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import shutil
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import torch
@@ -32,31 +14,18 @@ from torch import Tensor, nn
 
 from mlct.config import config_from_dict
 from mlct.errors import MlctError
-from mlct.generate.bundle import BUNDLE_FILES, CONFIG, OPTIONAL_FILES, WEIGHTS, read_bundle
-from mlct.generate.pipeline import bundle_networks, bundled_model_dir
-from mlct.io import atomic_dir, check_writable_dir, read_format_json
+from mlct.generate.backends.onnx.bundle import (DECODER, DECODER_IO, DENOISER, DENOISER_IO,
+                                                MANIFEST, ONNX_DIR, ONNX_FORMAT, ONNX_VERSION,
+                                                TEXT_ENCODER, weights_digest)
+from mlct.generate.backends.pytorch import bundle_networks
+from mlct.generate.bundle import BUNDLE_FILES, CONFIG, OPTIONAL_FILES, read_bundle
+from mlct.io import atomic_dir, check_writable_dir
 from mlct.nn.autoencoder import LatentAutoencoder
 from mlct.nn.inference import for_inference
 from mlct.onnx_io import OPSET, export_graph, onnxruntime_module, session
 from mlct.text.minilm_onnx import check_onnx_spec, write_minilm_graph
 
-ONNX_DIR = "onnx"  # in the model directory
-MANIFEST = "onnx.json"
-ONNX_FORMAT, ONNX_VERSION = "mlct-onnx", 1
-TEXT_ENCODER, DENOISER, DECODER = "text_encoder.onnx", "denoiser.onnx", "decoder.onnx"
-DENOISER_IO = (("x_t", "t", "text"), ("f",))
-DECODER_IO = (("latent", "valid"), ("features",))
 PARITY = 1e-3  # the most a graph's output may differ from the torch module's when written
-
-
-@dataclass(frozen=True)
-class OnnxGraphs:
-    """The graph files of a model directory, checked against its weights (read_onnx)."""
-
-    text_encoder: Path
-    denoiser: Path
-    decoder: Path
-    manifest: dict[str, Any]
 
 
 class DecoderGraph(nn.Module):
@@ -69,24 +38,6 @@ class DecoderGraph(nn.Module):
 
     def forward(self, latent: Tensor, valid: Tensor) -> Tensor:
         return self.ae.decode(latent, valid.sum(1), valid.shape[1])
-
-
-def weights_digest(model_dir: Path) -> str:
-    """The sha256 of the bundle's model.safetensors (hex); remembered per file, size and
-    modification time, as loading asks for it up to three times (auto_backend.py)."""
-    path = (Path(model_dir) / WEIGHTS).resolve()
-    stat = path.stat()
-    key = (str(path), stat.st_size, stat.st_mtime_ns)
-    if key not in _DIGESTS:
-        digest = hashlib.sha256()
-        with open(path, "rb") as f:
-            for block in iter(lambda: f.read(1 << 20), b""):
-                digest.update(block)
-        _DIGESTS[key] = digest.hexdigest()
-    return _DIGESTS[key]
-
-
-_DIGESTS: dict[tuple[str, int, int], str] = {}
 
 
 def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike,
@@ -138,7 +89,7 @@ def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike,
                 "graphs": {"text_encoder": TEXT_ENCODER, "denoiser": DENOISER,
                            "decoder": DECODER}}
     if int8:
-        from mlct.generate.onnx_compact import INT8_BLOCK, quantize_blockwise_int8
+        from mlct.generate.backends.onnx.compact import INT8_BLOCK, quantize_blockwise_int8
 
         quantize_blockwise_int8(into / DENOISER, into / DENOISER)
         manifest["int8"] = ["denoiser"]
@@ -187,33 +138,3 @@ def convert_to_onnx(model_dir: str | os.PathLike, out: str | os.PathLike | None 
         (tmp / ONNX_DIR).mkdir()
         write_onnx_graphs(tmp, tmp / ONNX_DIR, int8)
     return target
-
-
-def read_onnx(model_dir: str | os.PathLike, text_encoder: str,
-              folder: str | os.PathLike | None = None) -> OnnxGraphs:
-    """The ONNX graphs of a bundle, checked: present, of this format, made from its weights and
-    for its text encoder; a one-line MlctError naming the problem and the fix otherwise.
-    folder: where the graphs are (default MODEL_DIR/onnx; the cache's, auto_backend.py)."""
-    model_dir = Path(model_dir)
-    folder = model_dir / ONNX_DIR if folder is None else Path(folder)
-    make = f"make them with `mlct convert {model_dir} --onnx`"
-    if model_dir.resolve() == bundled_model_dir():  # inside the package: not written there
-        make = ("make a copy that has them with `mlct convert bundled --onnx --out DIR`, "
-                "then load DIR")
-    if not (folder / MANIFEST).is_file():
-        raise MlctError(f"{model_dir}: no ONNX graphs ({ONNX_DIR}/{MANIFEST}); {make}")
-    manifest = read_format_json(folder / MANIFEST, ONNX_FORMAT, ONNX_VERSION,
-                                "the description of a model's ONNX graphs")
-    graphs = {k: folder / v for k, v in (manifest.get("graphs") or {}).items()
-              if isinstance(v, str)}
-    missing = [name for name in ("text_encoder", "denoiser", "decoder")
-               if name not in graphs or not graphs[name].is_file()]
-    if missing:
-        raise MlctError(f"{folder}: the {', '.join(missing)} graph is missing; {make}")
-    if manifest.get("weights_sha256") != weights_digest(model_dir):
-        raise MlctError(f"{folder}: the ONNX graphs were made from another {WEIGHTS}; {make}")
-    if manifest.get("text_encoder") != text_encoder.strip().lower():
-        raise MlctError(f"{folder}: the ONNX graphs were made for the text encoder "
-                        f"{manifest.get('text_encoder')!r}, the model uses {text_encoder!r}; "
-                        f"{make}")
-    return OnnxGraphs(graphs["text_encoder"], graphs["denoiser"], graphs["decoder"], manifest)

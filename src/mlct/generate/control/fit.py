@@ -1,6 +1,6 @@
 """Motion-space corrections that make controls exact while keeping the motion smooth.
 
-After guidance (controlled.py) has brought the decoded motion near its controls, these close
+After guidance (control/controlled.py) has brought the decoded motion near its controls, these close
 the remaining gap on the joints (T, J, 3), in numpy:
 - a root path: the xz error at the waypoints is interpolated with a monotone cubic (PCHIP: C1,
   no overshoot between waypoints) and added to every joint, so the correction is as smooth and
@@ -88,7 +88,7 @@ def fit_path(joints: np.ndarray, frames: np.ndarray, xz: np.ndarray) -> np.ndarr
 def fit_heading(joints: np.ndarray, frames: np.ndarray, angles: np.ndarray,
                 skeleton: Skeleton) -> np.ndarray:
     """Turn the body about its root so that it faces angles (K,) at frames, smoothly between."""
-    from mlct.generate.long_motion import heading
+    from mlct.generate.control.facing import heading
 
     now = np.unwrap(heading(joints, skeleton))[frames]
     error = np.angle(np.exp(1j * (angles - now)))  # wrapped to (-pi, pi]

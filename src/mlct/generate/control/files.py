@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from mlct.errors import MlctError, first_line
-from mlct.generate.control import Control, control_from_dict
+from mlct.generate.control.schema import Control, control_from_dict
 from mlct.motion.skeleton import Skeleton
 
 

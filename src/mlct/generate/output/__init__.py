@@ -1,0 +1,2 @@
+"""What generate() returns (generated.py: GeneratedMotion, Generation) and one writer per
+output format (exports.py)."""
