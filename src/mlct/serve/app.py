@@ -246,7 +246,7 @@ def _error(status: int, detail: str, headers: dict[str, str] | None = None) -> J
 def _stated_frames(texts: list[str], frames: list[int | None], limits: Limits
                    ) -> list[int | None]:
     """The default length, except where a prompt says how long ("... for 8 seconds"), as the
-    CLI and the Python API read it (pipeline.stated_lengths); MlctError (422) past the limit."""
+    CLI and the Python API read it (compose.lengths.stated_lengths); MlctError (422) past the limit."""
     from mlct.generate.compose.lengths import stated_lengths
 
     _, stated = stated_lengths(texts)

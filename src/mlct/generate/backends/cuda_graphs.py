@@ -94,7 +94,7 @@ class CudaGraphNetworks(TorchNetworks):
                                    uncond=uncond)
 
     def _features(self, z: Tensor, lengths: Tensor, frames: int) -> Tensor:
-        """Denormalised features (B, frames, D), float32: MotionGenerator.decode's arithmetic."""
+        """Denormalised features (B, frames, D), float32: pytorch.decode_with's arithmetic."""
         feats = self.decoder.decode(z / self.config.schedule.latent_scale, lengths, frames)
         return feats.float() * self._std + self._mean
 

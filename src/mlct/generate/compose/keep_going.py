@@ -351,7 +351,7 @@ def continue_gait(joints: np.ndarray, frames: int, window: int, natural_seconds:
     (takes_needed says whether and how many). make_takes(count, take_frames) makes `count`
     takes of the prompt (take k with its seed + k). None: the motion stays as made; past the
     window that is the caller's refusal (no gait, or takes that did not reach the length). The
-    pipeline (pipeline._keep_going) and the page's reference (serve/site/reference.py) both
+    pipeline (gaits.keep_going) and the page's reference (serve/site/reference.py) both
     call it."""
     needed = takes_needed(joints, frames, window, natural_seconds, blend, skeleton)
     if needed is None:

@@ -27,7 +27,7 @@ from mlct.motion.skeleton import Skeleton
 
 
 class SegmentMaker(Protocol):
-    """What chaining needs of a generator (pipeline.MotionGenerator, which also calls
+    """What chaining needs of a generator (compose.generator.MotionGenerator, which also calls
     generate_long for prompts that name actions in sequence: a Protocol, not an import)."""
 
     skeleton: Skeleton

@@ -39,7 +39,7 @@ from mlct.generate.control.fit import (REACH_SECONDS, fit_heading, fit_keyframes
 from mlct.generate.output.generated import GeneratedMotion, Generation
 from mlct.motion.features import joints_to_features, recover_from_ric
 
-# pipeline.MotionGenerator, which calls generate_with_control: named, not imported (a cycle)
+# compose.generator.MotionGenerator, which calls generate_with_control: named, not imported (a cycle)
 MotionGenerator = Any
 
 

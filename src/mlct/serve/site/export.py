@@ -157,7 +157,7 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
                      # hips and shoulders, the facing a chain of parts turns by (static/chain.js)
                      "face_joints": list(skeleton.face_joints),
                      # the joints an arm action done during another is put on the body with
-                     # (pipeline._concurrent: control_fit.reattach; static/chain.js)
+                     # (compose.parts.concurrent: control.fit.reattach; static/chain.js)
                      "arm_joints": list(part_joints("arms", skeleton))},
         # planted feet (motion/foot_lock.py; static/motion.js: lockFeet), as generate() does
         "foot_lock": {**dataclasses.asdict(FootLock()), "ankle_height": ANKLE_HEIGHT},
@@ -169,10 +169,10 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
         "keep_going": {**portable_keep_going(), "max_gait_seconds": MAX_GAIT_SECONDS},
         # "... for 8 seconds": the clip's length, the phrase taken out (prompts.stated_seconds)
         "stated": portable_stated(),
-        # a clip's length when the page is not given one (pipeline.default_seconds)
+        # a clip's length when the page is not given one (compose.timing.default_seconds)
         "default_seconds": DEFAULT_SECONDS,
         "durations": _portable_durations(model_dir, meta),
-        # best of N by the critic (generate/compose/critic.py, pipeline.best_features): its graph, the
+        # best of N by the critic (generate/compose/critic.py, MotionGenerator.sample_best): its graph, the
         # model's N, and how candidate k's seed comes from the motion's (64-bit: strings)
         "critic": None if critic is None else {
             "graph": (stored or {}).get("critic", CRITIC_GRAPH), "candidates": critic.candidates,

@@ -30,14 +30,14 @@ def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: 
     (page_text_vector), each prompt the best of `candidates` by the critic (None: the model's
     default, as the page's; candidate k's noise from PortableNoise(seed + k * SEED_STRIDE mod
     2^63), as best_features seeds it), the feet planted. Unless
-    split_actions is False, a prompt is made as generate() makes it (pipeline._made): an arm
+    split_actions is False, a prompt is made as generate() makes it (compose/generator.py): an arm
     action done during another (compose.split_concurrent) alone, standing, its arms put on the
     body made from the rest (control_fit.reattach), both with the seed; a sequence
     (compose.split_actions) one part each, its share from the duration model
     (MotionGenerator.part_frames), part k with seed + k as generate_long seeds it, chained
     (long_motion.chain_segments); a gait asked for longer than it lasts kept going
     (_whole_as_the_page). A phrase that
-    says how long ("for 8 seconds", pipeline.stated_lengths) is taken out of the text; frames
+    says how long ("for 8 seconds", compose.lengths.stated_lengths) is taken out of the text; frames
     None: its seconds, else the default length (MotionGenerator.default_seconds).
     Returns (features (T, D), or None for a motion joined from parts, joints (T, J, 3)),
     float32."""
@@ -94,7 +94,7 @@ def _made_as_the_page(generator, text: str, frames: int, steps: int, seed: int, 
 
 def _whole_as_the_page(generator, text: str, frames: int, steps: int, seed: int,
                        candidates: int) -> tuple[np.ndarray | None, np.ndarray]:
-    """One prompt given to the model whole, as generate() makes it (pipeline._made's "whole"
+    """One prompt given to the model whole, as generate() makes it (MotionGenerator._made_each's "whole"
     items and _keep_going): a one-action gait asked for clearly longer than its natural length
     that stopped early, or for longer than the window (made at the window's length first), is
     made again as takes of that length (take k with seed + k), chained into one continuing

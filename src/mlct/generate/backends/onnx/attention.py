@@ -28,7 +28,7 @@ the product (1e-5 with float arithmetic in the product; docs/performance.md).
 
 Only ONNX Runtime runs the fused operator, so the rewrite is applied in memory to the sampler
 graph and the decoder's session of the onnx backend (onnx_sampler.sampler_model,
-onnx_backend.OnnxDecoder), never to the graphs on disk, which the static site's
+networks.OnnxDecoder), never to the graphs on disk, which the static site's
 onnxruntime-web and other runtimes read. A block whose nodes are not exactly one of the
 patterns above (another mask, another exporter's names) is left as it is.
 """
