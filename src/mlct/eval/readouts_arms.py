@@ -284,7 +284,10 @@ def _body_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
                       lambda r: abs(r["heading_change"]) < np.radians(20))]
     if family == "shoot_basketball":
         # GT: both wrists over the head 0.18 m apart for 0.6-0.75 s; 5 frames of flight.
-        return [Check("shoot_basketball.release", "both wrists over the head within 0.32 m of "
+        # Sit-ups (lying, the hands behind the head) hold the hands past the head too.
+        return [Check("shoot_basketball.standing", "starts standing: the pelvis 0.7 m up",
+                      lambda r: r["start_pelvis_height"] > 0.7),
+                Check("shoot_basketball.release", "both wrists over the head within 0.32 m of "
                       "each other for 0.3 s", lambda r: r["hands_up_together"] >= 0.3),
                 Check("shoot_basketball.jump", "both feet off the floor at least 2 frames",
                       lambda r: r["flight_frames"] >= 2), _in_place(family)]
