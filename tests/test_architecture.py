@@ -221,6 +221,26 @@ def test_generate_stays_a_few_modules_a_folder_on_few_floors() -> None:
     assert import_floors(SRC, "mlct.generate") <= 8
 
 
+def largest_classes(src: Path, count: int = 3) -> list[tuple[int, str]]:
+    """The `count` longest class definitions under src, in lines, with where they are."""
+    found = []
+    for path in src.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ClassDef):
+                found.append((node.end_lineno - node.lineno + 1,
+                              f"{path.relative_to(src)}:{node.name}"))
+    return sorted(found, reverse=True)[:count]
+
+
+def test_no_class_holds_two_ideas() -> None:
+    """Past ~300 lines a class usually does two jobs (the generator once held the sampling core
+    and the prompt composer in 719): split it, as core.py and compose/ are."""
+    assert largest_classes(SRC, 1)[0][0] <= MAX_CLASS_LINES, largest_classes(SRC)
+
+
+MAX_CLASS_LINES = 300
+
+
 def test_the_checks_catch_an_upward_import_and_a_cycle(tmp_path: Path) -> None:
     src = tmp_path / "mlct"
     for package in ("motion", "generate"):
