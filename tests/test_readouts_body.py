@@ -152,6 +152,7 @@ def test_stairs_put_each_foot_on_its_tread_and_the_script_goes_on_from_there(gro
 
 def test_checks_tell_the_sides_and_counts_apart(ground_truth):
     wrong = {"step_over": ("leg", {"left": "right", "right": "left"}),
+             "limp": ("side", {"left": "right", "right": "left"}),
              "sit_ups": ("count", {2: 3, 3: 4, 4: 2})}
     for family, (key, other) in wrong.items():
         if family not in ground_truth:

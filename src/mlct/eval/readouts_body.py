@@ -18,6 +18,7 @@ from mlct.eval.readouts import (ANKLE, EXTRA_CHECKS, EXTRA_READINGS, FPS, KNEE, 
 from mlct.eval.readouts_more import (_chest_forward, _end, _floor_level, _forward, _lateral,
                                      _tilt)
 
+HIP = {"left": 1, "right": 2}
 _MOVING_SPEED = 0.25  # m/s of the pelvis over half a second: walking, however slowly
 
 
@@ -65,6 +66,20 @@ def body_readings(joints: np.ndarray) -> dict[str, float]:
         r[f"high_step.{side}"] = float(lifted.max())
         r[f"high_step_at.{side}"] = float(np.argmax(lifted)) / FPS
     raised = pelvis - floor
+    for side in SIDES:  # limping: how far each knee bends while walking (90th percentile)
+        hip, knee, ankle = (joints[:, j] for j in (HIP[side], KNEE[side], ANKLE[side]))
+        thigh, shin = knee - hip, ankle - knee
+        cos = np.einsum("ti,ti->t", thigh, shin) / np.maximum(
+            np.linalg.norm(thigh, axis=-1) * np.linalg.norm(shin, axis=-1), 1e-9)
+        bend = np.arccos(np.clip(cos, -1, 1))
+        r[f"walking_knee_bend.{side}"] = float(np.percentile(bend[moving], 90)) if \
+            moving.sum() > FPS else 0.0
+    # Putting down: both wrists held in front of the belly before they go down to the floor,
+    # and how far in front of the pelvis the nearer one ends.
+    low = int(np.argmin(np.maximum(height["left"], height["right"])))
+    r["held_before_low"] = _seconds(both(lambda s: (ahead[s][:low] > 0.15)
+                                         & (height[s][:low] > pelvis[:low] - 0.1)))
+    r["end_wrists_ahead"] = min(_end(ahead["left"]), _end(ahead["right"]))
     # Sit-ups: the trunk's rises from lying (elevation 0) towards upright (pi/2).
     elevation = np.pi / 2 - _tilt(joints)
     r["trunk_rises"] = float(_count_rises(elevation, 0.8, 0.4))
@@ -182,10 +197,41 @@ def _sit_ups_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
     return checks
 
 
+def _limp_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
+    """limp: a walk forward whose named knee bends far less than the other."""
+    # GT: the hurt knee bends ~0.45 times as far as the good one; a walk's knees within 15 %.
+    side = params.get("side")
+    sides = (side,) if side else SIDES
+
+    def favours(r: Mapping[str, float], s: str) -> bool:
+        return r[f"walking_knee_bend.{s}"] < 0.7 * r[f"walking_knee_bend.{_other(s)}"]
+
+    return [Check("limp.forward", "the pelvis travels 0.8 m forward",
+                  lambda r: r["forward_displacement"] > 0.8),
+            Check("limp.stiff_leg", f"walking, the {side or 'one'} knee bends less than 0.7 "
+                  "times as far as the other", lambda r: any(favours(r, s) for s in sides))]
+
+
+def _put_down_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
+    """put_down: holding something in front, both hands down to the floor, up empty-handed."""
+    # GT: held 0.9-1.3 s, the wrists 0.1-0.2 m over the floor, ending by the thighs.
+    return [Check("put_down.holds", "both wrists in front of the belly for 0.5 s before they "
+                  "go down", lambda r: r["held_before_low"] >= 0.5),
+            Check("put_down.down", "both wrists come within 0.22 m of the floor, the pelvis "
+                  "sinks over 0.25 m", lambda r: max(r["min_wrist_height.left"],
+                                                   r["min_wrist_height.right"]) < 0.22
+                  and r["pelvis_drop"] > 0.25),
+            Check("put_down.empty_handed", "ends standing with the hands no longer in front "
+                  "(a wrist within 0.12 m of the pelvis's plane)",
+                  lambda r: r["end_wrists_ahead"] < 0.12
+                  and r["end_pelvis_height"] > r["start_pelvis_height"] - 0.1)]
+
+
 BODY_CHECKS: dict[str, Callable[[str, Mapping[str, Any]], list[Check]]] = {
     "crawl": _crawl_checks, "walk_downstairs": _stairs_checks, "walk_upstairs": _stairs_checks,
     "step_over": _step_over_checks, "fall_forward": _fall_checks, "fall_backward": _fall_checks,
-    "sit_ups": _sit_ups_checks, "carry": _busy_walk_checks, "push": _busy_walk_checks, "balance_walk": _busy_walk_checks,
+    "sit_ups": _sit_ups_checks, "limp": _limp_checks, "put_down": _put_down_checks,
+    "carry": _busy_walk_checks, "push": _busy_walk_checks, "balance_walk": _busy_walk_checks,
 }
 
 EXTRA_READINGS.append(body_readings)

@@ -387,6 +387,62 @@ def sit_ups(rig: Rig, fps: float, style: Style, count: int) -> Clip:
     return clip
 
 
+# ---------------------------------------------------------------------------- uneven walking, putting down
+
+def _warp(clip: Clip, tau: np.ndarray, fps: float) -> Clip:
+    """The clip played at times `tau` (T,) seconds instead of its own frame times."""
+    t = np.arange(clip.n) / fps
+    tau = np.clip(tau, 0, t[-1])
+
+    def at(values: np.ndarray) -> np.ndarray:
+        if values.ndim == 1:
+            return np.interp(tau, t, values)
+        return np.stack([np.interp(tau, t, values[:, k]) for k in range(values.shape[1])], -1)
+
+    return Clip({name: at(values) for name, values in clip.channels.items()}, at(clip.clearance),
+                at(clip.flight.astype(float)) > 0.5, at(clip.flight_velocity))
+
+
+def limp(rig: Rig, fps: float, style: Style, side: str) -> Clip:
+    """Walks forward favouring the named (hurt) leg: a short, quick step onto it with the knee
+    held stiff and swung out, the trunk lurching over it, a longer stance on the good leg."""
+    from mlct.data.synth.motions import _GAITS
+
+    slow = replace(style, tempo=style.tempo * 0.85)
+    clip = gait(fps, slow, "slow", strides=3 + style.tempo)
+    ch = clip.channels
+    t = np.arange(clip.n) / fps
+    freq, duty = _GAITS["slow"][0] * slow.tempo, _GAITS["slow"][5]
+    hurt = side[0]
+    sign = 1.0 if side == "left" else -1.0
+    phase = 0.0 if hurt == "l" else 0.5
+    u = np.mod(freq * t + phase, 1.0)
+    on_hurt = bump(np.clip(u / duty, 0, 1)) * (u < duty)  # the hurt leg bears the weight
+    knee = ch[f"knee_{hurt}"]
+    bend = knee / max(float(knee.max()), 1e-6)
+    ch[f"knee_{hurt}"] = 0.45 * knee  # a stiff knee ...
+    ch[f"hip_abd_{hurt}"] = ch[f"hip_abd_{hurt}"] + 0.16 * bend  # ... swung out to clear the floor
+    ch[f"ankle_{hurt}"] = ch[f"ankle_{hurt}"] + 0.2 * bend  # the toes up
+    env = ease(t / 0.6) * ease((t[-1] - t) / 0.6)
+    ch["spine_side"] = ch["spine_side"] + sign * 0.14 * on_hurt * env  # the lurch over it
+    # The hurt leg's stance hurried: the clip runs faster while it bears the weight.
+    centre = duty / 2 - phase
+    tau = t + 0.3 / (2 * np.pi * freq) * (np.sin(2 * np.pi * (freq * t - centre))
+                                          - np.sin(-2 * np.pi * centre))
+    return _warp(clip, tau, fps)
+
+
+def put_down(rig: Rig, fps: float, style: Style) -> Clip:
+    """Holding a box in front of the belly in both hands, squats and sets it on the floor in
+    front of the feet, lets go and stands up empty-handed (picking it up, run backwards)."""
+    from mlct.data.synth.floor import pick_up
+
+    clip = pick_up(rig, fps, style, "both")
+    return Clip({name: values[::-1].copy() for name, values in clip.channels.items()},
+                clip.clearance[::-1].copy(), clip.flight[::-1].copy(),
+                clip.flight_velocity[::-1].copy())
+
+
 # ---------------------------------------------------------------------------- phrases
 # The rules of phrases_more.py: a side is said in the benchmark's words and never the other side,
 # a count always (short: never); <verb> marks and HIS as in text.py.
@@ -397,6 +453,14 @@ def _step_over(p: dict, rng: Rng) -> str:
                        f"<walk> forward and <step> over something, leading with the {s} leg",
                        f"<walk> and <step> high over an obstacle with the {s} foot first",
                        f"<step> over something in HIS way, {s} leg first"))
+
+
+def _limp(p: dict, rng: Rng) -> str:
+    s = p["side"]
+    return _pick(rng, (f"<limp> forward on an injured {s} leg", f"<limp> forward on HIS {s} leg",
+                       f"<limp> along on a hurt {s} leg",
+                       f"<walk> forward unevenly, sparing the {s} leg",
+                       f"<limp> forward, favoring the {s} leg"))
 
 
 def _sit_ups(p: dict, rng: Rng) -> str:
@@ -434,7 +498,10 @@ BENCHMARK: dict[str, Phrase] = {**_table(
     fall_backward=("<fall> backward onto the floor", "<fall> over backward onto HIS back",
                    "<fall> back and <land> on HIS back", "<fall> down backward",
                    "<tip> over backward and <land> on the floor"),
-), "step_over": _step_over, "sit_ups": _sit_ups}
+    put_down=("<put> a box down on the floor", "<put> something down on the ground",
+              "<bend> down and <put> a box on the floor", "<squat> and <place> something on the floor",
+              "<set> a box down on the floor"),
+), "step_over": _step_over, "sit_ups": _sit_ups, "limp": _limp}
 
 
 def _e_step_over(p: dict, rng: Rng) -> str:
@@ -449,6 +516,24 @@ def _e_sit_ups(p: dict, rng: Rng) -> str:
     return _pick(rng, (f"<crunch> up from the floor {_times(n, rng)}",
                        f"<curl> up off HIS back {_times(n, rng)}",
                        f"<work> HIS abs with {_count(n, rng)} sit-ups"))
+
+
+def _e_limp(p: dict, rng: Rng) -> str:
+    s = p["side"]
+    return _pick(rng, (f"<hobble> forward on a sore {s} leg",
+                       f"<hobble> along, keeping the weight off the {s} leg",
+                       f"<shuffle> forward, nursing a bad {s} knee"))
+
+
+def _c_limp(p: dict, rng: Rng) -> str:
+    s = p["side"]
+    return _pick(rng, (f"<gimp> along on a bum {s} leg", f"<hobble> ahead on a busted {s} leg"))
+
+
+def _s_limp(p: dict, rng: Rng) -> str:
+    if p["side"] == "left":
+        return _limp(p, rng)
+    return _pick(rng, ("<limp>", "<limp>", "<limp> forward"))
 
 
 def _c_step_over(p: dict, rng: Rng) -> str:
@@ -486,7 +571,9 @@ EVERYDAY: dict[str, Phrase] = {**_table(
                   "<pitch> forward onto HIS hands and <sprawl> face down"),
     fall_backward=("<topple> over backward", "<tumble> back onto HIS back",
                    "<go> down backward and <sprawl> flat on HIS back"),
-), "step_over": _e_step_over, "sit_ups": _e_sit_ups}
+    put_down=("<lower> a box to the ground", "<crouch> and <leave> the box on the floor",
+              "<rest> a box on the floor and <straighten> up"),
+), "step_over": _e_step_over, "sit_ups": _e_sit_ups, "limp": _e_limp}
 
 COLLOQUIAL: dict[str, Phrase] = {**_table(
     walk_downstairs=("<trot> down the stairs", "<clatter> down the steps"),
@@ -498,7 +585,8 @@ COLLOQUIAL: dict[str, Phrase] = {**_table(
                   "<totter> ahead, arms flung out"),
     fall_forward=("<faceplant> onto the floor", "<go> flying and <land> face first"),
     fall_backward=("<land> flat on HIS back with a thud", "<keel> over backward"),
-), "step_over": _c_step_over, "sit_ups": _c_sit_ups}
+    put_down=("<plonk> a box down on the floor", "<dump> a box on the ground"),
+), "step_over": _c_step_over, "sit_ups": _c_sit_ups, "limp": _c_limp}
 
 SHORT: dict[str, Phrase] = {**_table(
     walk_downstairs=("<walk> downstairs", "<go> down the stairs", "<walk> down stairs"),
@@ -510,7 +598,8 @@ SHORT: dict[str, Phrase] = {**_table(
     fall_forward=("<fall> forward", "<fall> forward", "<fall> down"),
     fall_backward=("<fall> backward", "<fall> backward", "<fall> back"),
     sit_ups=("<do> situps", "<do> situps"),
-), "step_over": _s_step_over}
+    put_down=("<put> something down", "<put> a box down", "<put> something down"),
+), "step_over": _s_step_over, "limp": _s_limp}
 
 
 # ---------------------------------------------------------------------------- the interface
@@ -518,12 +607,13 @@ SHORT: dict[str, Phrase] = {**_table(
 PARAMS: dict[str, dict[str, tuple]] = {
     "crawl": {}, "walk_downstairs": {}, "walk_upstairs": {}, "step_over": {"leg": ("left", "right")},
     "fall_forward": {}, "fall_backward": {}, "sit_ups": {"count": (2, 3, 4)}, "carry": {},
-    "push": {}, "balance_walk": {},
+    "push": {}, "put_down": {}, "limp": {"side": ("left", "right")}, "balance_walk": {},
 }
 CLIPS: dict[str, Callable[..., Clip]] = {
     "crawl": crawl, "walk_downstairs": walk_downstairs, "walk_upstairs": walk_upstairs,
     "step_over": step_over, "fall_forward": fall_forward, "fall_backward": fall_backward,
-    "sit_ups": sit_ups, "carry": carry, "push": push, "balance_walk": balance_walk,
+    "sit_ups": sit_ups, "carry": carry, "push": push, "put_down": put_down, "limp": limp,
+    "balance_walk": balance_walk,
 }
 PHRASES: dict[str, dict[str, Phrase]] = {"benchmark": BENCHMARK, "everyday": EVERYDAY,
                                          "colloquial": COLLOQUIAL, "short": SHORT}
@@ -540,20 +630,22 @@ def _forms(*lemmas: str) -> dict[str, tuple[str, str]]:
 
 VERBS: dict[str, dict[str, tuple[str, str]]] = {
     "benchmark": {**_forms("carry", "push", "hold", "crawl", "climb", "descend", "lead", "fall",
-                          "stumble", "land"), "trip": ("trips", "tripping"),
+                          "stumble", "land", "limp", "spare", "favor"),
+                  "trip": ("trips", "tripping"), "set": ("sets", "setting"),
                   "tip": ("tips", "tipping")},
     "everyday": {**_forms("lug", "tote", "cart", "shove", "heave", "drive", "tiptoe", "steady", "inch",
                         "creep", "mount", "clear", "topple", "pitch", "sprawl", "tumble",
-                        "crunch", "curl", "work"),
+                        "crunch", "curl", "work", "hobble", "nurse", "leave"),
                  "lug": ("lugs", "lugging"), "tiptoe": ("tiptoes", "tiptoeing")},
     "colloquial": {**_forms("muscle", "wobble", "totter", "scuttle", "clatter", "hike",
-                            "faceplant", "keel", "crank"), "schlep": ("schleps", "schlepping")},
+                            "faceplant", "keel", "crank", "gimp", "dump"), "schlep": ("schleps", "schlepping")},
 }
 WORDS: dict[str, str] = {"box": "NOUN", "body": "NOUN", "heavy": "ADJ", "carefully": "ADV",
                          "spread": "VERB",
                          "fours": "NOUN", "flight": "NOUN", "downstairs": "ADV",
                          "upstairs": "ADV", "some": "DET",
-                         "obstacle": "NOUN", "face": "NOUN", "behind": "ADP", "onto": "ADP"}
+                         "obstacle": "NOUN", "face": "NOUN", "behind": "ADP", "onto": "ADP",
+                         "injured": "ADJ", "hurt": "ADJ", "unevenly": "ADV", "along": "ADV"}
 PLURALS: dict[str, str] = {"sides": "side", "stairs": "stair", "situps": "situp"}
 # A fall ends lying on the floor, and sit-ups start and end lying on the back with the knees up:
 # nothing follows them in a script, and sit-ups come first.
