@@ -80,6 +80,9 @@ def body_readings(joints: np.ndarray) -> dict[str, float]:
     r["held_before_low"] = _seconds(both(lambda s: (ahead[s][:low] > 0.15)
                                          & (height[s][:low] > pelvis[:low] - 0.1)))
     r["end_wrists_ahead"] = min(_end(ahead["left"]), _end(ahead["right"]))
+    # Turning a rope: both wrists beside the hips, a little out to the sides.
+    r["hands_at_hips"] = _seconds(both(lambda s: (np.abs(height[s] - pelvis) < 0.2)
+                                       & (out[s] > 0.1)))
     # Sit-ups: the trunk's rises from lying (elevation 0) towards upright (pi/2).
     elevation = np.pi / 2 - _tilt(joints)
     r["trunk_rises"] = float(_count_rises(elevation, 0.8, 0.4))
@@ -227,11 +230,30 @@ def _put_down_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
                   and r["end_pelvis_height"] > r["start_pelvis_height"] - 0.1)]
 
 
+def _jump_rope_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
+    """jump_rope: small two-footed hops in place, the hands by the hips, count of them."""
+    # GT: hops 8-12 cm (the pelvis rises under 0.15 m), the hands by the hips 2-3 s; a jump in
+    # place rises 0.25 m with the arms swinging, a hop lifts one foot.
+    count = params.get("count")
+    checks = [Check("jump_rope.in_place", "the pelvis travels less than 0.6 m",
+                    lambda r: r["pelvis_path"] < 0.6),
+              Check("jump_rope.small_hops", "three hops or more on both feet, the pelvis rising "
+                    "less than 0.2 m", lambda r: r["airborne_episodes"] >= 3
+                    and r["pelvis_rise"] < 0.2
+                    and abs(r["foot_lift.left"] - r["foot_lift.right"]) < 0.05),
+              Check("jump_rope.hands", "both wrists by the hips for 1.5 s in all",
+                    lambda r: r["hands_at_hips"] >= 1.5)]
+    if count:
+        checks.append(Check("jump_rope.count", f"{count} hops",
+                            lambda r: r["airborne_episodes"] == count))
+    return checks
+
+
 BODY_CHECKS: dict[str, Callable[[str, Mapping[str, Any]], list[Check]]] = {
     "crawl": _crawl_checks, "walk_downstairs": _stairs_checks, "walk_upstairs": _stairs_checks,
     "step_over": _step_over_checks, "fall_forward": _fall_checks, "fall_backward": _fall_checks,
     "sit_ups": _sit_ups_checks, "limp": _limp_checks, "put_down": _put_down_checks,
-    "carry": _busy_walk_checks, "push": _busy_walk_checks, "balance_walk": _busy_walk_checks,
+    "jump_rope": _jump_rope_checks, "carry": _busy_walk_checks, "push": _busy_walk_checks, "balance_walk": _busy_walk_checks,
 }
 
 EXTRA_READINGS.append(body_readings)

@@ -443,6 +443,63 @@ def put_down(rig: Rig, fps: float, style: Style) -> Clip:
                 clip.flight_velocity[::-1].copy())
 
 
+def stumble(rig: Rig, fps: float, style: Style) -> Clip:
+    """Walking, trips: the trunk pitches forward, the arms fly out in front, two hurried
+    catching steps, and it straightens up and walks on."""
+    clip = gait(fps, style, "normal", strides=3.5 + style.tempo)
+    ch = clip.channels
+    t = np.arange(clip.n) / fps
+    trip = 1.3 / style.tempo
+    lurch = bump(np.clip((t - trip) / 1.0, 0, 1))  # the pitch forward and back up
+    ch["spine_bend"] = ch["spine_bend"] + 0.5 * style.amplitude * lurch
+    ch["head_nod"] = ch["head_nod"] - 0.3 * lurch  # the eyes stay on the way ahead
+    for s in "lr":  # longer catching steps
+        ch[f"hip_flex_{s}"] = ch[f"hip_flex_{s}"] * (1 + 0.35 * lurch)
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        _arm(clip, side, np.array([sign * 0.25, -0.05, 0.4]), np.clip(1.6 * lurch, 0, 1),
+             np.array([sign, -1.0, 0.0]))
+    # The steps hurry through the stumble: the walk played up to 1.6 times as fast.
+    speed = 1 + 0.6 * bump(np.clip((t - trip + 0.1) / 0.9, 0, 1))
+    tau = np.concatenate([[0.0], np.cumsum(speed[1:]) / fps])
+    return _warp(clip, tau, fps)
+
+
+# ---------------------------------------------------------------------------- jumping rope
+
+def jump_rope(rig: Rig, fps: float, style: Style, count: int) -> Clip:
+    """Skips a rope `count` times in place: small two-footed hops on the balls of the feet,
+    the wrists at hip height a little out to the sides, turning the rope in small circles."""
+    period = 0.5 / style.tempo
+    n, t = _frames(0.6 + count * period + 0.5, fps)
+    clip = neutral(n, style)
+    ch = clip.channels
+    fly = 0.24 * period / 0.5  # seconds in the air a hop, 8-10 cm up
+    spring = np.zeros(n)
+    for k in range(count):
+        t0 = 0.6 + k * period
+        airborne = (t >= t0) & (t < t0 + fly)
+        progress = np.clip((t - t0) / fly, 0, 1)
+        clip.clearance = np.where(airborne, 0.09 * style.amplitude * np.sin(np.pi * progress),
+                                  clip.clearance)
+        clip.flight |= airborne
+        clip.flight_velocity[airborne] = [0.0, 0.0]
+        spring += bump((t - t0 - fly + 0.05) / (period - fly + 0.1))  # the knees give, landing
+        ch["ankle_l"] = ch["ankle_l"] - 0.35 * airborne * np.sin(np.pi * progress)  # toes down
+        ch["ankle_r"] = ch["ankle_l"]
+    for s in "lr":
+        ch[f"hip_flex_{s}"] = 0.12 * spring
+        ch[f"knee_{s}"] = 0.25 * spring
+        ch[f"ankle_{s}"] = ch[f"ankle_{s}"] + 0.13 * spring
+    turning = hold(t - 0.1, 0.4, n / fps - 0.8, 0.4)
+    angle = 2 * np.pi * np.clip(t - 0.6 + fly / 2, 0, None) / period  # a turn a hop
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        # Small circles of the hands beside the hips, the rope passing under the feet mid-air.
+        wrist = np.stack([sign * (0.2 + 0.03 * np.cos(angle)), -0.45 + 0.05 * np.sin(angle),
+                          0.12 + 0.05 * np.cos(angle)], -1)
+        _arm(clip, side, wrist, turning, np.array([sign, -0.5, -1.0]))
+    return clip
+
+
 # ---------------------------------------------------------------------------- phrases
 # The rules of phrases_more.py: a side is said in the benchmark's words and never the other side,
 # a count always (short: never); <verb> marks and HIS as in text.py.
@@ -461,6 +518,13 @@ def _limp(p: dict, rng: Rng) -> str:
                        f"<limp> along on a hurt {s} leg",
                        f"<walk> forward unevenly, sparing the {s} leg",
                        f"<limp> forward, favoring the {s} leg"))
+
+
+def _jump_rope(p: dict, rng: Rng) -> str:
+    n = p["count"]
+    return _pick(rng, (f"<jump> rope {_times(n, rng)}", f"<skip> rope {_times(n, rng)}",
+                       f"<do> {_count(n, rng)} small jumps over a rope",
+                       f"<hop> over a jump rope {_times(n, rng)} on both feet"))
 
 
 def _sit_ups(p: dict, rng: Rng) -> str:
@@ -501,7 +565,8 @@ BENCHMARK: dict[str, Phrase] = {**_table(
     put_down=("<put> a box down on the floor", "<put> something down on the ground",
               "<bend> down and <put> a box on the floor", "<squat> and <place> something on the floor",
               "<set> a box down on the floor"),
-), "step_over": _step_over, "sit_ups": _sit_ups, "limp": _limp}
+), "step_over": _step_over, "sit_ups": _sit_ups, "limp": _limp,
+   "jump_rope": _jump_rope}
 
 
 def _e_step_over(p: dict, rng: Rng) -> str:
@@ -534,6 +599,17 @@ def _s_limp(p: dict, rng: Rng) -> str:
     if p["side"] == "left":
         return _limp(p, rng)
     return _pick(rng, ("<limp>", "<limp>", "<limp> forward"))
+
+
+def _e_jump_rope(p: dict, rng: Rng) -> str:
+    t = _times(p["count"], rng)
+    return _pick(rng, (f"<bounce> over a turning rope {t}", f"<spring> lightly over a rope {t}",
+                       f"<skip> with a rope, clearing it {t}"))
+
+
+def _c_jump_rope(p: dict, rng: Rng) -> str:
+    t = _times(p["count"], rng)
+    return _pick(rng, (f"<bounce> over the rope {t} like a boxer", f"<skip> rope {t}"))
 
 
 def _c_step_over(p: dict, rng: Rng) -> str:
@@ -573,7 +649,8 @@ EVERYDAY: dict[str, Phrase] = {**_table(
                    "<go> down backward and <sprawl> flat on HIS back"),
     put_down=("<lower> a box to the ground", "<crouch> and <leave> the box on the floor",
               "<rest> a box on the floor and <straighten> up"),
-), "step_over": _e_step_over, "sit_ups": _e_sit_ups, "limp": _e_limp}
+), "step_over": _e_step_over, "sit_ups": _e_sit_ups, "limp": _e_limp,
+   "jump_rope": _e_jump_rope}
 
 COLLOQUIAL: dict[str, Phrase] = {**_table(
     walk_downstairs=("<trot> down the stairs", "<clatter> down the steps"),
@@ -586,7 +663,8 @@ COLLOQUIAL: dict[str, Phrase] = {**_table(
     fall_forward=("<faceplant> onto the floor", "<go> flying and <land> face first"),
     fall_backward=("<land> flat on HIS back with a thud", "<keel> over backward"),
     put_down=("<plonk> a box down on the floor", "<dump> a box on the ground"),
-), "step_over": _c_step_over, "sit_ups": _c_sit_ups, "limp": _c_limp}
+), "step_over": _c_step_over, "sit_ups": _c_sit_ups, "limp": _c_limp,
+   "jump_rope": _c_jump_rope}
 
 SHORT: dict[str, Phrase] = {**_table(
     walk_downstairs=("<walk> downstairs", "<go> down the stairs", "<walk> down stairs"),
@@ -599,6 +677,7 @@ SHORT: dict[str, Phrase] = {**_table(
     fall_backward=("<fall> backward", "<fall> backward", "<fall> back"),
     sit_ups=("<do> situps", "<do> situps"),
     put_down=("<put> something down", "<put> a box down", "<put> something down"),
+    jump_rope=("<jump> rope", "<jump> rope", "<skip> rope"),
 ), "step_over": _s_step_over, "limp": _s_limp}
 
 
@@ -608,12 +687,13 @@ PARAMS: dict[str, dict[str, tuple]] = {
     "crawl": {}, "walk_downstairs": {}, "walk_upstairs": {}, "step_over": {"leg": ("left", "right")},
     "fall_forward": {}, "fall_backward": {}, "sit_ups": {"count": (2, 3, 4)}, "carry": {},
     "push": {}, "put_down": {}, "limp": {"side": ("left", "right")}, "balance_walk": {},
+    "jump_rope": {"count": (3, 4, 5)},
 }
 CLIPS: dict[str, Callable[..., Clip]] = {
     "crawl": crawl, "walk_downstairs": walk_downstairs, "walk_upstairs": walk_upstairs,
     "step_over": step_over, "fall_forward": fall_forward, "fall_backward": fall_backward,
     "sit_ups": sit_ups, "carry": carry, "push": push, "put_down": put_down, "limp": limp,
-    "balance_walk": balance_walk,
+    "balance_walk": balance_walk, "jump_rope": jump_rope,
 }
 PHRASES: dict[str, dict[str, Phrase]] = {"benchmark": BENCHMARK, "everyday": EVERYDAY,
                                          "colloquial": COLLOQUIAL, "short": SHORT}
@@ -632,6 +712,7 @@ VERBS: dict[str, dict[str, tuple[str, str]]] = {
     "benchmark": {**_forms("carry", "push", "hold", "crawl", "climb", "descend", "lead", "fall",
                           "stumble", "land", "limp", "spare", "favor"),
                   "trip": ("trips", "tripping"), "set": ("sets", "setting"),
+                  "skip": ("skips", "skipping"),
                   "tip": ("tips", "tipping")},
     "everyday": {**_forms("lug", "tote", "cart", "shove", "heave", "drive", "tiptoe", "steady", "inch",
                         "creep", "mount", "clear", "topple", "pitch", "sprawl", "tumble",
@@ -645,7 +726,8 @@ WORDS: dict[str, str] = {"box": "NOUN", "body": "NOUN", "heavy": "ADJ", "careful
                          "fours": "NOUN", "flight": "NOUN", "downstairs": "ADV",
                          "upstairs": "ADV", "some": "DET",
                          "obstacle": "NOUN", "face": "NOUN", "behind": "ADP", "onto": "ADP",
-                         "injured": "ADJ", "hurt": "ADJ", "unevenly": "ADV", "along": "ADV"}
+                         "injured": "ADJ", "hurt": "ADJ", "unevenly": "ADV", "along": "ADV",
+                         "rope": "NOUN", "small": "ADJ"}
 PLURALS: dict[str, str] = {"sides": "side", "stairs": "stair", "situps": "situp"}
 # A fall ends lying on the floor, and sit-ups start and end lying on the back with the knees up:
 # nothing follows them in a script, and sit-ups come first.
