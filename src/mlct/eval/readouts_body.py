@@ -80,6 +80,11 @@ def body_readings(joints: np.ndarray) -> dict[str, float]:
     r["held_before_low"] = _seconds(both(lambda s: (ahead[s][:low] > 0.15)
                                          & (height[s][:low] > pelvis[:low] - 0.1)))
     r["end_wrists_ahead"] = min(_end(ahead["left"]), _end(ahead["right"]))
+    # Stumbling: the trunk's forward lean (radians) and how long it is over 0.25 rad.
+    spine = joints[:, NECK] - joints[:, PELVIS]
+    lean = np.arctan2(np.einsum("ti,ti->t", spine, facing(joints)), spine[:, 1])
+    r["lean_peak"] = float(lean.max())
+    r["lean_time"] = _seconds(lean > 0.25)
     # Turning a rope: both wrists beside the hips, a little out to the sides.
     r["hands_at_hips"] = _seconds(both(lambda s: (np.abs(height[s] - pelvis) < 0.2)
                                        & (out[s] > 0.1)))
@@ -249,11 +254,24 @@ def _jump_rope_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
     return checks
 
 
+def _stumble_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
+    """stumble: walking, the trunk pitches forward briefly, and it walks on upright."""
+    # GT: the lean peaks at 0.39-0.61 rad and is over 0.25 rad for 0.25-0.4 s; a walk leans
+    # under 0.15 rad, pushing leans 0.3 rad the whole way, a fall goes down.
+    return [Check("stumble.forward", "the pelvis travels 1 m forward",
+                  lambda r: r["forward_displacement"] > 1.0),
+            Check("stumble.lurch", "the trunk pitches over 0.35 rad forward, for less than "
+                  "1.2 s", lambda r: r["lean_peak"] > 0.35 and 0 < r["lean_time"] < 1.2),
+            Check("stumble.recovers", "stays on its feet (the pelvis sinks less than 0.25 m) "
+                  "and ends standing", lambda r: r["pelvis_drop"] < 0.25
+                  and r["end_pelvis_height"] > r["start_pelvis_height"] - 0.1)]
+
+
 BODY_CHECKS: dict[str, Callable[[str, Mapping[str, Any]], list[Check]]] = {
     "crawl": _crawl_checks, "walk_downstairs": _stairs_checks, "walk_upstairs": _stairs_checks,
     "step_over": _step_over_checks, "fall_forward": _fall_checks, "fall_backward": _fall_checks,
     "sit_ups": _sit_ups_checks, "limp": _limp_checks, "put_down": _put_down_checks,
-    "jump_rope": _jump_rope_checks, "carry": _busy_walk_checks, "push": _busy_walk_checks, "balance_walk": _busy_walk_checks,
+    "jump_rope": _jump_rope_checks, "stumble": _stumble_checks, "carry": _busy_walk_checks, "push": _busy_walk_checks, "balance_walk": _busy_walk_checks,
 }
 
 EXTRA_READINGS.append(body_readings)

@@ -14,12 +14,10 @@ import numpy as np
 
 from mlct.data.synth.actions import ENDS_DOWN, STARTS_DOWN, Script
 from mlct.data.synth.more_clips import action_clip
-from mlct.data.synth.motions import ANGLE_CHANNELS, ARM_CHANNELS, GROUND_CHANNELS, Clip, \
-    Style, held, neutral, overlay_upper
+from mlct.data.synth.motions import ANGLE_CHANNELS, ARM_CHANNELS, BLEND_SECONDS, \
+    GROUND_CHANNELS, Clip, Style, concatenate, held, neutral, overlay_upper  # noqa: F401
 from mlct.data.synth.rig import Rig, pose_positions, rot_y
 
-BLEND_SECONDS = 0.4
-CONTINUING = ("yaw", *GROUND_CHANNELS)  # channels a clip takes up from where the last one ended
 CONTACT_SOFTNESS = 0.01  # metres: a contact point this much higher than the lowest bears 1/e as much
 SEAT_GRIP = 10.0  # how much more a touching seat or back holds than a touching foot or hand
 MAX_ACCELERATION = 12.0  # m/s^2: bound on the root's horizontal acceleration (sprint starts reach ~10)
@@ -41,36 +39,6 @@ def smooth_noise(rng: np.random.Generator, n: int, fps: float, scale: float,
     phases = rng.uniform(0, 2 * np.pi, size=3)
     weights = rng.normal(size=3) / np.sqrt(3)
     return scale * sum(w * np.sin(2 * np.pi * f * t + p) for w, f, p in zip(weights, freqs, phases))
-
-
-def concatenate(clips: list[Clip], fps: float) -> tuple[Clip, list[tuple[int, int]]]:
-    """Cross-fade consecutive clips over BLEND_SECONDS; the heading and the ground's height
-    (CONTINUING) go on from where they ended."""
-    overlap = int(round(BLEND_SECONDS * fps))
-    out = clips[0]
-    segments = [(0, out.n)]
-    for clip in clips[1:]:
-        k = min(overlap, out.n // 2, clip.n // 2)
-        w = 0.5 - 0.5 * np.cos(np.linspace(0, np.pi, k))  # 0 -> 1
-        start = out.n - k
-        channels = {}
-        for name, a in out.channels.items():
-            b = clip.channels[name] + (a[-1] if name in CONTINUING else 0.0)
-            wk = w if a.ndim == 1 else w[:, None]
-            mixed = (1 - wk) * a[start:] + wk * b[:k]
-            channels[name] = np.concatenate([a[:start], mixed, b[k:]])
-        clearance = np.concatenate([out.clearance[:start],
-                                    np.maximum(out.clearance[start:], clip.clearance[:k]),
-                                    clip.clearance[k:]])
-        flight = np.concatenate([out.flight[:start], out.flight[start:] | clip.flight[:k],
-                                 clip.flight[k:]])
-        velocity = np.concatenate([out.flight_velocity[:start],
-                                   np.where(clip.flight[:k, None], clip.flight_velocity[:k],
-                                            out.flight_velocity[start:]),
-                                   clip.flight_velocity[k:]])
-        out = Clip(channels, clearance, flight, velocity)
-        segments.append((start, out.n))
-    return out, segments
 
 
 def _ground(rig: Rig, clip: Clip, joints: tuple[int, ...]) -> np.ndarray | None:

@@ -27,8 +27,8 @@ from typing import Callable
 
 import numpy as np
 
-from mlct.data.synth.motions import (Clip, Style, _arm, _frames, bump, ease, gait, hip_wave,
-                                    hold, neutral)
+from mlct.data.synth.motions import (Clip, Style, _arm, _frames, bump, concatenate, ease, gait,
+                                    hip_wave, hold, neutral)
 from mlct.data.synth.phrases_more import Phrase, Rng, _count, _pick, _table, _times
 from mlct.data.synth.rig import SIDES, Rig, pose_positions, rot_x
 
@@ -451,7 +451,7 @@ def stumble(rig: Rig, fps: float, style: Style) -> Clip:
     t = np.arange(clip.n) / fps
     trip = 1.3 / style.tempo
     lurch = bump(np.clip((t - trip) / 1.0, 0, 1))  # the pitch forward and back up
-    ch["spine_bend"] = ch["spine_bend"] + 0.5 * style.amplitude * lurch
+    ch["spine_bend"] = ch["spine_bend"] + 0.85 * style.amplitude * lurch
     ch["head_nod"] = ch["head_nod"] - 0.3 * lurch  # the eyes stay on the way ahead
     for s in "lr":  # longer catching steps
         ch[f"hip_flex_{s}"] = ch[f"hip_flex_{s}"] * (1 + 0.35 * lurch)
@@ -462,6 +462,45 @@ def stumble(rig: Rig, fps: float, style: Style) -> Clip:
     speed = 1 + 0.6 * bump(np.clip((t - trip + 0.1) / 0.9, 0, 1))
     tau = np.concatenate([[0.0], np.cumsum(speed[1:]) / fps])
     return _warp(clip, tau, fps)
+
+
+def long_jump(rig: Rig, fps: float, style: Style) -> Clip:
+    """A run-up of a few strides, a plant on both feet with a swing of the arms, a long
+    two-footed jump forward (about 2 m, the knees tucked and the legs reaching forward), a deep
+    landing with the arms forward, and standing up."""
+    run = gait(fps, style, "run", strides=3.0)
+    cut = int(round(2.3 / (1.40 * style.tempo) * fps))  # before the run's envelope eases out
+    run = Clip({k: v[:cut].copy() for k, v in run.channels.items()}, run.clearance[:cut].copy(),
+               run.flight[:cut].copy(), run.flight_velocity[:cut].copy())
+    amp = style.amplitude
+    crouch_t, fly, land_t = 0.3, 0.6, 1.3  # seconds: the plant, the flight, landing and rising
+    n, t = _frames(crouch_t + fly + land_t, fps)
+    jump = neutral(n, style)
+    ch = jump.channels
+    airborne = (t >= crouch_t) & (t < crouch_t + fly)
+    progress = np.clip((t - crouch_t) / fly, 0, 1)
+    jump.clearance = np.where(airborne, 0.4 * amp * np.sin(np.pi * progress), 0.0)
+    jump.flight = airborne
+    jump.flight_velocity[airborne] = [0.0, 2.1 * amp / (fly * fps)]  # about 2.1 m in the air
+    plant = ease(t / 0.15) * (1 - ease((t - crouch_t + 0.05) / 0.1))
+    landing = hold(t - crouch_t - fly, 0.12, 0.25, land_t - 0.6)
+    depth = np.maximum(0.6 * plant, 0.9 * landing)
+    reach = np.sin(np.pi * progress) * airborne + ease((progress - 0.5) / 0.5) * airborne
+    for s in "lr":
+        # Crouch with the feet flat; in the air the knees tuck, then the legs reach forward.
+        ch[f"hip_flex_{s}"] = 1.2 * depth + 0.9 * reach
+        ch[f"knee_{s}"] = 1.8 * depth + 1.0 * np.sin(np.pi * progress) * airborne
+        ch[f"ankle_{s}"] = (1.8 - 1.2) * depth - 0.2 * airborne
+    ch["spine_bend"] = 0.5 * depth + 0.3 * airborne
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        back = np.array([0.08 * sign, -0.8 * style.arm_length, -0.3])  # swung back on the plant
+        up = np.array([0.1 * sign, 0.2, 0.4])  # thrown forward and up in the air
+        ahead = np.array([0.1 * sign, -0.15, 0.45])  # forward on landing, for balance
+        a = ease((t - crouch_t + 0.1) / 0.25)[:, None]
+        b = ease((t - crouch_t - fly + 0.15) / 0.3)[:, None]
+        wrist = (1 - a) * back + a * ((1 - b) * up + b * ahead)
+        _arm(jump, side, wrist, np.maximum(plant, hold(t - crouch_t, 0.1, fly, land_t - 0.4)))
+    return concatenate([run, jump], fps, 0.2)[0]
 
 
 # ---------------------------------------------------------------------------- jumping rope
@@ -565,6 +604,10 @@ BENCHMARK: dict[str, Phrase] = {**_table(
     put_down=("<put> a box down on the floor", "<put> something down on the ground",
               "<bend> down and <put> a box on the floor", "<squat> and <place> something on the floor",
               "<set> a box down on the floor"),
+    stumble=("<stumble> forward and <catch> HIS balance",
+             "<trip> and <stumble> but <stay> on HIS feet", "<stumble> on the way and <recover>",
+             "<trip> over something and <catch> HIS balance",
+             "<walk> forward, <stumble> and <go> on walking"),
 ), "step_over": _step_over, "sit_ups": _sit_ups, "limp": _limp,
    "jump_rope": _jump_rope}
 
@@ -649,6 +692,8 @@ EVERYDAY: dict[str, Phrase] = {**_table(
                    "<go> down backward and <sprawl> flat on HIS back"),
     put_down=("<lower> a box to the ground", "<crouch> and <leave> the box on the floor",
               "<rest> a box on the floor and <straighten> up"),
+    stumble=("<lose> HIS footing for a moment and <steady> HIS body",
+             "<catch> a toe and <lurch> forward a few steps"),
 ), "step_over": _e_step_over, "sit_ups": _e_sit_ups, "limp": _e_limp,
    "jump_rope": _e_jump_rope}
 
@@ -663,6 +708,7 @@ COLLOQUIAL: dict[str, Phrase] = {**_table(
     fall_forward=("<faceplant> onto the floor", "<go> flying and <land> face first"),
     fall_backward=("<land> flat on HIS back with a thud", "<keel> over backward"),
     put_down=("<plonk> a box down on the floor", "<dump> a box on the ground"),
+    stumble=("<trip> over HIS own feet and <stagger> on", "<stagger> forward, nearly going down"),
 ), "step_over": _c_step_over, "sit_ups": _c_sit_ups, "limp": _c_limp,
    "jump_rope": _c_jump_rope}
 
@@ -678,6 +724,7 @@ SHORT: dict[str, Phrase] = {**_table(
     sit_ups=("<do> situps", "<do> situps"),
     put_down=("<put> something down", "<put> a box down", "<put> something down"),
     jump_rope=("<jump> rope", "<jump> rope", "<skip> rope"),
+    stumble=("<stumble>", "<stumble>", "<trip>"),
 ), "step_over": _s_step_over, "limp": _s_limp}
 
 
@@ -687,13 +734,13 @@ PARAMS: dict[str, dict[str, tuple]] = {
     "crawl": {}, "walk_downstairs": {}, "walk_upstairs": {}, "step_over": {"leg": ("left", "right")},
     "fall_forward": {}, "fall_backward": {}, "sit_ups": {"count": (2, 3, 4)}, "carry": {},
     "push": {}, "put_down": {}, "limp": {"side": ("left", "right")}, "balance_walk": {},
-    "jump_rope": {"count": (3, 4, 5)},
+    "jump_rope": {"count": (3, 4, 5)}, "stumble": {},
 }
 CLIPS: dict[str, Callable[..., Clip]] = {
     "crawl": crawl, "walk_downstairs": walk_downstairs, "walk_upstairs": walk_upstairs,
     "step_over": step_over, "fall_forward": fall_forward, "fall_backward": fall_backward,
     "sit_ups": sit_ups, "carry": carry, "push": push, "put_down": put_down, "limp": limp,
-    "balance_walk": balance_walk, "jump_rope": jump_rope,
+    "balance_walk": balance_walk, "jump_rope": jump_rope, "stumble": stumble,
 }
 PHRASES: dict[str, dict[str, Phrase]] = {"benchmark": BENCHMARK, "everyday": EVERYDAY,
                                          "colloquial": COLLOQUIAL, "short": SHORT}
@@ -712,14 +759,14 @@ VERBS: dict[str, dict[str, tuple[str, str]]] = {
     "benchmark": {**_forms("carry", "push", "hold", "crawl", "climb", "descend", "lead", "fall",
                           "stumble", "land", "limp", "spare", "favor"),
                   "trip": ("trips", "tripping"), "set": ("sets", "setting"),
-                  "skip": ("skips", "skipping"),
+                  "skip": ("skips", "skipping"), **_forms("catch", "recover"),
                   "tip": ("tips", "tipping")},
     "everyday": {**_forms("lug", "tote", "cart", "shove", "heave", "drive", "tiptoe", "steady", "inch",
                         "creep", "mount", "clear", "topple", "pitch", "sprawl", "tumble",
-                        "crunch", "curl", "work", "hobble", "nurse", "leave"),
+                        "crunch", "curl", "work", "hobble", "nurse", "leave", "lose", "lurch"),
                  "lug": ("lugs", "lugging"), "tiptoe": ("tiptoes", "tiptoeing")},
     "colloquial": {**_forms("muscle", "wobble", "totter", "scuttle", "clatter", "hike",
-                            "faceplant", "keel", "crank", "gimp", "dump"), "schlep": ("schleps", "schlepping")},
+                            "faceplant", "keel", "crank", "gimp", "dump", "stagger"), "schlep": ("schleps", "schlepping")},
 }
 WORDS: dict[str, str] = {"box": "NOUN", "body": "NOUN", "heavy": "ADJ", "carefully": "ADV",
                          "spread": "VERB",
@@ -727,7 +774,8 @@ WORDS: dict[str, str] = {"box": "NOUN", "body": "NOUN", "heavy": "ADJ", "careful
                          "upstairs": "ADV", "some": "DET",
                          "obstacle": "NOUN", "face": "NOUN", "behind": "ADP", "onto": "ADP",
                          "injured": "ADJ", "hurt": "ADJ", "unevenly": "ADV", "along": "ADV",
-                         "rope": "NOUN", "small": "ADJ"}
+                         "rope": "NOUN", "small": "ADJ",
+                         "but": "CCONJ", "balance": "NOUN"}
 PLURALS: dict[str, str] = {"sides": "side", "stairs": "stair", "situps": "situp"}
 # A fall ends lying on the floor, and sit-ups start and end lying on the back with the knees up:
 # nothing follows them in a script, and sit-ups come first.

@@ -27,6 +27,8 @@ FLOOR_CHANNELS = ("body_pitch", "floor")
 # zero in every family before benchmark version 4): compose.place_on_ground puts each side's
 # contact points on its own ground, and a script goes on from the level a clip ended on.
 GROUND_CHANNELS = ("ground_l", "ground_r")
+CONTINUING = ("yaw", *GROUND_CHANNELS)  # channels a clip takes up from where the last one ended
+BLEND_SECONDS = 0.4  # the cross-fade between consecutive clips
 
 
 class Action(Protocol):
@@ -105,6 +107,39 @@ def held(clip: Clip, frame: int, n: int) -> Clip:
     channels = {name: np.repeat(values[frame:frame + 1 or None], n, axis=0)
                 for name, values in clip.channels.items()}
     return Clip(channels, np.zeros(n), np.zeros(n, bool), np.full((n, 2), np.nan))
+
+
+def concatenate(clips: list[Clip], fps: float, seconds: float = BLEND_SECONDS
+                ) -> tuple[Clip, list[tuple[int, int]]]:
+    """Cross-fade consecutive clips over `seconds`; the heading and the ground's height
+    (CONTINUING) go on from where they ended. Scripts are joined with it (compose.py), and
+    the clips of a family made of parts (a run-up and a jump)."""
+    overlap = int(round(seconds * fps))
+    out = clips[0]
+    segments = [(0, out.n)]
+    for clip in clips[1:]:
+        k = min(overlap, out.n // 2, clip.n // 2)
+        w = 0.5 - 0.5 * np.cos(np.linspace(0, np.pi, k))  # 0 -> 1
+        start = out.n - k
+        channels = {}
+        for name, a in out.channels.items():
+            b = clip.channels[name] + (a[-1] if name in CONTINUING else 0.0)
+            wk = w if a.ndim == 1 else w[:, None]
+            mixed = (1 - wk) * a[start:] + wk * b[:k]
+            channels[name] = np.concatenate([a[:start], mixed, b[k:]])
+        clearance = np.concatenate([out.clearance[:start],
+                                    np.maximum(out.clearance[start:], clip.clearance[:k]),
+                                    clip.clearance[k:]])
+        flight = np.concatenate([out.flight[:start], out.flight[start:] | clip.flight[:k],
+                                 clip.flight[k:]])
+        velocity = np.concatenate([out.flight_velocity[:start],
+                                   np.where(clip.flight[:k, None], clip.flight_velocity[:k],
+                                            out.flight_velocity[start:]),
+                                   clip.flight_velocity[k:]])
+        out = Clip(channels, clearance, flight, velocity)
+        segments.append((start, out.n))
+    return out, segments
+
 
 
 def _frames(seconds: float, fps: float) -> tuple[int, np.ndarray]:
