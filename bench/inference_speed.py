@@ -3,6 +3,13 @@
     python bench/inference_speed.py [--quick] [--device cpu|cuda] [--dtypes float32,bfloat16]
                                     [--backends torch,onnx,onnx-spinning,onnx-int8,...]
                                     [--threads N] [--runs 20] [--json OUT.json]
+    python bench/inference_speed.py --headline [--runs 30]
+
+The headline (first in every run; --headline: alone, ~20 s): in a fresh process on what
+`mlct.load()` picks (onnx on a CPU, no torch imported), generate() with its defaults for a
+5 s motion of a sentence seen before (target <= 25 ms), and the paper's measure: one sample of
+5 s at the default NFE, warm (the sentence seen before: its vector from the memo) and cold
+(a new sentence: the text encoder runs too), targets <= 5 and <= 10 ms. Medians.
 
 Models: the bundled small consistency model ("small CM"; --small-model DIR times another
 bundle in its place); the paper-size networks of the humanml3d preset ("paper CM"); the latent
@@ -74,6 +81,8 @@ MODELS = {  # label: (preset, sampler, NFEs; for DDIM the step count)
     "small LDM": ("small", "ddim", (50,)),
 }
 BATCHES = (1, 8, 64, 512, 4096)
+HEADLINE_TARGETS_MS = {"generate": 25.0, "warm": 5.0, "cold": 10.0}
+HEADLINE_PROMPT = "a person walks forward"
 GPU_BATCHES = (*BATCHES, 16384)  # a GPU's throughput keeps growing past 4096
 def _best_time(fn: Callable[[], Any], reps: int, sync: Callable[[], None]) -> float:
     """Shortest seconds of fn over reps runs, after one untimed run: a roof of the machine is
@@ -699,8 +708,21 @@ def main() -> None:
     parser.add_argument("--small-model", default=None, metavar="DIR",
                         help="the bundle timed as the small CM (default: the bundled model), to "
                              "time a candidate before it is shipped")
+    parser.add_argument("--headline", action="store_true",
+                        help="only the headline figures (above): generate()'s defaults, one "
+                             "sample warm and cold")
     parser.add_argument("--child", default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--headline-child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.headline_child:
+        print(json.dumps(headline(args.runs if args.runs != 20 else 30)))
+        return
+    head = run_headline(args.runs if args.runs != 20 else 30)
+    print_headline(head)
+    if args.headline:
+        if args.json:
+            _write_json(args.json, {"headline": head})
+        return
     if args.small_model:  # children read it too: each model is timed in its own process
         os.environ[SMALL_MODEL_ENV] = str(Path(args.small_model).resolve())
     if args.child:
@@ -753,8 +775,64 @@ def main() -> None:
     if "bfloat16" in dtypes and args.device == "cpu":
         info["quality_bf16"] = quality_bf16()
     report(results, info, args.device)
+    print_headline(head)
     if args.json:
-        _write_json(args.json, {"machine": info, "results": results})
+        _write_json(args.json, {"machine": info, "results": results, "headline": head})
+
+
+def headline(runs: int) -> dict[str, Any]:
+    """The headline figures (module docstring), in this process: medians in ms."""
+    import mlct
+
+    gen = mlct.load()
+    frames = gen.frames_for(5.0)
+    seen = gen.encode_text([HEADLINE_PROMPT])  # in the memo from here on
+    for i in range(3):  # warm-up: the sampler graphs are built at a step count's second call
+        gen.generate(HEADLINE_PROMPT, seconds=5, seed=i)
+        gen.sample_features(seen, None, [i], None, [frames])
+    times: dict[str, list[float]] = {"generate": [], "warm": [], "cold": []}
+    encoder = gen.text_encoder
+    for i in range(runs):
+        t0 = time.perf_counter()
+        gen.generate(HEADLINE_PROMPT, seconds=5, seed=i)
+        t1 = time.perf_counter()
+        gen.sample_features(gen.encode_text([HEADLINE_PROMPT]), None, [i], None, [frames])
+        t2 = time.perf_counter()
+        text = TEXTS[i % len(TEXTS)]
+        new = (encoder.encode_numpy([text]) if getattr(gen.networks, "numpy", False)
+               else encoder.encode([text]).float())  # not memoized: the encoder runs
+        gen.sample_features(new, None, [i], None, [frames])
+        t3 = time.perf_counter()
+        times["generate"].append(t1 - t0)
+        times["warm"].append(t2 - t1)
+        times["cold"].append(t3 - t2)
+    return {"backend": gen.backend_note, "frames": frames, "nfe": gen.default_nfe,
+            "candidates": gen.candidates, "runs": runs,
+            "torch_imported": "torch" in sys.modules, "threads": gen.networks.threads
+            if hasattr(gen.networks, "threads") else None,
+            **{k: 1000.0 * statistics.median(v) for k, v in times.items()}}
+
+
+def run_headline(runs: int) -> dict[str, Any]:
+    """headline() in a fresh process (what a user's first process runs: no torch loaded)."""
+    proc = subprocess.run([sys.executable, __file__, "--headline-child", "--runs", str(runs)],
+                          stdout=subprocess.PIPE, text=True, check=False)
+    if proc.returncode != 0:
+        sys.exit(f"the headline failed (exit {proc.returncode})")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def print_headline(head: dict[str, Any]) -> None:
+    def verdict(key: str) -> str:
+        target = HEADLINE_TARGETS_MS[key]
+        return f"{head[key]:.1f} ms ({'meets' if head[key] <= target else 'MISSES'} <= {target:g})"
+
+    print(f"headline on {head['backend']}, {head['threads']} threads, torch imported: "
+          f"{'yes' if head['torch_imported'] else 'no'}; medians of {head['runs']}:")
+    print(f"  generate() with its defaults (best of {head['candidates']}, {head['nfe']} NFE), "
+          f"a 5 s motion of a sentence seen before: {verdict('generate')}")
+    print(f"  one sample, {head['frames']} frames, {head['nfe']} NFE: warm {verdict('warm')}, "
+          f"cold (+ the text encoder on a new sentence) {verdict('cold')}")
 
 
 BACKENDS = ("torch", "torch-compiled", "onnx", "onnx-spinning", "onnx-int8", "cuda-graphs")
@@ -777,7 +855,7 @@ def _backends(text: str | None, device: str, parser: argparse.ArgumentParser) ->
             parser.error(f"unknown backend {backend!r}; choose from {', '.join(BACKENDS)}")
     if any(b.startswith("onnx") for b in backends) and (device != "cpu" or not installed):
         parser.error("--backends onnx: runs on the CPU, with onnxruntime installed "
-                     "(pip install 'mlct[onnx]')")
+                     "(pip install onnxruntime==1.32.0)")
     if "cuda-graphs" in backends and device != "cuda":
         parser.error("--backends cuda-graphs: runs on a GPU (--device cuda)")
     return backends

@@ -22,7 +22,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("errors",),  # MlctError and the one-line helper
     # files written atomically, device choice, the typed config, ONNX graphs written and run,
     # CUDA graphs captured and replayed
-    ("io", "devices", "config", "onnx_io", "cuda_graphs"),
+    # the package's shipped files by name
+    ("io", "devices", "config", "onnx_io", "cuda_graphs", "shipped"),
     ("cpu_features",),  # what this CPU's kernels can run: the weights' precision
     ("motion",),  # skeletons, features <-> joints, BVH, rendering
     ("data",),  # the dataset layout, captions, statistics, torch datasets, the benchmark
@@ -31,7 +32,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("diffusion",),  # schedule, parameterization, losses, samplers as pure functions
     ("generate",),  # the inference wing: bundles, sampler objects, the pipeline, exports
     ("mlct",),  # the package root, the public API: mlct.load (generate's), __version__
-    ("train", "eval", "serve"),  # training runs; measuring models; the HTTP API
+    # training runs; measuring models; the HTTP API; writing the bundled model's ONNX graphs
+    ("train", "eval", "serve", "onnx_assets"),
     ("cli",),  # the command line, over everything
 )
 

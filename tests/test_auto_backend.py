@@ -1,9 +1,10 @@
 """backend="auto" (generate/backends/auto.py): onnx where it can run, its graphs found in the
-model directory (int8 ones too) or made once into the cache, atomically; torch otherwise;
---verbose says which. onnx-int8 asked for by name."""
+model directory (int8 ones too, the bundled model's shipped ones) or made once into the cache,
+atomically; torch otherwise; --verbose says which. onnx-int8 asked for by name."""
 
 from __future__ import annotations
 
+import shutil
 import sys
 from pathlib import Path
 
@@ -16,7 +17,7 @@ from mlct.errors import MlctError
 from mlct.generate.backends import auto as auto_backend
 from mlct.generate.backends.onnx.bundle import MANIFEST
 from mlct.generate.backends.onnx.convert import convert_to_onnx
-from mlct.generate.bundle import bundled_model_dir
+from mlct.generate.bundle import BUNDLE_FILES, OPTIONAL_FILES, bundled_model_dir
 
 pytest.importorskip("onnxruntime")
 pytest.importorskip("onnx")
@@ -25,13 +26,22 @@ pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 @pytest.fixture(scope="module")
-def cache(tmp_path_factory) -> Path:
-    """A fresh MLCT_CACHE in which auto has converted the bundled model once."""
+def plain(tmp_path_factory) -> Path:
+    """The bundled model without the graphs it ships (a model `mlct export` wrote)."""
+    folder = tmp_path_factory.mktemp("plain")
+    for name in BUNDLE_FILES + OPTIONAL_FILES:
+        shutil.copy2(bundled_model_dir() / name, folder / name)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory, plain) -> Path:
+    """A fresh MLCT_CACHE in which auto has converted `plain` once."""
     folder = tmp_path_factory.mktemp("cache")
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("MLCT_CACHE", str(folder))
         patch.delenv("MLCT_BACKEND")
-        gen = mlct.load()
+        gen = mlct.load(plain)
     assert gen.backend == "onnx", gen.backend_note
     return folder
 
@@ -43,19 +53,36 @@ def auto(cache, monkeypatch) -> Path:
     return cache
 
 
-def test_first_use_converts_into_the_cache_atomically_and_once(auto, monkeypatch) -> None:
+def test_first_use_converts_into_the_cache_atomically_and_once(auto, plain, monkeypatch
+                                                               ) -> None:
     entries = list((auto / "onnx").iterdir())
     assert len(entries) == 1 and (entries[0] / MANIFEST).is_file()  # no partial directory left
-    assert entries[0] == auto_backend.default_graph_dir(bundled_model_dir())
-    assert entries[0] != auto_backend.default_graph_dir(bundled_model_dir(), int8=True)
+    assert entries[0] == auto_backend.default_graph_dir(plain)
+    assert entries[0] != auto_backend.default_graph_dir(plain, int8=True)
 
     def fail(*args):
         raise AssertionError("converted again")
 
     monkeypatch.setattr("mlct.generate.backends.onnx.convert.write_onnx_graphs", fail)
-    gen = mlct.load()
+    gen = mlct.load(plain)
     assert gen.backend == "onnx" and str(entries[0]) in gen.backend_note
     assert gen.backend_note.startswith("onnx (auto: ONNX Runtime")
+
+
+def test_the_bundled_model_runs_its_shipped_graphs_without_converting(tmp_path, monkeypatch
+                                                                     ) -> None:
+    monkeypatch.setenv("MLCT_CACHE", str(tmp_path))
+    monkeypatch.delenv("MLCT_BACKEND")
+
+    def fail(*args):
+        raise AssertionError("converted")
+
+    monkeypatch.setattr("mlct.generate.backends.onnx.convert.write_onnx_graphs", fail)
+    for backend in ("auto", "onnx"):
+        gen = mlct.load(backend=backend)
+        assert gen.backend == "onnx"
+        assert Path(gen.networks.graphs.denoiser).parent == bundled_model_dir() / "onnx"
+    assert not (tmp_path / "onnx").exists()
 
 
 def _gap(want, got) -> tuple[float, float]:
@@ -96,16 +123,17 @@ def test_graphs_in_the_model_directory_come_first(auto, tmp_path) -> None:
     assert gen.backend == "onnx-int8" and str(model8 / "onnx") in gen.backend_note
 
 
-def test_onnx_by_name_on_a_model_without_graphs_takes_the_caches(auto, monkeypatch) -> None:
-    """backend="onnx" on the bundled model, which holds no graphs: the cache's float32 graphs,
-    made by the first use (the fixture's) and not again."""
+def test_onnx_by_name_on_a_model_without_graphs_takes_the_caches(auto, plain, monkeypatch
+                                                                  ) -> None:
+    """backend="onnx" on a model that holds no graphs: the cache's float32 graphs, made by the
+    first use (the fixture's) and not again."""
     def fail(*args):
         raise AssertionError("converted again")
 
     monkeypatch.setattr("mlct.generate.backends.onnx.convert.write_onnx_graphs", fail)
-    gen = mlct.load(backend="onnx")
+    gen = mlct.load(plain, backend="onnx")
     assert gen.backend_note == "onnx (asked for)" and "int8" not in gen.networks.graphs.manifest
-    assert Path(gen.networks.graphs.denoiser).parent == auto_backend.default_graph_dir(bundled_model_dir())
+    assert Path(gen.networks.graphs.denoiser).parent == auto_backend.default_graph_dir(plain)
 
 
 def test_threads_set_torch_and_every_graph(auto, tmp_path, capsys) -> None:
@@ -168,7 +196,8 @@ def test_a_concurrent_conversion_keeps_the_first(tmp_path, monkeypatch) -> None:
     assert [p.name for p in entry.parent.iterdir()] == ["key"]  # ours removed
 
 
-def test_a_failed_conversion_leaves_nothing_and_falls_back(tmp_path, monkeypatch) -> None:
+def test_a_failed_conversion_leaves_nothing_and_falls_back(tmp_path, plain, monkeypatch
+                                                           ) -> None:
     monkeypatch.setenv("MLCT_CACHE", str(tmp_path))
     monkeypatch.delenv("MLCT_BACKEND")
 
@@ -177,7 +206,7 @@ def test_a_failed_conversion_leaves_nothing_and_falls_back(tmp_path, monkeypatch
         raise MlctError("the ONNX graph differs from the torch network")
 
     monkeypatch.setattr("mlct.generate.backends.onnx.convert.write_onnx_graphs", broken)
-    gen = mlct.load()
+    gen = mlct.load(plain)
     assert gen.backend == "torch" and "converting to ONNX failed" in gen.backend_note
     assert list((tmp_path / "onnx").iterdir()) == []
 

@@ -13,10 +13,11 @@ from pathlib import Path
 
 import pytest
 
-# Not needed to write a .npy: Hugging Face stacks (the bundled MiniLM runs in plain torch),
-# scientific extras, plotting, the web server.
-HEAVY = ("sentence_transformers", "transformers", "sklearn", "scipy", "matplotlib", "fastapi",
-         "uvicorn", "plotly")
+# Not needed to write a .npy: torch (the onnx backend, the default, runs the shipped graphs
+# with numpy around them: a light install has no torch), Hugging Face stacks, scientific
+# extras, plotting, the web server.
+HEAVY = ("torch", "sentence_transformers", "transformers", "sklearn", "scipy", "matplotlib",
+         "fastapi", "uvicorn", "plotly")
 
 _CHILD = """
 import sys
@@ -34,6 +35,7 @@ def test_api_and_cli_generate_import_no_heavy_library(tmp_path: Path) -> None:
     src = str(Path(__file__).resolve().parent.parent / "src")
     path = os.pathsep.join(p for p in (src, os.environ.get("PYTHONPATH")) if p)
     env = {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": "1"}
+    env.pop("MLCT_BACKEND", None)  # the suite pins torch (conftest.py); the default is asked
     done = subprocess.run([sys.executable, "-c", _CHILD.format(HEAVY=HEAVY),
                            str(tmp_path / "x.npy")], capture_output=True, text=True, env=env)
     assert done.returncode == 0, done.stderr[-2000:]
@@ -46,7 +48,7 @@ def test_api_and_cli_generate_import_no_heavy_library(tmp_path: Path) -> None:
 # scipy.signal (~0.7 s) to every one-off .bvh / .glb / .npz export, and scipy's Rotation and
 # ndimage (the rotations, the fit's moving average) scipy.spatial and scipy.sparse (~0.4 s;
 # docs/performance.md, "Cold start").
-RIG_HEAVY = ("roma", "torch._dynamo", "scipy", "matplotlib", "sentence_transformers")
+RIG_HEAVY = ("roma", "torch", "scipy", "matplotlib", "sentence_transformers", "transformers")
 
 _RIG_CHILD = """
 import sys
@@ -54,6 +56,9 @@ from mlct.cli import main
 for out in sys.argv[1:]:
     assert main(["generate", "a person walks forward", "--seconds", "1", "--nfe", "1",
                  "--out", out, "--quiet"]) == 0
+joints = sys.argv[1][:-4] + ".npy"  # and the one-off commands on a joints file
+assert main(["generate", "a person walks forward", "--seconds", "1", "--out", joints]) == 0
+assert main(["retarget", joints, "--out", joints[:-4] + "_r.g1.csv"]) == 0
 print("heavy:", *sorted(m for m in {HEAVY} if m in sys.modules))
 """
 
@@ -64,7 +69,8 @@ def test_rig_exports_import_no_heavy_library(tmp_path: Path) -> None:
     src = str(Path(__file__).resolve().parent.parent / "src")
     path = os.pathsep.join(p for p in (src, os.environ.get("PYTHONPATH")) if p)
     env = {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": "1"}
-    outs = [str(tmp_path / f"x.{ext}") for ext in ("bvh", "glb", "npz")]
+    env.pop("MLCT_BACKEND", None)
+    outs = [str(tmp_path / f"x.{ext}") for ext in ("bvh", "glb", "npz", "fbx", "g1.csv")]
     done = subprocess.run([sys.executable, "-c", _RIG_CHILD.format(HEAVY=RIG_HEAVY), *outs],
                           capture_output=True, text=True, env=env)
     assert done.returncode == 0, done.stderr[-2000:]

@@ -1,5 +1,7 @@
-"""The ONNX graphs shipped with the bundled model (mlct/onnx_assets.py): made from the weights
-beside them, read by the loader, the same motions as the torch backend for the same seed."""
+"""The ONNX graphs shipped with the bundled model (mlct/onnx_assets.py writes them): made from the
+weights beside them, read by the loader, the same motions as the torch backend for the same
+seed, and the sampler's step coefficients of every step count as the torch sampler computes
+them."""
 
 from __future__ import annotations
 
@@ -10,9 +12,9 @@ import numpy as np
 import pytest
 
 from mlct.errors import MlctError
-from mlct.onnx_assets import (CRITIC_WEIGHTS, MINILM_DIR, MINILM_WEIGHTS, MODEL_DIR,
-                              SHIPPED_DIR, TEXT_ENCODER_WEIGHTS, file_digest)
 from mlct.onnx_io import external_weights, safetensors_header_digest, session, weights_recipe
+from mlct.shipped import (CRITIC_WEIGHTS, MINILM_DIR, MINILM_WEIGHTS, MODEL_DIR, SHIPPED_DIR,
+                          TEXT_ENCODER_WEIGHTS, file_digest)
 
 REMAKE = "remake them: python -m mlct.onnx_assets"
 
@@ -70,6 +72,23 @@ def test_critic_graph_against_the_torch_critic():
     (got,) = session(graph, threads=1).run(None, {"z": z.numpy(), "frames": frames.numpy(),
                                                   "text": text.numpy()})
     assert np.abs(got - critic.network.score(z, frames, text).numpy()).max() < 1e-5
+
+
+def test_the_step_table_holds_the_torch_samplers_coefficients():
+    pytest.importorskip("torch")
+    from mlct.config import config_from_dict
+    from mlct.generate.backends.onnx.sampler import (STEPS_TABLE, read_steps_table,
+                                                     step_coefficients)
+    from mlct.generate.samplers import ConsistencySampler
+
+    meta = json.loads((MODEL_DIR / "config.json").read_text(encoding="utf-8"))
+    sampler = ConsistencySampler(config_from_dict(meta["config"]))
+    assert _manifest()["steps_table"] == STEPS_TABLE
+    for steps in range(1, sampler.max_steps + 1):
+        table = read_steps_table(SHIPPED_DIR / STEPS_TABLE, steps)
+        want = step_coefficients(sampler, steps)
+        assert all(np.array_equal(table[k], want[k]) for k in ("times", "coef")), steps
+    assert read_steps_table(SHIPPED_DIR / STEPS_TABLE, sampler.max_steps + 1) is None
 
 
 def test_a_weights_file_other_than_the_recipes_is_refused(tmp_path):

@@ -250,7 +250,7 @@ def test_the_fused_attention_computes_what_the_exported_one_does(backends) -> No
     folder = Path(backends[1].networks.graphs.denoiser).parent.parent
     gen = load_onnx(folder, threads=2)  # the steps apart, on one thread
     gen.networks.spinning = False
-    cond = gen.encode_text(TEXTS[:1])
+    cond = torch.as_tensor(gen.encode_text(TEXTS[:1]))  # (numpy on this backend)
     for _ in range(2):  # the second call builds the graph
         gen.sample_features(cond, 3, [5], None, [40])
     nets = gen.networks
@@ -262,7 +262,7 @@ def test_the_fused_attention_computes_what_the_exported_one_does(backends) -> No
     feeds["text"] = cond.numpy()
     (latent,) = session.run(["latent"], {k: feeds[k] for k in ("x", "noise", "text")})
     # the step loop runs the exported graph, its attentions unfused
-    np.testing.assert_allclose(latent, nets._latents(None, cond, 3, [5]).numpy(), rtol=0,
+    np.testing.assert_allclose(latent, nets._latents(None, cond, 3, [5]), rtol=0,
                                atol=1e-5)
     assert np.abs(latent).max() > 0.1
 
@@ -287,7 +287,7 @@ def test_candidates_sample_through_the_steps_graph_and_decode_through_the_halves
     folder = Path(backends[1].networks.graphs.denoiser).parent.parent
     gen = load_onnx(folder, threads=2)
     gen.networks.spinning = False
-    rows = gen.encode_text(TEXTS[:1]).repeat_interleave(4, dim=0)
+    rows = torch.as_tensor(gen.encode_text(TEXTS[:1])).repeat_interleave(4, dim=0)
     loop = gen.sample_latents(rows, 3, [1, 2, 3, 4])  # the first call: the step loop
     assert not gen.networks.graph_sessions.steps_only
     graph = gen.sample_latents(rows, 3, [1, 2, 3, 4])
@@ -295,7 +295,7 @@ def test_candidates_sample_through_the_steps_graph_and_decode_through_the_halves
     np.testing.assert_allclose(graph.numpy(), loop.numpy(), rtol=0, atol=1e-5)
     one = gen.sample_latents(rows[:1], 3, [7])  # batch 1: the one-thread steps session
     assert (3, 1, True, True, False) in gen.networks.graph_sessions.sessions
-    np.testing.assert_allclose(one.numpy(), gen.networks._latents(None, rows[:1], 3, [7]).numpy(),
+    np.testing.assert_allclose(one.numpy(), gen.networks._latents(None, rows[:1], 3, [7]),
                                rtol=0, atol=1e-5)  # the same latent by the step loop
     whole = gen.decode(one, [37])  # the first single decode: the whole decoder
     assert gen.networks._halves is False
@@ -367,7 +367,7 @@ def test_the_generators_spinning_reaches_its_steps_and_its_text_encoder(backends
     gen = load_onnx(folder, threads=2)
     gen.networks.spinning = False
     assert gen.text_encoder.spinning is False  # made after: it takes the generator's
-    rows = gen.encode_text(TEXTS[:1]).repeat_interleave(3, dim=0)
+    rows = torch.as_tensor(gen.encode_text(TEXTS[:1])).repeat_interleave(3, dim=0)
     for _ in range(2):
         gen.sample_latents(rows, 2, [1, 2, 3])
         gen.sample_latents(rows[:1], 2, [1])

@@ -318,7 +318,7 @@ def test_unknown_spec_lists_accepted_forms():
 
 
 def test_minilm_files_missing(monkeypatch, tmp_path):
-    monkeypatch.setattr("mlct.onnx_assets.MINILM_DIR", tmp_path)  # the package's copy gone
+    monkeypatch.setattr("mlct.shipped.MINILM_DIR", tmp_path)  # the package's copy gone
     with pytest.raises(MlctError, match="bundled MiniLM is missing .*reinstall mlct"):
         load_text_encoder("minilm")
 

@@ -21,6 +21,14 @@ def test_successive_draws_follow_torchs_generator(seed):
         assert np.abs(got - expected).max() < 1e-5 * max(1.0, np.abs(expected).max())
 
 
+def test_many_draws_at_once_are_the_draws_one_by_one():
+    for shape in [(6, 192), (3, 7, 5)]:
+        one, many = TorchRandn(11), TorchRandn(11)
+        expected = np.stack([one.randn(shape) for _ in range(4)])
+        assert np.array_equal(many.randn_many(shape, 4), expected)
+        assert np.array_equal(many.randn(shape), one.randn(shape))  # both streams stand alike
+
+
 def test_fewer_than_a_block_is_refused():
     with pytest.raises(ValueError, match="16 values or more"):
         TorchRandn(0).randn((3, 5))

@@ -28,9 +28,10 @@ class MissingExtra(MlctError):
 
 
 def require_torch(what: str) -> None:
-    """Raise MissingExtra when PyTorch is not installed; `what` names the feature that needs it
-    ("training", "the torch backend", ...). Checked without importing torch."""
-    import importlib.util
-
-    if importlib.util.find_spec("torch") is None:
-        raise MissingExtra(f"{what} needs PyTorch, which this install lacks: {TRAIN_EXTRA}")
+    """Import PyTorch, or raise MissingExtra when it is not installed; `what` names the feature
+    that needs it ("training", "the torch backend", ...). Called where torch is needed next."""
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        raise MissingExtra(f"{what} needs PyTorch, which this install lacks: {TRAIN_EXTRA}"
+                           ) from None

@@ -27,34 +27,20 @@ digests, and the same motions for the same seed on the onnx and torch backends).
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import shutil
 from pathlib import Path
 
-ASSETS = Path(__file__).resolve().parent / "assets"
-MODEL_DIR = ASSETS / "model"  # the bundled model (generate's bundled_model_dir)
-SHIPPED_DIR = MODEL_DIR / "onnx"  # its graphs, where the loader looks for a model's own
-MINILM_DIR = ASSETS / "minilm"
-MINILM_WEIGHTS = "model.safetensors"
+from mlct.shipped import (ASSETS, CRITIC, CRITIC_WEIGHTS, MINILM_DIR, MINILM_WEIGHTS,
+                          MODEL_DIR, SHIPPED_DIR, TEXT_ENCODER_WEIGHTS, file_digest)
+
 # all-MiniLM-L6-v2's files that the encoders read (the tokenizer, BERT's sizes, the
 # sentence-transformers pipeline, the weights) and its model card (the license, where from)
 MINILM_FILES = ("config.json", "config_sentence_transformers.json", "modules.json",
                 "sentence_bert_config.json", "special_tokens_map.json", "tokenizer.json",
                 "tokenizer_config.json", "vocab.txt", "1_Pooling/config.json", "README.md",
                 MINILM_WEIGHTS)
-TEXT_ENCODER_WEIGHTS = "minilm_sha256"  # the manifest's record of the MiniLM weights' digest
-CRITIC, CRITIC_WEIGHTS = "critic.onnx", "critic_sha256"  # the graph, its weights' digest
 CRITIC_IO = (("z", "frames", "text"), ("score",))
-
-
-def file_digest(path: Path) -> str:
-    """The sha256 of a file (hex)."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def copy_minilm(source: Path, into: Path = MINILM_DIR) -> Path:

@@ -21,14 +21,14 @@ from __future__ import annotations
 import os
 import warnings
 from pathlib import Path
-from typing import Any
-
-import torch
-from safetensors.torch import load_file
+from typing import TYPE_CHECKING, Any
 
 from mlct.errors import MlctError, MlctWarning, first_line
 from mlct.generate.samplers import SAMPLERS
 from mlct.io import read_format_json, strip_prefix
+
+if TYPE_CHECKING:
+    import torch
 
 BUNDLE_FORMAT = "mlct-model"
 BUNDLE_VERSION = 1
@@ -107,8 +107,10 @@ def read_config(path: str | os.PathLike) -> dict[str, Any]:
     return meta
 
 
-def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
-    """config.json and the tensors of a bundle; one-line MlctError when it is not one."""
+def read_bundle(path: str | os.PathLike, numpy: bool = False
+                ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """config.json and the tensors of a bundle, float16 ones as float32; one-line MlctError
+    when it is not one. numpy: numpy arrays (the onnx backend, without torch), else tensors."""
     path = Path(path)
     if not path.is_dir():
         raise MlctError(f"{path}: no such model directory")
@@ -122,9 +124,19 @@ def read_bundle(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torc
     # from there; set on every read, so a config.json copied elsewhere never points back
     meta["model_dir"] = str(path)
     try:
+        if numpy:
+            import numpy as np
+            from safetensors.numpy import load_file
+        else:
+            from safetensors.torch import load_file
         tensors = load_file(str(weights))
     except Exception as err:  # safetensors raises several kinds on a damaged file
         raise MlctError(f"{weights}: unreadable weights ({first_line(err)})") from None
+    if numpy:
+        return meta, {k: (v.astype(np.float32) if v.dtype == np.float16 else v)
+                      for k, v in tensors.items()}
+    import torch
+
     return meta, {k: (v.float() if v.dtype == torch.float16 else v) for k, v in tensors.items()}
 
 

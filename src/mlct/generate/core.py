@@ -58,34 +58,44 @@ class MotionCore:
     def encode_text(self, texts: Sequence[str]) -> Any:
         """(B, c) frozen text embeddings. The last TEXT_MEMO_SIZE distinct texts are kept, so a
         repeated prompt skips the encoder; the memo's memory is bounded (a server sees many).
-        Each text is read as `read_as` gives it."""
-        import torch
-
+        Each text is read as `read_as` gives it. A numpy array on the numpy backends
+        (networks.numpy: onnx), else a tensor."""
         texts = [self.read_as(t) for t in texts]
         found = {t: self._text_memo[t] for t in texts if t in self._text_memo}
         missing = sorted(set(texts) - set(found))
         if missing:
-            found.update(zip(missing, (row.float() for row in
-                                       self.networks.text_encoder().encode(missing))))
+            found.update(zip(missing, self._encoded(missing)))
         for text in texts:  # most recently used last; the oldest go first
             self._text_memo[text] = found[text]
             self._text_memo.move_to_end(text)
         while len(self._text_memo) > TEXT_MEMO_SIZE:
             self._text_memo.popitem(last=False)
-        return torch.stack([found[t] for t in texts]).to(self.device)
+        return self._stacked([found[t] for t in texts], to_device=True)
+
+    def _encoded(self, texts: list[str]) -> Any:
+        """The text encoder's rows of texts: arrays on the numpy backends, else tensors."""
+        encoder = self.networks.text_encoder()
+        if self.networks.numpy:
+            return list(encoder.encode_numpy(texts))
+        return [row.float() for row in encoder.encode(texts)]
+
+    def _stacked(self, rows: list[Any], to_device: bool = False) -> Any:
+        if self.networks.numpy:
+            return np.stack(rows)
+        import torch
+
+        out = torch.stack(rows)
+        return out.to(self.device) if to_device else out
 
     def judged_vectors(self, texts: Sequence[str]) -> Any:
         """encode_text's vectors (B, c) for judging: from its memo where there (the vectors the
         motions were made from), else encoded now and not kept."""
-        import torch
-
         keys = [self.read_as(t) for t in texts]
         found = {k: self._text_memo[k] for k in keys if k in self._text_memo}
         missing = sorted(set(keys) - set(found))
         if missing:
-            found.update(zip(missing, (row.float() for row in
-                                       self.networks.text_encoder().encode(missing))))
-        return torch.stack([found[k] for k in keys])
+            found.update(zip(missing, self._encoded(missing)))
+        return self._stacked([found[k] for k in keys])
 
     def _uncond(self) -> Any:
         """The null text (1, c) of classifier-free guidance, or None without it."""
@@ -121,19 +131,25 @@ class MotionCore:
         seed are seed.candidate_seeds; the first is the plain sample."""
         if candidates == 1 or choose is None:
             return self.sample_features(cond, nfe, list(seeds), guidance, lengths)
+        scale = self.config.schedule.latent_scale
+        if isinstance(cond, np.ndarray):
+            rows = np.repeat(cond, candidates, axis=0)
+        else:
+            rows = cond.repeat_interleave(candidates, dim=0)
+        z = self.sample_latents(rows, nfe, candidate_seeds(seeds, candidates), guidance)
+        if isinstance(z, np.ndarray):  # the onnx backend's batches below TORCH_MIN_BATCH
+            best = np.asarray(choose(z / np.float32(scale), candidates))
+            z = z.reshape(len(seeds), candidates, *z.shape[1:])[np.arange(len(seeds)), best]
+            return self.decode(z, lengths)
         import torch
 
-        rows = cond.repeat_interleave(candidates, dim=0)
-        z = self.sample_latents(rows, nfe, candidate_seeds(seeds, candidates), guidance)
-        best = choose(z.float().cpu() / self.config.schedule.latent_scale, candidates)
+        best = torch.as_tensor(choose(z.float().cpu() / scale, candidates))
         z = z.view(len(seeds), candidates, *z.shape[1:])
         z = z[torch.arange(len(seeds), device=z.device), best.to(z.device)]
         return self.decode(z, lengths)
 
     def joints(self, features: np.ndarray) -> np.ndarray:
-        """(T, J, 3) joints of denormalized features (T, D)."""
-        import torch
+        """(T, J, 3) joints of denormalized features (T, D) (numpy: motion/joints.py)."""
+        from mlct.motion.joints import features_to_joints
 
-        from mlct.motion.features import recover_from_ric
-
-        return recover_from_ric(torch.from_numpy(features)).numpy()
+        return features_to_joints(features)

@@ -19,29 +19,28 @@ model's networks as one backend runs them (backends/):
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
-import torch
-
-from mlct.cpu_features import kernel_dtype
-from mlct.devices import resolve_device
-from mlct.errors import MlctError
+from mlct.errors import MlctError, require_torch
 from mlct.generate.backends.auto import ENV, choose_backend, find_graphs
-from mlct.generate.backends.cuda_graphs import CudaGraphNetworks, check_cuda_device
 from mlct.generate.backends.onnx.networks import OnnxNetworks, check_device_and_dtype
-from mlct.generate.backends.pytorch import TorchNetworks
 from mlct.generate.bundle import bundled_model_dir, read_bundle
 from mlct.generate.compose.actions import plain_subject
 from mlct.generate.compose.generator import MotionGenerator
 from mlct.generate.core import MotionCore
-from mlct.nn.inference import weight_dtype
+
+if TYPE_CHECKING:  # the onnx path imports no torch: the torch backends load it when asked for
+    import torch
 
 
 def torch_generator(meta: dict, tensors: dict[str, torch.Tensor],
                     device: torch.device | str | None = None,
                     dtype: str | torch.dtype = "float32") -> MotionGenerator:
     """A bundle's (bundle.read_bundle) generator on the torch backend."""
+    from mlct.generate.backends.pytorch import TorchNetworks
+
     return MotionGenerator(MotionCore(TorchNetworks(meta, tensors, device, dtype), plain_subject))
 
 
@@ -50,10 +49,12 @@ def cuda_graph_generator(meta: dict, tensors: dict[str, torch.Tensor],
                          dtype: str | torch.dtype = "float32") -> MotionGenerator:
     """A bundle's generator on the cuda-graphs backend (on the CPU it runs the same code
     without graphs, as the tests do there)."""
+    from mlct.generate.backends.cuda_graphs import CudaGraphNetworks
+
     return MotionGenerator(MotionCore(CudaGraphNetworks(meta, tensors, device, dtype), plain_subject))
 
 
-def onnx_generator(meta: dict, tensors: dict[str, torch.Tensor], graphs: Any,
+def onnx_generator(meta: dict, tensors: dict[str, Any], graphs: Any,
                    threads: int | None = None) -> MotionGenerator:
     """A bundle's generator on the onnx backend, on these graphs (onnx/bundle.read_onnx)."""
     return MotionGenerator(MotionCore(OnnxNetworks(meta, tensors, graphs, threads), plain_subject))
@@ -61,12 +62,16 @@ def onnx_generator(meta: dict, tensors: dict[str, torch.Tensor], graphs: Any,
 
 def load_torch(path: str | os.PathLike, device: torch.device | str | None = None,
                dtype: str | torch.dtype = "float32") -> MotionGenerator:
+    require_torch("the torch backend")
     return torch_generator(*read_bundle(path), device, dtype)
 
 
 def load_cuda_graphs(path: str | os.PathLike, device: torch.device | str | None = None,
                      dtype: str | torch.dtype = "float32") -> MotionGenerator:
     """The cuda-graphs backend of mlct.load: a CUDA device only."""
+    require_torch("the cuda-graphs backend")
+    from mlct.generate.backends.cuda_graphs import check_cuda_device
+
     check_cuda_device(device)
     return cuda_graph_generator(*read_bundle(path), device, dtype)
 
@@ -80,12 +85,12 @@ def load_onnx(path: str | os.PathLike, device: torch.device | str | None = None,
 
     onnxruntime_module()  # its absence first: the fix for it comes before converting
     check_device_and_dtype(device, dtype)
-    meta, tensors = read_bundle(path)
+    meta, tensors = read_bundle(path, numpy=True)
     return onnx_generator(meta, tensors, read_onnx(path, meta["text_encoder"], graphs), threads)
 
 
 def _onnx(path: Path, device: torch.device | str | None = None,
-          dtype: str | torch.dtype = "float32") -> MotionGenerator:
+          dtype: str | torch.dtype = "float32", threads: int | None = None) -> MotionGenerator:
     """The onnx backend on the graphs `mlct convert --onnx [--int8]` put in the model folder, as
     they are (checked: graphs of other weights are refused, saying how to make them again);
     without any there (the bundled model, which cannot hold graphs of its own), on the cache's
@@ -93,26 +98,27 @@ def _onnx(path: Path, device: torch.device | str | None = None,
     from mlct.generate.backends.onnx.bundle import MANIFEST, ONNX_DIR
 
     if (path / ONNX_DIR / MANIFEST).is_file():
-        return load_onnx(path, device, dtype)
-    return _cached(path, device, dtype, int8=False)
+        return load_onnx(path, device, dtype, threads)
+    return _cached(path, device, dtype, int8=False, threads=threads)
 
 
 def _onnx_int8(path: Path, device: torch.device | str | None = None,
-               dtype: str | torch.dtype = "float32") -> MotionGenerator:
+               dtype: str | torch.dtype = "float32", threads: int | None = None
+               ) -> MotionGenerator:
     """The onnx backend on graphs whose denoiser products are int8: the model folder's when
     `mlct convert --onnx --int8` made them, else the cache's (made once)."""
-    return _cached(path, device, dtype, int8=True)
+    return _cached(path, device, dtype, int8=True, threads=threads)
 
 
 def _cached(path: Path, device: torch.device | str | None, dtype: str | torch.dtype,
-            int8: bool) -> MotionGenerator:
+            int8: bool, threads: int | None = None) -> MotionGenerator:
     """The onnx backend on auto_backend.find_graphs' graphs of this kind."""
     from mlct.onnx_io import onnxruntime_module
 
     onnxruntime_module()  # its absence first: the fix for it comes before converting
     check_device_and_dtype(device, dtype)  # and a device or dtype it cannot run
-    return load_onnx(path, device, dtype,
-                                    graphs=find_graphs(path, _config(path)["text_encoder"], int8))
+    return load_onnx(path, device, dtype, threads,
+                     graphs=find_graphs(path, _config(path)["text_encoder"], int8))
 
 
 def _config(path: Path) -> dict:
@@ -155,6 +161,14 @@ def check_options(device: torch.device | str | None, dtype: str | torch.dtype,
         where = f" in ${ENV}" if origin != "asked for" else ""
         raise MlctError(f"unknown backend {backend!r}{where}; choose one of auto, "
                         f"{', '.join(BACKENDS)}")
+    if backend in ("onnx", "onnx-int8", "auto") and _cpu_float32(device, dtype):
+        return backend, origin  # the CPU in float32: nothing torch would have to say
+    require_torch(f"device {device!r}, dtype {dtype!r}" if backend in ("onnx", "onnx-int8",
+                                                                       "auto")
+                  else f"the {backend} backend")
+    from mlct.devices import resolve_device
+    from mlct.nn.inference import weight_dtype
+
     if device is not None:
         resolve_device(device)
     try:
@@ -164,8 +178,16 @@ def check_options(device: torch.device | str | None, dtype: str | torch.dtype,
     if backend in ("onnx", "onnx-int8"):
         check_device_and_dtype(device, dtype)
     if backend == "cuda-graphs":
+        from mlct.generate.backends.cuda_graphs import check_cuda_device
+
         check_cuda_device(device)
     return backend, origin
+
+
+def _cpu_float32(device: Any, dtype: Any) -> bool:
+    """The CPU (None or "cpu") in float32 ("float32"), told without torch."""
+    cpu = device is None or (isinstance(device, str) and device.strip().lower() == "cpu")
+    return cpu and isinstance(dtype, str) and dtype == "float32"
 
 
 def load(path: str | os.PathLike | None = None, device: torch.device | str | None = None,
@@ -181,11 +203,21 @@ def load(path: str | os.PathLike | None = None, device: torch.device | str | Non
     if path is not None and not isinstance(path, (str, os.PathLike)):
         raise MlctError(f"path must be a model directory (str or Path), not {type(path).__name__}")
     backend, origin = check_options(device, dtype, backend)
-    if check_threads(threads) is not None:  # every backend takes torch's count, the onnx
-        torch.set_num_threads(threads)  # ones for each of their graphs
+    if check_threads(threads) is not None and (backend in ("torch", "cuda-graphs")
+                                               or "torch" in sys.modules):
+        import torch  # every torch backend takes torch's count, the onnx ones each graph's
+
+        torch.set_num_threads(threads)
     folder = bundled_model_dir() if path is None else Path(path)
-    if backend not in ("onnx", "onnx-int8"):  # (those refuse bfloat16 by name)
+    if backend not in ("onnx", "onnx-int8") and not _cpu_float32(device, dtype):
+        from mlct.cpu_features import kernel_dtype  # (the onnx ones refuse bfloat16 by name)
+
         dtype = kernel_dtype(dtype, device)  # float32, said, where the CPU has no bf16 kernels
+    if backend in ("onnx", "onnx-int8"):
+        generator = BACKENDS[backend](folder, device, dtype, threads=threads)
+        generator.backend = backend
+        generator.backend_note = f"{backend} ({origin})"
+        return generator
     if backend != "auto":
         generator = BACKENDS[backend](folder, device, dtype)
         generator.backend = backend
@@ -194,10 +226,14 @@ def load(path: str | os.PathLike | None = None, device: torch.device | str | Non
     chosen, graphs, why = choose_backend(folder, device, dtype)
     if chosen in ("onnx", "onnx-int8"):
         try:
-            generator = load_onnx(folder, device, dtype, graphs=graphs)
+            generator = load_onnx(folder, device, dtype, threads, graphs=graphs)
             generator.backend = chosen
         except MlctError as err:  # e.g. a graph ONNX Runtime cannot load: torch still can
             chosen, why = "torch", f"the {chosen} backend failed to load ({err})"
+    if chosen in ("cuda-graphs", "torch") and threads is not None:
+        import torch
+
+        torch.set_num_threads(threads)
     if chosen == "cuda-graphs":
         generator = load_cuda_graphs(folder, device, dtype)
     if chosen == "torch":

@@ -6,12 +6,15 @@ replayed from (text, length, nfe, seed, candidates) whatever batch it was made i
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
-import torch
 
+from mlct.diffusion.torch_randn import TorchRandn
 from mlct.errors import MlctError
+
+if TYPE_CHECKING:
+    import torch
 
 SEED_STRIDE = 0x9E3779B97F4A7C15  # candidate k of seed s samples with s + k * this (mod 2^63)
 MAX_SEED = 2**63 - 1  # torch.Generator.manual_seed takes 64 bits; kept signed for portability
@@ -26,7 +29,7 @@ def item_seeds(count: int, seed: int | Sequence[int] | None) -> list[int]:
     """One seed per item: an int s gives item i the seed s + i, a sequence one each; None is
     random, drawn here so that it is recorded on each motion and can be replayed."""
     if seed is None:
-        return [int(s) for s in torch.randint(0, 2**31 - 1, (count,))]
+        return [int(s) for s in np.random.default_rng().integers(0, 2**31 - 1, count)]
     if is_int(seed):
         seeds = [int(seed) + i for i in range(count)]  # type: ignore[arg-type]
     elif isinstance(seed, (list, tuple, np.ndarray)) and all(is_int(s) for s in seed):
@@ -49,6 +52,8 @@ def candidate_seeds(seeds: Sequence[int], candidates: int) -> list[int]:
 def generators_for(seed: int | Sequence[int] | None) -> torch.Generator | list[torch.Generator]:
     """The noise generators of a batch: an int seeds one for the batch, a sequence one per
     item, None a random one."""
+    import torch
+
     if seed is None:
         generator = torch.Generator()
         generator.seed()
@@ -56,3 +61,14 @@ def generators_for(seed: int | Sequence[int] | None) -> torch.Generator | list[t
     if isinstance(seed, (int, np.integer)):
         return torch.Generator().manual_seed(int(seed))
     return [torch.Generator().manual_seed(int(s)) for s in seed]
+
+
+def numpy_generators(seed: int | Sequence[int] | None) -> TorchRandn | list[TorchRandn]:
+    """generators_for's generators drawn in numpy (diffusion/torch_randn.py): the same noise
+    without torch, for the onnx backend. None: a random seed."""
+    if seed is None:
+        return TorchRandn(int(np.random.default_rng().integers(0, 2**63 - 1)))
+    if isinstance(seed, (int, np.integer)):
+        return TorchRandn(int(seed))
+    return [TorchRandn(int(s)) for s in seed]
+

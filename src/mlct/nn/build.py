@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from mlct.config import Config
+from mlct.config import Config, latent_clamp  # noqa: F401 (the samplers import it here)
 from mlct.errors import MlctError
 from mlct.motion.features import arm_feature_columns
 from mlct.nn.autoencoder import LatentAutoencoder, MotionAutoencoder
@@ -48,7 +48,3 @@ def build_denoiser(config: Config, text_dim: int) -> Denoiser:
                     condition_all_tokens=d.condition_all_tokens)
 
 
-def latent_clamp(config: Config) -> float | None:
-    """Clamp bound of stage 2's latent: 1 for the quantized latent (tanh-bounded, Eq. 8) times
-    schedule.latent_scale, none for the vae / plain ablations, whose latents are unbounded."""
-    return config.schedule.latent_scale if config.ae.latent_type == "quantized" else None

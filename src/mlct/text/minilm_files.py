@@ -33,7 +33,7 @@ def token_slots_of(spec: str) -> int:
 def bundled_minilm_path() -> Path:
     """Directory of the all-MiniLM-L6-v2 shipped in the package (assets/minilm, Apache-2.0):
     the torch encoder (minilm.py) and the shipped ONNX graph (onnx_assets.py) read its files."""
-    from mlct.onnx_assets import MINILM_DIR, MINILM_WEIGHTS
+    from mlct.shipped import MINILM_DIR, MINILM_WEIGHTS
 
     if not (MINILM_DIR / MINILM_WEIGHTS).is_file():
         raise MlctError(f"the bundled MiniLM is missing from {MINILM_DIR}; reinstall mlct")

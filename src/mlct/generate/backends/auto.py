@@ -32,8 +32,6 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-import torch
-
 from mlct.errors import MlctError
 from mlct.generate.bundle import CONFIG, read_config
 
@@ -42,19 +40,23 @@ ENV = "MLCT_BACKEND"
 
 def choose_backend(path: Path, device: Any, dtype: Any) -> tuple[str, Path | None, str]:
     """(backend, the directory of its ONNX graphs or None, why) for model directory `path`."""
-    from mlct.devices import resolve_device
+    if device is not None and not (isinstance(device, str) and device.strip().lower() == "cpu"):
+        from mlct.devices import resolve_device
 
-    if device is not None and resolve_device(device).type == "cuda":
+        kind = resolve_device(device).type
+    else:
+        kind = "cpu"  # (None: the CPU for auto too; said without torch)
+    if kind == "cuda":
         return "cuda-graphs", None, (f"the model runs on {device}, where launching kernels one "
                                      "by one costs more than their arithmetic")
-    if device is not None and resolve_device(device).type != "cpu":
+    if kind != "cpu":
         return "torch", None, f"the model runs on {device}"
-    if dtype not in ("float32", torch.float32):
+    if dtype != "float32" and not _is_torch_float32(dtype):
         return "torch", None, f"dtype {dtype} is the torch backend's"
     try:
         import onnxruntime
     except ImportError:
-        return "torch", None, "onnxruntime is not installed (pip install 'mlct[onnx]')"
+        return "torch", None, "onnxruntime is not installed (pip install onnxruntime==1.32.0)"
     from mlct.generate.backends.onnx.bundle import MANIFEST, ONNX_DIR, read_onnx
     from mlct.text.minilm_onnx import ONNX_SPECS
 
@@ -93,6 +95,9 @@ def find_graphs(path: Path, text_encoder: str, int8: bool) -> Path:
                 return path / ONNX_DIR
         except MlctError:
             pass  # stale: the cache's
+    from mlct.errors import require_torch
+
+    require_torch("a model without ONNX graphs of its own (made once into the cache)")
     cached = default_graph_dir(path, int8)
     if (cached / MANIFEST).is_file():
         try:
@@ -100,11 +105,6 @@ def find_graphs(path: Path, text_encoder: str, int8: bool) -> Path:
         except MlctError:  # damaged: made again
             shutil.rmtree(cached, ignore_errors=True)
     if not (cached / MANIFEST).is_file():
-        try:
-            import onnx  # noqa: F401 - writes the graphs
-        except ImportError:
-            raise MlctError("the model has no ONNX graphs and the onnx package that writes "
-                            "them is not installed (pip install 'mlct[onnx]')") from None
         try:
             convert_into_cache(path, cached, int8)
         except MlctError as err:
@@ -121,6 +121,8 @@ def default_graph_dir(path: Path, int8: bool = False) -> Path:
     key = hashlib.sha256()
     key.update(weights_digest(path).encode())
     key.update((path / CONFIG).read_bytes())
+    import torch  # the cache's graphs are made, and keyed, by torch
+
     key.update(f"mlct-onnx {ONNX_VERSION} torch {torch.__version__}".encode())
     key.update(b" text encoder with fused attention")  # not the older, unfused graphs
     if int8:
@@ -150,3 +152,12 @@ def convert_into_cache(path: Path, entry: Path, int8: bool = False) -> Path:
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return entry
+
+
+def _is_torch_float32(dtype: Any) -> bool:
+    """Is dtype torch.float32 (asked without importing torch: only torch makes one)?"""
+    import sys
+
+    torch = sys.modules.get("torch")
+    return torch is not None and dtype is torch.float32
+

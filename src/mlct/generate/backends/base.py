@@ -15,7 +15,6 @@ from typing import Any, ContextManager, Sequence
 import numpy as np
 
 from mlct.config import config_from_dict
-from mlct.devices import resolve_device
 from mlct.generate.samplers import Sampler, sampler_class
 from mlct.motion.skeleton import get_skeleton
 
@@ -28,18 +27,31 @@ class Networks:
     the samplers do). latents/decode/features are what the core calls, one batch each."""
 
     name = "torch"  # the backend's name (mlct.load(..., backend=))
+    # True: the core's text vectors and latents are numpy arrays (onnx, no torch), else tensors
+    numpy = False
     decoder: Any
     denoiser: Any
 
     def __init__(self, meta: dict, device: Any = "cpu") -> None:
         self.meta = meta
         self.config = config_from_dict(meta["config"], "model config")
-        self.device = resolve_device("cpu" if device is None else device)
+        self.device = self.resolve_device(device)
         self.skeleton = get_skeleton(meta["skeleton"])
         # the bundle names its sampler (config.json "sampler"); it owns steps, times, guidance
         self.sampler: Sampler = sampler_class(meta["sampler"])(self.config, self.device)
         self.latent_scale = float(self.config.schedule.latent_scale)
         self._text_encoder: Any = None
+
+    def resolve_device(self, device: Any) -> Any:
+        """The torch device the networks run on (None: the CPU)."""
+        from mlct.devices import resolve_device
+
+        return resolve_device("cpu" if device is None else device)
+
+    def critic_graph(self) -> Any:
+        """The model's critic as an ONNX graph the backend runs it by (a Path), or None: the
+        critic's torch network (compose/critic.py)."""
+        return None
 
     def text_encoder(self) -> Any:
         """The frozen text encoder, loaded on first use (the bundle names it, not stores it)."""

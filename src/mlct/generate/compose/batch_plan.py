@@ -22,16 +22,17 @@ from __future__ import annotations
 
 import contextlib
 from dataclasses import dataclass
-from typing import Any, Iterator, Sequence
+from typing import TYPE_CHECKING, Any, Iterator, Sequence
 
 import numpy as np
-import torch
-from torch import Tensor
 
 from mlct.generate.compose.actions import split_actions as split_actions_of
 from mlct.generate.compose.actions import split_concurrent
 from mlct.generate.compose.lengths import MIN_PART_SECONDS, frame_lengths, longest_gait
 from mlct.generate.compose.prompts import clean_prompt
+
+if TYPE_CHECKING:
+    from torch import Tensor
 
 # Latents per sampler call when filling the memo (a sample is `candidates` latents). On a CPU
 # the time per motion is least near 64 and grows past a few hundred, where a batch's
@@ -89,7 +90,8 @@ class SampleMemo:
         self._made: dict[tuple[bytes, int, int], np.ndarray] = {}
 
     def _key(self, row: Tensor, frames: int, seed: int) -> tuple[bytes, int, int]:
-        return row.detach().float().cpu().numpy().tobytes(), int(frames), int(seed)
+        array = row if isinstance(row, np.ndarray) else row.detach().float().cpu().numpy()
+        return np.asarray(array, np.float32).tobytes(), int(frames), int(seed)
 
     def serves(self, steps: int, guidance: float | None, candidates: int) -> bool:
         """Whether a best_features call with these settings may read the memo."""
@@ -110,11 +112,12 @@ def fill(pipe: Any, memo: SampleMemo, samples: Sequence[Sample]) -> None:
     texts = list(dict.fromkeys(s.text for s in unique))
     rows = dict(zip(texts, pipe.encode_text(texts)))
     todo = [s for s in unique if memo.get(rows[s.text], s.frames, s.seed) is None]
-    latents = PREFETCH_LATENTS.get(torch.device(pipe.device).type, PREFETCH_LATENTS["cpu"])
+    kind = str(pipe.device).split(":")[0]  # "cpu", "cuda"
+    latents = PREFETCH_LATENTS.get(kind, PREFETCH_LATENTS["cpu"])
     per_call = max(1, latents // memo.candidates)
     for start in range(0, len(todo), per_call):
         chunk = todo[start:start + per_call]
-        cond = torch.stack([rows[s.text] for s in chunk])
+        cond = _stack([rows[s.text] for s in chunk])
         made = pipe.sample_best(cond, memo.steps, [s.seed for s in chunk], memo.guidance,
                                 [s.frames for s in chunk], memo.candidates)
         for s, feats in zip(chunk, made):
@@ -176,3 +179,13 @@ def best_features(gen: Any, cond: Tensor, nfe: int | None, seeds: Sequence[int],
         for i, feats in zip(missing, made):
             found[i] = feats
     return found  # type: ignore[return-value]
+
+
+def _stack(rows: list[Any]) -> Any:
+    """Rows of text vectors as one batch: numpy arrays (the onnx backend) or tensors."""
+    if isinstance(rows[0], np.ndarray):
+        return np.stack(rows)
+    import torch
+
+    return torch.stack(rows)
+

@@ -17,16 +17,16 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Sequence
 
-import torch
+import numpy as np
 from safetensors import safe_open
-from safetensors.torch import save
-from torch import Tensor
 
 from mlct.errors import MlctError, first_line
 from mlct.io import atomic_path
-from mlct.nn.critic import LatentCritic
+
+if TYPE_CHECKING:
+    from mlct.nn.critic import LatentCritic
 
 FILE = "critic.safetensors"
 FORMAT, VERSION = "mlct-critic", 1
@@ -37,6 +37,9 @@ MAX_CANDIDATES = 64
 def save_critic(model_dir: str | os.PathLike, critic: LatentCritic, training: dict[str, Any],
                 text_encoder: str, candidates: int = DEFAULT_CANDIDATES) -> Path:
     """Write MODEL_DIR/critic.safetensors atomically (float16 weights)."""
+    import torch
+    from safetensors.torch import save
+
     info = {"format": FORMAT, "version": VERSION, "text_encoder": text_encoder,
             "latent_size": critic.latent_size, "text_dim": critic.text_dim,
             "max_frames": critic.max_frames, "hidden": critic.hidden, "width": critic.width,
@@ -49,39 +52,75 @@ def save_critic(model_dir: str | os.PathLike, critic: LatentCritic, training: di
 
 
 class Critic:
-    """A loaded critic: the network, its info, and the best of N latents."""
+    """A loaded critic: the network (torch) or its score as an ONNX graph (the shipped
+    critic.onnx: onnx_assets.py), its info, and the best of N latents."""
 
-    def __init__(self, network: LatentCritic, info: dict[str, Any]) -> None:
-        self.network = network.eval().requires_grad_(False)
+    def __init__(self, network: LatentCritic | None, info: dict[str, Any],
+                 session: Any = None) -> None:
+        self.network = None if network is None else network.eval().requires_grad_(False)
+        self.session = session
         self.info = info
         self.candidates = int(info.get("candidates", DEFAULT_CANDIDATES))
 
-    @torch.inference_mode()
-    def best(self, z: Tensor, frames: Tensor, text_emb: Tensor, candidates: int) -> Tensor:
+    def best(self, z: Any, frames: Sequence[int] | Any, text_emb: Any, candidates: int) -> Any:
         """z (B * N, n, d) autoencoder latents, N = candidates consecutive rows per prompt;
-        frames (B,), text_emb (B, c) -> (B,) the index of each prompt's best row within its N."""
+        frames (B,), text_emb (B, c) -> (B,) the index of each prompt's best row within its N.
+        Numpy arrays through the graph, tensors through the network (where the critic has
+        one), the index of the same kind."""
         rows = z.shape[0] // candidates
-        scores = self.network.score(z.float(), frames.repeat_interleave(candidates).float(),
-                                    text_emb.float().repeat_interleave(candidates, dim=0))
-        return scores.view(rows, candidates).argmax(dim=1)
+        if self.session is not None and (isinstance(z, np.ndarray) or self.network is None):
+            array = np.asarray(z, dtype=np.float32) if isinstance(z, np.ndarray) else (
+                z.detach().float().cpu().numpy())
+            text = text_emb if isinstance(text_emb, np.ndarray) else (
+                text_emb.detach().float().cpu().numpy())
+            (scores,) = self.session.run(None, {
+                "z": array, "frames": np.repeat(np.asarray(frames, np.float32), candidates),
+                "text": np.repeat(np.asarray(text, np.float32), candidates, axis=0)})
+            best = scores.reshape(rows, candidates).argmax(axis=1)
+            return best if isinstance(z, np.ndarray) else _tensor(best)
+        import torch
+
+        with torch.inference_mode():
+            frames = torch.as_tensor(frames)
+            scores = self.network.score(torch.as_tensor(z).float(),
+                                        frames.repeat_interleave(candidates).float(),
+                                        torch.as_tensor(text_emb).float()
+                                        .repeat_interleave(candidates, dim=0))
+            best = scores.view(rows, candidates).argmax(dim=1)
+        return best.numpy() if isinstance(z, np.ndarray) else best
+
+
+def _tensor(array: np.ndarray) -> Any:
+    import torch
+
+    return torch.from_numpy(array)
 
 
 def read_critic(model_dir: str | os.PathLike, text_encoder: str, text_dim: int,
-                latent_size: int) -> Critic | None:
+                latent_size: int, graph: str | os.PathLike | None = None,
+                threads: int | None = None) -> Critic | None:
     """The model folder's critic, None when it has none; MlctError when it is damaged or does
-    not fit the model (another text encoder, latent or text width)."""
+    not fit the model (another text encoder, latent or text width). graph: its score as an
+    ONNX graph (made from this critic.safetensors: the caller checks), run by ONNX Runtime on
+    `threads` instead of the network, which is then not built (no torch)."""
     path = Path(model_dir) / FILE
     if not path.is_file():
         return None
     try:
-        with safe_open(str(path), framework="pt") as f:  # one read: metadata and tensors
+        framework = "numpy" if graph is not None else "pt"
+        with safe_open(str(path), framework=framework) as f:  # one read: metadata, tensors
             info = json.loads((f.metadata() or {})["mlct"])
-            tensors = {name: f.get_tensor(name) for name in f.keys()}
+            tensors = {} if graph is not None else {name: f.get_tensor(name) for name in f.keys()}
         if info.get("format") != FORMAT or info.get("version") != VERSION:
             raise ValueError(f"not {FORMAT} version {VERSION}")
-        network = LatentCritic(int(info["latent_size"]), int(info["text_dim"]),
-                               int(info["max_frames"]), int(info["hidden"]), int(info["width"]))
-        network.load_state_dict({k: v.float() for k, v in tensors.items()})
+        network = None
+        if graph is None:
+            from mlct.nn.critic import LatentCritic
+
+            network = LatentCritic(int(info["latent_size"]), int(info["text_dim"]),
+                                   int(info["max_frames"]), int(info["hidden"]),
+                                   int(info["width"]))
+            network.load_state_dict({k: v.float() for k, v in tensors.items()})
     except Exception as error:  # safetensors, json and load_state_dict raise several kinds
         raise MlctError(f"{path}: not a critic ({first_line(error)})") from None
     if info["text_encoder"] != text_encoder or info["text_dim"] != text_dim:
@@ -90,6 +129,10 @@ def read_critic(model_dir: str | os.PathLike, text_encoder: str, text_dim: int,
     if info["latent_size"] != latent_size:
         raise MlctError(f"{path}: made for a {info['latent_size']}-number latent, the model's "
                         f"has {latent_size}; retrain it with `mlct train critic`")
+    if graph is not None:
+        from mlct.onnx_io import session
+
+        return Critic(None, info, session(graph, threads))
     return Critic(network, info)
 
 

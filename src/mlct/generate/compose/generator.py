@@ -58,7 +58,8 @@ class MotionGenerator:
         ae = self.config.ae
         self.critic: Critic | None = (
             read_critic(meta["model_dir"], meta["text_encoder"], int(meta["text_dim"]),
-                        ae.n_tokens * ae.latent_dim) if meta.get("model_dir") else None)
+                        ae.n_tokens * ae.latent_dim, core.networks.critic_graph(),
+                        threads=1) if meta.get("model_dir") else None)
         self.candidates = self.critic.candidates if self.critic is not None else 1
         # a prompt worded unlike every training caption is pulled part of the way towards the
         # nearest ones before sampling (text_anchors.py); None: sampled as worded
@@ -160,12 +161,10 @@ class MotionGenerator:
         samples from the text vectors as the model's text anchors pull them (none: as given);
         the critic scores against `cond` itself. Always samples; best_features first looks in
         the samples made ahead."""
-        import torch
-
         critic = self.critic
 
         def choose(z: Any, count: int) -> Any:  # (B * N, n, d) -> (B,)
-            return critic.best(z, torch.tensor(list(lengths)), cond.float().cpu(), count)
+            return critic.best(z, list(lengths), cond, count)
 
         return self.core.features(self.sampling_text(cond), nfe, seeds, guidance, lengths,
                                   candidates, choose if critic is not None else None)

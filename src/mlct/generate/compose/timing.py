@@ -27,7 +27,10 @@ def duration_vectors(gen: Any, texts: Sequence[str]) -> np.ndarray:
     it is pulled towards is made. Read raw, "walk around in a circle going anticlockwise"
     got 4.1 s and its circle was cut off at the 5 s floor (~250 degrees); pulled, 6.9 s
     (docs/model_card.md)."""
-    return gen.sampling_text(gen.encode_text(list(texts))).float().cpu().numpy()
+    vectors = gen.sampling_text(gen.encode_text(list(texts)))
+    if isinstance(vectors, np.ndarray):  # the onnx backend's
+        return vectors.astype(np.float32, copy=False)
+    return vectors.float().cpu().numpy()
 
 
 def default_seconds(gen: Any, texts: Sequence[str], split_actions: bool = True) -> list[float]:

@@ -36,7 +36,7 @@ validation captions and 5 of those 195 paraphrases and two-action prompts (4 of 
 
 from __future__ import annotations
 
-from torch import Tensor
+from typing import Any
 
 from mlct.generate.compose.text_anchors import TextAnchors
 
@@ -48,7 +48,7 @@ def unknown_below(anchors: TextAnchors) -> float:
     return float((anchors.info or {}).get("unknown_below", UNKNOWN_BELOW))
 
 
-def unknown_rows(anchors: TextAnchors, cond: Tensor) -> list[bool]:
+def unknown_rows(anchors: TextAnchors, cond: Any) -> list[bool]:
     """For each text vector (B, c): True where it lies too far from every training caption."""
     below = unknown_below(anchors)
     return [bool(s < below) for s in anchors.nearest(cond).tolist()]

@@ -217,10 +217,11 @@ def guided_latent(pipe: MotionGenerator, text: str, frames: int, seed: int, nfe:
                         f"{getattr(pipe, 'backend', 'onnx')} backend has not; load the model "
                         f"with backend='torch', or use ControlMethod(guide=False)")
     count = max(1, method.candidates)
-    cond = pipe.sampling_text(pipe.encode_text([text])).expand(count, -1)  # as generate()'s
+    # as generate()'s (the onnx backend's vectors are arrays: tensors here, for the sampler)
+    cond = torch.as_tensor(pipe.sampling_text(pipe.encode_text([text]))).expand(count, -1)
     generators = [torch.Generator().manual_seed(s) for s in candidate_seeds(seed, count)]
     steps = pipe.check_nfe(nfe)
-    uncond = pipe.encode_text([""]) if pipe.sampler.cfg else None
+    uncond = torch.as_tensor(pipe.encode_text([""])) if pipe.sampler.cfg else None
 
     def losses(joints: Tensor) -> Tensor:  # (B,) one control loss per candidate
         return torch.stack([control_loss(j, targets, pipe.skeleton) for j in joints])

@@ -10,17 +10,18 @@ editing) as well as the noise of `noise()`. Samplers never load or save anything
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from functools import partial
-from typing import Any, Callable, ClassVar
+from functools import cached_property, partial
+from typing import TYPE_CHECKING, Any, Callable, ClassVar
 
-import torch
-from torch import Tensor, nn
-
-from mlct.config import Config
-from mlct.diffusion.samplers import Generators, GuideFn, draw_noise
-from mlct.diffusion.schedule import VPSchedule
+from mlct.config import Config, latent_clamp
 from mlct.errors import MlctError
-from mlct.nn.build import latent_clamp
+
+if TYPE_CHECKING:  # torch is imported when a sampler samples, not when it is made: the onnx
+    import torch  # backend reads its steps and clamp without torch (backends/onnx/sampler.py)
+    from torch import Tensor, nn
+
+    from mlct.diffusion.samplers import Generators, GuideFn
+    from mlct.diffusion.schedule import VPSchedule
 
 
 class Sampler(ABC):
@@ -36,10 +37,21 @@ class Sampler(ABC):
     cfg: ClassVar[bool] = False
 
     def __init__(self, config: Config, device: torch.device | str | None = None) -> None:
-        s = config.schedule
-        self.device = torch.device("cpu") if device is None else torch.device(device)
-        self.schedule = VPSchedule(s.beta_min, s.beta_max)
+        self.config = config
+        self._device = device
         self.clamp = latent_clamp(config)  # None for the unbounded latents (vae, plain)
+
+    @cached_property
+    def device(self) -> torch.device:
+        import torch
+
+        return torch.device("cpu") if self._device is None else torch.device(self._device)
+
+    @cached_property
+    def schedule(self) -> VPSchedule:
+        from mlct.diffusion.schedule import VPSchedule
+
+        return VPSchedule(self.config.schedule.beta_min, self.config.schedule.beta_max)
 
     @property
     def passes_per_step(self) -> int:
@@ -93,6 +105,10 @@ class Sampler(ABC):
 
     def noise(self, shape: tuple[int, ...], generator: Generators = None) -> Tensor:
         """x_T ~ N(0, I) of `shape` (B, n, d) on the sampler's device, float32 (see draw_noise)."""
+        import torch
+
+        from mlct.diffusion.samplers import draw_noise
+
         return draw_noise(shape, generator, torch.empty(0, device=self.device))
 
 

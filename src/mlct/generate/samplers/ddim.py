@@ -6,13 +6,16 @@ The network predicts the noise; each step runs it on the condition and on the nu
 
 from __future__ import annotations
 
-import torch
-from torch import Tensor, nn
+from typing import TYPE_CHECKING
 
 from mlct.config import Config
-from mlct.diffusion.parameterization import x0_from_eps
-from mlct.diffusion.samplers import Generators, GuideFn, ddim_times, sample_ddim
 from mlct.generate.samplers.base import Sampler, with_condition_terms
+
+if TYPE_CHECKING:
+    import torch
+    from torch import Tensor, nn
+
+    from mlct.diffusion.samplers import Generators, GuideFn
 
 # The smallest time the baseline is trained and sampled at (t ~ U(t_min, 1),
 # diffusion_training_loss); a step shorter than it is finer than anything the model has seen,
@@ -50,6 +53,8 @@ class DDIMSampler(Sampler):
         return f"{self.method}, CFG {self.guidance(scale):g}"
 
     def times(self, steps: int) -> Tensor:
+        from mlct.diffusion.samplers import ddim_times
+
         return ddim_times(steps, t_min=T_MIN, device=self.device)  # (steps + 1,), last 0
 
     def sample(self, model: nn.Module, x: Tensor, cond: Tensor, steps: int | None = None, *,
@@ -59,6 +64,11 @@ class DDIMSampler(Sampler):
             raise ValueError("classifier-free guidance needs the null condition (uncond)")
         times = self.times(self.check_steps(steps))
         scale = self.guidance(guidance)
+        import torch
+
+        from mlct.diffusion.parameterization import x0_from_eps
+        from mlct.diffusion.samplers import sample_ddim
+
         both = torch.cat([cond, uncond.expand_as(cond)])  # (2B, c): cond, null
         network = with_condition_terms(model, both, times)
 

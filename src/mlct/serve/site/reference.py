@@ -115,7 +115,7 @@ def _whole_as_the_page(generator, text: str, frames: int, steps: int, seed: int,
     if (generator.durations is not None and generator.keep_going and not names_an_end(text)
             and frames / fps >= MIN_PART_SECONDS and single):
         natural = generator.durations.clip_seconds(
-            generator.encode_text([text]).float().cpu().numpy())
+            np.asarray(torch.as_tensor(generator.encode_text([text])).float()))
         kept = continue_gait(
             joints, frames, window, natural, blend_frames(fps),
             generator.skeleton,
@@ -165,14 +165,15 @@ def page_text_vector(generator, text: str) -> torch.Tensor:
     batch-independent (2e-8), so the durations and lengths here take encode_text's vectors;
     the sampler's condition, where the difference shows most, takes this one."""
     from mlct.text.minilm import MiniLMEncoder
+    from mlct.text.minilm_onnx import OnnxMiniLMEncoder
     from mlct.text.sides import SIDES_SUFFIX, contrast_sides
 
     encoder = generator.text_encoder
-    if not isinstance(encoder, MiniLMEncoder):
-        return generator.encode_text([text]).float()
+    if not isinstance(encoder, (MiniLMEncoder, OnnxMiniLMEncoder)):
+        return torch.as_tensor(generator.encode_text([text])).float()
     text = plain_subject(text)  # as encode_text reads it
     with torch.no_grad():
         vector = encoder._embed([text])
         if encoder.name.endswith(SIDES_SUFFIX):
             vector = contrast_sides([text], vector, lambda mirrors: encoder._embed(mirrors[:1]))
-    return vector.float()
+    return torch.as_tensor(vector).float()  # (the onnx encoder's is an array)

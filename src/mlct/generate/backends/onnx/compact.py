@@ -44,7 +44,7 @@ def require_onnx():
         import onnx
     except ImportError:
         raise MlctError("writing ONNX graphs needs the onnx package, which is not installed: "
-                        "pip install 'mlct[onnx]'") from None
+                        "pip install onnx==1.23.2") from None
     return onnx
 
 
@@ -87,7 +87,7 @@ def quantize_int8(src: str | os.PathLike, dst: str | os.PathLike,
         from onnxruntime.quantization import QuantType, quantize_dynamic
     except ImportError:
         raise MlctError("int8 quantization needs ONNX Runtime, which is not "
-                        "installed: pip install 'mlct[onnx]'") from None
+                        "installed: pip install onnxruntime==1.32.0") from None
     root = logging.getLogger()  # it advises pre-processing on the root logger, every time
     level = root.level
     root.setLevel(logging.ERROR)
@@ -131,7 +131,7 @@ def quantize_blockwise_int8(src: str | os.PathLike, dst: str | os.PathLike,
             DefaultWeightOnlyQuantConfig, MatMulNBitsQuantizer)
     except ImportError as err:
         raise MlctError(f"blockwise int8 needs ONNX Runtime's quantization tools ({err}): "
-                        "pip install 'mlct[onnx]'") from None
+                        "pip install 'mlct[train]'") from None
     config = DefaultWeightOnlyQuantConfig(block_size=block_size, is_symmetric=True,
                                           accuracy_level=4, bits=8)
     model = onnx.load(str(src))

@@ -88,6 +88,13 @@ def write_onnx_graphs(model_dir: str | os.PathLike, into: str | os.PathLike,
                 "opset": OPSET, "torch": torch.__version__,
                 "graphs": {"text_encoder": TEXT_ENCODER, "denoiser": DENOISER,
                            "decoder": DECODER}}
+    from mlct.generate.backends.onnx.sampler import STEPS_TABLE, write_steps_table
+    from mlct.generate.samplers import ConsistencySampler, sampler_class
+
+    sampler = sampler_class(meta["sampler"])(config)
+    if isinstance(sampler, ConsistencySampler):  # every step count's coefficients: the
+        write_steps_table(sampler, into / STEPS_TABLE)  # graphs then sample without torch
+        manifest["steps_table"] = STEPS_TABLE
     if int8:
         from mlct.generate.backends.onnx.compact import INT8_BLOCK, quantize_blockwise_int8
 

@@ -4,8 +4,11 @@
 
 Only the three networks change (bundle.py's graphs); everything around them is the core's and
 the composer's: prompts, lengths, seeds, the sampler objects with their time grids, clamps and
-noise (drawn from the same seeded torch.Generator), latent_scale, denormalization, joints. So the
-same seed gives the same motion, up to float rounding (tests/test_onnx.py: joints within 1 mm).
+noise (torch.Generator's draws, made in numpy: diffusion/torch_randn.py), latent_scale,
+denormalization, joints. So the same seed gives the same motion, up to float rounding
+(tests/test_onnx.py: joints within 1 mm). Batches below TORCH_MIN_BATCH are numpy around ONNX
+Runtime and import no torch (the bundled model's graphs and step coefficients ship with it);
+torch runs the large batches, other samplers and the controls' guidance, where installed.
 The sampling of a consistency model is numpy around ONNX Runtime calls (sampler.py's feeds
 and step loop, or one sampler graph); a batch of TORCH_MIN_BATCH or more goes to the torch
 networks, and a sampler other than the consistency one runs its torch loop over the graphs.
@@ -19,36 +22,65 @@ thread (the constants below say why).
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import sys
+from pathlib import Path
 import threading
 from contextlib import contextmanager
-from typing import Any, Iterator, Sequence
+from typing import TYPE_CHECKING, Any, Iterator, Sequence
 
 import numpy as np
-import torch
-from torch import Tensor
 
-from mlct.devices import resolve_device
-from mlct.errors import MlctError
+from mlct.config import latent_clamp
+from mlct.errors import MlctError, require_torch
 from mlct.generate.backends.base import Networks
 from mlct.generate.backends.onnx.attention import fuse_attention
 from mlct.generate.backends.onnx.bundle import DECODER_IO, DENOISER_IO, OnnxGraphs
 from mlct.generate.backends.onnx.decoder_halves import DecoderHalves
-from mlct.generate.backends.onnx.sampler import (COEFFICIENTS, INPUTS, consistency_feeds,
-                                                 fixed_batch, run_steps, sampler_model,
+from mlct.generate.backends.onnx.sampler import (COEFFICIENTS, INPUTS, STEPS_TABLE,
+                                                 consistency_feeds, fixed_batch,
+                                                 read_steps_table, run_steps, sampler_model,
                                                  step_coefficients)
-from mlct.generate.backends.pytorch import TorchNetworks, decode_with, sample_loop
 from mlct.generate.samplers import ConsistencySampler
-from mlct.generate.seeds import generators_for
-from mlct.nn.build import latent_clamp
-from mlct.nn.inference import weight_dtype
-from mlct.nn.masks import lengths_to_mask
-from mlct.onnx_io import session, session_from_bytes, spin_now
+from mlct.generate.seeds import numpy_generators
+from mlct.onnx_io import default_threads, session, session_from_bytes, spin_now
+
+if TYPE_CHECKING:
+    import torch
+    from torch import Tensor
+
+    from mlct.generate.backends.pytorch import TorchNetworks
 
 
-def _array(x: Tensor) -> np.ndarray:
-    """A tensor as the contiguous array ONNX Runtime takes (no copy when it already is one)."""
-    return np.ascontiguousarray(x.detach().numpy())
+def _array(x: Any) -> np.ndarray:
+    """A float32 array or tensor as the contiguous array ONNX Runtime takes (no copy when it
+    already is one)."""
+    if isinstance(x, np.ndarray):
+        return np.ascontiguousarray(x, dtype=np.float32)
+    return np.ascontiguousarray(x.detach().float().cpu().numpy())
+
+
+def _tensor(x: Any) -> Any:
+    """An array as a torch tensor (for the torch paths); a tensor or None as it is."""
+    if isinstance(x, np.ndarray):
+        import torch
+
+        return torch.from_numpy(x)
+    return x
+
+
+def _like(array: np.ndarray, given: Any) -> Any:
+    """The result of a call as its input came: an array for an array (the core's, on this
+    backend), a tensor for a tensor (a caller of the torch API: eval, controls, tests)."""
+    return array if isinstance(given, np.ndarray) else _tensor(array)
+
+
+def sample_loop(*args: Any, **kwargs: Any) -> Any:
+    """backends/pytorch.py's sample_loop, imported when first called (it needs torch)."""
+    from mlct.generate.backends.pytorch import sample_loop as loop
+
+    return loop(*args, **kwargs)
 
 
 class OnnxDenoiser:
@@ -59,6 +91,8 @@ class OnnxDenoiser:
 
     def __call__(self, x_t: Tensor, t: Tensor, text_emb: Tensor) -> Tensor:
         """x_t (B, n, d), t (B,) or a scalar, text_emb (B, c) -> F (B, n, d), float32."""
+        import torch
+
         t = torch.as_tensor(t, dtype=torch.float32).reshape(-1).expand(x_t.shape[0])
         (inputs, outputs) = DENOISER_IO
         (f,) = self.session.run(list(outputs), dict(zip(inputs, map(_array, (
@@ -91,6 +125,10 @@ class OnnxDecoder:
     def decode(self, z: Tensor, lengths: Tensor, max_len: int | None = None) -> Tensor:
         """z (B, n, d), lengths (B,) -> normalized features (B, T, D), T = max_len or the
         longest; frames past an item's length are 0."""
+        import torch
+
+        from mlct.nn.masks import lengths_to_mask
+
         valid = lengths_to_mask(lengths.cpu(), max_len)  # (B, T)
         (inputs, outputs) = DECODER_IO
         (features,) = self.session.run(list(outputs), dict(zip(inputs, (
@@ -169,14 +207,15 @@ class OnnxNetworks(Networks):
     core the graphs' threads want (TORCH_GLUE_THREADS, `running`)."""
 
     name = "onnx"
+    numpy = True
 
-    def __init__(self, meta: dict, tensors: dict[str, Tensor], graphs: OnnxGraphs,
+    def __init__(self, meta: dict, tensors: dict[str, Any], graphs: OnnxGraphs,
                  threads: int | None = None) -> None:
         super().__init__(meta, "cpu")
-        self.graphs, self.threads = graphs, int(threads or torch.get_num_threads())
-        self.dtype = torch.float32  # the graphs' products
-        self.mean, self.std = tensors["norm.mean"].float(), tensors["norm.std"].float()
-        self._mean, self._std = self.mean.numpy(), self.std.numpy()  # float32, as the graph's
+        self.graphs, self.threads = graphs, int(threads or default_threads())
+        # float32, as the graph's; tensors are numpy arrays (bundle.read_bundle(numpy=True))
+        # or torch tensors
+        self._mean, self._std = _array(tensors["norm.mean"]), _array(tensors["norm.std"])
         self.clamp = latent_clamp(self.config)
         self.decoder = OnnxDecoder(graphs.decoder, self.threads, self._decoder_heads())
         self.denoiser = OnnxDenoiser(graphs.denoiser, self.threads)
@@ -186,6 +225,40 @@ class OnnxNetworks(Networks):
         self._single_decodes = 0  # decode() calls with one latent
         self._tensors = tensors  # the torch networks of large batches are built from them
         self._torch: TorchNetworks | None = None
+
+    def resolve_device(self, device: Any) -> Any:
+        return "cpu"  # the CPU, said without torch (mlct.load checks the device asked for)
+
+    @property
+    def dtype(self) -> Any:
+        """The graphs' products' precision: torch.float32."""
+        import torch
+
+        return torch.float32
+
+    @property
+    def mean(self) -> Tensor:
+        """The feature mean as a tensor, for the torch networks of a large batch."""
+        return _tensor(self._mean)
+
+    @property
+    def std(self) -> Tensor:
+        return _tensor(self._std)
+
+    def critic_graph(self) -> Any:
+        """The graphs' critic.onnx when they have one made from the model's critic.safetensors
+        (the shipped graphs: onnx_assets.py), else None."""
+        name = (self.graphs.manifest.get("graphs") or {}).get("critic")
+        if not name or not self.meta.get("model_dir"):
+            return None
+        from mlct.shipped import CRITIC_WEIGHTS, file_digest
+
+        weights = Path(self.meta["model_dir"]) / "critic.safetensors"
+        graph = Path(self.graphs.denoiser).parent / name
+        if not (graph.is_file() and weights.is_file()
+                and self.graphs.manifest.get(CRITIC_WEIGHTS) == file_digest(weights)):
+            return None
+        return graph
 
     def text_encoder(self) -> Any:
         """text_encoder.onnx with the MiniLM tokenizer, loaded on first use."""
@@ -208,13 +281,17 @@ class OnnxNetworks(Networks):
         return TORCH_MIN_BATCH
 
     def large(self, batch: int) -> bool:
-        """Does a batch this size go to the torch networks (TORCH_MIN_BATCH)?"""
-        return batch >= TORCH_MIN_BATCH
+        """Does a batch this size go to the torch networks (TORCH_MIN_BATCH, where torch is
+        installed)?"""
+        return batch >= TORCH_MIN_BATCH and _torch_installed()
 
     def torch_networks(self) -> TorchNetworks:
         """The torch networks of large batches, built from the same weights on first use."""
         if self._torch is None:
-            self._torch = TorchNetworks(self.meta, self._tensors, "cpu", "float32")
+            from mlct.generate.backends.pytorch import TorchNetworks
+
+            tensors = {k: _tensor(v) for k, v in self._tensors.items()}
+            self._torch = TorchNetworks(self.meta, tensors, "cpu", "float32")
         return self._torch
 
     def _networks_for(self, batch: int) -> tuple[Any, Any]:
@@ -224,32 +301,36 @@ class OnnxNetworks(Networks):
         nets = self.torch_networks()
         return nets.decoder, nets.denoiser
 
-    @torch.inference_mode()
-    def latents(self, cond: Tensor, steps: int, seed: int | Sequence[int] | None,
-                guidance: float | None, uncond: Tensor | None) -> Tensor:
+    def latents(self, cond: Any, steps: int, seed: int | Sequence[int] | None,
+                guidance: float | None, uncond: Any) -> Any:
         """A consistency model's latents without per-step torch glue: the noise and
         coefficients once (sampler.consistency_feeds), then, from the second call with a step
         count, the steps' graph in one call (SamplerGraphs.steps), before it one denoiser call
         and a few numpy operations per step. A large batch goes to the torch networks, on all
-        `threads`; another sampler runs its own loop over the graphs."""
+        `threads`; another sampler runs its own loop over the graphs. Latents as a numpy array
+        (B, n, d), or a tensor from the torch paths."""
         large = self.large(cond.shape[0])
         if not isinstance(self.sampler, ConsistencySampler) or large:
-            with torch_threads(self.threads if large else None):
-                return sample_loop(self.sampler, self._networks_for(cond.shape[0])[1],
-                                   self.decoder.latent_shape, cond, steps, seed, guidance,
-                                   uncond)
-        return self._latents(self.graph_sessions.steps(steps, cond.shape[0]), cond, steps, seed)
+            require_torch(f"the {self.meta['sampler']} sampler on the onnx backend")
+            import torch
 
-    def _latents(self, session: Any | None, cond: Tensor, steps: int,
-                 seed: int | Sequence[int] | None) -> Tensor:
+            with torch_threads(self.threads if large else None), torch.inference_mode():
+                return sample_loop(self.sampler, self._networks_for(cond.shape[0])[1],
+                                   self.decoder.latent_shape, _tensor(cond), steps, seed,
+                                   guidance, _tensor(uncond))
+        return _like(self._latents(self.graph_sessions.steps(steps, cond.shape[0]), cond, steps,
+                                   seed), cond)
+
+    def _latents(self, session: Any | None, cond: Any, steps: int,
+                 seed: int | Sequence[int] | None) -> np.ndarray:
         """x_0 of a consistency model by the steps' session, or by the step loop when None."""
         feeds = self._feeds(cond, steps, seed)
-        text = _array(cond.float())
+        text = _array(cond)
         if session is None:
-            return torch.from_numpy(run_steps(self.denoiser.session, feeds, text, self.clamp))
+            return run_steps(self.denoiser.session, feeds, text, self.clamp)
         (latent,) = session.run(["latent"], {"x": feeds["x"], "noise": feeds["noise"],
                                              "text": text})
-        return torch.from_numpy(latent)
+        return latent
 
     def features(self, cond: Tensor, steps: int, seed: int | Sequence[int] | None,
                  guidance: float | None, uncond: Tensor | None, lengths: Sequence[int]
@@ -267,7 +348,7 @@ class OnnxNetworks(Networks):
             return self.decode(self.latents(cond, steps, seed, guidance, uncond), lengths)
         session, apart = chosen
         feeds = self._feeds(cond, steps, seed)
-        feeds["text"] = _array(cond.float())
+        feeds["text"] = _array(cond)
         feeds["valid"] = np.arange(max(lengths)) < np.array(lengths)[:, None]  # (B, T)
         if not apart:
             # times and coef are the graph's own constants
@@ -278,39 +359,44 @@ class OnnxNetworks(Networks):
             features = self._decoded(latent, feeds["valid"])
         return [features[i, :n] for i, n in enumerate(lengths)]
 
-    def _decoded(self, latent: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    def _decoded(self, latent: np.ndarray, valid: np.ndarray, halves: bool = True
+                 ) -> np.ndarray:
         """Features in real units (B, T, D) of sampled latents (B, n, d) by the decoder's
         session: a single latent's by its halves side by side, one core each, whose join
         undoes the normalization (decoder_halves.py)."""
         latent = latent / np.float32(self.config.schedule.latent_scale)
-        halves = self._decoder_halves() if latent.shape[0] == 1 else None
-        if halves is not None:
-            return halves(latent, valid)
+        cut = self._decoder_halves() if halves and latent.shape[0] == 1 else None
+        if cut is not None:
+            return cut(latent, valid)
         (inputs, outputs) = DECODER_IO
         (normalized,) = self.decoder.session.run(list(outputs),
                                                  dict(zip(inputs, (latent, valid))))
         return normalized * self._std + self._mean
 
-    def _feeds(self, cond: Tensor, steps: int, seed: int | Sequence[int] | None
+    def _feeds(self, cond: Any, steps: int, seed: int | Sequence[int] | None
                ) -> dict[str, np.ndarray]:
         shape = (cond.shape[0], *self.decoder.latent_shape)
-        return consistency_feeds(self.sampler, shape, generators_for(seed), steps,
+        return consistency_feeds(self.sampler, shape, numpy_generators(seed), steps,
                                  self.graph_sessions.coefficients(steps))
 
-    def decode(self, z: Tensor, lengths: Sequence[int]) -> list[np.ndarray]:
+    def decode(self, z: Any, lengths: Sequence[int]) -> list[np.ndarray]:
         """The decoder's; a single latent, from the second one on, through the decoder's
         halves side by side (decoder_halves.py), as `features` decodes one: generate()'s
         chosen candidate. (Cutting the halves takes ~70 ms: a one-off command's single
         decode keeps the whole decoder.)"""
         if z.shape[0] == 1:
             self._single_decodes += 1
-        if z.shape[0] != 1 or self._single_decodes < 2 or self._decoder_halves() is None:
-            large = self.large(z.shape[0])
-            with torch_threads(self.threads if large else None), torch.inference_mode():
-                return decode_with(self._networks_for(z.shape[0])[0], z, lengths,
+        if self.large(z.shape[0]):
+            import torch
+
+            from mlct.generate.backends.pytorch import decode_with
+
+            with torch_threads(self.threads), torch.inference_mode():
+                return decode_with(self._networks_for(z.shape[0])[0], _tensor(z), lengths,
                                    self.config, self.mean, self.std, self.device)
         valid = np.arange(max(lengths)) < np.array(lengths)[:, None]
-        features = self._decoded(_array(z.float()), valid)
+        halves = z.shape[0] == 1 and self._single_decodes >= 2
+        features = self._decoded(_array(z), valid, halves)
         return [features[i, :n] for i, n in enumerate(lengths)]
 
     @property
@@ -361,9 +447,15 @@ class SamplerGraphs:
         self._onnx: bool | None = None  # is the onnx package there (None: not asked yet)
 
     def coefficients(self, steps: int) -> dict[str, np.ndarray]:
-        """step_coefficients of this step count, computed once."""
+        """step_coefficients of this step count, computed once, or read from the table the
+        graphs carry (sampler.STEPS_TABLE: the bundled model's, made when they were)."""
         if steps not in self._coefficients:
-            self._coefficients[steps] = step_coefficients(self.nets.sampler, steps)
+            table = self.nets.graphs.text_encoder.parent / STEPS_TABLE
+            found = read_steps_table(table, steps) if table.is_file() else None
+            if found is None:
+                require_torch("the step coefficients of a model whose graphs carry none")
+                found = step_coefficients(self.nets.sampler, steps)
+            self._coefficients[steps] = found
         return self._coefficients[steps]
 
     def sampler(self, steps: int, batch: int) -> tuple[Any, bool] | None:
@@ -461,7 +553,17 @@ class SamplerGraphs:
 
 def check_device_and_dtype(device: torch.device | str | None, dtype: str | torch.dtype) -> None:
     """A one-line MlctError unless the onnx backends can run there: the CPU, float32 (said
-    before any graph is made into the cache: backends.py)."""
+    before any graph is made into the cache: backends.py); "cpu" and "float32" are checked
+    without torch."""
+    if (device is None or (isinstance(device, str) and device.strip().lower() == "cpu")) and (
+            dtype == "float32"):
+        return
+    require_torch(f"device {device!r} or dtype {dtype!r}")
+    import torch
+
+    from mlct.devices import resolve_device
+    from mlct.nn.inference import weight_dtype
+
     if device is not None and resolve_device(device).type != "cpu":
         raise MlctError(f"the onnx backend runs on the CPU, not {device!r}; use "
                         f"backend='torch' (--backend torch) for a GPU")
@@ -472,6 +574,14 @@ def check_device_and_dtype(device: torch.device | str | None, dtype: str | torch
     if not float32:
         raise MlctError(f"the onnx backend runs float32 graphs; dtype {dtype!r} is the "
                         f"torch backend's (--backend torch)")
+
+
+def _torch_installed() -> bool:
+    """Can torch be imported (asked without importing it)?"""
+    try:
+        return "torch" in sys.modules or importlib.util.find_spec("torch") is not None
+    except ImportError:  # a finder that refuses it
+        return False
 
 
 def _onnx_installed() -> bool:
@@ -493,7 +603,8 @@ def torch_glue(count: int | None) -> Iterator[None]:
     the first to enter saves torch's count and the last to leave puts it back, so calls from
     several threads at once leave it as they found it. The count is the process's: torch work
     of another thread during a generate() runs on `count` threads too."""
-    if count is None:
+    torch = sys.modules.get("torch")
+    if count is None or torch is None:  # torch not loaded: nothing of it runs (or spins)
         yield
         return
     with _GLUE_LOCK:
@@ -513,6 +624,8 @@ def torch_glue(count: int | None) -> Iterator[None]:
 @contextmanager
 def torch_threads(count: int | None) -> Iterator[None]:
     """torch.set_num_threads(count) for the block, then back as it was; None: as it is."""
+    import torch
+
     before = torch.get_num_threads()
     if count is None or count == before:
         yield

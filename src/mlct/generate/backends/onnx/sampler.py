@@ -28,14 +28,15 @@ so the motions are the torch backend's up to float rounding; tests/test_onnx_sam
 from __future__ import annotations
 
 import os
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
-import torch
 
-from mlct.diffusion.consistency import c_out, c_skip
-from mlct.diffusion.samplers import Generators, draw_noise
+from mlct.diffusion.torch_randn import TorchRandn
 from mlct.generate.backends.onnx.attention import fuse_attention
+
+if TYPE_CHECKING:
+    from mlct.diffusion.samplers import Generators
 
 INPUTS = ("x", "noise", "text", "times", "coef", "valid")
 COEFFICIENTS = ("times", "coef")  # inputs, or constants when sampler_model gets them
@@ -192,17 +193,45 @@ def consistency_feeds(sampler: Any, shape: Sequence[int], generator: Generators,
     coefficients: step_coefficients(sampler, steps), when the caller kept them (they are the
     same for every call with this step count; computing them is ~30 torch operations)."""
     shape = tuple(shape)
-    x = sampler.noise(shape, generator)
+    coefficients = coefficients or step_coefficients(sampler, steps)
     noise = np.zeros((steps, *shape), np.float32)
+    if _numpy_stream(generator):  # seeds.numpy_generators: torch's draws, without torch
+        draws = _draws(shape, generator, steps)  # x_T, then one per re-noising: (K, B, n, d)
+        noise[:steps - 1] = draws[1:]
+        return {"x": draws[0], "noise": noise, **coefficients}
+    from mlct.diffusion.samplers import draw_noise
+
+    x = sampler.noise(shape, generator)
     for k in range(1, steps):  # float32 on the CPU, as the times the torch sampler passes
         noise[k - 1] = draw_noise(shape, generator, x).numpy()
-    return {"x": x.numpy(), "noise": noise,
-            **(coefficients or step_coefficients(sampler, steps))}
+    return {"x": x.numpy(), "noise": noise, **coefficients}
+
+
+def _numpy_stream(generator: Any) -> bool:
+    return isinstance(generator, TorchRandn) or (
+        isinstance(generator, list) and all(isinstance(g, TorchRandn) for g in generator))
+
+
+def _draws(shape: tuple[int, ...], generator: TorchRandn | list[TorchRandn], count: int
+           ) -> np.ndarray:
+    """`count` successive N(0, I) draws of `shape`, (count, *shape), as draw_noise draws each:
+    one stream for the batch, or one per item (whose draws follow one another in its own)."""
+    if isinstance(generator, list):
+        if len(generator) != shape[0]:
+            raise ValueError(f"{len(generator)} generators for a batch of {shape[0]}")
+        return np.stack([g.randn_many(shape[1:], count) for g in generator], axis=1)
+    return generator.randn_many(shape, count)
 
 
 def step_coefficients(sampler: Any, steps: int) -> dict[str, np.ndarray]:
     """times (K,) and coef (K, 4) of a `steps`-step run of the ConsistencySampler `sampler`
-    (above): the same for every call with this step count."""
+    (above): the same for every call with this step count. Torch computes them (the
+    sampler's own functions); the shipped graphs carry them for every step count
+    (STEPS_TABLE), so that the bundled model samples without torch."""
+    import torch
+
+    from mlct.diffusion.consistency import c_out, c_skip
+
     times = sampler.times(steps)
     zero = times.new_zeros(1)
     nxt = times[1:]
@@ -211,6 +240,26 @@ def step_coefficients(sampler: Any, steps: int) -> dict[str, np.ndarray]:
                         torch.cat([sampler.schedule.alpha(nxt), zero]),
                         torch.cat([sampler.schedule.sigma(nxt), zero])], dim=1)
     return {"times": times.float().numpy(), "coef": coef.float().numpy()}
+
+
+STEPS_TABLE = "consistency_steps.npz"  # beside the graphs: times_K, coef_K for each K
+
+
+def write_steps_table(sampler: Any, path: str | os.PathLike) -> None:
+    """step_coefficients of every step count the sampler takes, into one .npz file."""
+    table = {}
+    for steps in range(1, sampler.max_steps + 1):
+        found = step_coefficients(sampler, steps)
+        table[f"times_{steps}"], table[f"coef_{steps}"] = found["times"], found["coef"]
+    np.savez(path, **table)
+
+
+def read_steps_table(path: str | os.PathLike, steps: int) -> dict[str, np.ndarray] | None:
+    """write_steps_table's coefficients of this step count; None where it has none."""
+    with np.load(path) as table:
+        if f"times_{steps}" not in table:
+            return None
+        return {"times": table[f"times_{steps}"], "coef": table[f"coef_{steps}"]}
 
 
 def run_steps(denoiser: Any, feeds: dict[str, np.ndarray], text: np.ndarray,
