@@ -276,9 +276,10 @@ class OnnxNetworks(Networks):
         return torch_glue(TORCH_GLUE_THREADS)
 
     @property
-    def torch_min_batch(self) -> int:
-        """The smallest batch the torch networks run (TORCH_MIN_BATCH; `mlct generate -v`)."""
-        return TORCH_MIN_BATCH
+    def torch_min_batch(self) -> int | None:
+        """The smallest batch the torch networks run (TORCH_MIN_BATCH; `mlct generate -v`);
+        None without torch: every batch runs on the graphs."""
+        return TORCH_MIN_BATCH if _torch_installed() else None
 
     def large(self, batch: int) -> bool:
         """Does a batch this size go to the torch networks (TORCH_MIN_BATCH, where torch is
