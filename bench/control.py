@@ -4,13 +4,17 @@ skating, time, for each way of meeting the controls.
     python -m mlct.cli data synth --out /tmp/synth --num 400 --seed 0 --workers 1
     python bench/control.py --data /tmp/synth [--limit N] [--nfe 5] [--json OUT]
     MLCT_BACKEND=torch python bench/control.py --guidance [--models bundled DIR ...] [--seeds 30]
+    python bench/control.py --speeds [--real DATASET] [--method paced|candidates|guide]
+        [--seeds 5] [--json OUT]
 
 Each test motion of the benchmark gives its own controls and its first caption the text:
 - path: its root's (x, z) at every second and at its last frame (the path it really walks);
 - keys: its full pose at a third and two thirds of its length;
 - edit: its lower body kept, the upper body made anew from its caption.
-Methods: none (plain generation, same seeds), guide (decoder guidance only), project
-(motion-space correction only), both (guidance then correction: the default). Reported: path
+Methods: none (plain generation, same seeds), paced (the default: a path walked by the text's
+own motion re-timed to it, then the correction; keyframes by the best of 4), guide (decoder
+guidance only), project (motion-space correction only), both (guidance then correction), best4
+and best8 (candidates then correction). Reported: path
 error at the waypoints (mean, max, cm), keyframe joint error (mean, cm), the read-out pass rate
 of the quality suites' checks (its Tally, on the same labels), the GMD foot-skating ratio
 (the data's in the last row), and ms per motion at batch 1 (the ratio to plain generation).
@@ -22,6 +26,16 @@ the same seed), and the mean distance of the root from the path's waypoints with
 divided by that without. Printed per model: the mean, median and standard error of that ratio
 (1: guidance did nothing; one seed's ranges from about 0.2 to 1.6, so compare on 30 seeds).
 Guidance needs the torch backend (its gradients run through the torch decoder).
+
+--speeds: paths asking for another pace than the text's, and curves. The text's own speed is
+measured on plain generations ("a person walks forward", "a person jogs forward", 6 s, the
+root's start-to-end distance over the time); then straight paths along +Z at 0.5, 1, 1.5 and 2
+times it, and an arc (a quarter circle) and an S (a 0.5 m sine) at 1 times it, waypoints every
+second and at the last frame. Per row, over --seeds seeds: the root's distance from the
+waypoints before the final correction (mean, max, cm) and after it (max), the GMD foot-skating
+ratio, the cadence (steps per second: the lower foot's changes of side) and its stride (m per
+step), and ms per motion at batch 1 against plain generation's. --real DATASET adds the skating
+ratio of its walks (provenance labels that name a walk), the figure a walk is held to.
 """
 
 from __future__ import annotations
@@ -36,20 +50,23 @@ from typing import Any
 import numpy as np
 
 import mlct
-from mlct.data.layout import DatasetLayout
+from mlct.data.layout import DatasetLayout, provenance_label, read_provenance
 from mlct.eval.judge.action_classifier import read_labels
 from mlct.eval.readouts import evaluate_label
 from mlct.eval.suites.common import MAX_FRAMES, Tally  # the read-outs' tally
 from mlct.generate.control.schema import Control, Keyframe, control_from_dict, part_joints
-from mlct.generate.control.controlled import ControlMethod, generate_controlled
+from mlct.generate.control.controlled import (ControlMethod, controlled_motion,
+                                              generate_controlled)
 from mlct.motion.features import features_to_joints
+from mlct.motion.gait import steps_per_second
 from mlct.motion.physics import foot_skating_ratio
 
-METHODS = {"guide": ControlMethod(guide=True, project=False, candidates=1),
-           "project": ControlMethod(guide=False, candidates=1),
-           "both": ControlMethod(guide=True, candidates=1),
-           "best4": ControlMethod(guide=False, candidates=4),
-           "best8": ControlMethod(guide=False, candidates=8)}
+METHODS = {"paced": ControlMethod(),
+           "guide": ControlMethod(pace=False, guide=True, project=False, candidates=1),
+           "project": ControlMethod(pace=False, guide=False, candidates=1),
+           "both": ControlMethod(pace=False, guide=True, candidates=1),
+           "best4": ControlMethod(pace=False, guide=False, candidates=4),
+           "best8": ControlMethod(pace=False, guide=False, candidates=8)}
 
 
 def path_control(joints: np.ndarray) -> tuple[Control, np.ndarray]:
@@ -88,7 +105,8 @@ def guidance_ratios(pipe: Any, seeds: int) -> np.ndarray:
     def error(guide: bool, seed: int) -> float:
         made = generate_controlled(pipe, "a person walks forward", GUIDE_FRAMES, control, None,
                                    seed,
-                                   ControlMethod(guide=guide, project=False, candidates=1))
+                                   ControlMethod(pace=False, guide=guide, project=False,
+                                                 candidates=1))
         return float(np.linalg.norm(made.joints[frames, 0][:, [0, 2]] - target, axis=1).mean())
     return np.array([error(True, s) / error(False, s) for s in range(seeds)])
 
@@ -104,6 +122,131 @@ def guidance_main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> 
               f"{r.std() / np.sqrt(len(r)):6.3f} {r[:6].mean():8.3f}", flush=True)
 
 
+# ---------------------------------------------------------------- --speeds: pace and curves
+
+SPEED_PROMPTS = {"walk": "a person walks forward", "jog": "a person jogs forward"}
+SPEED_FRAMES = 120  # 6 s at 20 fps
+SPEED_FACTORS = (0.5, 1.0, 1.5, 2.0)
+SPEED_METHODS = {"paced": ControlMethod(),  # the default: the text's motion re-timed and laid
+                 "candidates": ControlMethod(pace=False),  # best of 4, then the correction
+                 "guide": ControlMethod(pace=False, guide=True, candidates=1)}
+
+
+def waypoint_frames(frames: int, fps: float) -> np.ndarray:
+    """A waypoint every second and at the last frame."""
+    return np.unique(np.r_[np.arange(0, frames, int(fps)), frames - 1])
+
+
+def straight_path(speed: float, frames: int, fps: float) -> Control:
+    """Along +Z from the origin at `speed` m/s."""
+    at = waypoint_frames(frames, fps)
+    return Control(path=np.stack([np.zeros(len(at)), speed * at / fps], axis=1), path_frames=at)
+
+
+def curved_path(kind: str, speed: float, frames: int, fps: float) -> Control:
+    """An arc (a quarter circle turning right) or an S (one period of a 0.5 m sine across),
+    walked at `speed` m/s from the origin along +Z."""
+    length = speed * (frames - 1) / fps
+    s = np.linspace(0.0, 1.0, 801)
+    if kind == "arc":
+        radius = length / (np.pi / 2)
+        line = np.stack([radius * (1 - np.cos(s * np.pi / 2)), radius * np.sin(s * np.pi / 2)], 1)
+    elif kind == "S":
+        line = np.stack([0.5 * np.sin(2 * np.pi * s), s * length], axis=1)
+    else:
+        raise ValueError(f"unknown curve {kind!r}")
+    along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))]
+    line, along = line * (length / along[-1]), along * (length / along[-1])  # `length` long
+    at = waypoint_frames(frames, fps)
+    gone = speed * at / fps
+    return Control(path=np.stack([np.interp(gone, along, line[:, 0]),
+                                  np.interp(gone, along, line[:, 1])], axis=1), path_frames=at)
+
+
+def real_walk_skating(root: Path, skel: Any) -> tuple[float, int]:
+    """The GMD skating ratio of a dataset's walks (provenance labels naming a walk), mean and
+    count: the figure a controlled walk is held to."""
+    layout = DatasetLayout.existing(root)
+    names = [r["name"] for r in read_provenance(root) if "walk" in provenance_label(r)]
+    if not names:
+        raise SystemExit(f"{root}: no motion whose provenance label names a walk")
+    return float(np.mean([foot_skating_ratio(layout.load_joints(n), skel) for n in names])), \
+        len(names)
+
+
+def speeds_main(args: argparse.Namespace) -> None:
+    pipe = mlct.load(args.model)
+    skel, fps, frames = pipe.skeleton, pipe.skeleton.fps, SPEED_FRAMES
+    seeds = range(args.seeds)
+    method = SPEED_METHODS[args.method]
+    pipe.encode_text(list(SPEED_PROMPTS.values()))
+    pipe.generate(SPEED_PROMPTS["walk"], lengths=frames, seed=0)  # warm-up
+    rows: dict[str, dict[str, float]] = {}
+    plain: dict[str, dict[str, float]] = {}
+    for key, text in SPEED_PROMPTS.items():  # the text's own speed: plain generations
+        made, ms = [], []
+        for seed in seeds:
+            start = time.perf_counter()
+            made.append(pipe.generate(text, lengths=frames, nfe=args.nfe, seed=seed)[0].joints)
+            ms.append(time.perf_counter() - start)
+        plain[key] = {"speed": float(np.mean([np.linalg.norm(j[-1, 0, [0, 2]] - j[0, 0, [0, 2]])
+                                              for j in made])) / ((frames - 1) / fps),
+                      "skating": float(np.mean([foot_skating_ratio(j, skel) for j in made])),
+                      "cadence": float(np.mean([steps_per_second(j, skel) for j in made])),
+                      "ms": 1e3 * float(np.median(ms))}
+    cases = [(k, "straight", f) for k in SPEED_PROMPTS for f in SPEED_FACTORS] \
+        + [(k, c, 1.0) for k in SPEED_PROMPTS for c in ("arc", "S")]
+    for key, kind, factor in cases:
+        speed = factor * plain[key]["speed"]
+        control = (straight_path(speed, frames, fps) if kind == "straight"
+                   else curved_path(kind, speed, frames, fps)).check(frames, skel)
+        before, after, ms, plain_ms = [], [], [], []
+        for seed in seeds:  # plain generation timed next to each: the machine's load alike
+            start = time.perf_counter()
+            pipe.generate(SPEED_PROMPTS[key], lengths=frames, nfe=args.nfe, seed=seed)
+            plain_ms.append(time.perf_counter() - start)
+            start = time.perf_counter()
+            made = controlled_motion(pipe, SPEED_PROMPTS[key], frames, control, args.nfe, seed,
+                                     method)
+            ms.append(time.perf_counter() - start)
+            before.append(made.before)
+            after.append(made.motion.joints)
+        errors = np.concatenate([np.linalg.norm(j[control.path_frames, 0][:, [0, 2]]
+                                                - control.path, axis=1) for j in before])
+        final = max(np.linalg.norm(j[control.path_frames, 0][:, [0, 2]] - control.path,
+                                   axis=1).max() for j in after)
+        rows[f"{key} {kind} {factor:g}x"] = {
+            "speed": speed, "error_mean_cm": 100 * float(errors.mean()),
+            "error_max_cm": 100 * float(errors.max()), "final_max_cm": 100 * float(final),
+            "skating": float(np.mean([foot_skating_ratio(j, skel) for j in after])),
+            "cadence": float(np.mean([steps_per_second(j, skel) for j in after])),
+            "ms": 1e3 * float(np.median(ms)),
+            "x_plain": float(np.median(ms) / np.median(plain_ms))}
+    real = real_walk_skating(args.real, skel) if args.real is not None else None
+
+    print(f"method {args.method}, {args.seeds} seeds, {frames} frames, nfe "
+          f"{pipe.check_nfe(args.nfe)}, batch 1; waypoints every second and at the last frame")
+    for key, p in plain.items():
+        print(f"plain {key} ({SPEED_PROMPTS[key]!r}): {p['speed']:.2f} m/s, skating "
+              f"{p['skating']:.3f}, {p['cadence']:.2f} steps/s, "
+              f"{p['speed'] / max(p['cadence'], 1e-9):.2f} m/step, {p['ms']:.0f} ms")
+    print(f"{'path':<18}{'m/s':>6}{'err mean':>9}{'err max':>8}{'final':>7}{'skating':>8}"
+          f"{'steps/s':>8}{'m/step':>7}{'ms':>7}{'x plain':>8}")
+    for name, r in rows.items():
+        print(f"{name:<18}{r['speed']:>6.2f}{r['error_mean_cm']:>9.1f}{r['error_max_cm']:>8.1f}"
+              f"{r['final_max_cm']:>7.1f}{r['skating']:>8.3f}{r['cadence']:>8.2f}"
+              f"{r['speed'] / max(r['cadence'], 1e-9):>7.2f}{r['ms']:>7.0f}{r['x_plain']:>8.2f}")
+    if real is not None:
+        print(f"real walks ({args.real}, {real[1]} motions): skating {real[0]:.3f}; within 20 %: "
+              f"{0.8 * real[0]:.3f}-{1.2 * real[0]:.3f}")
+    print("(err: the root's distance from the waypoints before the final correction, cm; final: "
+          "after it; skating: GMD foot-skating ratio; steps/s: the lower foot's changes of side)")
+    if args.json is not None:
+        report = {"method": args.method, "seeds": args.seeds, "plain": plain, "rows": rows,
+                  "real_walk_skating": None if real is None else real[0]}
+        args.json.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", type=Path, default=None, help="a procedural benchmark")
@@ -116,12 +259,23 @@ def main() -> None:
     parser.add_argument("--guidance", action="store_true",
                         help="guidance alone against plain sampling on a path (above)")
     parser.add_argument("--models", nargs="+", default=["bundled"], help="with --guidance")
-    parser.add_argument("--seeds", type=int, default=30, help="with --guidance")
+    parser.add_argument("--seeds", type=int, default=None,
+                        help="with --guidance (default 30) or --speeds (default 5)")
+    parser.add_argument("--speeds", action="store_true",
+                        help="paths at other paces than the text's, and curves (above)")
+    parser.add_argument("--method", choices=sorted(SPEED_METHODS), default="paced",
+                        help="with --speeds")
+    parser.add_argument("--real", type=Path, default=None,
+                        help="with --speeds: a real dataset whose walks' skating is the figure")
     args = parser.parse_args()
     if args.guidance:
+        args.seeds = 30 if args.seeds is None else args.seeds
         return guidance_main(args, parser)
+    if args.speeds:
+        args.seeds = 5 if args.seeds is None else args.seeds
+        return speeds_main(args)
     if args.data is None:
-        parser.error("--data is required (or --guidance)")
+        parser.error("--data is required (or --guidance, --speeds)")
 
     layout = DatasetLayout.existing(args.data)
     labels = read_labels(args.data)

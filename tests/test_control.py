@@ -104,6 +104,8 @@ def test_fabrik_reaches_and_keeps_bone_lengths() -> None:
 
 
 def test_path_is_met_and_guidance_brings_the_motion_near_it(pipe) -> None:
+    # the sampled ways (candidates, guidance) on their own: the default walks a path by the
+    # text's motion re-timed to it (control/pace.py, tests/test_control_pace.py)
     control = control_from_dict({"path": PATH}, SKELETON)
     frames = [p[2] for p in PATH]
     target = np.array(PATH)[:, :2]
@@ -113,7 +115,7 @@ def test_path_is_met_and_guidance_brings_the_motion_near_it(pipe) -> None:
                                    None, seed, method).joints
         return np.linalg.norm(made[frames, 0][:, [0, 2]] - target, axis=1)
 
-    plain = error(ControlMethod(guide=False, project=False, candidates=1))
+    plain = error(ControlMethod(pace=False, guide=False, project=False, candidates=1))
     # Guidance alone, over 6 seeds: the waypoint error as a share of plain sampling's was 0.61
     # with the noise-trained decoder, 0.77 with the trajectory-trained decoder under the stage 2
     # trained before it (seed 3: 1.07), 0.64 with the model trained on that decoder; with the
@@ -126,11 +128,11 @@ def test_path_is_met_and_guidance_brings_the_motion_near_it(pipe) -> None:
     # alone helps it less; guidance with projection, the default, still meets the path (below).
     # Version 7 (a 96-channel body decoder): 1.07 here at 2 + 4 steps (30 seeds: 1.01, version 6
     # 0.73), 0.53 at the 4 + 8 now the default (30 seeds: 0.55, version 6 0.55).
-    ratios = [error(ControlMethod(guide=True, project=False, candidates=1), s).mean()
-              / error(ControlMethod(guide=False, project=False, candidates=1), s).mean()
-              for s in range(6)]
+    guided = ControlMethod(pace=False, guide=True, project=False, candidates=1)
+    unguided = ControlMethod(pace=False, guide=False, project=False, candidates=1)
+    ratios = [error(guided, s).mean() / error(unguided, s).mean() for s in range(6)]
     assert np.mean(ratios) < 1.0, ratios
-    best = error(ControlMethod(guide=False, project=False, candidates=4))
+    best = error(ControlMethod(pace=False, guide=False, project=False, candidates=4))
     # the seed's own motion is one of the candidates, and the kept one has the least squared
     # error (control_loss's measure; the mean distance may order two candidates otherwise)
     assert (best ** 2).mean() <= (plain ** 2).mean() + 1e-9

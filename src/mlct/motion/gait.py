@@ -1,5 +1,6 @@
 """Steps: how often the lower foot changes side, on any skeleton. One owner for the read-outs'
-foot_swaps (eval/readouts.py) and keep-going's test of a gait (generate/compose/keep_going.py)."""
+foot_swaps (eval/readouts.py) and keep-going's test of a gait (generate/compose/keep_going.py);
+the cadence bench/control.py reports (steps_per_second)."""
 
 from __future__ import annotations
 
@@ -21,3 +22,11 @@ def foot_swaps(joints: np.ndarray, skeleton: Skeleton, hysteresis: float = 0.03)
         swaps += lower != 0 and now != lower
         lower = now
     return int(swaps)
+
+
+def steps_per_second(joints: np.ndarray, skeleton: Skeleton, fps: float | None = None) -> float:
+    """Cadence: foot_swaps per second of the motion (its T - 1 frame steps); a fast step whose
+    foot stands too briefly for a contact span still changes the lower foot."""
+    fps = skeleton.fps if fps is None else fps
+    seconds = (len(joints) - 1) / fps
+    return foot_swaps(joints, skeleton) / seconds if seconds > 0 else 0.0

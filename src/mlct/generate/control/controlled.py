@@ -1,19 +1,31 @@
-"""Controlled generation: the best of a few sampled motions, made exact in motion space.
+"""Controlled generation: a path walked by the text's own motion, re-timed to the path's pace;
+other controls by the best of a few sampled motions; every control then made exact in motion
+space by a last, small correction.
 
 The method, chosen by measurement (bench/control.py, docs/control.md), without training:
-1. candidates: `ControlMethod.candidates` motions for the text are sampled in one batch (the
+1. a path (ControlMethod.pace, the default): the text's motion, made as plain generation makes
+   it, as long as it must be to cover the path at its own pace, then re-timed so that its root
+   is as far along the path as the path asks at every frame, and laid along the path's curve
+   (pace.py). The legs' own strides carry the body: a path asking for twice the text's speed
+   gets twice its steps per second, not a body sliding over planted feet. A text whose motion
+   does not travel (a wave) is met as the other controls are;
+2. candidates: `ControlMethod.candidates` motions for the text are sampled in one batch (the
    seed's own motion first) and the one whose decoded joints are nearest the controls is kept.
    A consistency model samples in a few steps, so a batch of 4 costs well under 4 times one,
    and every candidate is a motion the model makes: feet plant, arms swing, the text is done;
-2. guidance (optional, off by default): inside each sampling step, gradient steps on the clean
-   estimate x0 through the decoder (differentiable) and the joints, down the control error;
-   the next step re-noises the moved x0. It pulls the motion towards far controls, but off
-   the model's motions (an arm thrown up, a sudden slide), and costs 3-5x plain generation;
-   the candidates do better for less (docs/control.md);
-3. the correction (control/fit.py): root path, heading and the keyframes' root places by one
+3. guidance (optional, off by default; needs PyTorch and the torch backend): inside each
+   sampling step, gradient steps on the clean estimate x0 through the decoder (differentiable)
+   and the joints, down the control error; the next step re-noises the moved x0. It pulls the
+   motion towards far controls, but not far enough for a path at another speed (one latent
+   holds about as many strides whatever length it is decoded at: a walk asked for twice its
+   speed stayed 0.8 m from the path on average even after 60 gradient steps on the last x0),
+   and costs 2.5-4.5x plain generation (docs/control.md);
+4. the correction (control/fit.py): root path, heading and the keyframes' root places by one
    smooth low-frequency shift; keyframes by eased per-joint offsets with bone lengths restored
    (FABRIK for single joints); feet that stood in the model's motion held in stance (two-bone
-   IK); body-part edits by copying the kept joints and re-attaching the edited bones.
+   IK); body-part edits by copying the kept joints and re-attaching the edited bones; a motion
+   on a path alone raised onto the floor and its standing feet planted. After the pace it moves
+   the root by millimetres on average (bench/control.py --speeds).
 
 The control's world: the result starts where the prefix or edited motion does, or a full pose
 at frame 0, or the path's frame-0 waypoint (facing its heading when given); the network makes
@@ -32,10 +44,11 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from mlct.errors import MlctError
-from mlct.generate.control.schema import Control
+from mlct.errors import MlctError, require_torch
+from mlct.generate.control import pace
 from mlct.generate.control.fit import (REACH_SECONDS, fit_heading, fit_keyframes, fit_path,
-                                       lock_feet, reattach, turn_y)
+                                       lock_feet, on_floor, reattach, turn_y)
+from mlct.generate.control.schema import Control
 from mlct.generate.output.generated import GeneratedMotion, Generation
 from mlct.motion.features import joints_to_features, recover_from_ric
 
@@ -45,10 +58,12 @@ MotionGenerator = Any
 
 @dataclass(frozen=True)
 class ControlMethod:
-    """How controls are met: candidates (best of N, one batch), guidance, projection. The
-    default is the one bench/control.py picked (docs/control.md)."""
+    """How controls are met: a path by the text's own motion re-timed to it (pace), the rest by
+    candidates (best of N, one batch), guidance, projection. The default is the one
+    bench/control.py picked (docs/control.md)."""
 
-    guide: bool = False  # decoder guidance inside the sampling steps
+    pace: bool = True  # a path walked by the text's motion, made as long as it needs, re-timed
+    guide: bool = False  # decoder guidance inside the sampling steps (PyTorch, torch backend)
     project: bool = True  # the motion-space correction that makes the controls exact
     candidates: int = 4  # motions sampled in one batch; the one nearest the controls is kept
     # guidance: gradient steps on x0 per sampling step, and on the last step's x0 (not
@@ -192,6 +207,18 @@ def differentiable_decoder(pipe: MotionGenerator) -> torch.nn.Module | None:
     return _DECODERS[pipe]
 
 
+def guidance_decoder(pipe: MotionGenerator) -> torch.nn.Module:
+    """differentiable_decoder, or a one-line error naming what guidance needs (it would
+    otherwise silently do nothing): PyTorch, then the torch backend."""
+    require_torch("decoder guidance (ControlMethod(guide=True))")
+    decoder = differentiable_decoder(pipe)
+    if decoder is None:
+        raise MlctError(f"decoder guidance needs a differentiable decoder, which the "
+                        f"{getattr(pipe, 'backend', 'onnx')} backend has not; load the model "
+                        f"with backend='torch', or use ControlMethod(guide=False)")
+    return decoder
+
+
 def _joints(pipe: MotionGenerator, decoder: Any, z: Tensor, frames: int) -> Tensor:
     """(B, T, J, 3) joints of latents z (B, n, d) through `decoder`."""
     lengths = torch.full((len(z),), frames)
@@ -211,11 +238,7 @@ def guided_latent(pipe: MotionGenerator, text: str, frames: int, seed: int, nfe:
                   targets: Targets, method: ControlMethod) -> Tensor:
     """(1, n, d): the best of method.candidates latents for the control, each sampled with the
     control's gradient applied to every step's x0 when method.guide."""
-    decoder = differentiable_decoder(pipe) if method.guide else None
-    if method.guide and decoder is None:  # asked for, and it would silently do nothing
-        raise MlctError(f"decoder guidance needs a differentiable decoder, which the "
-                        f"{getattr(pipe, 'backend', 'onnx')} backend has not; load the model "
-                        f"with backend='torch', or use ControlMethod(guide=False)")
+    decoder = guidance_decoder(pipe) if method.guide else None
     count = max(1, method.candidates)
     # as generate()'s (the onnx backend's vectors are arrays: tensors here, for the sampler)
     cond = torch.as_tensor(pipe.sampling_text(pipe.encode_text([text]))).expand(count, -1)
@@ -254,8 +277,10 @@ def guided_latent(pipe: MotionGenerator, text: str, frames: int, seed: int, nfe:
 
 
 def project(joints: np.ndarray, control: Control, anchor: Anchor, skeleton: Any,
-            method: ControlMethod) -> np.ndarray:
-    """The motion (network frame) corrected to meet every control exactly."""
+            method: ControlMethod, stood: np.ndarray | None = None) -> np.ndarray:
+    """The motion (network frame) corrected to meet every control exactly; the feet that stood
+    in `stood` (any frame: a re-timed source before it was laid along a path), else in the
+    motion itself, held where they stand."""
     out = joints.astype(np.float64)
     keys = keyframe_list(control, anchor)
     # The root's xz of the path and of the keyframes that pin the root: one smooth correction
@@ -279,34 +304,104 @@ def project(joints: np.ndarray, control: Control, anchor: Anchor, skeleton: Any,
         keyed: dict[int, set[int]] = {}
         for f, pose in keys:
             keyed.setdefault(int(f), set()).update(pose)
-        out = lock_feet(out, joints, skeleton, keyed)
+        out = lock_feet(out, joints if stood is None else stood, skeleton, keyed)
     if control.edit is not None:
         out = reattach(out, anchor.to_model(control.edit), control.parts, skeleton)
     return out
+
+
+def paced(pipe: MotionGenerator, text: str, frames: int, control: Control, nfe: int | None,
+          seed: int) -> pace.Laid | None:
+    """The text's motion as plain generation makes it, long enough to cover the control's path
+    at its own pace, laid along the path (pace.py; in the control's world); None when the text's
+    motion does not travel (pace.travels) or a prefix or an edit fixes the frames' timing."""
+    if control.path is None or control.prefix is not None or control.edit is not None \
+            or frames < 2:
+        return None
+    fps = pipe.skeleton.fps
+    targets = pace.path_targets(control.path, control.path_frames, frames)
+    length = float(pace.arc_length(targets)[-1])
+
+    def made(count: int, candidates: int | None = None) -> np.ndarray:  # as plain makes it
+        try:
+            motion = pipe.generate(text, lengths=count, nfe=nfe, seed=seed,
+                                   candidates=candidates)[0]
+        except MlctError:  # past the window only a gait keeps going: as long as it may be
+            motion = pipe.generate(text, lengths=min(count, pipe.max_frames), nfe=nfe,
+                                   seed=seed, candidates=candidates)[0]
+        return motion.joints.astype(np.float64)
+
+    # the text's pace from one sample (a third of plain generation's time), then its motion
+    # as plain generation makes it (the critic's best candidate) as long as that pace needs
+    probe = pace.track_of(made(frames, candidates=1), fps)
+    if not pace.travels(probe, length):
+        return None
+    sources = [made(pace.frames_to_cover(probe, frames, length))]
+    tracks = [pace.track_of(sources[0], fps)]
+    for _ in range(pace.REMAKES):  # the distance a length covers is not quite proportional
+        if pace.covers(tracks[-1], length):
+            break
+        sources.append(made(pace.frames_to_cover(tracks[-1], len(sources[-1]), length)))
+        tracks.append(pace.track_of(sources[-1], fps))
+    return pace.lay_along(sources[pace.best_cover(tracks, length)], targets, fps)
+
+
+@dataclass(frozen=True)
+class ControlledMotion:
+    """A controlled motion, and its joints before the last correction (world, (T, J, 3)): how
+    near the method came by itself (bench/control.py)."""
+
+    motion: GeneratedMotion
+    before: np.ndarray
+
+
+def controlled_motion(pipe: MotionGenerator, text: str, frames: int, control: Control,
+                      nfe: int | None, seed: int,
+                      method: ControlMethod = DEFAULT_METHOD) -> ControlledMotion:
+    """One motion of `frames` frames for `text` that meets `control`, and the same before the
+    correction."""
+    skeleton = pipe.skeleton
+    if skeleton.n_joints != 22:
+        raise MlctError("controls need the 22-joint HumanML3D skeleton")
+    control = control.check(frames, skeleton)
+    if method.guide:
+        guidance_decoder(pipe)  # refused before any sampling where it cannot run
+    anchor = anchor_of(control, skeleton)
+    laid = paced(pipe, text, frames, control, nfe, seed) if method.pace else None
+    stood = None  # the motion whose standing feet the correction holds: the one it corrects
+    if laid is not None:
+        joints, feats, stood = anchor.to_model(laid.joints), None, laid.retimed
+    else:
+        targets = targets_of(control, anchor, skeleton)
+        z = guided_latent(pipe, text, frames, seed, nfe, targets, method)
+        feats = pipe.decode(z, [frames])[0]
+        joints = recover_from_ric(torch.from_numpy(feats)).numpy().astype(np.float64)
+    before = anchor.to_world(joints)
+    if method.project:
+        joints = project(joints, control, anchor, skeleton, method, stood)
+    joints = anchor.to_world(joints)
+    if control.edit is not None and method.project:  # exactly the given joints, not rounded
+        kept = [j for j in range(skeleton.n_joints) if j not in control.parts]
+        joints[:, kept] = control.edit[:, kept]
+    path_alone = (control.path is not None and not control.keyframes and control.edit is None
+                  and control.prefix is None)
+    if path_alone and method.project:
+        joints = on_floor(joints)
+    features = joints_to_features(joints, skeleton).features if frames > 1 else feats
+    motion = GeneratedMotion(text, features, joints.astype(np.float32), skeleton.fps,
+                             skeleton.name, seed)
+    if path_alone:
+        # a path moves only the pelvis: the feet are planted as a plain motion's are; keyframes,
+        # an edit or a prefix pin joints that planting would move, and are left as made
+        motion = pipe.planted(motion)
+    return ControlledMotion(motion, before)
 
 
 def generate_controlled(pipe: MotionGenerator, text: str, frames: int, control: Control,
                         nfe: int | None, seed: int,
                         method: ControlMethod = DEFAULT_METHOD) -> GeneratedMotion:
     """One motion of `frames` frames for `text` that meets `control`."""
-    skeleton = pipe.skeleton
-    if skeleton.n_joints != 22:
-        raise MlctError("controls need the 22-joint HumanML3D skeleton")
-    control = control.check(frames, skeleton)
-    anchor = anchor_of(control, skeleton)
-    targets = targets_of(control, anchor, skeleton)
-    z = guided_latent(pipe, text, frames, seed, nfe, targets, method)
-    feats = pipe.decode(z, [frames])[0]
-    joints = recover_from_ric(torch.from_numpy(feats)).numpy().astype(np.float64)
-    if method.project:
-        joints = project(joints, control, anchor, skeleton, method)
-    joints = anchor.to_world(joints)
-    if control.edit is not None and method.project:  # exactly the given joints, not rounded
-        kept = [j for j in range(skeleton.n_joints) if j not in control.parts]
-        joints[:, kept] = control.edit[:, kept]
-    features = joints_to_features(joints, skeleton).features if frames > 1 else feats
-    return GeneratedMotion(text, features, joints.astype(np.float32), skeleton.fps,
-                           skeleton.name, seed)
+    return controlled_motion(pipe, text, frames, control, nfe, seed, method).motion
 
 
 def generate_with_control(pipe: MotionGenerator, texts: list[str], lengths: Any, seconds: Any,
@@ -329,10 +424,4 @@ def generate_with_control(pipe: MotionGenerator, texts: list[str], lengths: Any,
     frames = pipe._lengths(1, lengths, seconds)[0]
     pipe.check_nfe(nfe)
     seeds = item_seeds(1, seed)
-    motion = generate_controlled(pipe, texts[0], frames, control, nfe, seeds[0])
-    if (control.path is not None and not control.keyframes and control.edit is None
-            and control.prefix is None):
-        # a path moves only the pelvis: the feet are planted as a plain motion's are; keyframes,
-        # an edit or a prefix pin joints that planting would move, and are left as made
-        motion = pipe.planted(motion)
-    return Generation([motion])
+    return Generation([generate_controlled(pipe, texts[0], frames, control, nfe, seeds[0])])

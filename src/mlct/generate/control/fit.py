@@ -1,7 +1,8 @@
 """Motion-space corrections that make controls exact while keeping the motion smooth.
 
-After guidance (control/controlled.py) has brought the decoded motion near its controls, these close
-the remaining gap on the joints (T, J, 3), in numpy:
+After the pace (control/pace.py), the candidates or guidance (control/controlled.py) have
+brought the motion near its controls, these close the remaining gap on the joints (T, J, 3), in
+numpy:
 - a root path: the xz error at the waypoints is interpolated with a monotone cubic (PCHIP: C1,
   no overshoot between waypoints) and added to every joint, so the correction is as smooth and
   low-frequency as the waypoints are sparse; a heading the same way, as a turn about the root;
@@ -12,7 +13,9 @@ the remaining gap on the joints (T, J, 3), in numpy:
   with it;
 - body-part edits: the kept joints are copied exactly; each edited joint is re-attached to its
   parent with the kept motion's bone length, pointing where the new motion's bone points (turned
-  into the kept body's facing).
+  into the kept body's facing);
+- the floor (`on_floor`): a motion whose lowest joint is under the floor is raised onto it, as
+  the data's processing stands every clip (HumanML3D's lowest joint at y = 0).
 """
 
 from __future__ import annotations
@@ -73,6 +76,20 @@ def offset_curve(frames: np.ndarray, values: np.ndarray, length: int,
     curve[t < frames[0]] = values[0]
     curve[t > frames[-1]] = values[-1]
     return curve
+
+
+FLOOR_LIFT = 0.05  # m: the most on_floor raises a motion (a deeper dip is a glitch, not a floor)
+
+
+def on_floor(joints: np.ndarray) -> np.ndarray:
+    """The motion raised so that its lowest joint is on the floor (y = 0), by at most
+    FLOOR_LIFT; one that is above it is left. The bundled model's walks sink 1.5 cm below it at
+    their lowest (the data's clips: 0.1 cm), and the toes skimming under GMD's 5 cm then count
+    as skating (bench/control.py --speeds; docs/control.md)."""
+    lift = min(max(-float(np.min(joints[..., 1])), 0.0), FLOOR_LIFT)
+    out = np.array(joints, dtype=np.float64, copy=True)
+    out[..., 1] += lift
+    return out
 
 
 def fit_path(joints: np.ndarray, frames: np.ndarray, xz: np.ndarray) -> np.ndarray:
