@@ -4,7 +4,8 @@ model's motions for one label against the real data's, and foot skating against 
     python bench/quality.py real --data REAL [--ae RUN_OR_MODEL] [--model MODEL] [--seeds 5]
 
 REAL is a dataset imported with `mlct data import --corpus ...` (its provenance.jsonl names each
-motion's label: a corpus content such as "wave-left-hand", or CMU's description).
+motion's label: a corpus content such as "wave-left-hand", or CMU's description), or a
+procedural benchmark, whose one-action motions are grouped by their label.
 - (a) with --ae: per label of the split, the reconstruction's mean joint distance (MPJPE, the
   root's path included) and the pose's alone (each frame's joints relative to its pelvis);
 - (b) with --model (or 'bundled'): for each label with at least --min-motions motions, one
@@ -14,7 +15,9 @@ motion's label: a corpus content such as "wave-left-hand", or CMU's description)
   the same distance between its motions of the label (all splits, at most 12 spread evenly over
   its takes in name order, so that every style is among them). Measured at the
   defaults, with one candidate (no critic), and with the text anchors off, so that each pull
-  towards one motion shows;
+  towards one motion shows. With --ae too, the same distance between the autoencoder's
+  reconstructions of the data's motions: the most spread the model can draw for the label,
+  since every motion it makes comes out of that decoder;
 - (c) foot skating (GMD's ratio) of the defaults' motions against the data's for the same labels.
 """
 
@@ -29,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from mlct.data.labels import LABELS_FILE, read_labels
 from mlct.data.layout import DatasetLayout, provenance_label, read_provenance
 from mlct.motion.features import features_to_joints
 from mlct.motion.physics import foot_skating_ratio
@@ -44,13 +48,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--split", default="test")
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--min-motions", type=int, default=3)
-    parser.add_argument("--labels", default=None, help="only these labels, comma-separated")
+    parser.add_argument("--labels", default=None, help="only these labels, separated by ';' (labels hold commas)")
     parser.add_argument("--json", type=Path, default=None)
 
 
 def motion_labels(root: Path) -> dict[str, str]:
-    """motion name -> its label (corpus content, else CMU's description)."""
-    return {r["name"]: provenance_label(r) for r in read_provenance(root)}
+    """motion name -> its label (corpus content, else CMU's description); for a procedural
+    benchmark (no provenance.jsonl), its one-action motions' labels ("kick(count=1,leg=right)"),
+    so that a family's spread is measured the same way."""
+    records = read_provenance(root)
+    if records or not (root / LABELS_FILE).is_file():
+        return {r["name"]: provenance_label(r) for r in records}
+    return {name: r["label"] for name, r in read_labels(root).items()
+            if len(r["actions"]) == 1 and not r.get("concurrent")}
 
 
 def pairwise_distance(motions: list[np.ndarray]) -> float:
@@ -78,9 +88,10 @@ def run(args: argparse.Namespace) -> None:
     layout = DatasetLayout.existing(args.data)
     labels = motion_labels(args.data)
     report: dict[str, Any] = {"data": str(args.data)}
-    if args.ae is not None:
-        names = layout.read_split(args.split)
-        recon = reconstructions(layout, names, labels, args.load_autoencoder(args.ae))
+    ae = args.load_autoencoder(args.ae) if args.ae is not None else None
+    if ae is not None:
+        names = [n for n in layout.read_split(args.split) if n in labels]
+        recon = reconstructions(layout, names, labels, ae)
         report["reconstruction"] = recon
         allv = [(r["mpjpe_m"], r["pose_m"], r["n"]) for r in recon.values()]
         n = sum(c for _, _, c in allv)
@@ -91,13 +102,13 @@ def run(args: argparse.Namespace) -> None:
             print(f"    {label:32s} n={r['n']:3d}  MPJPE {r['mpjpe_m'] * 100:5.1f} cm  "
                   f"pose {r['pose_m'] * 100:5.1f} cm")
     if args.model is not None:
-        report["variety"] = _variety(args, layout, labels)
+        report["variety"] = _variety(args, layout, labels, ae)
     if args.json is not None:
         args.json.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
 
 
-def _variety(args: argparse.Namespace, layout: DatasetLayout,
-             labels: dict[str, str]) -> dict[str, Any]:
+def _variety(args: argparse.Namespace, layout: DatasetLayout, labels: dict[str, str],
+             ae: Any = None) -> dict[str, Any]:
     import mlct
 
     pipe = mlct.load(None if args.model == "bundled" else args.model)
@@ -106,7 +117,7 @@ def _variety(args: argparse.Namespace, layout: DatasetLayout,
         by_label[labels[name]].append(name)
     chosen = sorted(l for l, n in by_label.items() if len(n) >= args.min_motions)
     if args.labels:
-        chosen = [l for l in chosen if l in args.labels.split(",")]
+        chosen = [l for l in chosen if l in args.labels.split(";")]
     rows: dict[str, Any] = {}
     anchors = pipe.text_anchors
     for label in chosen:
@@ -118,6 +129,9 @@ def _variety(args: argparse.Namespace, layout: DatasetLayout,
         caption = layout.read_texts(names[0])[0].caption
         row = {"caption": caption, "seconds": seconds, "data_m": pairwise_distance(real),
                "data_skating": float(np.mean([foot_skating_ratio(j, HUMANML3D) for j in real]))}
+        if ae is not None:
+            row["ae_m"] = pairwise_distance([features_to_joints(ae(layout.load_features(n)))
+                                             for n in names])
         for setting, kwargs, with_anchors in (("defaults", {}, True),
                                               ("one_candidate", {"candidates": 1}, True),
                                               ("no_anchors", {}, False)):
@@ -133,13 +147,17 @@ def _variety(args: argparse.Namespace, layout: DatasetLayout,
     print(f"(b) variety of {args.seeds} seeds (mean joint distance between seeds, cm) against "
           f"the data's own for the label; (c) foot skating; model {args.model}")
     print(f"    {'label':26s} {'data':>6s} {'default':>8s} {'ratio':>6s} {'1 cand':>7s} "
-          f"{'no anch':>8s} {'skate':>6s} {'data sk':>7s}")
+          f"{'no anch':>8s} {'skate':>6s} {'data sk':>7s} {'AE':>5s}")
     for label, r in rows.items():
         print(f"    {label:26s} {r['data_m'] * 100:6.1f} {r['defaults_m'] * 100:8.1f} "
               f"{r['defaults_m'] / r['data_m']:6.2f} {r['one_candidate_m'] * 100:7.1f} "
-              f"{r['no_anchors_m'] * 100:8.1f} {r['skating']:6.3f} {r['data_skating']:7.3f}")
+              f"{r['no_anchors_m'] * 100:8.1f} {r['skating']:6.3f} {r['data_skating']:7.3f} "
+              f"{r.get('ae_m', float('nan')) * 100:5.1f}")
     if rows:
         ratios = [r["defaults_m"] / r["data_m"] for r in rows.values()]
         print(f"    median ratio {np.median(ratios):.2f} over {len(rows)} labels; defaults "
               f"at least 5 cm in {sum(r['defaults_m'] >= 0.05 for r in rows.values())}")
+        if ae is not None:
+            ceiling = [r["ae_m"] / r["data_m"] for r in rows.values()]
+            print(f"    the autoencoder's reconstructions: median ratio {np.median(ceiling):.2f}")
     return rows
