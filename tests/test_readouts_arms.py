@@ -25,7 +25,11 @@ from mlct.motion.skeleton import HUMANML3D as SK
 
 RIG = make_rig(SK)
 ARMS = tuple(families_arms.PARAMS)
-GROUND_TRUTH = 300  # motions of each family, over its parameter combinations and styles
+# Each family's first GROUND_TRUTH motions of bench/readout_ground_truth.py's 300 (its parameter
+# combinations in turn, styles drawn from the benchmark's range; that script measures all 300),
+# and each parameter combination at the corners of the style range.
+GROUND_TRUTH = 32
+STYLE_CORNERS = tuple(itertools.product((0.85, 1.15), repeat=2))  # (amplitude, tempo)
 PASS_RATE = 0.95  # of a family's own motions that pass its checks, at least
 
 
@@ -34,11 +38,16 @@ def _combos(family: str) -> list[dict]:
     return [dict(zip(spec, values)) for values in itertools.product(*spec.values())]
 
 
-def _motion(family: str, params: dict, seed: int = 0) -> np.ndarray:
-    """Positions (T, 22, 3) in metres of one action, in a style of the benchmark's range."""
+def _motion(family: str, params: dict, seed: int = 0,
+            corner: tuple[float, float] | None = None) -> np.ndarray:
+    """Positions (T, 22, 3) in metres of one action, in a style of the benchmark's range, or at
+    `corner` (amplitude, tempo) of it."""
     rng = np.random.default_rng([seed, 7])
-    style = Style(amplitude=float(rng.uniform(0.85, 1.15)), tempo=float(rng.uniform(0.85, 1.15)),
-                  arm_length=RIG.arm_length, shoulder_x=RIG.shoulder_x)
+    amplitude, tempo = float(rng.uniform(0.85, 1.15)), float(rng.uniform(0.85, 1.15))
+    if corner is not None:
+        amplitude, tempo = corner
+    style = Style(amplitude=amplitude, tempo=tempo, arm_length=RIG.arm_length,
+                  shoulder_x=RIG.shoulder_x)
     script = Script((Action(family, params),))
     return compose(script, RIG, style, rng, SK.fps).positions / RIG.scale
 
@@ -49,15 +58,16 @@ def _passes(readings: dict, family: str, params: dict) -> bool:
 
 @pytest.fixture(scope="module")
 def ground_truth() -> dict[str, list[tuple[dict, np.ndarray, dict]]]:
-    """GROUND_TRUTH motions of each arm family, its parameter combinations in turn, with their
-    read-outs."""
+    """GROUND_TRUTH motions of each arm family, its parameter combinations in turn, then each
+    combination at every corner of the style range, with their read-outs (made once)."""
     out = {}
     for family in ARMS:
         combos = _combos(family)
-        out[family] = []
-        for k in range(GROUND_TRUTH):
-            joints = _motion(family, combos[k % len(combos)], k)
-            out[family].append((combos[k % len(combos)], joints, ro.read_all(joints)))
+        made = [(combos[k % len(combos)], _motion(family, combos[k % len(combos)], k))
+                for k in range(GROUND_TRUTH)]
+        made += [(params, _motion(family, params, 1000 + i, corner))
+                 for params in combos for i, corner in enumerate(STYLE_CORNERS)]
+        out[family] = [(params, joints, ro.read_all(joints)) for params, joints in made]
     return out
 
 
@@ -76,7 +86,7 @@ def test_the_families_are_version_four_s():
 def test_arm_motions_keep_bone_lengths_and_stand_on_the_floor(ground_truth):
     feet = [7, 8, 10, 11]
     for family, motions in ground_truth.items():
-        for _, joints, _ in motions[:20]:
+        for _, joints, _ in motions[:20] + motions[GROUND_TRUTH:]:  # and the style's corners
             bones = np.linalg.norm(joints[:, 1:] - joints[:, list(SK.parents[1:])], axis=-1)
             assert np.abs(bones - SK.bone_lengths[1:]).max() < 1e-9, family
             lowest = joints[..., 1].min(axis=1)
@@ -114,7 +124,7 @@ def test_other_families_fail_the_checks(family, others):
 
 @pytest.mark.parametrize("family", [f for f in ARMS if "hand" in FAMILY_PARAMS[f]])
 def test_checks_tell_the_hands_apart(family, ground_truth):
-    for params, _, readings in ground_truth[family][:40]:
+    for params, _, readings in ground_truth[family]:
         other = "right" if params["hand"] == "left" else "left"
         assert not _passes(readings, family, dict(params, hand=other)), (family, params)
 
