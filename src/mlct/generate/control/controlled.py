@@ -19,7 +19,7 @@ The method, chosen by measurement (bench/control.py, docs/control.md), without t
    motion towards far controls, but not far enough for a path at another speed (one latent
    holds about as many strides whatever length it is decoded at: a walk asked for twice its
    speed stayed 0.8 m from the path on average even after 60 gradient steps on the last x0),
-   and costs 2.5-4.5x plain generation (docs/control.md);
+   and costs 2.5-3.7x plain generation (docs/control.md);
 4. the correction (control/fit.py): root path, heading and the keyframes' root places by one
    smooth low-frequency shift; keyframes by eased per-joint offsets with bone lengths restored
    (FABRIK for single joints); feet that stood in the model's motion held in stance (two-bone
