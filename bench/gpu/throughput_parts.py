@@ -32,22 +32,23 @@ def main() -> None:
         parser.error("needs a GPU")
     gen = cuda_graph_generator(*read_bundle(bundled_model_dir()), "cuda", args.dtype)
     cond1 = gen.encode_text(["a person walks forward"])
+    nets = gen.networks  # the cuda-graphs networks: their buckets, noise and graphs
     print(f"{'batch':>6} {'noise on':>8} {'noise':>7} {'replay':>7} {'to host':>8} {'total':>7} "
           f"{'motions/s':>10}")
     for batch in (int(b) for b in args.batches.split(",")):
         cond = cond1.expand(batch, -1).contiguous()
         lengths = [FRAMES] * batch
-        frames = gen._frames(lengths)
-        lens = gen._lengths_tensor(lengths, frames)
+        frames = nets._frames(lengths)
+        lens = nets._lengths_tensor(lengths, frames)
         for where, seed in (("gpu", None), ("host", 0)):
             parts = []
             for i in range(7):
                 torch.cuda.synchronize()
                 t0 = time.perf_counter()
-                c, noise = gen._sampler_inputs(cond, NFE, seed)
+                c, noise = nets._sampler_inputs(cond, NFE, seed, None)
                 torch.cuda.synchronize()
                 t1 = time.perf_counter()
-                out = gen._graphs(("features", NFE, None, frames), c, noise, lens)
+                out = nets._graphs(("features", NFE, None, frames), c, noise, lens)
                 torch.cuda.synchronize()
                 t2 = time.perf_counter()
                 _to_host(out, lengths)

@@ -104,7 +104,7 @@ def _whole_as_the_page(generator, text: str, frames: int, steps: int, seed: int,
     from mlct.generate.compose.keep_going import continue_gait, names_an_end
     from mlct.generate.compose.long_motion import blend_frames
     from mlct.generate.seeds import MAX_SEED
-    from mlct.generate.compose.lengths import MIN_PART_SECONDS
+    from mlct.generate.compose.lengths import MIN_PART_SECONDS, too_long
 
     window = generator.max_frames
     features, joints = _one_with_portable_noise(generator, text, min(frames, window), steps,
@@ -125,7 +125,7 @@ def _whole_as_the_page(generator, text: str, frames: int, steps: int, seed: int,
     if kept is not None:
         return None, kept.joints.astype(np.float32)
     if frames > window:  # past the window only a gait goes on, as in generate()
-        raise generator._too_long(frames, text=text)
+        raise too_long(generator, frames, text=text)
     return features, joints
 
 
