@@ -154,3 +154,44 @@ def test_guidance_without_torch_is_a_one_line_error_naming_the_extra(pipe, monke
         generate_controlled(pipe, "a person walks forward", 60, along_z(0.5, 60), None, 0,
                             ControlMethod(guide=True))
     assert "\n" not in str(raised.value)
+
+
+@pytest.mark.slow
+def test_without_torch_a_path_is_walked_and_keyframes_name_the_extra(tmp_path) -> None:
+    """The pace needs no gradients: on a light install (torch unimportable, as
+    tests/test_light_install.py makes it) a path is walked; keyframes, met by sampling
+    candidates through torch, are one line naming the extra."""
+    import json
+    import os
+    import subprocess
+    import sys
+    import textwrap
+
+    (tmp_path / "path.json").write_text("[[0, 0], [0, 2], [1, 3]]", encoding="utf-8")
+    (tmp_path / "keys.json").write_text(json.dumps(
+        [{"frame": 40, "joint": "right_wrist", "position": [0.3, 1.6, 0.3]}]), encoding="utf-8")
+    code = textwrap.dedent("""
+        import sys
+
+        class NoTorch:
+            def find_spec(self, name, path=None, target=None):
+                if name.split(".")[0] == "torch":
+                    raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+
+        sys.meta_path.insert(0, NoTorch())
+        from mlct.cli import main
+
+        base = ["generate", "a person walks forward", "--seconds", "5", "--seed", "0", "--quiet"]
+        print(main([*base, "--path", "path.json", "--out", "p.npy"]))
+        print(main([*base, "--keyframes", "keys.json", "--out", "k.npy"]))
+        print("torch" in sys.modules)
+    """)
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    env.pop("MLCT_BACKEND", None)  # the suite pins torch (conftest.py); auto is the default
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert done.stdout.split()[-3:] == ["0", "2", "False"], done.stderr[-2000:]
+    path = np.load(tmp_path / "p.npy")
+    assert np.linalg.norm(path[-1, 0, [0, 2]] - [1.0, 3.0]) < 0.01
+    errors = [line for line in done.stderr.splitlines() if line.startswith("mlct: error:")]
+    assert len(errors) == 1 and "keyframes" in errors[0] and "mlct[train]" in errors[0], errors

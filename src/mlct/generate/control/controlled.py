@@ -38,11 +38,9 @@ from __future__ import annotations
 import copy
 import weakref
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import torch
-from torch import Tensor
 
 from mlct.errors import MlctError, require_torch
 from mlct.generate.control import pace
@@ -50,7 +48,10 @@ from mlct.generate.control.fit import (REACH_SECONDS, fit_heading, fit_keyframes
                                        lock_feet, on_floor, reattach, turn_y)
 from mlct.generate.control.schema import Control
 from mlct.generate.output.generated import GeneratedMotion, Generation
-from mlct.motion.features import joints_to_features, recover_from_ric
+
+if TYPE_CHECKING:  # torch is imported where a control is met by sampling (a light install
+    import torch  # walks a path without it: pace.py is numpy)
+    from torch import Tensor
 
 # compose.generator.MotionGenerator, which calls generate_with_control: named, not imported (a cycle)
 MotionGenerator = Any
@@ -147,6 +148,8 @@ def keyframe_list(control: Control, anchor: Anchor) -> list[tuple[int, dict[int,
 
 
 def targets_of(control: Control, anchor: Anchor, skeleton: Any) -> Targets:
+    import torch
+
     out = Targets()
     if control.path is not None:
         xyz = np.stack([control.path[:, 0], np.zeros(len(control.path)), control.path[:, 1]], 1)
@@ -177,6 +180,8 @@ def control_loss(joints: Tensor, t: Targets, skeleton: Any) -> Tensor:
     if t.path_xz is not None:
         loss = loss + ((joints[t.path_frames, 0][:, [0, 2]] - t.path_xz) ** 2).sum(-1).mean()
     if t.head is not None:
+        import torch
+
         r_hip, l_hip, r_sh, l_sh = skeleton.face_joints
         across = joints[t.head_frames, r_hip] - joints[t.head_frames, l_hip] \
             + joints[t.head_frames, r_sh] - joints[t.head_frames, l_sh]
@@ -195,6 +200,8 @@ _DECODERS: "weakref.WeakKeyDictionary[Any, torch.nn.Module]" = weakref.WeakKeyDi
 def differentiable_decoder(pipe: MotionGenerator) -> torch.nn.Module | None:
     """The generator's decoder with plain (autograd-aware) products, or None when its backend
     has none (onnx): mlct.nn.inference's prepacked oneDNN products have no backward."""
+    import torch
+
     if not isinstance(pipe.ae, torch.nn.Module):
         return None
     if pipe not in _DECODERS:
@@ -221,6 +228,10 @@ def guidance_decoder(pipe: MotionGenerator) -> torch.nn.Module:
 
 def _joints(pipe: MotionGenerator, decoder: Any, z: Tensor, frames: int) -> Tensor:
     """(B, T, J, 3) joints of latents z (B, n, d) through `decoder`."""
+    import torch
+
+    from mlct.motion.features import recover_from_ric
+
     lengths = torch.full((len(z),), frames)
     feats = decoder.decode(z / pipe.config.schedule.latent_scale, lengths, frames)
     return recover_from_ric(feats.float() * pipe.std + pipe.mean)
@@ -238,6 +249,8 @@ def guided_latent(pipe: MotionGenerator, text: str, frames: int, seed: int, nfe:
                   targets: Targets, method: ControlMethod) -> Tensor:
     """(1, n, d): the best of method.candidates latents for the control, each sampled with the
     control's gradient applied to every step's x0 when method.guide."""
+    import torch
+
     decoder = guidance_decoder(pipe) if method.guide else None
     count = max(1, method.candidates)
     # as generate()'s (the onnx backend's vectors are arrays: tensors here, for the sampler)
@@ -371,11 +384,15 @@ def controlled_motion(pipe: MotionGenerator, text: str, frames: int, control: Co
     stood = None  # the motion whose standing feet the correction holds: the one it corrects
     if laid is not None:
         joints, feats, stood = anchor.to_model(laid.joints), None, laid.retimed
-    else:
+    else:  # sampled: candidates and guidance run the networks through torch
+        require_torch("this control (keyframes, an edit, a prefix, or a path for a text that "
+                      "does not travel)")
+        from mlct.motion.joints import features_to_joints
+
         targets = targets_of(control, anchor, skeleton)
         z = guided_latent(pipe, text, frames, seed, nfe, targets, method)
         feats = pipe.decode(z, [frames])[0]
-        joints = recover_from_ric(torch.from_numpy(feats)).numpy().astype(np.float64)
+        joints = features_to_joints(feats).astype(np.float64)
     before = anchor.to_world(joints)
     if method.project:
         joints = project(joints, control, anchor, skeleton, method, stood)
@@ -387,7 +404,7 @@ def controlled_motion(pipe: MotionGenerator, text: str, frames: int, control: Co
                   and control.prefix is None)
     if path_alone and method.project:
         joints = on_floor(joints)
-    features = joints_to_features(joints, skeleton).features if frames > 1 else feats
+    features = feats if frames < 2 else None  # derived from the joints when read (generated.py)
     motion = GeneratedMotion(text, features, joints.astype(np.float32), skeleton.fps,
                              skeleton.name, seed)
     if path_alone:
