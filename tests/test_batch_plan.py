@@ -31,11 +31,11 @@ class Recorder:
         self.calls: list[int] = []
         self.items: list[tuple[bytes, int, int]] = []
 
-    def __call__(self, cond, nfe, seeds, guidance, lengths, candidates):
+    def __call__(self, cond, seeds, lengths, how):
         self.calls.append(len(seeds))
-        self.items += [(row.float().numpy().tobytes(), int(n), int(s))
+        self.items += [(np.asarray(row, dtype=np.float32).tobytes(), int(n), int(s))
                        for row, n, s in zip(cond, lengths, seeds)]
-        return self.inner(cond, nfe, seeds, guidance, lengths, candidates)
+        return self.inner(cond, seeds, lengths, how)
 
     def __enter__(self) -> "Recorder":
         self.generator.sample_best = self
@@ -97,10 +97,11 @@ def test_gaits_that_keep_going_get_their_takes_in_one_batch(generator):
 
 def test_an_unforeseen_sample_is_still_made(generator):
     """A sample the memo does not hold (other settings than the plan's) is sampled where it is
-    asked for: best_features falls through to sample_best."""
+    asked for: batch_plan.best_features falls through to sample_best."""
     from mlct.generate.compose.batch_plan import SampleMemo
+    from mlct.generate.core import Sampling
 
-    generator.nesting.memo = SampleMemo(generator.check_nfe(None), None, 1)
+    generator.nesting.memo = SampleMemo(Sampling(generator.check_nfe(None), None, 1))
     try:
         out = generator.generate("a person jumps", seconds=3.0, seed=0, candidates=1)[0]
     finally:

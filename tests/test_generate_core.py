@@ -12,7 +12,7 @@ from mlct.generate.backends.pytorch import TorchNetworks
 from mlct.generate.bundle import bundled_model_dir, read_bundle
 from mlct.generate.compose.actions import plain_subject
 from mlct.generate.compose.generator import MotionGenerator
-from mlct.generate.core import MotionCore
+from mlct.generate.core import MotionCore, Sampling
 
 
 class CountingNetworks(TorchNetworks):
@@ -80,7 +80,7 @@ def test_the_core_alone_gives_features_and_joints(bundle) -> None:
     """text -> latents -> features -> joints, without the composer: the core's own calls."""
     core = MotionCore(TorchNetworks(*bundle))
     cond = core.encode_text(["a person walks forward"])
-    feats = core.features(cond, None, [3], None, [50])
+    feats = core.features(cond, [3], [50], Sampling(core.check_nfe(None)))
     direct = core.decode(core.sample_latents(cond, None, [3]), [50])
     np.testing.assert_array_equal(feats[0], direct[0])
     assert core.joints(feats[0]).shape == (50, core.skeleton.n_joints, 3)

@@ -11,6 +11,7 @@ and the rest are the composer's (compose/generator.py), which calls `features` o
 from __future__ import annotations
 
 from collections import OrderedDict
+from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -23,6 +24,17 @@ TEXT_MEMO_SIZE = 2048  # texts whose embeddings a generator keeps (LRU): <= 64 M
 
 # (latents (B * N, n, d) over latent_scale, N) -> the index (B,) of each item's best candidate
 Chooser = Callable[[Any, int], Any]
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """How each batch of a generate() call is sampled: the step count (checked), the guidance
+    scale (None: the sampler's) and the candidates per prompt. Made once from the call's nfe,
+    guidance and candidates, and handed down whole to every path that samples."""
+
+    steps: int
+    guidance: float | None = None
+    candidates: int = 1
 
 
 class MotionCore:
@@ -123,20 +135,22 @@ class MotionCore:
         steps = self.check_nfe(nfe)
         return self.networks.features(cond, steps, seed, guidance, self._uncond(), lengths)
 
-    def features(self, cond: Any, nfe: int | None, seeds: Sequence[int], guidance: float | None,
-                 lengths: Sequence[int], candidates: int = 1, choose: Chooser | None = None
-                 ) -> list[np.ndarray]:
-        """One batch: each item's features, from `candidates` latents where `choose` picks the
-        best (the composer's critic), else the plain sample of its seed. The candidates of a
-        seed are seed.candidate_seeds; the first is the plain sample."""
+    def features(self, cond: Any, seeds: Sequence[int], lengths: Sequence[int], how: Sampling,
+                 choose: Chooser | None = None) -> list[np.ndarray]:
+        """One batch: each item's features, from how.candidates latents where `choose` picks
+        the best (the composer's critic), else the plain sample of its seed. The candidates of
+        a seed are seeds.candidate_seeds; the first is the plain sample."""
+        candidates, uncond = how.candidates, self._uncond()
         if candidates == 1 or choose is None:
-            return self.sample_features(cond, nfe, list(seeds), guidance, lengths)
+            return self.networks.features(cond, how.steps, list(seeds), how.guidance, uncond,
+                                          lengths)
         scale = self.config.schedule.latent_scale
         if isinstance(cond, np.ndarray):
             rows = np.repeat(cond, candidates, axis=0)
         else:
             rows = cond.repeat_interleave(candidates, dim=0)
-        z = self.sample_latents(rows, nfe, candidate_seeds(seeds, candidates), guidance)
+        z = self.networks.latents(rows, how.steps, candidate_seeds(seeds, candidates),
+                                  how.guidance, uncond)
         if isinstance(z, np.ndarray):  # the onnx backend's batches below TORCH_MIN_BATCH
             best = np.asarray(choose(z / np.float32(scale), candidates))
             z = z.reshape(len(seeds), candidates, *z.shape[1:])[np.arange(len(seeds)), best]

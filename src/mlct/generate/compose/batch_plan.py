@@ -7,7 +7,7 @@ a gait asked for past its natural length several takes (keep_going). Those paths
 generate() again, one prompt at a time, so a list of 64 sequences sampled 64 small batches
 (29 motions/s against 177 for 64 plain prompts, torch, 2 threads).
 
-Each sample depends only on its (text, length, seed, nfe, guidance, candidates): every item
+Each sample depends only on its (text, length, seed) and the call's Sampling: every item
 draws its noise from its own seed (pipeline.generators_for), so it does not matter which batch
 it is made in. So the outermost generate() of a list first lists the samples its prompts will
 ask for (`planned_samples`, the same decisions as MotionGenerator._made in the same order), makes
@@ -30,6 +30,7 @@ from mlct.generate.compose.actions import split_actions as split_actions_of
 from mlct.generate.compose.actions import split_concurrent
 from mlct.generate.compose.lengths import MIN_PART_SECONDS, frame_lengths, longest_gait
 from mlct.generate.compose.prompts import clean_prompt
+from mlct.generate.core import Sampling
 
 if TYPE_CHECKING:
     from torch import Tensor
@@ -85,17 +86,17 @@ def planned_samples(pipe: Any, texts: Sequence[str], frames: Sequence[int],
 class SampleMemo:
     """Samples made ahead of their prompt's path: key -> denormalized features (T, D)."""
 
-    def __init__(self, steps: int, guidance: float | None, candidates: int) -> None:
-        self.steps, self.guidance, self.candidates = steps, guidance, candidates
+    def __init__(self, how: Sampling) -> None:
+        self.how = how
         self._made: dict[tuple[bytes, int, int], np.ndarray] = {}
 
     def _key(self, row: Tensor, frames: int, seed: int) -> tuple[bytes, int, int]:
         array = row if isinstance(row, np.ndarray) else row.detach().float().cpu().numpy()
         return np.asarray(array, np.float32).tobytes(), int(frames), int(seed)
 
-    def serves(self, steps: int, guidance: float | None, candidates: int) -> bool:
+    def serves(self, how: Sampling) -> bool:
         """Whether a best_features call with these settings may read the memo."""
-        return (steps, guidance, candidates) == (self.steps, self.guidance, self.candidates)
+        return how == self.how
 
     def get(self, row: Tensor, frames: int, seed: int) -> np.ndarray | None:
         return self._made.get(self._key(row, frames, seed))
@@ -114,20 +115,19 @@ def fill(pipe: Any, memo: SampleMemo, samples: Sequence[Sample]) -> None:
     todo = [s for s in unique if memo.get(rows[s.text], s.frames, s.seed) is None]
     kind = str(pipe.device).split(":")[0]  # "cpu", "cuda"
     latents = PREFETCH_LATENTS.get(kind, PREFETCH_LATENTS["cpu"])
-    per_call = max(1, latents // memo.candidates)
+    per_call = max(1, latents // memo.how.candidates)
     for start in range(0, len(todo), per_call):
         chunk = todo[start:start + per_call]
         cond = _stack([rows[s.text] for s in chunk])
-        made = pipe.sample_best(cond, memo.steps, [s.seed for s in chunk], memo.guidance,
-                                [s.frames for s in chunk], memo.candidates)
+        made = pipe.sample_best(cond, [s.seed for s in chunk], [s.frames for s in chunk],
+                                memo.how)
         for s, feats in zip(chunk, made):
             memo.put(rows[s.text], s.frames, s.seed, feats)
 
 
 @contextlib.contextmanager
 def made_ahead(gen: Any, texts: Sequence[str], frames: Sequence[int], seeds: Sequence[int],
-               split_actions: bool, nfe: int | None, guidance: float | None,
-               candidates: int) -> Iterator[None]:
+               split_actions: bool, how: Sampling) -> Iterator[None]:
     """The outermost generate() makes every sample its prompts' paths will ask for in a
     few large batches first, where some prompt is more than one sample; the paths then read
     them (best_features)."""
@@ -140,22 +140,20 @@ def made_ahead(gen: Any, texts: Sequence[str], frames: Sequence[int], seeds: Seq
     if [s.text for s in planned] == list(texts):  # one sample each: one batch already
         yield
         return
-    with samples_ahead(gen, planned, nfe, guidance, candidates):
+    with samples_ahead(gen, planned, how):
         yield
 
 
 @contextlib.contextmanager
-def samples_ahead(gen: Any, samples: Sequence[Sample], nfe: int | None,
-                  guidance: float | None, candidates: int) -> Iterator[None]:
+def samples_ahead(gen: Any, samples: Sequence[Sample], how: Sampling) -> Iterator[None]:
     """Within it, best_features reads these Samples, made now in a few large batches (added
     to the memo of an outer call with the same settings, else a new one)."""
-    steps = gen.check_nfe(nfe)
     outer = getattr(gen.nesting, "memo", None)
-    if outer is not None and outer.serves(steps, guidance, candidates):
+    if outer is not None and outer.serves(how):
         fill(gen, outer, samples)
         yield
         return
-    gen.nesting.memo = SampleMemo(steps, guidance, candidates)
+    gen.nesting.memo = SampleMemo(how)
     try:
         fill(gen, gen.nesting.memo, samples)
         yield
@@ -163,19 +161,18 @@ def samples_ahead(gen: Any, samples: Sequence[Sample], nfe: int | None,
         gen.nesting.memo = outer
 
 
-def best_features(gen: Any, cond: Tensor, nfe: int | None, seeds: Sequence[int],
-                  guidance: float | None, lengths: Sequence[int], candidates: int
-                  ) -> list[np.ndarray]:
+def best_features(gen: Any, cond: Tensor, seeds: Sequence[int], lengths: Sequence[int],
+                  how: Sampling) -> list[np.ndarray]:
     """sample_best's features, taken from the samples the outermost generate() made ahead
     for its whole list of prompts where it made them."""
     memo = getattr(gen.nesting, "memo", None)
-    if memo is None or not memo.serves(gen.check_nfe(nfe), guidance, candidates):
-        return gen.sample_best(cond, nfe, seeds, guidance, lengths, candidates)
+    if memo is None or not memo.serves(how):
+        return gen.sample_best(cond, seeds, lengths, how)
     found = [memo.get(row, n, s) for row, n, s in zip(cond, lengths, seeds)]
     missing = [i for i, f in enumerate(found) if f is None]
     if missing:
-        made = gen.sample_best(cond[missing], nfe, [seeds[i] for i in missing], guidance,
-                               [lengths[i] for i in missing], candidates)
+        made = gen.sample_best(cond[missing], [seeds[i] for i in missing],
+                               [lengths[i] for i in missing], how)
         for i, feats in zip(missing, made):
             found[i] = feats
     return found  # type: ignore[return-value]

@@ -10,13 +10,13 @@ import numpy as np
 
 from mlct.generate.compose.lengths import MIN_PART_SECONDS, too_long
 from mlct.generate.compose.reading import LOG
+from mlct.generate.core import Sampling
 from mlct.generate.output.generated import GeneratedMotion
 from mlct.generate.seeds import MAX_SEED
 
 
 def keep_going(gen: Any, out: list[GeneratedMotion | None], indices: Sequence[int],
-               frames: Sequence[int], nfe: int | None, seeds: Sequence[int],
-               guidance: float | None, candidates: int) -> None:
+               frames: Sequence[int], seeds: Sequence[int], how: Sampling) -> None:
     """A one-action gait asked for clearly longer than its natural length that stopped
     early, or asked past the window (made at the window's length so far), is made again as
     takes of its natural length chained into one continuing motion (keep_going.py); out[i]
@@ -48,15 +48,13 @@ def keep_going(gen: Any, out: list[GeneratedMotion | None], indices: Sequence[in
         if needed is not None:
             ahead += [Sample(out[i].text, needed[1], (seeds[i] + k) % (MAX_SEED + 1))
                       for k in range(needed[0])]
-    with samples_ahead(gen, ahead, nfe, guidance, candidates):
+    with samples_ahead(gen, ahead, how):
         for i, seconds in zip(todo, natural):
-            _keep_going_one(gen, out, i, frames[i], seconds, blend, nfe, seeds[i], guidance,
-                            candidates)
+            _keep_going_one(gen, out, i, frames[i], seconds, blend, seeds[i], how)
 
 
 def _keep_going_one(gen: Any, out: list[GeneratedMotion | None], i: int, frames: int,
-                    natural_seconds: float, blend: int, nfe: int | None, seed: int,
-                    guidance: float | None, candidates: int) -> None:
+                    natural_seconds: float, blend: int, seed: int, how: Sampling) -> None:
     """keep_going for out[i]."""
     from mlct.generate.compose.keep_going import continue_gait
     from mlct.generate.compose.long_motion import LongMotion
@@ -65,9 +63,10 @@ def _keep_going_one(gen: Any, out: list[GeneratedMotion | None], i: int, frames:
     motion = out[i]
 
     def takes(count: int, take: int) -> list[np.ndarray]:
-        made = gen.generate([motion.text] * count, lengths=take, nfe=nfe,
+        made = gen.generate([motion.text] * count, lengths=take, nfe=how.steps,
                             seed=[(seed + k) % (MAX_SEED + 1) for k in range(count)],
-                            guidance=guidance, split_actions=False, candidates=candidates)
+                            guidance=how.guidance, split_actions=False,
+                            candidates=how.candidates)
         return [m.joints for m in made]
 
     kept = continue_gait(motion.joints, frames, gen.max_frames, natural_seconds, blend,

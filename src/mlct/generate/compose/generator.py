@@ -33,7 +33,7 @@ from mlct.generate.compose.lengths import (DEFAULT_SECONDS, MIN_PART_SECONDS, fr
                                            wants_auto)
 from mlct.generate.compose.prompts import clean_prompt
 from mlct.generate.compose.text_anchors import TextAnchors, read_text_anchors
-from mlct.generate.core import MotionCore
+from mlct.generate.core import MotionCore, Sampling
 from mlct.generate.output.generated import GeneratedMotion, Generation
 from mlct.generate.seeds import item_seeds
 from mlct.motion.foot_lock import FootLock, lock_feet
@@ -147,27 +147,21 @@ class MotionGenerator:
         (text_anchors.py), any other as it is."""
         return cond if self.text_anchors is None else self.text_anchors(cond)
 
-    def best_features(self, cond: Any, nfe: int | None, seeds: Sequence[int],
-                      guidance: float | None, lengths: Sequence[int], candidates: int
-                      ) -> list[np.ndarray]:
-        return batch_plan.best_features(self, cond, nfe, seeds, guidance, lengths, candidates)
-
-    def sample_best(self, cond: Any, nfe: int | None, seeds: Sequence[int],
-                    guidance: float | None, lengths: Sequence[int], candidates: int
-                    ) -> list[np.ndarray]:
+    def sample_best(self, cond: Any, seeds: Sequence[int], lengths: Sequence[int],
+                    how: Sampling) -> list[np.ndarray]:
         """The features of one batch, each prompt the best of `candidates` latents by the
         critic (the first candidate of a seed is the plain sample of that seed), so a motion is
         replayed from (text, length, nfe, seed, candidates): one call of the core. The network
         samples from the text vectors as the model's text anchors pull them (none: as given);
-        the critic scores against `cond` itself. Always samples; best_features first looks in
-        the samples made ahead."""
+        the critic scores against `cond` itself. Always samples; batch_plan.best_features
+        first looks in the samples made ahead."""
         critic = self.critic
 
         def choose(z: Any, count: int) -> Any:  # (B * N, n, d) -> (B,)
             return critic.best(z, list(lengths), cond, count)
 
-        return self.core.features(self.sampling_text(cond), nfe, seeds, guidance, lengths,
-                                  candidates, choose if critic is not None else None)
+        return self.core.features(self.sampling_text(cond), seeds, lengths, how,
+                                  choose if critic is not None else None)
 
     # -- generate() ------------------------------------------------------------------------------
     def generate(self, texts: str | Sequence[str], lengths: int | Sequence[int] | None = None,
@@ -250,21 +244,18 @@ class MotionGenerator:
         if guidance is not None and not is_scale(guidance):  # a consistency model ignores it
             raise MlctError(f"guidance must be a number >= 0, got {guidance!r}")
         seeds = item_seeds(len(texts), seed)
-        with batch_plan.made_ahead(self, texts, frames, seeds, split_actions, nfe, guidance,
-                                   candidates):
-            return self._made_each(texts, frames, seeds, split_actions, nfe, guidance,
-                                   candidates)
+        how = Sampling(self.check_nfe(nfe), guidance, candidates)  # every batch of the call's
+        with batch_plan.made_ahead(self, texts, frames, seeds, split_actions, how):
+            return self._made_each(texts, frames, seeds, split_actions, how)
 
     def _made_each(self, texts: list[str], frames: list[int], seeds: list[int],
-                   split_actions: bool, nfe: int | None, guidance: float | None,
-                   candidates: int) -> Generation:
+                   split_actions: bool, how: Sampling) -> Generation:
         """_made's motions, prompt by prompt (their samples maybe made ahead)."""
         out: list[GeneratedMotion | None] = [None] * len(texts)
         if split_actions:
             for i, t in enumerate(texts):
                 if (pair := split_concurrent(t)) is not None:
-                    out[i] = parts.concurrent(self, t, *pair, frames[i], nfe, seeds[i],
-                                              guidance, candidates)
+                    out[i] = parts.concurrent(self, t, *pair, frames[i], seeds[i], how)
         parts_of = [split_actions_of(t) for t in texts]
         plans = parts_of if split_actions else [[t] for t in texts]
         # one action, however the caller splits ("walks, then squats" given whole is none):
@@ -278,18 +269,16 @@ class MotionGenerator:
             if frames[i] > self.max_frames and i not in single:
                 raise too_long(self, frames[i], text=texts[i])
         if whole:
-            made = self.best_features(self.encode_text([texts[i] for i in whole]), nfe,
-                                      [seeds[i] for i in whole], guidance,
-                                      [min(frames[i], self.max_frames) for i in whole],
-                                      candidates)
+            made = batch_plan.best_features(self, self.encode_text([texts[i] for i in whole]),
+                                            [seeds[i] for i in whole],
+                                            [min(frames[i], self.max_frames) for i in whole],
+                                            how)
             for i, feats in zip(whole, made):
                 out[i] = GeneratedMotion(texts[i], feats, self.core.joints(feats),
                                          self.skeleton.fps, self.skeleton.name, seeds[i])
-            gaits.keep_going(self, out, [i for i in whole if i in single], frames, nfe, seeds,
-                             guidance, candidates)
+            gaits.keep_going(self, out, [i for i in whole if i in single], frames, seeds, how)
         for i in sorted(i for i in set(range(len(texts))) - set(whole) if out[i] is None):
-            out[i] = parts.chained(self, texts[i], plans[i], frames[i], nfe, seeds[i],
-                                   guidance, candidates)
+            out[i] = parts.chained(self, texts[i], plans[i], frames[i], seeds[i], how)
         return Generation(out)  # type: ignore[arg-type]
 
     def _stated(self, texts: list[str], clean: list[str], stated: list[float | None],

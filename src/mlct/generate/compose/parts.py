@@ -8,22 +8,24 @@ from typing import Any
 import numpy as np
 
 from mlct.generate.compose.timing import part_frames
+from mlct.generate.core import Sampling
 from mlct.generate.output.generated import GeneratedMotion
 
 
-def chained(gen: Any, text: str, parts: list[str], frames: int, nfe: int | None, seed: int,
-            guidance: float | None, candidates: int) -> GeneratedMotion:
+def chained(gen: Any, text: str, parts: list[str], frames: int, seed: int, how: Sampling
+            ) -> GeneratedMotion:
     """One motion of `frames` doing parts[k] in turn, under the whole text."""
     from mlct.generate.compose.long_motion import generate_long
 
     fps = gen.skeleton.fps
     made = generate_long(gen, parts, [n / fps for n in part_frames(gen, parts, frames)],
-                         nfe=nfe, seed=seed, guidance=guidance, candidates=candidates)
+                         nfe=how.steps, seed=seed, guidance=how.guidance,
+                         candidates=how.candidates)
     return made.renamed(text)
 
 
-def concurrent(gen: Any, text: str, body: str, arms: str, frames: int, nfe: int | None,
-               seed: int, guidance: float | None, candidates: int) -> GeneratedMotion:
+def concurrent(gen: Any, text: str, body: str, arms: str, frames: int, seed: int,
+               how: Sampling) -> GeneratedMotion:
     """An arm action done during another: the body made from `body` (split into its actions
     as any prompt), the arm action made from `arms` alone, standing, each the best of the
     candidates; then the arms' bones re-attached to the body, turned into its facing
@@ -36,10 +38,10 @@ def concurrent(gen: Any, text: str, body: str, arms: str, frames: int, nfe: int 
     from mlct.generate.control.schema import part_joints
 
     skeleton = gen.skeleton
-    made = gen.generate(body, lengths=frames, nfe=nfe, seed=seed, guidance=guidance,
-                        candidates=candidates)[0]
-    standing = gen.generate(arms, lengths=frames, nfe=nfe, seed=seed, guidance=guidance,
-                            candidates=candidates)[0]
+    made = gen.generate(body, lengths=frames, nfe=how.steps, seed=seed,
+                        guidance=how.guidance, candidates=how.candidates)[0]
+    standing = gen.generate(arms, lengths=frames, nfe=how.steps, seed=seed,
+                            guidance=how.guidance, candidates=how.candidates)[0]
     joints = reattach(standing.joints.astype(np.float64), made.joints.astype(np.float64),
                       part_joints("arms", skeleton), skeleton)
     return GeneratedMotion(text, None, joints.astype(np.float32), skeleton.fps,

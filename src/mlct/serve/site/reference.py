@@ -29,7 +29,7 @@ def generate_with_portable_noise(generator, text: str, frames: int | None, nfe: 
     decoder (any backend), the noise from PortableNoise(seed), texts encoded one at a time
     (page_text_vector), each prompt the best of `candidates` by the critic (None: the model's
     default, as the page's; candidate k's noise from PortableNoise(seed + k * SEED_STRIDE mod
-    2^63), as best_features seeds it), the feet planted. Unless
+    2^63), as MotionGenerator.sample_best seeds it), the feet planted. Unless
     split_actions is False, a prompt is made as generate() makes it (compose/generator.py): an arm
     action done during another (compose.split_concurrent) alone, standing, its arms put on the
     body made from the rest (control_fit.reattach), both with the seed; a sequence
