@@ -99,7 +99,7 @@ def test_an_unforeseen_sample_is_still_made(generator):
     """A sample the memo does not hold (other settings than the plan's) is sampled where it is
     asked for: batch_plan.best_features falls through to sample_best."""
     from mlct.generate.compose.batch_plan import SampleMemo
-    from mlct.generate.core import Sampling
+    from mlct.generate.seeds import Sampling
 
     generator.nesting.memo = SampleMemo(Sampling(generator.check_nfe(None), None, 1))
     try:

@@ -12,7 +12,8 @@ from mlct.generate.backends.pytorch import TorchNetworks
 from mlct.generate.bundle import bundled_model_dir, read_bundle
 from mlct.generate.compose.actions import plain_subject
 from mlct.generate.compose.generator import MotionGenerator
-from mlct.generate.core import MotionCore, Sampling
+from mlct.generate.core import MotionCore
+from mlct.generate.seeds import Sampling
 
 
 class CountingNetworks(TorchNetworks):

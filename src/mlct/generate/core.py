@@ -11,30 +11,18 @@ and the rest are the composer's (compose/generator.py), which calls `features` o
 from __future__ import annotations
 
 from collections import OrderedDict
-from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from mlct.errors import MlctError
 from mlct.generate.backends.base import Networks
-from mlct.generate.seeds import candidate_seeds, is_int
+from mlct.generate.seeds import Sampling, candidate_seeds, is_int
 
 TEXT_MEMO_SIZE = 2048  # texts whose embeddings a generator keeps (LRU): <= 64 MB with tokens
 
 # (latents (B * N, n, d) over latent_scale, N) -> the index (B,) of each item's best candidate
 Chooser = Callable[[Any, int], Any]
-
-
-@dataclass(frozen=True)
-class Sampling:
-    """How each batch of a generate() call is sampled: the step count (checked), the guidance
-    scale (None: the sampler's) and the candidates per prompt. Made once from the call's nfe,
-    guidance and candidates, and handed down whole to every path that samples."""
-
-    steps: int
-    guidance: float | None = None
-    candidates: int = 1
 
 
 class MotionCore:

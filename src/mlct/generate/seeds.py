@@ -1,4 +1,5 @@
-"""Seeds: how a call's seed becomes each item's, and each item's its noise generator.
+"""Seeds: how a call's seed becomes each item's, and each item's its noise generator; and
+`Sampling`, the rest of what a call's samples depend on.
 
 An item's motion depends only on its own seed (not on the rest of its batch), so a motion is
 replayed from (text, length, nfe, seed, candidates) whatever batch it was made in.
@@ -6,6 +7,7 @@ replayed from (text, length, nfe, seed, candidates) whatever batch it was made i
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
@@ -18,6 +20,17 @@ if TYPE_CHECKING:
 
 SEED_STRIDE = 0x9E3779B97F4A7C15  # candidate k of seed s samples with s + k * this (mod 2^63)
 MAX_SEED = 2**63 - 1  # torch.Generator.manual_seed takes 64 bits; kept signed for portability
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """How each batch of a generate() call is sampled: the step count (checked), the guidance
+    scale (None: the sampler's) and the candidates per prompt. Made once from the call's nfe,
+    guidance and candidates, and handed down whole to every path that samples."""
+
+    steps: int
+    guidance: float | None = None
+    candidates: int = 1
 
 
 def is_int(value: object) -> bool:

@@ -30,7 +30,7 @@ from mlct.generate.compose.actions import split_actions as split_actions_of
 from mlct.generate.compose.actions import split_concurrent
 from mlct.generate.compose.lengths import MIN_PART_SECONDS, frame_lengths, longest_gait
 from mlct.generate.compose.prompts import clean_prompt
-from mlct.generate.core import Sampling
+from mlct.generate.seeds import Sampling
 
 if TYPE_CHECKING:
     from torch import Tensor

@@ -10,7 +10,7 @@ import numpy as np
 
 from mlct.generate.compose.lengths import MIN_PART_SECONDS, too_long
 from mlct.generate.compose.reading import LOG
-from mlct.generate.core import Sampling
+from mlct.generate.seeds import Sampling
 from mlct.generate.output.generated import GeneratedMotion
 from mlct.generate.seeds import MAX_SEED
 

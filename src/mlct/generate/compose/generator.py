@@ -33,9 +33,9 @@ from mlct.generate.compose.lengths import (DEFAULT_SECONDS, MIN_PART_SECONDS, fr
                                            wants_auto)
 from mlct.generate.compose.prompts import clean_prompt
 from mlct.generate.compose.text_anchors import TextAnchors, read_text_anchors
-from mlct.generate.core import MotionCore, Sampling
+from mlct.generate.core import MotionCore
 from mlct.generate.output.generated import GeneratedMotion, Generation
-from mlct.generate.seeds import item_seeds
+from mlct.generate.seeds import Sampling, item_seeds
 from mlct.motion.foot_lock import FootLock, lock_feet
 
 

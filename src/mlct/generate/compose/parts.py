@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from mlct.generate.compose.timing import part_frames
-from mlct.generate.core import Sampling
+from mlct.generate.seeds import Sampling
 from mlct.generate.output.generated import GeneratedMotion
 
 
