@@ -13,8 +13,8 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from mlct.eval.readouts import (ANKLE, EXTRA_CHECKS, EXTRA_READINGS, FPS, KNEE, NECK, PELVIS,
-                                SHOULDER, SIDES, WRIST, Check, _count_rises, _other, _standing,
-                                facing)
+                                SHOULDER, SIDES, WRIST, Check, _count_rises, _floor, _lowest_foot,
+                                _other, _standing, facing)
 from mlct.eval.readouts_more import (_chest_forward, _end, _floor_level, _forward, _lateral,
                                      _tilt)
 
@@ -85,6 +85,21 @@ def body_readings(joints: np.ndarray) -> dict[str, float]:
     lean = np.arctan2(np.einsum("ti,ti->t", spine, facing(joints)), spine[:, 1])
     r["lean_peak"] = float(lean.max())
     r["lean_time"] = _seconds(lean > 0.25)
+    # A long jump: the pelvis's horizontal travel over the longest stretch in the air.
+    up = _lowest_foot(joints) > _floor(joints) + 0.05
+    best = (0, 0)
+    start = None
+    for i, flying in enumerate(np.append(up, False)):
+        if flying and start is None:
+            start = i
+        elif not flying and start is not None:
+            best = max(best, (i - start, start))
+            start = None
+    length, first = best
+    r["longest_flight"] = length / FPS
+    r["longest_flight_travel"] = float(np.linalg.norm(
+        joints[first + length - 1, PELVIS, [0, 2]] - joints[first, PELVIS, [0, 2]])) \
+        if length else 0.0
     # Turning a rope: both wrists beside the hips, a little out to the sides.
     r["hands_at_hips"] = _seconds(both(lambda s: (np.abs(height[s] - pelvis) < 0.2)
                                        & (out[s] > 0.1)))
@@ -174,8 +189,8 @@ def _step_over_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
 
 def _fall_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
     """fall_forward, fall_backward: from standing to lying in a second or so."""
-    # GT: down in 0.35-0.6 s (readouts_more's descent_time); lying down takes 0.9 s or more. Forward ends on the front (chest
-    # down), backward on the back (chest up).
+    # GT: down in 0.35-0.6 s (readouts_more's descent_time); lying down takes 0.9 s or more.
+    # Forward ends on the front (chest down), backward on the back (chest up).
     front = family == "fall_forward"
     return [Check(f"{family}.starts_standing", "the pelvis starts over 0.7 m up",
                   lambda r: r["start_pelvis_height"] > 0.7),
@@ -267,11 +282,27 @@ def _stumble_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
                   and r["end_pelvis_height"] > r["start_pelvis_height"] - 0.1)]
 
 
+def _long_jump_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
+    """long_jump: a run-up, one long flight forward, landing on the feet."""
+    # GT: in the air 0.55 s (the feet 5 cm up), the pelvis 1.5-2.0 m further meanwhile, the
+    # run-up 2.7-4 m/s; a run's flights last 0.1 s, a jump forward covers 0.5 m, stairs end on
+    # another level.
+    return [Check("long_jump.run_up", "the pelvis reaches 2.5 m/s (over a second)",
+                  lambda r: r["peak_speed"] > 2.5),
+            Check("long_jump.flight", "one flight of 0.25 s or more covering 1 m, on level ground",
+                  lambda r: r["longest_flight"] >= 0.25 and r["longest_flight_travel"] > 1.0
+                  and abs(r["feet_level_change"]) < 0.1),
+            Check("long_jump.lands", "ends standing", lambda r: r["end_pelvis_height"]
+                  > r["start_pelvis_height"] - 0.1)]
+
+
 BODY_CHECKS: dict[str, Callable[[str, Mapping[str, Any]], list[Check]]] = {
     "crawl": _crawl_checks, "walk_downstairs": _stairs_checks, "walk_upstairs": _stairs_checks,
     "step_over": _step_over_checks, "fall_forward": _fall_checks, "fall_backward": _fall_checks,
     "sit_ups": _sit_ups_checks, "limp": _limp_checks, "put_down": _put_down_checks,
-    "jump_rope": _jump_rope_checks, "stumble": _stumble_checks, "carry": _busy_walk_checks, "push": _busy_walk_checks, "balance_walk": _busy_walk_checks,
+    "jump_rope": _jump_rope_checks, "stumble": _stumble_checks,
+    "long_jump": _long_jump_checks, "carry": _busy_walk_checks, "push": _busy_walk_checks,
+    "balance_walk": _busy_walk_checks,
 }
 
 EXTRA_READINGS.append(body_readings)

@@ -32,7 +32,7 @@ from mlct.data.synth.motions import (Clip, Style, _arm, _frames, bump, concatena
 from mlct.data.synth.phrases_more import Phrase, Rng, _count, _pick, _table, _times
 from mlct.data.synth.rig import SIDES, Rig, pose_positions, rot_x
 
-# ---------------------------------------------------------------------------- walks with the arms busy
+# ------------------------------------------------------------------- walks with the arms busy
 # Wrist targets are in the chest frame relative to the shoulder (rig.pose_positions): x to the
 # body's left, y up, z forward, metres; `sign` is +1 for the left arm and -1 for the right.
 
@@ -165,7 +165,8 @@ def _stairs(rig: Rig, fps: float, style: Style, rise: float) -> Clip:
     # The pelvis: over the feet, as high as the lower foot lets it (the upper knee bends),
     # 4 cm down on straight legs so that the lower foot reaches its tread ahead or behind.
     low = np.minimum(feet["left"][:, 1], feet["right"][:, 1]) - rest[rig.ankle["left"], 1]
-    pelvis = np.stack([np.zeros(n), _smooth(low, fps, 0.1) - 0.04 * hold(t - 0.1, 0.3, n / fps - 0.8, 0.3),
+    settle = 0.04 * hold(t - 0.1, 0.3, n / fps - 0.8, 0.3)
+    pelvis = np.stack([np.zeros(n), _smooth(low, fps, 0.1) - settle,
                        _smooth(0.5 * (feet["left"][:, 2] + feet["right"][:, 2])
                                - rest[rig.ankle["left"], 2], fps, 0.1)], -1)
     for side in SIDES:
@@ -255,7 +256,7 @@ def crawl(rig: Rig, fps: float, style: Style) -> Clip:
     return clip
 
 
-# ---------------------------------------------------------------------------- stepping over, falling
+# -------------------------------------------------------------------- stepping over, falling
 
 def _swing_window(t: np.ndarray, style: Style, kind: str, offset: float,
                   after: float) -> np.ndarray:
@@ -387,7 +388,7 @@ def sit_ups(rig: Rig, fps: float, style: Style, count: int) -> Clip:
     return clip
 
 
-# ---------------------------------------------------------------------------- uneven walking, putting down
+# -------------------------------------------------------------- uneven walking, putting down
 
 def _warp(clip: Clip, tau: np.ndarray, fps: float) -> Clip:
     """The clip played at times `tau` (T,) seconds instead of its own frame times."""
@@ -602,8 +603,12 @@ BENCHMARK: dict[str, Phrase] = {**_table(
                    "<fall> back and <land> on HIS back", "<fall> down backward",
                    "<tip> over backward and <land> on the floor"),
     put_down=("<put> a box down on the floor", "<put> something down on the ground",
-              "<bend> down and <put> a box on the floor", "<squat> and <place> something on the floor",
+              "<bend> down and <put> a box on the floor",
+              "<squat> and <place> something on the floor",
               "<set> a box down on the floor"),
+    long_jump=("<do> a long jump", "<run> up and <do> a long jump",
+               "<run> forward and <leap> far, landing on both feet",
+               "<run> a few steps and <jump> forward a long way"),
     stumble=("<stumble> forward and <catch> HIS balance",
              "<trip> and <stumble> but <stay> on HIS feet", "<stumble> on the way and <recover>",
              "<trip> over something and <catch> HIS balance",
@@ -692,6 +697,8 @@ EVERYDAY: dict[str, Phrase] = {**_table(
                    "<go> down backward and <sprawl> flat on HIS back"),
     put_down=("<lower> a box to the ground", "<crouch> and <leave> the box on the floor",
               "<rest> a box on the floor and <straighten> up"),
+    long_jump=("<sprint> in and <launch> into a long jump",
+               "<bound> forward off both feet after a short run"),
     stumble=("<lose> HIS footing for a moment and <steady> HIS body",
              "<catch> a toe and <lurch> forward a few steps"),
 ), "step_over": _e_step_over, "sit_ups": _e_sit_ups, "limp": _e_limp,
@@ -709,6 +716,8 @@ COLLOQUIAL: dict[str, Phrase] = {**_table(
     fall_backward=("<land> flat on HIS back with a thud", "<keel> over backward"),
     put_down=("<plonk> a box down on the floor", "<dump> a box on the ground"),
     stumble=("<trip> over HIS own feet and <stagger> on", "<stagger> forward, nearly going down"),
+    long_jump=("<hurl> HIS body into a long jump off a run",
+               "<fly> into the sand pit after a short sprint"),
 ), "step_over": _c_step_over, "sit_ups": _c_sit_ups, "limp": _c_limp,
    "jump_rope": _c_jump_rope}
 
@@ -725,22 +734,25 @@ SHORT: dict[str, Phrase] = {**_table(
     put_down=("<put> something down", "<put> a box down", "<put> something down"),
     jump_rope=("<jump> rope", "<jump> rope", "<skip> rope"),
     stumble=("<stumble>", "<stumble>", "<trip>"),
+    long_jump=("<do> a long jump", "<do> a long jump"),
 ), "step_over": _s_step_over, "limp": _s_limp}
 
 
 # ---------------------------------------------------------------------------- the interface
 
 PARAMS: dict[str, dict[str, tuple]] = {
-    "crawl": {}, "walk_downstairs": {}, "walk_upstairs": {}, "step_over": {"leg": ("left", "right")},
+    "crawl": {}, "walk_downstairs": {}, "walk_upstairs": {},
+    "step_over": {"leg": ("left", "right")},
     "fall_forward": {}, "fall_backward": {}, "sit_ups": {"count": (2, 3, 4)}, "carry": {},
     "push": {}, "put_down": {}, "limp": {"side": ("left", "right")}, "balance_walk": {},
-    "jump_rope": {"count": (3, 4, 5)}, "stumble": {},
+    "jump_rope": {"count": (3, 4, 5)}, "stumble": {}, "long_jump": {},
 }
 CLIPS: dict[str, Callable[..., Clip]] = {
     "crawl": crawl, "walk_downstairs": walk_downstairs, "walk_upstairs": walk_upstairs,
     "step_over": step_over, "fall_forward": fall_forward, "fall_backward": fall_backward,
     "sit_ups": sit_ups, "carry": carry, "push": push, "put_down": put_down, "limp": limp,
     "balance_walk": balance_walk, "jump_rope": jump_rope, "stumble": stumble,
+    "long_jump": long_jump,
 }
 PHRASES: dict[str, dict[str, Phrase]] = {"benchmark": BENCHMARK, "everyday": EVERYDAY,
                                          "colloquial": COLLOQUIAL, "short": SHORT}
@@ -761,12 +773,15 @@ VERBS: dict[str, dict[str, tuple[str, str]]] = {
                   "trip": ("trips", "tripping"), "set": ("sets", "setting"),
                   "skip": ("skips", "skipping"), **_forms("catch", "recover"),
                   "tip": ("tips", "tipping")},
-    "everyday": {**_forms("lug", "tote", "cart", "shove", "heave", "drive", "tiptoe", "steady", "inch",
+    "everyday": {**_forms("lug", "tote", "cart", "shove", "heave", "drive", "tiptoe", "steady",
+                          "inch",
                         "creep", "mount", "clear", "topple", "pitch", "sprawl", "tumble",
-                        "crunch", "curl", "work", "hobble", "nurse", "leave", "lose", "lurch"),
+                        "crunch", "curl", "work", "hobble", "nurse", "leave", "lose", "lurch",
+                        "launch"),
                  "lug": ("lugs", "lugging"), "tiptoe": ("tiptoes", "tiptoeing")},
     "colloquial": {**_forms("muscle", "wobble", "totter", "scuttle", "clatter", "hike",
-                            "faceplant", "keel", "crank", "gimp", "dump", "stagger"), "schlep": ("schleps", "schlepping")},
+                            "faceplant", "keel", "crank", "gimp", "dump", "stagger", "hurl"),
+                   "fly": ("flies", "flying"), "schlep": ("schleps", "schlepping")},
 }
 WORDS: dict[str, str] = {"box": "NOUN", "body": "NOUN", "heavy": "ADJ", "carefully": "ADV",
                          "spread": "VERB",
@@ -775,7 +790,8 @@ WORDS: dict[str, str] = {"box": "NOUN", "body": "NOUN", "heavy": "ADJ", "careful
                          "obstacle": "NOUN", "face": "NOUN", "behind": "ADP", "onto": "ADP",
                          "injured": "ADJ", "hurt": "ADJ", "unevenly": "ADV", "along": "ADV",
                          "rope": "NOUN", "small": "ADJ",
-                         "but": "CCONJ", "balance": "NOUN"}
+                         "but": "CCONJ", "balance": "NOUN",
+                         "long": "ADJ", "far": "ADV", "few": "ADJ"}
 PLURALS: dict[str, str] = {"sides": "side", "stairs": "stair", "situps": "situp"}
 # A fall ends lying on the floor, and sit-ups start and end lying on the back with the knees up:
 # nothing follows them in a script, and sit-ups come first.
