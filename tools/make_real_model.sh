@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # The bundled model fine-tuned on real capture beside the procedural benchmark, on a CPU:
 #   bash tools/make_real_model.sh WORK_DIR REAL_DATASET [REAL_DATASET ...]
+# INIT: the model fine-tuned (default: the bundled one); BENCHMARK_VERSION and MOTIONS: the
+# procedural benchmark beside the real data (default version 2, 4,000 motions; the bundled
+# model's recipe, tools/make_bundled_model.sh, gives version 4 and 6,000).
 # Each REAL_DATASET is a corpus imported with `mlct data import --corpus NAME DIR --out ...`
 # (docs/real_data.md). The steps, each resumable (run it again with the same WORK_DIR):
 # - the bundle's caption sets of the procedural benchmark (tools/recipe_stage.sh), merged with
@@ -28,10 +31,10 @@ caption_sets "${MOTIONS:-4000}"
 [ -f "$work/mixed/provenance.jsonl" ] || mlct data merge "$work/synth_collturns" "$@" \
     --out "$work/mixed"
 stamp autoencoder
-DATA="$work/mixed" stage run ae --init bundled ae.freeze_encoder=false \
+DATA="$work/mixed" stage run ae --init "${INIT:-bundled}" ae.freeze_encoder=false \
     "train.ae.max_steps=${AE_STEPS:-4000}" train.ae.lr=3e-4 train.ae.precision=bf16
 stamp stage 2
-DATA="$work/mixed" AE="$work/run/ae" stage run cm --init bundled text.encoder=minilm+sides \
+DATA="$work/mixed" AE="$work/run/ae" stage run cm --init "${INIT:-bundled}" text.encoder=minilm+sides \
     denoiser.dropout=0.0 "train.cm.max_steps=${CM_STEPS:-6000}" train.cm.lr=2e-4 \
     train.cm.seed=31 train.cm.precision=bf16
 if [ ! -f "$work/model/text_anchors.safetensors" ]; then
@@ -42,13 +45,15 @@ if [ ! -f "$work/model/text_anchors.safetensors" ]; then
     mlct train critic --data "$work/synth_rich" --model "$work/model" --samples 8
     mlct train anchors --data "$work/mixed" --model "$work/model"
 fi
-python - "$work/model/config.json" "$work/mixed" <<'PY'
+python - "$work/model/config.json" "$work/mixed" "${INIT:-the bundled model}" \
+    "${BENCHMARK_VERSION:-2}" <<'PY'
 import json, sys
 from mlct.data.corpora import training_data
 path, mixed = sys.argv[1], sys.argv[2]
 config = json.load(open(path))
 config["training_data"] = training_data(mixed)
-config["recipe"] = {"script": "tools/make_real_model.sh", "from": "the bundled model"}
+config["recipe"] = {"script": "tools/make_real_model.sh", "from": sys.argv[3],
+                    "benchmark_version": int(sys.argv[4])}
 json.dump(config, open(path, "w"), indent=2)
 PY
 stamp done
