@@ -1,3 +1,4 @@
 """Controls: the schema of paths, keyframes, edits and prefixes (schema.py), reading them from
-files (files.py), how a motion meets them (controlled.py) and the motion-space corrections
-(fit.py); docs/control.md."""
+files (files.py), how a motion meets them (controlled.py: a path walked by the text's own
+motion re-timed to it, pace.py; the rest sampled, sampled.py; in the control's world,
+world.py) and the motion-space corrections (fit.py); docs/control.md."""

@@ -13,7 +13,8 @@ The method, chosen by measurement (bench/control.py, docs/control.md), without t
    seed's own motion first) and the one whose decoded joints are nearest the controls is kept.
    A consistency model samples in a few steps, so a batch of 4 costs well under 4 times one,
    and every candidate is a motion the model makes: feet plant, arms swing, the text is done;
-3. guidance (optional, off by default; needs PyTorch and the torch backend): inside each
+3. guidance (optional, off by default; needs PyTorch and the torch backend; sampled.py holds
+   it and the candidates, and is imported only where a control is met by sampling): inside each
    sampling step, gradient steps on the clean estimate x0 through the decoder (differentiable)
    and the joints, down the control error; the next step re-noises the moved x0. It pulls the
    motion towards far controls, but not far enough for a path at another speed (one latent
@@ -27,33 +28,25 @@ The method, chosen by measurement (bench/control.py, docs/control.md), without t
    on a path alone raised onto the floor and its standing feet planted. After the pace it moves
    the root by millimetres on average (bench/control.py --speeds).
 
-The control's world: the result starts where the prefix or edited motion does, or a full pose
-at frame 0, or the path's frame-0 waypoint (facing its heading when given); the network makes
-the motion facing +Z at the origin, so the targets are moved into that frame, and the result
-back out.
+The control's world (where the result starts and faces): world.py.
 """
 
 from __future__ import annotations
 
-import copy
-import weakref
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from mlct.errors import MlctError, require_torch
 from mlct.generate.control import pace
 from mlct.generate.control.fit import (REACH_SECONDS, fit_heading, fit_keyframes, fit_path,
-                                       lock_feet, on_floor, reattach, turn_y)
+                                       lock_feet, on_floor, reattach)
 from mlct.generate.control.schema import Control
+from mlct.generate.control.world import Anchor, anchor_of, keyframe_list
 from mlct.generate.output.generated import GeneratedMotion, Generation
 
-if TYPE_CHECKING:  # torch is imported where a control is met by sampling (a light install
-    import torch  # walks a path without it: pace.py is numpy)
-    from torch import Tensor
-
-# compose.generator.MotionGenerator, which calls generate_with_control: named, not imported (a cycle)
+# compose.generator.MotionGenerator, which calls generate_with_control: named, not imported
 MotionGenerator = Any
 
 
@@ -82,211 +75,6 @@ class ControlMethod:
 
 
 DEFAULT_METHOD = ControlMethod()
-
-
-@dataclass(frozen=True)
-class Anchor:
-    """Where the network's frame (origin, facing +Z) sits in the control's world."""
-
-    origin: np.ndarray  # (3,) with y = 0
-    angle: float  # radians about +y
-
-    def to_world(self, points: np.ndarray) -> np.ndarray:
-        return turn_y(points, self.angle) + self.origin
-
-    def to_model(self, points: np.ndarray) -> np.ndarray:
-        return turn_y(points - self.origin, -self.angle)
-
-
-def anchor_of(control: Control, skeleton: Any) -> Anchor:
-    """The frame the motion starts in: see the module docstring."""
-    from mlct.generate.control.facing import heading
-
-    start = control.prefix if control.prefix is not None else control.edit
-    pose = None if start is None else start[0]
-    if pose is None:
-        full = [k for k in control.keyframes if k.frame == 0
-                and len(k.joints) == skeleton.n_joints]
-        if full:
-            pose = np.array([full[0].joints[j] for j in range(skeleton.n_joints)])
-    if pose is not None:
-        return Anchor(pose[0] * np.array([1.0, 0.0, 1.0]), float(heading(pose, skeleton)))
-    if control.path is not None and control.path_frames is not None \
-            and 0 in control.path_frames.tolist():
-        k = control.path_frames.tolist().index(0)
-        angle = 0.0
-        if control.heading is not None and np.isfinite(control.heading[k]):
-            angle = float(control.heading[k])
-        x, z = control.path[k]
-        return Anchor(np.array([x, 0.0, z]), angle)
-    return Anchor(np.zeros(3), 0.0)
-
-
-@dataclass
-class Targets:
-    """A control in the network's frame, as tensors for the guidance loss."""
-
-    path_frames: Tensor | None = None  # (K,)
-    path_xz: Tensor | None = None  # (K, 2)
-    head_frames: Tensor | None = None
-    head: Tensor | None = None  # (H,) radians
-    key_frames: Tensor | None = None  # (M,)
-    key_joints: Tensor | None = None  # (M,)
-    key_pos: Tensor | None = None  # (M, 3)
-    kept: Tensor | None = None  # (T, K, 3) an edit's kept joints
-    kept_joints: list[int] | None = None
-
-
-def keyframe_list(control: Control, anchor: Anchor) -> list[tuple[int, dict[int, np.ndarray]]]:
-    """Every keyframe, the prefix's frames among them, in the network's frame."""
-    keys = [(k.frame, {j: anchor.to_model(np.asarray(p, dtype=np.float64))
-                       for j, p in k.joints.items()}) for k in control.keyframes]
-    if control.prefix is not None:
-        local = anchor.to_model(control.prefix)
-        keys += [(f, dict(enumerate(local[f]))) for f in range(len(local))]
-    return keys
-
-
-def targets_of(control: Control, anchor: Anchor, skeleton: Any) -> Targets:
-    import torch
-
-    out = Targets()
-    if control.path is not None:
-        xyz = np.stack([control.path[:, 0], np.zeros(len(control.path)), control.path[:, 1]], 1)
-        local = anchor.to_model(xyz)
-        out.path_frames = torch.as_tensor(control.path_frames)
-        out.path_xz = torch.as_tensor(local[:, [0, 2]], dtype=torch.float32)
-        if control.heading is not None:
-            free = np.isfinite(control.heading)
-            out.head_frames = torch.as_tensor(control.path_frames[free])
-            out.head = torch.as_tensor(control.heading[free] - anchor.angle, dtype=torch.float32)
-    keys = keyframe_list(control, anchor)
-    if keys:
-        rows = [(f, j, p) for f, joints in keys for j, p in joints.items()]
-        out.key_frames = torch.tensor([r[0] for r in rows])
-        out.key_joints = torch.tensor([r[1] for r in rows])
-        out.key_pos = torch.tensor(np.stack([r[2] for r in rows]), dtype=torch.float32)
-    if control.edit is not None:
-        out.kept_joints = [j for j in range(skeleton.n_joints) if j not in control.parts]
-        out.kept = torch.as_tensor(anchor.to_model(control.edit)[:, out.kept_joints],
-                                   dtype=torch.float32)
-    return out
-
-
-def control_loss(joints: Tensor, t: Targets, skeleton: Any) -> Tensor:
-    """Squared control error (m^2; headings as 1 - cos) of joints (T, J, 3): the mean over each
-    kind of control, summed over kinds."""
-    loss = joints.new_zeros(())
-    if t.path_xz is not None:
-        loss = loss + ((joints[t.path_frames, 0][:, [0, 2]] - t.path_xz) ** 2).sum(-1).mean()
-    if t.head is not None:
-        import torch
-
-        r_hip, l_hip, r_sh, l_sh = skeleton.face_joints
-        across = joints[t.head_frames, r_hip] - joints[t.head_frames, l_hip] \
-            + joints[t.head_frames, r_sh] - joints[t.head_frames, l_sh]
-        angle = torch.atan2(across[:, 2], -across[:, 0])
-        loss = loss + (1 - torch.cos(angle - t.head)).mean()
-    if t.key_pos is not None:
-        loss = loss + ((joints[t.key_frames, t.key_joints] - t.key_pos) ** 2).sum(-1).mean()
-    if t.kept is not None:
-        loss = loss + ((joints[:, t.kept_joints] - t.kept) ** 2).sum(-1).mean()
-    return loss
-
-
-_DECODERS: "weakref.WeakKeyDictionary[Any, torch.nn.Module]" = weakref.WeakKeyDictionary()
-
-
-def differentiable_decoder(pipe: MotionGenerator) -> torch.nn.Module | None:
-    """The generator's decoder with plain (autograd-aware) products, or None when its backend
-    has none (onnx): mlct.nn.inference's prepacked oneDNN products have no backward."""
-    import torch
-
-    if not isinstance(pipe.ae, torch.nn.Module):
-        return None
-    if pipe not in _DECODERS:
-        ae = copy.deepcopy(pipe.ae)
-        for module in ae.modules():
-            if hasattr(module, "prepack"):
-                module.prepack = False
-                module._packed = None
-        _DECODERS[pipe] = ae
-    return _DECODERS[pipe]
-
-
-def guidance_decoder(pipe: MotionGenerator) -> torch.nn.Module:
-    """differentiable_decoder, or a one-line error naming what guidance needs (it would
-    otherwise silently do nothing): PyTorch, then the torch backend."""
-    require_torch("decoder guidance (ControlMethod(guide=True))")
-    decoder = differentiable_decoder(pipe)
-    if decoder is None:
-        raise MlctError(f"decoder guidance needs a differentiable decoder, which the "
-                        f"{getattr(pipe, 'backend', 'onnx')} backend has not; load the model "
-                        f"with backend='torch', or use ControlMethod(guide=False)")
-    return decoder
-
-
-def _joints(pipe: MotionGenerator, decoder: Any, z: Tensor, frames: int) -> Tensor:
-    """(B, T, J, 3) joints of latents z (B, n, d) through `decoder`."""
-    import torch
-
-    from mlct.motion.features import recover_from_ric
-
-    lengths = torch.full((len(z),), frames)
-    feats = decoder.decode(z / pipe.config.schedule.latent_scale, lengths, frames)
-    return recover_from_ric(feats.float() * pipe.std + pipe.mean)
-
-
-def candidate_seeds(seed: int, count: int) -> list[int]:
-    """The noises a best-of-`count` draws: the seed's own first (count 1 is plain sampling)."""
-    return [(int(seed) + k * CANDIDATE_STRIDE) % (2**63) for k in range(count)]
-
-
-CANDIDATE_STRIDE = 1_000_003  # far apart from the seeds a batch's neighbours use (seed + i)
-
-
-def guided_latent(pipe: MotionGenerator, text: str, frames: int, seed: int, nfe: int | None,
-                  targets: Targets, method: ControlMethod) -> Tensor:
-    """(1, n, d): the best of method.candidates latents for the control, each sampled with the
-    control's gradient applied to every step's x0 when method.guide."""
-    import torch
-
-    decoder = guidance_decoder(pipe) if method.guide else None
-    count = max(1, method.candidates)
-    # as generate()'s (the onnx backend's vectors are arrays: tensors here, for the sampler)
-    cond = torch.as_tensor(pipe.sampling_text(pipe.encode_text([text]))).expand(count, -1)
-    generators = [torch.Generator().manual_seed(s) for s in candidate_seeds(seed, count)]
-    steps = pipe.check_nfe(nfe)
-    uncond = torch.as_tensor(pipe.encode_text([""])) if pipe.sampler.cfg else None
-
-    def losses(joints: Tensor) -> Tensor:  # (B,) one control loss per candidate
-        return torch.stack([control_loss(j, targets, pipe.skeleton) for j in joints])
-
-    calls = [0]
-
-    def guide(x0: Tensor) -> Tensor:
-        calls[0] += 1
-        last = calls[0] == steps
-        with torch.enable_grad():
-            z = x0.detach().clone()
-            for _ in range(method.final_iterations if last else method.iterations):
-                z.requires_grad_(True)
-                loss = losses(_joints(pipe, decoder, z, frames))  # (B,)
-                (grad,) = torch.autograd.grad(loss.sum(), z)
-                # A Gauss-Newton step along the gradient: for a loss ~ |e|^2, the step that
-                # would remove `step` of it if the decoder were linear along this direction.
-                norm2 = (grad ** 2).sum(dim=(1, 2), keepdim=True).clamp_min(1e-12)
-                z = (z - method.step * loss.detach()[:, None, None] / norm2 * grad).detach()
-        return z
-
-    x = pipe.sampler.noise((count, *pipe.ae.latent_shape), generators)
-    with torch.no_grad():
-        z = pipe.sampler.sample(pipe.denoiser, x, cond, steps, generator=generators,
-                                uncond=uncond, guide=guide if method.guide else None)
-        if count == 1:
-            return z
-        best = int(torch.argmin(losses(_joints(pipe, pipe.ae, z, frames))))
-    return z[best:best + 1]
 
 
 def project(joints: np.ndarray, control: Control, anchor: Anchor, skeleton: Any,
@@ -377,8 +165,11 @@ def controlled_motion(pipe: MotionGenerator, text: str, frames: int, control: Co
     if skeleton.n_joints != 22:
         raise MlctError("controls need the 22-joint HumanML3D skeleton")
     control = control.check(frames, skeleton)
-    if method.guide:
-        guidance_decoder(pipe)  # refused before any sampling where it cannot run
+    if method.guide:  # refused before any sampling where it cannot run
+        require_torch("decoder guidance (ControlMethod(guide=True))")
+        from mlct.generate.control.sampled import guidance_decoder
+
+        guidance_decoder(pipe)
     anchor = anchor_of(control, skeleton)
     laid = paced(pipe, text, frames, control, nfe, seed) if method.pace else None
     stood = None  # the motion whose standing feet the correction holds: the one it corrects
@@ -387,6 +178,7 @@ def controlled_motion(pipe: MotionGenerator, text: str, frames: int, control: Co
     else:  # sampled: candidates and guidance run the networks through torch
         require_torch("this control (keyframes, an edit, a prefix, or a path for a text that "
                       "does not travel)")
+        from mlct.generate.control.sampled import guided_latent, targets_of
         from mlct.motion.joints import features_to_joints
 
         targets = targets_of(control, anchor, skeleton)
