@@ -37,10 +37,11 @@ MIN_TRAVEL = 0.3
 MIN_SHARE = 0.25
 SPARE = 1.15  # the source is made this much longer than the path needs: its end stops early
 MAX_FACTOR = 3.0  # the source is at most this many times the result's length
-# A source covering the path within these shares of its length is re-timed as it is; another is
-# made again at the length its pace says (at most REMAKES times: the distance a motion covers is
-# not quite proportional to its length, and the start from rest and the stop weigh less)
-COVERS = (0.97, 1.3)
+# A source going at least COVERS of the path is re-timed as it is (the correction closes the
+# rest; a longer one has its end cut: the pace is the path's either way); a shorter one is made
+# again at the length its pace says (at most REMAKES times: the distance a motion covers is not
+# quite proportional to its length, and the start from rest and the stop weigh less)
+COVERS = 0.97
 REMAKES = 1
 
 
@@ -111,20 +112,17 @@ def travels(track: Track, path_length: float) -> bool:
 
 
 def covers(track: Track, path_length: float) -> bool:
-    """Whether a source going `track` is re-timed as it is for a path of `path_length` m: it goes
-    at least about as far (the correction closes a gap at the end) and not much further (the
-    rest of it would be played slower)."""
-    low, high = COVERS
-    return low * path_length <= track.distance <= high * path_length
+    """Whether a source going `track` goes far enough for a path of `path_length` m."""
+    return track.distance >= COVERS * path_length
 
 
 def best_cover(tracks: list[Track], path_length: float) -> int:
-    """Which of several sources' tracks to re-time: the one whose distance is nearest the path's
-    (in ratio), one that falls short of COVERS counting as worse than any that covers."""
-    def cost(track: Track) -> float:
-        ratio = max(track.distance, 1e-6) / path_length
-        return abs(np.log(ratio)) + (ratio < COVERS[0])
-    return int(np.argmin([cost(t) for t in tracks]))
+    """Which of several sources' tracks to re-time: the first that covers the path, else the
+    one that goes furthest."""
+    for k, track in enumerate(tracks):
+        if covers(track, path_length):
+            return k
+    return int(np.argmax([t.distance for t in tracks]))
 
 
 def frames_to_cover(track: Track, frames: int, path_length: float) -> int:
