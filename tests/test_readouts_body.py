@@ -21,7 +21,11 @@ from mlct.motion.skeleton import HUMANML3D as SK
 
 RIG = make_rig(SK)
 BODY = tuple(families_body.PARAMS)
-GROUND_TRUTH = 300  # motions of each family, over its parameter combinations and styles
+# Each family's first GROUND_TRUTH motions of bench/readout_ground_truth.py's 300 (its parameter
+# combinations in turn, styles drawn from the benchmark's range; that script measures all 300),
+# and each parameter combination at the corners of the style range.
+GROUND_TRUTH = 32
+STYLE_CORNERS = tuple(itertools.product((0.85, 1.15), repeat=2))  # (amplitude, tempo)
 PASS_RATE = 0.95  # of a family's own motions that pass its checks, at least
 
 
@@ -30,17 +34,22 @@ def _combos(family: str) -> list[dict]:
     return [dict(zip(spec, values)) for values in itertools.product(*spec.values())]
 
 
-def _motion(family: str, params: dict, seed: int = 0) -> np.ndarray:
-    """Positions (T, 22, 3) in metres of one action, in a style of the benchmark's range."""
+def _motion(family: str, params: dict, seed: int = 0,
+            corner: tuple[float, float] | None = None) -> np.ndarray:
+    """Positions (T, 22, 3) in metres of one action, in a style of the benchmark's range, or at
+    `corner` (amplitude, tempo) of it."""
     rng = np.random.default_rng([seed, 7])
-    style = Style(amplitude=float(rng.uniform(0.85, 1.15)), tempo=float(rng.uniform(0.85, 1.15)),
-                  arm_length=RIG.arm_length, shoulder_x=RIG.shoulder_x)
+    amplitude, tempo = float(rng.uniform(0.85, 1.15)), float(rng.uniform(0.85, 1.15))
+    if corner is not None:
+        amplitude, tempo = corner
+    style = Style(amplitude=amplitude, tempo=tempo, arm_length=RIG.arm_length,
+                  shoulder_x=RIG.shoulder_x)
     script = Script((Action(family, params),))
     return compose(script, RIG, style, rng, SK.fps).positions / RIG.scale
 
 
-def _passes(joints: np.ndarray, family: str, params: dict) -> bool:
-    readings = ro.read_all(joints)
+def _passes(readings: dict, family: str, params: dict) -> bool:
+    """Whether read-outs (ro.read_all's, made once per motion) pass a family's checks."""
     return all(check(readings) for check in ro.checks_for({"family": family, "params": params}))
 
 
@@ -77,33 +86,37 @@ def test_version_four_draws_its_families_for_a_share_of_the_actions():
 
 
 @pytest.fixture(scope="module")
-def ground_truth() -> dict[str, list[tuple[dict, np.ndarray]]]:
-    """GROUND_TRUTH motions of each body family, its parameter combinations in turn."""
+def ground_truth() -> dict[str, list[tuple[dict, np.ndarray, dict]]]:
+    """GROUND_TRUTH motions of each body family, its parameter combinations in turn, then each
+    combination at every corner of the style range, with their read-outs (made once)."""
     out = {}
     for family in BODY:
         combos = _combos(family)
-        out[family] = [(combos[k % len(combos)], _motion(family, combos[k % len(combos)], k))
-                       for k in range(GROUND_TRUTH)]
+        made = [(combos[k % len(combos)], _motion(family, combos[k % len(combos)], k))
+                for k in range(GROUND_TRUTH)]
+        made += [(params, _motion(family, params, 1000 + i, corner))
+                 for params in combos for i, corner in enumerate(STYLE_CORNERS)]
+        out[family] = [(params, joints, ro.read_all(joints)) for params, joints in made]
     return out
 
 
 @pytest.fixture(scope="module")
-def others() -> list[tuple[str, dict, np.ndarray]]:
-    """Two motions of every parameter combination (up to 6) of every family."""
-    return [(f, p, _motion(f, p, seed)) for f in FAMILIES for p in _combos(f)[:6]
+def others() -> list[tuple[str, dict, dict]]:
+    """The read-outs of two motions of every parameter combination (up to 6) of every family."""
+    return [(f, p, ro.read_all(_motion(f, p, seed))) for f in FAMILIES for p in _combos(f)[:6]
             for seed in (11, 12)]
 
 
 def test_body_motions_keep_bone_lengths(ground_truth):
     for family, motions in ground_truth.items():
-        for _, joints in motions[:30]:
+        for _, joints, _ in motions:
             bones = np.linalg.norm(joints[:, 1:] - joints[:, list(SK.parents[1:])], axis=-1)
             assert np.abs(bones - SK.bone_lengths[1:]).max() < 1e-9, family
 
 
 @pytest.mark.parametrize("family", BODY)
 def test_ground_truth_passes_its_checks(family, ground_truth):
-    passed = [_passes(joints, family, p) for p, joints in ground_truth[family]]
+    passed = [_passes(r, family, p) for p, _, r in ground_truth[family]]
     assert np.mean(passed) >= PASS_RATE, (family, np.mean(passed))
 
 
@@ -111,8 +124,7 @@ def test_ground_truth_passes_its_checks(family, ground_truth):
 def test_other_families_fail_the_checks(family, others):
     """No motion of another family passes a body family's checks (each parameter combination)."""
     for params in _combos(family):
-        passing = [(f, p) for f, p, joints in others if f != family
-                   and _passes(joints, family, params)]
+        passing = [(f, p) for f, p, r in others if f != family and _passes(r, family, params)]
         assert not passing, (family, params, passing)
 
 
@@ -120,7 +132,7 @@ def test_stairs_put_each_foot_on_its_tread_and_the_script_goes_on_from_there(gro
     from mlct.data.synth.families_body import RISER, STAIR_STEPS
 
     for family, sign in (("walk_downstairs", -1), ("walk_upstairs", 1)):
-        for _, joints in ground_truth[family][:20]:
+        for _, joints, _ in ground_truth[family][:20] + ground_truth[family][GROUND_TRUTH:]:
             feet = joints[:, [7, 8, 10, 11], 1]
             assert feet.min(axis=1)[-1] == pytest.approx(sign * RISER * STAIR_STEPS, abs=0.03)
             # A toe still at a tread's level (a whole number of risers from where it
@@ -137,7 +149,7 @@ def test_stairs_put_each_foot_on_its_tread_and_the_script_goes_on_from_there(gro
 
     from mlct.motion.features import joints_to_features, recover_from_ric
 
-    _, joints = ground_truth["walk_downstairs"][0]
+    _, joints, _ = ground_truth["walk_downstairs"][0]
     features = joints_to_features(joints * RIG.scale, SK).features
     back = recover_from_ric(torch.from_numpy(features)).numpy()
     assert ro.read_all(back)["feet_level_change"] == pytest.approx(-RISER * STAIR_STEPS, abs=0.03)
@@ -157,15 +169,15 @@ def test_checks_tell_the_sides_and_counts_apart(ground_truth):
     for family, (key, other) in wrong.items():
         if family not in ground_truth:
             continue
-        passed = [_passes(joints, family, dict(params, **{key: other[params[key]]}))
-                  for params, joints in ground_truth[family]]
+        passed = [_passes(r, family, dict(params, **{key: other[params[key]]}))
+                  for params, _, r in ground_truth[family]]
         assert np.mean(passed) < 0.05, (family, np.mean(passed))
 
 
 def test_falls_are_quick_and_lying_down_is_not_a_fall(ground_truth):
     for family in ("fall_forward", "fall_backward"):
-        for _, joints in ground_truth[family][:30]:
-            assert ro.read_all(joints)["descent_time"] < 0.75
-            assert not _passes(joints, "lie_down", {})
+        for _, _, readings in ground_truth[family]:
+            assert readings["descent_time"] < 0.75
+            assert not _passes(readings, "lie_down", {})
     for seed in range(10):
-        assert not _passes(_motion("lie_down", {}, seed), "fall_backward", {})
+        assert not _passes(ro.read_all(_motion("lie_down", {}, seed)), "fall_backward", {})
