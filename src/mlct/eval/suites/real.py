@@ -39,6 +39,9 @@ from mlct.motion.physics import foot_skating_ratio
 from mlct.motion.skeleton import HUMANML3D
 
 MAX_PER_LABEL = 12  # the data's motions of one label compared pairwise
+# The model's window (config data.max_motion_length): a longer real take is compared, and
+# put through the autoencoder, on its first frames only.
+WINDOW = 196
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -76,7 +79,7 @@ def reconstructions(layout: DatasetLayout, names: list[str], labels: dict[str, s
                     ae: Any) -> dict[str, dict[str, float]]:
     per: dict[str, list[tuple[float, float]]] = defaultdict(list)
     for name in names:
-        features = layout.load_features(name)
+        features = layout.load_features(name)[:WINDOW]
         truth, made = features_to_joints(features), features_to_joints(ae(features))
         pose = np.linalg.norm((truth - truth[:, :1]) - (made - made[:, :1]), axis=-1).mean()
         per[labels[name]].append((float(np.linalg.norm(truth - made, axis=-1).mean()), pose))
@@ -124,14 +127,14 @@ def _variety(args: argparse.Namespace, layout: DatasetLayout, labels: dict[str, 
         every = by_label[label]  # sorted by name: takes of one style sit together
         names = [every[i] for i in np.linspace(0, len(every) - 1, min(len(every),
                                                                       MAX_PER_LABEL)).astype(int)]
-        real = [features_to_joints(layout.load_features(n)) for n in names]
+        real = [features_to_joints(layout.load_features(n)[:WINDOW]) for n in names]
         seconds = float(np.median([len(j) for j in real])) / HUMANML3D.fps
         caption = layout.read_texts(names[0])[0].caption
         row = {"caption": caption, "seconds": seconds, "data_m": pairwise_distance(real),
                "data_skating": float(np.mean([foot_skating_ratio(j, HUMANML3D) for j in real]))}
         if ae is not None:
-            row["ae_m"] = pairwise_distance([features_to_joints(ae(layout.load_features(n)))
-                                             for n in names])
+            row["ae_m"] = pairwise_distance(
+                [features_to_joints(ae(layout.load_features(n)[:WINDOW])) for n in names])
         for setting, kwargs, with_anchors in (("defaults", {}, True),
                                               ("one_candidate", {"candidates": 1}, True),
                                               ("no_anchors", {}, False)):
