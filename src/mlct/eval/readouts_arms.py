@@ -257,11 +257,15 @@ def _circle_checks(family: str, params: Mapping[str, Any]) -> list[Check]:
                          idle=False) + [_in_place(family)]
     if family == "beckon":
         # GT: 9 forward-and-back reversals of the wrist at waist height; jogs and pulls on a
-        # rope do it with both hands.
+        # rope do it with both hands. Standing: the pelvis rises 0.018 m at most; a jump rope's
+        # hops lift it 0.14 m, its hands circling at the hips reversing forward and back too
+        # (6-7 times one of them, 1-3 the other).
         def beckons(r: Readings, s: str) -> bool:
             return r[f"curls.{s}"] >= 6 and r[f"curls.{_other(s)}"] <= 3
         return _one_hand(family, params, "curls", "forearm curls in and out 6 times at waist "
-                         "height (the other not)", beckons) + [_in_place(family)]
+                         "height (the other not)", beckons) + [
+            Check("beckon.standing", "the pelvis rises less than 0.06 m (no hopping)",
+                  lambda r: r["pelvis_rise"] < 0.06), _in_place(family)]
     # dribble. GT: 13-15 up-and-down reversals of the wrist at hip height; a walk's swinging
     # hands do it up to 12 times, both of them.
     def dribbles(r: Readings, s: str) -> bool:
