@@ -25,7 +25,7 @@ from mlct.motion.skeleton import HUMANML3D as SK
 
 RIG = make_rig(SK)
 ARMS = tuple(families_arms.PARAMS)
-# Each family's first GROUND_TRUTH motions of bench/readout_ground_truth.py's 300 (its parameter
+# Each family's first GROUND_TRUTH motions of bench/quality.py ground-truth's 300 (its parameter
 # combinations in turn, styles drawn from the benchmark's range; that script measures all 300),
 # and each parameter combination at the corners of the style range.
 GROUND_TRUTH = 32

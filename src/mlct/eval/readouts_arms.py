@@ -6,7 +6,7 @@ left and right); positions of the hands are taken relative to the neck, in the b
 the window's first frame (forward, left), so that a torso turning with a swing does not turn
 the frame with it. Each check is a necessary physical condition, with its threshold between the
 range of the family's own ground truth (in the comments: the 300 motions of each family that
-bench/readout_ground_truth.py measures) and what the other families' motions show.
+bench/quality.py ground-truth measures) and what the other families' motions show.
 """
 
 from __future__ import annotations

@@ -9,7 +9,8 @@
 - examples: five example prompts; short: bare verbs ("a woman waves"); turns: turn sizes;
 - feet: planted feet off and on; keep-going: a gait asked for longer than it lasts;
 - int8: how far onnx-int8 moves the joints from float32's;
-- real: real capture's reconstructions, a model's variety and foot skating against the data's.
+- real: real capture's reconstructions, a model's variety and foot skating against the data's;
+- ground-truth: the read-outs on their own procedural ground truth, per family.
 """
 
 from __future__ import annotations
@@ -17,4 +18,5 @@ from __future__ import annotations
 # the command name -> the module
 SUITES = {"motion": "motion", "paraphrases": "paraphrases", "sides": "sides",
           "examples": "examples", "short": "short", "turns": "turns", "feet": "feet",
-          "keep-going": "keep_going", "int8": "int8", "real": "real"}
+          "keep-going": "keep_going", "int8": "int8", "real": "real",
+          "ground-truth": "ground_truth"}

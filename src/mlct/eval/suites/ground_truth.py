@@ -2,7 +2,7 @@
 pass the family's checks, how many other families' motions pass them, and (a sided family) how
 many of its own motions pass with the other side named.
 
-    python bench/readout_ground_truth.py [--families arms] [--per-family 300] [--json OUT]
+    python bench/quality.py ground-truth [--families arms] [--per-family 300] [--json OUT]
 
 --families: arms (synth/families_arms.py, version 4), body (families_body.py, version 4), v3
 (the families version 3 adds), all, or family names. A family's N motions take its parameter
@@ -32,6 +32,7 @@ from mlct.data.synth.actions import FAMILIES, FAMILY_PARAMS, NEW_FAMILIES, Actio
 from mlct.data.synth.compose import compose
 from mlct.data.synth.motions import Style
 from mlct.data.synth.rig import make_rig
+from mlct.errors import MlctError
 from mlct.eval import readouts as ro
 from mlct.motion.skeleton import HUMANML3D as SK
 
@@ -68,18 +69,19 @@ def family_set(names: list[str]) -> list[str]:
     out: list[str] = []
     for name in names:
         if name not in groups and name not in FAMILY_PARAMS:
-            raise SystemExit(f"readout_ground_truth: no family or group {name!r} "
-                             f"(groups: {', '.join(groups)})")
+            raise MlctError(f"--families: no family or group {name!r} "
+                            f"(groups: {', '.join(groups)})")
         out += [f for f in groups.get(name, [name]) if f not in out]
     return out
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--families", nargs="+", default=["arms"])
     parser.add_argument("--per-family", type=int, default=300)
     parser.add_argument("--json", type=Path, default=None)
-    args = parser.parse_args()
+
+
+def run(args: argparse.Namespace) -> None:
     families = family_set(args.families)
 
     others = [(f, p, ro.read_all(motion(f, p, seed))) for f in FAMILIES for p in combos(f)[:6]
@@ -116,8 +118,5 @@ def main() -> None:
                           "failed": [{"params": p, "seed": k} for p, k in failed]}
     if args.json is not None:
         args.json.write_text(json.dumps(report, indent=1))
-    sys.exit(1 if bad else 0)
-
-
-if __name__ == "__main__":
-    main()
+    if bad:
+        sys.exit(1)
