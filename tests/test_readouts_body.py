@@ -10,16 +10,18 @@ import numpy as np
 import pytest
 
 from mlct.data.synth import families_body
-from mlct.data.synth.actions import (ENDS_DOWN, FAMILIES, FAMILIES_BY_VERSION, FAMILY_PARAMS,
+from mlct.data.synth.actions import (ENDS_DOWN, FAMILIES, FAMILIES_BY_VERSION,
                                      VERSION_4_FAMILIES, Action, Script, sample_script)
 from mlct.data.synth.build import VERSIONS, make_motion
 from mlct.data.synth.compose import compose
 from mlct.data.synth.motions import Style
-from mlct.data.synth.rig import make_rig
 from mlct.eval import readouts as ro
+from mlct.eval.suites.ground_truth import RIG
+from mlct.eval.suites.ground_truth import combos as _combos
+from mlct.eval.suites.ground_truth import motion as _motion
+from mlct.eval.suites.ground_truth import passes as _passes
 from mlct.motion.skeleton import HUMANML3D as SK
 
-RIG = make_rig(SK)
 BODY = tuple(families_body.PARAMS)
 # Each family's first GROUND_TRUTH motions of bench/quality.py ground-truth's 300 (its parameter
 # combinations in turn, styles drawn from the benchmark's range; that script measures all 300),
@@ -27,30 +29,6 @@ BODY = tuple(families_body.PARAMS)
 GROUND_TRUTH = 32
 STYLE_CORNERS = tuple(itertools.product((0.85, 1.15), repeat=2))  # (amplitude, tempo)
 PASS_RATE = 0.95  # of a family's own motions that pass its checks, at least
-
-
-def _combos(family: str) -> list[dict]:
-    spec = FAMILY_PARAMS[family]
-    return [dict(zip(spec, values)) for values in itertools.product(*spec.values())]
-
-
-def _motion(family: str, params: dict, seed: int = 0,
-            corner: tuple[float, float] | None = None) -> np.ndarray:
-    """Positions (T, 22, 3) in metres of one action, in a style of the benchmark's range, or at
-    `corner` (amplitude, tempo) of it."""
-    rng = np.random.default_rng([seed, 7])
-    amplitude, tempo = float(rng.uniform(0.85, 1.15)), float(rng.uniform(0.85, 1.15))
-    if corner is not None:
-        amplitude, tempo = corner
-    style = Style(amplitude=amplitude, tempo=tempo, arm_length=RIG.arm_length,
-                  shoulder_x=RIG.shoulder_x)
-    script = Script((Action(family, params),))
-    return compose(script, RIG, style, rng, SK.fps).positions / RIG.scale
-
-
-def _passes(readings: dict, family: str, params: dict) -> bool:
-    """Whether read-outs (ro.read_all's, made once per motion) pass a family's checks."""
-    return all(check(readings) for check in ro.checks_for({"family": family, "params": params}))
 
 
 def test_version_three_is_remade_as_before_version_four():

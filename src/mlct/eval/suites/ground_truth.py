@@ -43,21 +43,27 @@ OTHER_SIDE = {"left": "right", "right": "left"}
 
 
 def combos(family: str) -> list[dict]:
+    """Every parameter combination of a family, in FAMILY_PARAMS' order."""
     spec = FAMILY_PARAMS[family]
     return [dict(zip(spec, values)) for values in itertools.product(*spec.values())]
 
 
-def motion(family: str, params: dict, seed: int = 0) -> np.ndarray:
-    """Positions (T, 22, 3) in metres of one action, in a style of the benchmark's range (as the
-    read-out tests make it)."""
+def motion(family: str, params: dict, seed: int = 0,
+           corner: tuple[float, float] | None = None) -> np.ndarray:
+    """Positions (T, 22, 3) in metres of one action, in a style of the benchmark's range drawn
+    from `seed`, or at `corner` (amplitude, tempo) of it (the read-out tests' style corners)."""
     rng = np.random.default_rng([seed, 7])
-    style = Style(amplitude=float(rng.uniform(0.85, 1.15)), tempo=float(rng.uniform(0.85, 1.15)),
-                  arm_length=RIG.arm_length, shoulder_x=RIG.shoulder_x)
+    amplitude, tempo = float(rng.uniform(0.85, 1.15)), float(rng.uniform(0.85, 1.15))
+    if corner is not None:
+        amplitude, tempo = corner
+    style = Style(amplitude=amplitude, tempo=tempo, arm_length=RIG.arm_length,
+                  shoulder_x=RIG.shoulder_x)
     script = Script((Action(family, params),))
     return compose(script, RIG, style, rng, SK.fps).positions / RIG.scale
 
 
 def passes(readings: dict, family: str, params: dict) -> bool:
+    """Whether read-outs (ro.read_all's, made once per motion) pass a family's checks."""
     return all(check(readings) for check in ro.checks_for({"family": family, "params": params}))
 
 
