@@ -14,7 +14,21 @@ import numpy as np
 
 from mlct.data.synth import families_arms, families_body
 
-# The modules of the families benchmark version 4 adds (the interface: families_arms.py).
+# The modules of the families benchmark version 4 adds. Each has the same interface, which this
+# module, more_clips.py, the four vocabularies (text.py, everyday.py, colloquial.py, short.py) and
+# the caption lexicon (mlct.data.captions) merge; a family module imports none of them:
+# - PARAMS: family -> {parameter: its possible values} (FAMILY_PARAMS);
+# - CLIPS: family -> clip function (rig, fps, style, **params) -> motions.Clip, as more_clips';
+# - PHRASES: vocabulary ("benchmark", "everyday", "colloquial", "short") -> family -> phrase
+#   (params, rng) -> str, with the <verb> marks and HIS of text.py and each vocabulary's rules
+#   (phrases_more.py);
+# - VERBS: vocabulary ("benchmark", "everyday", "colloquial") -> lemma -> (third person,
+#   gerund) of the verbs its phrases mark that the vocabulary lacks (the short vocabulary uses
+#   the benchmark's);
+# - WORDS: word -> part of speech (NOUN, ADJ, ADV, ADP, ...) and PLURALS: plural -> singular,
+#   the other words of its benchmark captions that the lexicon lacks;
+# - ENDS_DOWN / STARTS_DOWN: families that end on the floor (nothing follows them in a script)
+#   and that start lying on the back (first in a script, or right after lying down).
 VERSION_4_MODULES = (families_body, families_arms)
 
 # Each family: its parameters and their possible values.
