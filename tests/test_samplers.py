@@ -154,23 +154,6 @@ def test_denoise_term_regresses_the_conditional_branch_on_the_guided_latent() ->
     assert torch.allclose(out["loss"], plain["loss"] + 0.5 * out["denoise"])
 
 
-def test_denoise_term_below_a_time_leaves_the_noisier_items_to_eq_15() -> None:
-    """consistency.denoise_max_t: the direct term averaged over the items with t_i <= it."""
-    x0 = torch.linspace(0.05, 0.3, 8, dtype=torch.float64).view(8, 1, 1).expand(8, 2, 2)
-    cond, null = torch.randn(8, 3, dtype=torch.float64), torch.zeros(3, dtype=torch.float64)
-    online, _ = _recorder()  # S = 0 everywhere: item b's distance is |x_phi_b| = 3 x0_b
-    target, _ = _recorder()
-    c, cut = 0.001, float(GRID[25])
-    out = consistency_training_loss(online, target, x0, cond, null, SCHEDULE, GRID,
-                                    guidance=2.0, huber_c=c, denoise_weight=0.5,
-                                    denoise_max_t=cut, generator=torch.Generator().manual_seed(0))
-    index = torch.randint(1, 50, (8,), generator=torch.Generator().manual_seed(0))
-    below = GRID[index] <= cut
-    assert 0 < int(below.sum()) < 8  # the seed draws items on both sides of the cut
-    per = ((3 * x0[:, 0, 0]) ** 2 + c**2).sqrt() - c
-    assert torch.allclose(out["denoise"], per[below].mean())
-
-
 def test_motion_term_compares_the_decoded_estimate_with_the_decoded_target() -> None:
     """consistency.motion_weight: smooth-L1 of D(S(x_t, t, c)) against D(x_phi), the target
     decoded without gradient; a decoder blind to a direction makes that direction free."""

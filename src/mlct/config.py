@@ -161,10 +161,6 @@ class ConsistencyConfig(_Section):
     # Ours (0 = the paper): weight of the direct term d(S(x_t, t, c), x_phi), see
     # diffusion/losses.py: the conditional branch also regresses the guided clean latent.
     denoise_weight: float = Field(0.0, ge=0.0)
-    # Ours: the direct term only where t <= this (1 = t_max: everywhere). Regressing x_phi at a
-    # large t learns E[x0 | x_t, c], the mean motion of the text, so every seed drew the same
-    # motion; below the cut x_t still says which motion it is, and Eq. 15 carries that up.
-    denoise_max_t: float = Field(1.0, gt=0.0)
     # Ours (0 = off): the same direct term measured on the motion, through the frozen decoder:
     # smooth-L1 between D(S(x_t, t, c)) and D(x_phi). The latent metric weighs every direction
     # alike, so stage 2 drew the mean count of an arm's oscillation (claps, waves: the latent's

@@ -36,7 +36,6 @@ def consistency_training_loss(
     huber_c: float = 0.001,
     clamp: float | None = 1.0,
     denoise_weight: float = 0.0,
-    denoise_max_t: float | None = None,
     generator: torch.Generator | None = None,
     decode: Callable[[Tensor], Tensor] | None = None,
     motion_weight: float = 0.0,
@@ -54,8 +53,6 @@ def consistency_training_loss(
     text's information up the 50-point grid one interval at a time; a short run (thousands of
     steps, not the authors' ~200k) then samples near the mean latent for every prompt. The
     direct term is the large-interval end of easy consistency tuning (ECT, Geng et al. 2024).
-    denoise_max_t: the direct term only on the items with t_i <= it (None: all). At a large t
-    its minimiser is E[x0 | x_t, c], one mean motion per text whatever the noise.
 
     motion_weight > 0 (ours) with `decode` (latents -> motion features, differentiable, the
     frozen decoder) adds the smooth-L1 of D(S(x_t, t_i, c)) against D(x_phi): the direct term
@@ -92,12 +89,7 @@ def consistency_training_loss(
         "unconditional": unconditional.detach(),
     }
     if denoise_weight > 0:
-        if denoise_max_t is None:
-            denoise = pseudo_huber(s_cond, x_phi, huber_c)
-        else:
-            below = (t_i <= denoise_max_t).to(s_cond.dtype)  # (B,)
-            per = pseudo_huber(s_cond, x_phi, huber_c, per_sample=True)
-            denoise = (below * per).sum() / below.sum().clamp(min=1.0)
+        denoise = pseudo_huber(s_cond, x_phi, huber_c)
         out["loss"] = out["loss"] + denoise_weight * denoise
         out["denoise"] = denoise.detach()
     if motion_weight > 0:

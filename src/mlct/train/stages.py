@@ -438,8 +438,6 @@ class ConsistencyStage(LatentStage):
                        self.text.residuals), self.text.null,
             self.schedule, self.grid, guidance=c.guidance, uncond_weight=c.uncond_weight,
             huber_c=c.huber_c, clamp=self.clamp, denoise_weight=c.denoise_weight,
-            denoise_max_t=(c.denoise_max_t if c.denoise_max_t < self.config.schedule.t_max
-                           else None),
             generator=generator, decode=self._decoder(batch) if c.motion_weight else None,
             motion_weight=c.motion_weight, motion_items=c.motion_items)
 
