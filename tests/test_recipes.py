@@ -14,13 +14,14 @@ TOOLS = Path(__file__).resolve().parents[1] / "tools"
 
 @pytest.mark.parametrize("script", ["make_bundled_model.sh", "make_bundled_model_3h.sh",
                                     "make_bundled_model_narrow_decoder.sh",
-                                    "make_real_model.sh"])
+                                    "make_real_model.sh", "make_broad_model.sh"])
 def test_recipe_parses(script):
     subprocess.run(["bash", "-n", str(TOOLS / script)], check=True)
 
 
-def test_the_real_data_recipe_needs_a_real_dataset(tmp_path):
-    done = subprocess.run(["bash", str(TOOLS / "make_real_model.sh"), str(tmp_path / "w")],
+@pytest.mark.parametrize("script", ["make_real_model.sh", "make_broad_model.sh"])
+def test_the_real_data_recipes_need_a_real_dataset(tmp_path, script):
+    done = subprocess.run(["bash", str(TOOLS / script), str(tmp_path / "w")],
                           capture_output=True, text=True)
     assert done.returncode == 2 and "give one or more imported real datasets" in done.stderr
     assert not (tmp_path / "w").exists()
