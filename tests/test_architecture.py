@@ -24,6 +24,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     # CUDA graphs captured and replayed
     # the package's shipped files by name
     ("io", "devices", "config", "onnx_io", "cuda_graphs", "shipped"),
+    # a validated config read without pydantic (the bundled model's), latent_clamp
+    ("config_view",),
     ("cpu_features",),  # what this CPU's kernels can run: the weights' precision
     ("motion",),  # skeletons, features <-> joints, BVH, rendering
     ("data",),  # the dataset layout, captions, statistics, torch datasets, the benchmark

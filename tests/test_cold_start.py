@@ -15,9 +15,10 @@ import pytest
 
 # Not needed to write a .npy: torch (the onnx backend, the default, runs the shipped graphs
 # with numpy around them: a light install has no torch), Hugging Face stacks, scientific
-# extras, plotting, the web server.
+# extras, plotting, the web server; the typed config's pydantic and yaml (~0.1 s: the bundled
+# model's config is read without them, config_view.py).
 HEAVY = ("torch", "sentence_transformers", "transformers", "sklearn", "scipy", "matplotlib",
-         "fastapi", "uvicorn", "plotly")
+         "fastapi", "uvicorn", "plotly", "pydantic", "yaml")
 
 _CHILD = """
 import sys

@@ -338,9 +338,3 @@ def load_config(preset_or_file: str | Path | None = None,
             data = _merge(_read_yaml(preset_path(str(base))), data)
     data = apply_overrides(data, overrides)
     return config_from_dict(data, source if not overrides else f"{source} + overrides")
-
-
-def latent_clamp(config: Config) -> float | None:
-    """Clamp bound of stage 2's latent: 1 for the quantized latent (tanh-bounded, Eq. 8) times
-    schedule.latent_scale, none for the vae / plain ablations, whose latents are unbounded."""
-    return config.schedule.latent_scale if config.ae.latent_type == "quantized" else None

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import hashlib
+import os
 from pathlib import Path
 
 ASSETS = Path(__file__).resolve().parent / "assets"
@@ -15,6 +16,12 @@ MINILM_WEIGHTS = "model.safetensors"
 # digests of the MiniLM's and the critic's weights, and the critic's graph
 TEXT_ENCODER_WEIGHTS = "minilm_sha256"
 CRITIC, CRITIC_WEIGHTS = "critic.onnx", "critic_sha256"
+
+
+def is_shipped_model(model_dir: str | os.PathLike | None) -> bool:
+    """Is this folder the bundled model, whose files the tests check (its config validated,
+    the digests its graphs record: tests/test_config_view.py, test_onnx_assets.py)?"""
+    return model_dir is not None and Path(model_dir).resolve() == MODEL_DIR
 
 
 def file_digest(path: Path) -> str:

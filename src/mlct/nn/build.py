@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from mlct.config import Config, latent_clamp  # noqa: F401 (the samplers import it here)
+from mlct.config import Config
+from mlct.config_view import latent_clamp  # noqa: F401 (train/stages.py imports it here)
 from mlct.errors import MlctError
 from mlct.motion.features import arm_feature_columns
 from mlct.nn.autoencoder import LatentAutoencoder, MotionAutoencoder

@@ -14,7 +14,7 @@ from typing import Any, ContextManager, Sequence
 
 import numpy as np
 
-from mlct.config import config_from_dict
+from mlct.config_view import model_config
 from mlct.generate.samplers import Sampler, sampler_class
 from mlct.motion.skeleton import get_skeleton
 
@@ -34,7 +34,7 @@ class Networks:
 
     def __init__(self, meta: dict, device: Any = "cpu") -> None:
         self.meta = meta
-        self.config = config_from_dict(meta["config"], "model config")
+        self.config = model_config(meta)  # (the bundled model's: read without pydantic)
         self.device = self.resolve_device(device)
         self.skeleton = get_skeleton(meta["skeleton"])
         # the bundle names its sampler (config.json "sampler"); it owns steps, times, guidance

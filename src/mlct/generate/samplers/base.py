@@ -13,12 +13,14 @@ from abc import ABC, abstractmethod
 from functools import cached_property, partial
 from typing import TYPE_CHECKING, Any, Callable, ClassVar
 
-from mlct.config import Config, latent_clamp
+from mlct.config_view import latent_clamp
 from mlct.errors import MlctError
 
 if TYPE_CHECKING:  # torch is imported when a sampler samples, not when it is made: the onnx
     import torch  # backend reads its steps and clamp without torch (backends/onnx/sampler.py)
     from torch import Tensor, nn
+
+    from mlct.config import Config
 
     from mlct.diffusion.samplers import Generators, GuideFn
     from mlct.diffusion.schedule import VPSchedule

@@ -9,13 +9,13 @@ from __future__ import annotations
 from functools import cached_property
 from typing import TYPE_CHECKING
 
-from mlct.config import Config
 from mlct.generate.samplers.base import Sampler, with_condition_terms
 
 if TYPE_CHECKING:
     import torch
     from torch import Tensor, nn
 
+    from mlct.config import Config
     from mlct.diffusion.samplers import Generators, GuideFn
 
 

@@ -8,13 +8,13 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from mlct.config import Config
 from mlct.generate.samplers.base import Sampler, with_condition_terms
 
 if TYPE_CHECKING:
     import torch
     from torch import Tensor, nn
 
+    from mlct.config import Config
     from mlct.diffusion.samplers import Generators, GuideFn
 
 # The smallest time the baseline is trained and sampled at (t ~ U(t_min, 1),

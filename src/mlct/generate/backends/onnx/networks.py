@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any, Iterator, Sequence
 
 import numpy as np
 
-from mlct.config import latent_clamp
+from mlct.config_view import latent_clamp
 from mlct.errors import MlctError, require_torch
 from mlct.generate.backends.base import Networks
 from mlct.generate.backends.onnx.attention import fuse_attention
