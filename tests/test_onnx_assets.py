@@ -33,6 +33,26 @@ def test_shipped_graphs_were_made_from_the_bundled_weights():
     assert "int8" not in manifest  # the float32 graphs: auto's, the torch backend's motions
 
 
+def test_the_loader_trusts_the_shipped_digests_and_checks_a_copys(tmp_path, monkeypatch):
+    """The digests above are checked here, not at every load of the bundled model (~10-20 ms of
+    hashing at a cold start); a copy of the model is checked against its graphs' manifest."""
+    from mlct.generate.backends.onnx import bundle
+
+    def hashed(model_dir):
+        raise AssertionError(f"hashed {model_dir}")
+
+    with monkeypatch.context() as patched:
+        patched.setattr(bundle, "weights_digest", hashed)
+        assert bundle.read_onnx(MODEL_DIR, "minilm+sides").shipped
+    copy = tmp_path / "model"
+    shutil.copytree(MODEL_DIR, copy)
+    graphs = bundle.read_onnx(copy, "minilm+sides")
+    assert not graphs.shipped
+    (copy / "model.safetensors").write_bytes(b"other weights")
+    with pytest.raises(MlctError, match="made from another"):
+        bundle.read_onnx(copy, "minilm+sides")
+
+
 def test_text_encoder_graph_reads_its_weights_from_the_shipped_minilm():
     graph = SHIPPED_DIR / _manifest()["graphs"]["text_encoder"]
     recipe = json.loads(weights_recipe(graph).read_text(encoding="utf-8"))
