@@ -19,7 +19,8 @@ from mlct.data.labels import read_labels
 from mlct.data.layout import DatasetLayout
 from mlct.errors import MlctError
 from mlct.generate.bundle import bundled_model_dir
-from mlct.generate.compose.text_anchors import FILE, TextAnchors, read_text_anchors, save_text_anchors
+from mlct.generate.compose.text_anchors import (FILE, TextAnchors, _unit, _unit_columns,
+                                                read_text_anchors, save_text_anchors)
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -98,6 +99,15 @@ def test_a_row_seen_before_comes_from_the_memo_which_stays_bounded(monkeypatch) 
     for k in range(5):
         anchors(torch.tensor([[-1.0, float(k), 0.3]]))
     assert len(anchors._memo) == 3
+
+
+def test_the_unit_columns_are_made_in_blocks_to_the_same_bits() -> None:
+    rows = np.random.default_rng(0).standard_normal((1300, 24)).astype(np.float32)
+    rows[7] = 0.0  # a zero row stays zero
+    for block in (1, 512, 5000):
+        columns = _unit_columns(rows, block)
+        assert columns.flags.c_contiguous and columns.dtype == np.float32
+        assert np.array_equal(columns, np.ascontiguousarray(_unit(rows).T))
 
 
 def test_the_rule_refuses_what_cannot_work() -> None:
