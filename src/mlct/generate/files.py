@@ -19,8 +19,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
-from tqdm import tqdm
-
 from mlct.errors import MlctError
 from mlct.generate.output.exports import check_format, check_rig
 from mlct.generate.compose.prompts import clean_prompt
@@ -160,7 +158,7 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
     started = time.perf_counter()
     generator.encode_text(list(dict.fromkeys(clean_prompt(t) for t in texts[:BATCH])))
     text_s, making_s = time.perf_counter() - started, 0.0
-    bar = tqdm(total=len(texts), unit="motion", disable=not progress or len(texts) == 1)
+    bar = _progress_bar(len(texts), progress)
     with bar:
         for start in range(0, len(texts), BATCH):
             stop = start + BATCH
@@ -189,6 +187,29 @@ def run(load: Callable[[], MotionGenerator], request: Request, paths: Sequence[P
               "writing not counted)", len(texts), "" if len(texts) == 1 else "s", making_s * 1e3,
               text_s * 1e3, generator.backend)
     return written
+
+
+class _NoBar:
+    """What the loop asks of a progress bar, where none is shown."""
+
+    def __enter__(self) -> _NoBar:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    def update(self, count: int = 1) -> None:
+        return None
+
+
+def _progress_bar(total: int, progress: bool) -> Any:
+    """tqdm's bar over `total` motions; none for a single motion or without `progress` (and
+    then no import of tqdm, ~15 ms of a one-off command's start)."""
+    if not progress or total == 1:
+        return _NoBar()
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="motion")
 
 
 def _tell_unknown(notice: Callable[[str], None], judged: Any, told: set[str] | None = None
