@@ -12,7 +12,7 @@ from scipy.spatial.transform import Rotation
 from mlct.data.synth.build import make_motion
 from mlct.errors import MlctError
 from mlct.motion.physics import foot_skating_ratio
-from mlct.motion.rigfit import TWIST_RELAX_SECONDS, fit_rig, forward, swing
+from mlct.motion.rigfit import TWIST_RELAX_SECONDS, column_median, fit_rig, forward, swing
 from mlct.motion.skeleton import HUMANML3D, KIT, Skeleton
 from test_bvh import rigid_motion
 
@@ -22,6 +22,17 @@ SKELETONS = [HUMANML3D, KIT]
 def bone_lengths(positions: np.ndarray, skeleton: Skeleton) -> np.ndarray:
     parents = [max(p, 0) for p in skeleton.parents]
     return np.linalg.norm(positions - positions[:, parents], axis=-1)  # (T, J)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("frames", [1, 2, 7, 196, 197])
+def test_column_median_is_numpys_to_the_bit(frames, dtype):
+    x = (np.random.default_rng(frames).standard_normal((frames, 22)) * 3).astype(dtype)
+    if frames > 2:
+        x[1, 5], x[0, 6] = np.nan, np.inf
+    expected = np.median(x, axis=0)
+    got = column_median(x)
+    assert got.dtype == expected.dtype and np.array_equal(got, expected, equal_nan=True)
 
 
 @pytest.mark.parametrize("skeleton", SKELETONS, ids=lambda s: s.name)

@@ -252,6 +252,18 @@ def check_joints(joints: np.ndarray, skeleton: Skeleton, what: str = "rig export
     return joints.astype(np.float64)
 
 
+def column_median(x: np.ndarray) -> np.ndarray:
+    """np.median(x, axis=0), to the bit, without the import of numpy.ma that np.median makes
+    for its NaN check (~10 ms of a one-off .bvh export): the middle of each sorted column, or
+    the mean of the middle two; NaN where a column holds one."""
+    if len(x) == 0:
+        return np.median(x, axis=0)
+    ordered = np.sort(x, axis=0)  # NaN last
+    middle = len(x) // 2
+    median = ordered[middle] if len(x) % 2 else (ordered[middle - 1] + ordered[middle]) / 2
+    return np.where(np.isnan(ordered[-1]), ordered[-1], median)
+
+
 def fit_rig(joints: np.ndarray, skeleton: Skeleton, rest_directions: np.ndarray | None = None,
             lengths: np.ndarray | None = None, fps: float | None = None) -> RigFit:
     """Fit (T, J, 3) joint positions (skeleton units) to a rigid skeleton (module doc).
@@ -271,7 +283,7 @@ def fit_rig(joints: np.ndarray, skeleton: Skeleton, rest_directions: np.ndarray 
 
     bones = x - x[:, [max(p, 0) for p in parents]]  # (T, J, 3); root: 0
     if lengths is None:
-        lengths = np.median(np.linalg.norm(bones, axis=-1), axis=0)  # (J,)
+        lengths = column_median(np.linalg.norm(bones, axis=-1))  # (J,)
     lengths = np.asarray(lengths, dtype=np.float64)
     offsets = rest * lengths[:, None]
     for kids in children:
