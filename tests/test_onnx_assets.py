@@ -60,7 +60,49 @@ def test_text_encoder_graph_reads_its_weights_from_the_shipped_minilm():
     assert recipe["header_sha256"] == safetensors_header_digest(MINILM_DIR / MINILM_WEIGHTS)
     assert graph.stat().st_size < 1_000_000  # the weights are not a second time in the graph
     names, values = external_weights(graph)
-    assert len(names) == len(recipe["initializers"]) >= 6 * 3  # each layer's products at least
+    assert len(names) == len(recipe["initializers"]) == 6  # the attentions' q, k, v joined
+    import onnx
+
+    in_file = [i for i in onnx.load(str(graph), load_external_data=False).graph.initializer
+               if {e.key: e.value for e in i.external_data}.get("location") == MINILM_WEIGHTS]
+    assert len(in_file) >= 6 * 3  # each layer's other products, read by ONNX Runtime
+
+
+def test_externalized_weights_give_the_graphs_results_to_the_bit(tmp_path):
+    """A tensor as it is and a transposed one (its MatMul a FusedMatMul) are read from the file
+    by ONNX Runtime, a joined one is built by the recipe: the same results as the weights
+    stored in the graph."""
+    import onnx
+    from onnx import TensorProto, helper, numpy_helper
+    from safetensors.numpy import save_file
+
+    from mlct.onnx_io import externalize_weights
+
+    rng = np.random.default_rng(0)
+    a, b, c = (rng.standard_normal((8, 16)).astype(np.float32) for _ in range(3))
+    save_file({"a": a, "b": b, "c": c, "e": a.copy() * 2}, str(tmp_path / "w.safetensors"))
+    weights = {"a_t": a.T, "bc": np.concatenate([b.T, c.T], axis=1), "e": a * 2}
+    nodes = [helper.make_node("MatMul", ["x", "a_t"], ["y"]),  # (3, 16) @ (16, 8)
+             helper.make_node("MatMul", ["y", "e"], ["z"]),  # (3, 8) @ (8, 16): as it is
+             helper.make_node("MatMul", ["z", "bc"], ["out"])]  # (3, 16) @ (16, 16)
+    model = helper.make_model(helper.make_graph(
+        nodes, "g", [helper.make_tensor_value_info("x", TensorProto.FLOAT, [3, 16])],
+        [helper.make_tensor_value_info("out", TensorProto.FLOAT, [3, 16])],
+        [numpy_helper.from_array(np.ascontiguousarray(v), k) for k, v in weights.items()]),
+        opset_imports=[helper.make_opsetid("", 17)])
+    folder = tmp_path / "graphs"
+    folder.mkdir()
+    onnx.save(model, str(folder / "g.onnx"))
+    x = {"x": rng.standard_normal((3, 16)).astype(np.float32)}
+    (whole,) = session(folder / "g.onnx", threads=1).run(None, x)
+    recipe = json.loads(externalize_weights(folder / "g.onnx", tmp_path / "w.safetensors",
+                                            "../w.safetensors", min_size=1).read_text())
+    assert [e["name"] for e in recipe["initializers"]] == ["bc"]
+    ops = [n.op_type for n in onnx.load(str(folder / "g.onnx"), load_external_data=False
+                                        ).graph.node]
+    assert ops == ["FusedMatMul", "MatMul", "MatMul"]
+    (read,) = session(folder / "g.onnx", threads=1).run(None, x)
+    assert np.array_equal(read, whole)
 
 
 def test_text_encoder_graph_against_the_torch_network():

@@ -12,8 +12,10 @@ committed beside the weights they come from:
                                   with the sha256 of the critic.safetensors it came from
     assets/model/onnx/text_encoder.weights.json
                                   the text encoder graph holds no weights: they are read from
-                                  assets/minilm/model.safetensors at load (onnx_io.
-                                  external_weights), the one copy the torch encoder reads too
+                                  assets/minilm/model.safetensors at load, the one copy the
+                                  torch encoder reads too (by ONNX Runtime at the tensors'
+                                  offsets, the attentions' joined q, k, v by this recipe:
+                                  onnx_io.externalize_weights)
     assets/minilm/                sentence-transformers/all-MiniLM-L6-v2 (Apache-2.0): config,
                                   tokenizer, weights, as the Hugging Face repository has them
 

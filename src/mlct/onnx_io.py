@@ -211,11 +211,16 @@ def session(path: str | os.PathLike | bytes, threads: int | None = None,
     # vectors 3e-3 from the page's (1e-7 with this set). Graphs without such pairs are unchanged.
     options.add_session_config_entry("session.disable_quant_qdq", "1")
     weights: list[Any] = []
+    model: str | bytes = path if isinstance(path, bytes) else str(path)
     if not isinstance(path, bytes) and weights_recipe(path).is_file():
-        names, weights = external_weights(path)
+        names, weights, folder = _recipe_weights(path)
         options.add_external_initializers(names, weights)
+        # the rest ONNX Runtime reads from the weights file itself: a graph read from memory
+        # finds its external data in this folder (one read from its path, only beside it)
+        options.add_session_config_entry("session.model_external_initializers_file_folder_path",
+                                         str(folder))
+        model = Path(path).read_bytes()
     try:
-        model = path if isinstance(path, bytes) else str(path)
         made = ort.InferenceSession(model, sess_options=options,
                                     providers=["CPUExecutionProvider"],
                                     disabled_optimizers=list(DISABLED_OPTIMIZERS))
@@ -235,10 +240,17 @@ def session_from_bytes(model: bytes, threads: int | None = None,
 
 # A graph's large weights read from a safetensors file instead of the graph (the shipped MiniLM:
 # its one copy of the weights, assets/minilm/model.safetensors, serves the torch encoder and the
-# graph). GRAPH.weights.json says, per initializer of the graph (stored there as external data
-# with no file), which tensors of the file it is: one, transposed or not, or several such
-# pieces concatenated along an axis (the fused attention's query, key and value).
-WEIGHTS_FORMAT, WEIGHTS_VERSION = "mlct-onnx-weights", 1
+# graph). An initializer that is a tensor of the file as it is stands in the graph as ONNX
+# external data at the tensor's offset in the file, which ONNX Runtime reads itself; so does a
+# product's weight that is a tensor's transpose, its MatMul made a FusedMatMul that transposes
+# it (transB: the same packed weights, the same results to the bit). GRAPH.weights.json names
+# the file, and says of each other initializer (stored as external data with no file) which
+# tensors it is built from in numpy: several, transposed or not, concatenated along an axis
+# (the fused attention's query, key and value). Version 1 built every initializer in numpy;
+# reading the file in ONNX Runtime instead of handing it 90 MB of arrays took the shipped text
+# encoder's session from ~115 to ~50 ms of CPU (docs/performance.md, "Cold start").
+WEIGHTS_FORMAT, WEIGHTS_VERSION = "mlct-onnx-weights", 2
+WEIGHTS_VERSIONS = (1, 2)  # what the loader reads
 
 
 def weights_recipe(graph: str | os.PathLike) -> Path:
@@ -257,10 +269,17 @@ def safetensors_header_digest(path: str | os.PathLike) -> str:
 
 
 def external_weights(graph: str | os.PathLike) -> tuple[list[str], list[Any]]:
-    """(names, OrtValues) of the graph's initializers, built with numpy from the safetensors
-    file its recipe names (weights_recipe); MlctError when that file is missing or another.
-    The file is mapped, not read: a tensor the graph takes as it is (the word embeddings, half
-    the MiniLM) is a view of the page cache, only the transposed and joined ones are copied."""
+    """(names, OrtValues) of the graph's initializers that its recipe (weights_recipe) builds
+    with numpy from the safetensors file it names; MlctError when that file is missing or
+    another. The file is mapped, not read: a tensor taken as it is is a view of the page cache,
+    the transposed and joined ones are copies. (The initializers the graph reads from the file
+    itself, ONNX Runtime reads: session.)"""
+    names, values, _ = _recipe_weights(graph)
+    return names, values
+
+
+def _recipe_weights(graph: str | os.PathLike) -> tuple[list[str], list[Any], Path]:
+    """external_weights' names and OrtValues, and the folder of the weights file."""
     import numpy as np
     import onnxruntime as ort
 
@@ -271,8 +290,9 @@ def external_weights(graph: str | os.PathLike) -> tuple[list[str], list[Any]]:
     except (OSError, ValueError, KeyError, TypeError) as error:
         raise MlctError(f"{recipe_path}: cannot read the graph's weights recipe "
                         f"({first_line(error)})") from None
-    if recipe.get("format") != WEIGHTS_FORMAT or recipe.get("version") != WEIGHTS_VERSION:
-        raise MlctError(f"{recipe_path}: not a {WEIGHTS_FORMAT} {WEIGHTS_VERSION} recipe")
+    if recipe.get("format") != WEIGHTS_FORMAT or recipe.get("version") not in WEIGHTS_VERSIONS:
+        raise MlctError(f"{recipe_path}: not a {WEIGHTS_FORMAT} recipe of version "
+                        f"{' or '.join(map(str, WEIGHTS_VERSIONS))}")
     if not source.is_file():
         raise MlctError(f"{graph}: its weights file {source} is missing; reinstall mlct")
     if (source.stat().st_size != recipe.get("size")
@@ -285,7 +305,7 @@ def external_weights(graph: str | os.PathLike) -> tuple[list[str], list[Any]]:
         array = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=entry["axis"])
         names.append(entry["name"])
         values.append(ort.OrtValue.ortvalue_from_numpy(np.ascontiguousarray(array)))
-    return names, values
+    return names, values, source.parent
 
 
 _SAFETENSORS_DTYPES = {"F32": "<f4", "F16": "<f2", "I64": "<i8", "I32": "<i4", "I8": "i1"}
@@ -315,16 +335,22 @@ def externalize_weights(graph: str | os.PathLike, source: str | os.PathLike,
                         relative_to_graph: str, min_size: int = 4096) -> Path:
     """Rewrite the graph at `graph` so that each initializer of min_size elements or more that
     is a tensor of the safetensors file `source` (or its transpose, or a concatenation of such)
-    is read from that file at load (external_weights) instead of stored in the graph; writes the
-    recipe beside it, checked by rebuilding every such initializer. relative_to_graph: the
-    source's path from the graph's folder, as the recipe records it. Returns the recipe."""
+    is read from that file at load instead of stored in the graph (the recipe above): a tensor
+    as it is, or a transposed one that only MatMuls take as their weight (those made
+    FusedMatMuls with transB), as external data at its offset in the file; any other from the
+    recipe written beside the graph, checked by rebuilding every such initializer.
+    relative_to_graph: the source's path from the graph's folder, as the recipe records it.
+    Returns the recipe."""
     import numpy as np
     import onnx
-    from onnx import TensorProto, numpy_helper
+    from onnx import TensorProto, helper, numpy_helper
     from safetensors.numpy import load_file
 
     graph, source = Path(graph), Path(source)
     tensors = load_file(str(source))
+    with open(source, "rb") as f:  # where each tensor's bytes lie in the file
+        size = int.from_bytes(f.read(8), "little")
+        header = json.loads(f.read(size))
     known: dict[bytes, tuple[str, bool]] = {}
     for key, array in tensors.items():
         known.setdefault(_fingerprint(array), (key, False))
@@ -345,6 +371,10 @@ def externalize_weights(graph: str | os.PathLike, source: str | os.PathLike,
         return None
 
     model = onnx.load(str(graph))
+    users: dict[str, list[Any]] = {}
+    for node in model.graph.node:
+        for name in set(node.input):
+            users.setdefault(name, []).append(node)
     entries = []
     for init in model.graph.initializer:
         array = numpy_helper.to_array(init)
@@ -355,16 +385,34 @@ def externalize_weights(graph: str | os.PathLike, source: str | os.PathLike,
         rebuilt = rebuilt[0] if len(rebuilt) == 1 else np.concatenate(rebuilt, axis=axis)
         if rebuilt.dtype != array.dtype or not np.array_equal(rebuilt, array):
             raise MlctError(f"{graph.name}: {init.name} rebuilt from {source.name} differs")
-        entries.append({"name": init.name, "axis": axis, "parts": [list(p) for p in parts]})
+        key, transposed = parts[0]
+        products = users.get(init.name, [])
+        in_file = len(parts) == 1 and (not transposed or (products and all(
+            node.op_type == "MatMul" and node.domain in ("", "ai.onnx")
+            and list(node.input).index(init.name) == 1 for node in products)))
+        location, offset = "weights.unused", 0
+        if in_file:
+            for node in products if transposed else []:  # x @ w.T, the weight as it is stored
+                node.op_type, node.domain = "FusedMatMul", "com.microsoft"
+                node.attribute.append(helper.make_attribute("transB", 1))
+            if transposed:
+                del init.dims[:]
+                init.dims.extend(tensors[key].shape)
+            location, offset = source.name, 8 + size + header[key]["data_offsets"][0]
+        else:
+            entries.append({"name": init.name, "axis": axis, "parts": [list(p) for p in parts]})
         init.ClearField("raw_data")
         for field in ("float_data", "int32_data", "int64_data", "double_data"):
             init.ClearField(field)
         init.data_location = TensorProto.EXTERNAL
         del init.external_data[:]
-        for key, value in (("location", "weights.unused"), ("offset", "0"),
-                           ("length", str(array.nbytes))):
+        for name, value in (("location", location), ("offset", str(offset)),
+                            ("length", str(array.nbytes))):
             item = init.external_data.add()
-            item.key, item.value = key, value
+            item.key, item.value = name, value
+    if not any(o.domain == "com.microsoft" for o in model.opset_import) and any(
+            node.domain == "com.microsoft" for node in model.graph.node):
+        model.opset_import.append(helper.make_opsetid("com.microsoft", 1))
     onnx.save(model, str(graph))
     recipe = {"format": WEIGHTS_FORMAT, "version": WEIGHTS_VERSION,
               "safetensors": relative_to_graph, "size": source.stat().st_size,
