@@ -44,6 +44,21 @@ def bundle():
     return read_bundle(bundled_model_dir())
 
 
+def test_the_onnx_backends_bundle_reads_each_tensor_when_first_asked_for() -> None:
+    """read_bundle(numpy=True): the file's tensors, float16 ones as float32, read one by one."""
+    from safetensors.numpy import load_file
+
+    _, lazy = read_bundle(bundled_model_dir(), numpy=True)
+    assert np.array_equal(lazy["norm.std"], lazy["norm.std"]) and len(lazy._read) == 1
+    whole = load_file(str(bundled_model_dir() / "model.safetensors"))
+    assert sorted(lazy) == sorted(whole) and len(lazy) == len(whole)
+    for key, value in whole.items():
+        expected = value.astype(np.float32) if value.dtype == np.float16 else value
+        assert lazy[key].dtype == expected.dtype and np.array_equal(lazy[key], expected), key
+    with pytest.raises(KeyError):
+        lazy["no.such.tensor"]
+
+
 def counting(bundle) -> tuple[MotionGenerator, CountingNetworks]:
     networks = CountingNetworks(*bundle)
     return MotionGenerator(MotionCore(networks, plain_subject)), networks

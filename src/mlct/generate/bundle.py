@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -110,7 +111,8 @@ def read_config(path: str | os.PathLike) -> dict[str, Any]:
 def read_bundle(path: str | os.PathLike, numpy: bool = False
                 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """config.json and the tensors of a bundle, float16 ones as float32; one-line MlctError
-    when it is not one. numpy: numpy arrays (the onnx backend, without torch), else tensors."""
+    when it is not one. numpy: numpy arrays (the onnx backend, without torch), each read when
+    first asked for (_LazyArrays), else tensors."""
     path = Path(path)
     if not path.is_dir():
         raise MlctError(f"{path}: no such model directory")
@@ -125,19 +127,45 @@ def read_bundle(path: str | os.PathLike, numpy: bool = False
     meta["model_dir"] = str(path)
     try:
         if numpy:
-            import numpy as np
-            from safetensors.numpy import load_file
-        else:
-            from safetensors.torch import load_file
+            return meta, _LazyArrays(weights)
+        from safetensors.torch import load_file
+
         tensors = load_file(str(weights))
     except Exception as err:  # safetensors raises several kinds on a damaged file
         raise MlctError(f"{weights}: unreadable weights ({first_line(err)})") from None
-    if numpy:
-        return meta, {k: (v.astype(np.float32) if v.dtype == np.float16 else v)
-                      for k, v in tensors.items()}
     import torch
 
     return meta, {k: (v.float() if v.dtype == torch.float16 else v) for k, v in tensors.items()}
+
+
+class _LazyArrays(Mapping[str, Any]):
+    """A bundle's tensors as numpy arrays, float16 ones as float32, each read from its
+    model.safetensors when first asked for (the file's header is checked at once): the onnx
+    backend reads the normalization at load and the rest only when a large batch builds the
+    torch networks (reading and converting all of them took ~20 ms of a cold start)."""
+
+    def __init__(self, weights: Path) -> None:
+        from safetensors import safe_open
+
+        self._file = safe_open(str(weights), framework="numpy")
+        self._keys = tuple(self._file.keys())
+        self._read: dict[str, Any] = {}
+
+    def __getitem__(self, key: str) -> Any:
+        if key not in self._read:
+            if key not in self._keys:
+                raise KeyError(key)
+            import numpy as np
+
+            value = self._file.get_tensor(key)
+            self._read[key] = value.astype(np.float32) if value.dtype == np.float16 else value
+        return self._read[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._keys)
+
+    def __len__(self) -> int:
+        return len(self._keys)
 
 
 def bundled_model_dir() -> Path:
