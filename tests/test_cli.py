@@ -3,6 +3,7 @@ bad-input tables are in test_bad_inputs.py)."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -18,6 +19,31 @@ from mlct.data.layout import DatasetLayout
 def _run(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "mlct.cli", *args], capture_output=True,
                           text=True, timeout=120)
+
+
+_BLAS = """
+import os, sys
+from mlct.cli import main
+main(sys.argv[1:])
+print(os.environ.get("OPENBLAS_NUM_THREADS"))
+"""
+
+
+def test_the_one_off_commands_run_numpy_on_one_blas_thread(tmp_path):
+    """generate, render and retarget load numpy with OpenBLAS on one thread (cli/__init__.py's
+    ONE_BLAS_THREAD), unless the user set it; the other commands keep its default."""
+    missing = str(tmp_path / "missing.npy")
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+
+    def blas(*args: str, **extra: str) -> str:
+        done = subprocess.run([sys.executable, "-c", _BLAS, *args], capture_output=True,
+                              text=True, timeout=120, env={**env, **extra})
+        return done.stdout.strip().splitlines()[-1]
+
+    assert blas("render", missing, "--out", str(tmp_path / "x.png")) == "1"
+    assert blas("render", missing, "--out", str(tmp_path / "x.png"),
+                OPENBLAS_NUM_THREADS="2") == "2"
+    assert blas("data", "check", missing) == "None"
 
 
 @pytest.mark.slow

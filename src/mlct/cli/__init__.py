@@ -28,6 +28,12 @@ EXTRA_OF = {"torch": "train", "transformers": "train", "sentence_transformers": 
             "fastapi_offline": "serve", "uvicorn": "serve", "plotly": "serve",
             "pygltflib": "export"}
 
+# The one-off commands' numpy work is on small arrays, where OpenBLAS's worker threads (one per
+# core, started when numpy loads) buy nothing and spin for ~0.1 s each beside ONNX Runtime's:
+# on one thread `mlct generate` starts ~0.07 s sooner on 2 cores (docs/performance.md, "Cold
+# start"). An $OPENBLAS_NUM_THREADS of the user's own stays.
+ONE_BLAS_THREAD = ("generate", "render", "retarget")
+
 # in the order `mlct --help` lists their commands
 COMMANDS = (data, demo, train, evaluate, export, export_web, convert, serve, generate, render,
             retarget)
@@ -80,6 +86,8 @@ def main(argv: list[str] | None = None) -> int:
     if overrides:
         args.overrides = list(args.overrides) + overrides
     args.argv = list(sys.argv[1:] if argv is None else argv)  # reports record the command
+    if args.command in ONE_BLAS_THREAD and "numpy" not in sys.modules:  # (read at its import)
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     try:
         with _notes_on_one_line():
             return args.func(args)
