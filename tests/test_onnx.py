@@ -328,8 +328,11 @@ def test_conv_decoder_with_its_own_arm_pair(tmp_path) -> None:
     z = gen.sample_latents(cond, 2, [5]).numpy() / np.float32(gen.config.schedule.latent_scale)
     valid = np.arange(37)[None] < 37
     (whole,) = nets.decoder.session.run(None, {"latent": z, "valid": valid})  # one session
-    np.testing.assert_allclose(nets._decoder_halves()(z, valid), whole * nets._std + nets._mean,
+    halves = nets._decoder_halves()
+    np.testing.assert_allclose(halves(z, valid), whole * nets._std + nets._mean,
                                rtol=0, atol=1e-5)
+    # on a machine whose other core is busy the halves run one after the other: the same bits
+    assert np.array_equal(halves(z, valid, side_by_side=False), halves(z, valid))
     want = torch_gen.generate(TEXTS[:1], lengths=[37], nfe=2, seed=5, candidates=1)
     got = gen.generate(TEXTS[:1], lengths=[37], nfe=2, seed=5, candidates=1)
     assert largest_gap(want, got) < JOINTS_M

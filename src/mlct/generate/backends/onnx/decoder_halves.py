@@ -113,11 +113,18 @@ class DecoderHalves:
             self._pid = os.getpid()
         return self._worker
 
-    def __call__(self, latent: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    def __call__(self, latent: np.ndarray, valid: np.ndarray, side_by_side: bool = True
+                 ) -> np.ndarray:
+        """side_by_side False: both halves on the caller's thread, one after the other (the
+        same sessions, so the same numbers), for a machine whose other cores are busy: there
+        the handed-over half waits for a core (OnnxNetworks._decoded)."""
         (latent_name, valid_name), _ = DECODER_IO
         feeds = {latent_name: latent, valid_name: valid}
-        other = self._pool().submit(self._run, self.handed_over, feeds)
-        out = {self.kept: self._run(self.kept, feeds), self.handed_over: other.result()}
+        if side_by_side:
+            other = self._pool().submit(self._run, self.handed_over, feeds)
+            out = {self.kept: self._run(self.kept, feeds), self.handed_over: other.result()}
+        else:
+            out = {name: self._run(name, feeds) for name in (self.kept, self.handed_over)}
         body_name, arms_name = self.names
         return self._run("join", {body_name: out["body"], arms_name: out["arms"],
                                   valid_name: valid})

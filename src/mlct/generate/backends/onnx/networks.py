@@ -368,8 +368,8 @@ class OnnxNetworks(Networks):
         undoes the normalization (decoder_halves.py)."""
         latent = latent / np.float32(self.config.schedule.latent_scale)
         cut = self._decoder_halves() if halves and latent.shape[0] == 1 else None
-        if cut is not None:
-            return cut(latent, valid)
+        if cut is not None:  # side by side where a second core is idle, else one after the other
+            return cut(latent, valid, side_by_side=self.spin(2))
         (inputs, outputs) = DECODER_IO
         (normalized,) = self.decoder.session.run(list(outputs),
                                                  dict(zip(inputs, (latent, valid))))
