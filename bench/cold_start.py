@@ -1,10 +1,13 @@
 """Cold start: wall time of a fresh process to its first motion file, against the 1.0 s goal.
 
-    python bench/cold_start.py [--repeat 5] [--model DIR] [--cli PATH]
+    python bench/cold_start.py [--repeat 5] [--model DIR] [--cli PATH] [--source]
 
 Each case runs as a new process, --repeat times, the cases interleaved so that a busy machine
 slows them alike; one untimed round first fills the OS file cache (a first run after a reboot
-also reads torch's libraries from disk, which this does not time). Cases:
+also reads torch's libraries from disk, which this does not time) and compiles mlct's modules to
+bytecode, as `pip install` does: into a cache of the run's own (PYTHONPYCACHEPREFIX), also where
+$PYTHONDONTWRITEBYTECODE is set, which would otherwise make every run compile them from source
+(~0.08 s more here). --source times that instead: the environment as it is. Cases:
   - `python -c pass` and `python -c "import numpy"`: the interpreter, and the floor any numpy
     program sets; compare against these when the machine is busy (the goal is on 2 cores);
   - `python -c "import torch"` where torch is installed: what the onnx path no longer pays;
@@ -62,9 +65,19 @@ def cases(out_dir: Path, model: str | None, cli: str | None) -> dict[str, list[s
     }
 
 
-def run_once(command: list[str]) -> float:
+def child_env(tmp: Path, source: bool) -> dict[str, str]:
+    """The cases' environment: as it is with `source`, else with a bytecode cache in tmp."""
+    env = dict(os.environ)
+    if not source:
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env["PYTHONPYCACHEPREFIX"] = str(tmp / "pycache")
+    return env
+
+
+def run_once(command: list[str], env: dict[str, str] | None = None) -> float:
     start = time.perf_counter()
-    done = subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    done = subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                          env=env)
     wall = time.perf_counter() - start
     if done.returncode:
         raise SystemExit(f"{' '.join(command)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
@@ -76,19 +89,25 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5, help="timed runs per case (default 5)")
     parser.add_argument("--model", default=None, help="model directory (default: the bundled)")
     parser.add_argument("--cli", default=None, help="the mlct executable to time")
+    parser.add_argument("--source", action="store_true",
+                        help="no bytecode cache of the run's own: the environment as it is")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         commands = cases(Path(tmp), args.model, args.cli)
+        env = child_env(Path(tmp), args.source)
         for command in commands.values():  # warm-up: the OS file cache, .pyc files
-            run_once(command)
+            run_once(command, env)
         times: dict[str, list[float]] = {name: [] for name in commands}
         for _ in range(args.repeat):
             for name, command in commands.items():
-                times[name].append(run_once(command))
+                times[name].append(run_once(command, env))
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"cold start, {args.repeat} runs per case; {os.cpu_count()} CPUs, load average "
           f"{load:.2f}, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}")
-    print(f"cli: {' '.join(commands['cli generate'][:1])}")
+    print(f"cli: {' '.join(commands['cli generate'][:1])}; bytecode: "
+          + ("as the environment has it (--source; PYTHONDONTWRITEBYTECODE="
+             f"{os.environ.get('PYTHONDONTWRITEBYTECODE', 'unset')})" if args.source
+             else "cached by the warm-up round, as an installed package has it"))
     numpy = statistics.median(times["import numpy"])
     print(f"{'case':<16} {'min s':>7} {'median s':>9} {'max s':>7} {'- numpy s':>9}")
     for name, walls in times.items():
