@@ -45,10 +45,10 @@ def test_api_and_cli_generate_import_no_heavy_library(tmp_path: Path) -> None:
     assert (tmp_path / "x.npy").is_file()
 
 
-# A rig file needs none of these: roma brought torch._dynamo (~1 s) and the twist's filter
-# scipy.signal (~0.7 s) to every one-off .bvh / .glb / .npz export, and scipy's Rotation and
-# ndimage (the rotations, the fit's moving average) scipy.spatial and scipy.sparse (~0.4 s;
-# docs/performance.md, "Cold start").
+# A rig file (generated, or a .npy retargeted) needs none of these: roma brought torch._dynamo
+# (~1 s) and the twist's filter scipy.signal (~0.7 s) to every one-off .bvh / .glb / .npz export,
+# scipy's Rotation and ndimage (the rotations, the fit's moving average) scipy.spatial and
+# scipy.sparse (~0.4 s), and the .npy reader matplotlib (docs/performance.md, "Cold start").
 RIG_HEAVY = ("roma", "torch", "scipy", "matplotlib", "sentence_transformers", "transformers")
 
 _RIG_CHILD = """
@@ -57,6 +57,7 @@ from mlct.cli import main
 for out in sys.argv[1:]:
     assert main(["generate", "a person walks forward", "--seconds", "1", "--nfe", "1",
                  "--out", out, "--quiet"]) == 0
+assert main(["retarget", sys.argv[-1], "--out", sys.argv[-1] + ".bvh"]) == 0  # draws nothing
 print("heavy:", *sorted(m for m in {HEAVY} if m in sys.modules))
 """
 
@@ -68,7 +69,7 @@ def test_rig_exports_import_no_heavy_library(tmp_path: Path) -> None:
     path = os.pathsep.join(p for p in (src, os.environ.get("PYTHONPATH")) if p)
     env = {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": "1"}
     env.pop("MLCT_BACKEND", None)
-    outs = [str(tmp_path / f"x.{ext}") for ext in ("bvh", "glb", "npz", "fbx", "g1.csv")]
+    outs = [str(tmp_path / f"x.{ext}") for ext in ("bvh", "glb", "npz", "fbx", "g1.csv", "npy")]
     done = subprocess.run([sys.executable, "-c", _RIG_CHILD.format(HEAVY=RIG_HEAVY), *outs],
                           capture_output=True, text=True, env=env)
     assert done.returncode == 0, done.stderr[-2000:]

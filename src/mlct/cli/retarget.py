@@ -20,7 +20,7 @@ def run(args: argparse.Namespace) -> int:
     from mlct.generate.output.exports import ROBOT_FORMATS, check_rig, save_motion
     from mlct.generate.output.generated import GeneratedMotion
     from mlct.io import check_writable_dir
-    from mlct.motion.render import load_motion_npy
+    from mlct.motion.motion_npy import load_motion_npy
 
     name = args.out.name.lower()
     suffix = next((f for f in ROBOT_FORMATS if name.endswith(f)), args.out.suffix.lower())

@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 import textwrap
 from pathlib import Path
-from typing import Callable, Iterator, TypeVar
+from typing import Iterator
 
 import numpy as np
 from PIL import Image
@@ -22,14 +22,13 @@ from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d import Axes3D, proj3d
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-from mlct.errors import MlctError, first_line
+from mlct.errors import MlctError
 from mlct.io import atomic_path
-from mlct.motion.skeleton import (SKELETONS, Skeleton, get_skeleton, skeleton_for_dim,
-                                  skeleton_for_joints)
+from mlct.motion.motion_npy import check_finite, load_motion_npy, resolve_skeleton
+from mlct.motion.skeleton import SKELETONS, Skeleton
 
 FORMATS = (".gif", ".mp4", ".png")
 MIN_FPS, MAX_FPS = 0.01, 1000.0  # what a GIF's delays and ffmpeg's frame rates can hold
-T = TypeVar("T")
 
 # Animation frame: small enough that a 196-frame GIF renders in seconds on 2 cores.
 FRAME_INCHES = 4.0
@@ -67,12 +66,12 @@ def render_motion(joints: np.ndarray, out: str | os.PathLike, skeleton: Skeleton
     """Draw (T, J, 3) joints (y up) to `out`: .gif / .mp4 animation or .png filmstrip."""
     out = Path(out)
     kind = _output_kind(out)
-    skeleton = _resolve_skeleton(skeleton)
+    skeleton = resolve_skeleton(skeleton)
     joints = np.asarray(joints, dtype=np.float64)
     if joints.ndim != 3 or joints.shape[1:] != (skeleton.n_joints, 3) or len(joints) == 0:
         raise MlctError(f"joints of shape {joints.shape} do not fit the {skeleton.name} "
                         f"skeleton: expected (T >= 1, {skeleton.n_joints}, 3)")
-    _check_finite(joints, "joints")
+    check_finite(joints, "joints")
     fps = skeleton.fps if fps is None else float(fps)
     if not np.isfinite(fps) or fps <= 0:
         raise MlctError(f"fps must be a positive number, got {fps}")
@@ -84,46 +83,6 @@ def render_motion(joints: np.ndarray, out: str | os.PathLike, skeleton: Skeleton
     else:
         _render_animation(scene, out, title, fps, kind)
     return out
-
-
-def load_motion_npy(path: str | os.PathLike,
-                    skeleton: Skeleton | str | None = None) -> tuple[np.ndarray, Skeleton]:
-    """(T, J, 3) joints and their skeleton from a features (T, 263|251) or joints (T, J, 3)
-    .npy file (features are turned into joints); the skeleton comes from the shape unless
-    given. Every problem is a one-line MlctError. `mlct render` and `mlct retarget` read
-    motions with it."""
-    path = Path(path)
-    array = _load_npy(path)
-    feature_dims = sorted(s.feature_dim for s in SKELETONS.values())
-    is_features = array.ndim == 2 and array.shape[1] in feature_dims
-    if not is_features and not (array.ndim == 3 and array.shape[2] == 3):
-        widths = " or ".join(f"(T, {d})" for d in feature_dims)
-        raise MlctError(f"{path} has shape {array.shape}: expected features {widths}, "
-                        f"or joints (T, J, 3)")
-    if len(array) == 0:
-        raise MlctError(f"{path} has no frames (shape {array.shape})")
-    _check_finite(array, str(path))
-
-    if skeleton is not None:
-        skel = _resolve_skeleton(skeleton)
-    elif is_features:
-        skel = _call(skeleton_for_dim, array.shape[1])
-    else:
-        skel = _call(skeleton_for_joints, array.shape[1])
-    if is_features:
-        if skel.feature_dim != array.shape[1]:
-            raise MlctError(f"{path} has {array.shape[1]}-d features but the {skel.name} "
-                            f"skeleton uses {skel.feature_dim}")
-        from mlct.motion.joints import features_to_joints
-
-        joints = features_to_joints(array.astype(np.float32), skel.n_joints)
-        _check_finite(joints, f"joints recovered from {path}")
-    else:
-        if skel.n_joints != array.shape[1]:
-            raise MlctError(f"{path} has {array.shape[1]} joints but the {skel.name} skeleton "
-                            f"has {skel.n_joints}")
-        joints = array
-    return joints, skel
 
 
 def render_file(path: str | os.PathLike, out: str | os.PathLike,
@@ -151,7 +110,7 @@ def _render_bvh(path: Path, out: Path, skeleton: Skeleton | str | None, caption:
     from mlct.motion.bvh import read_bvh
 
     clip = read_bvh(path)
-    candidates = [_resolve_skeleton(skeleton)] if skeleton is not None else list(SKELETONS.values())
+    candidates = [resolve_skeleton(skeleton)] if skeleton is not None else list(SKELETONS.values())
     for skel in candidates:
         if set(skel.joint_names) <= set(clip.joint_names):
             index = [clip.joint_names.index(name) for name in skel.joint_names]
@@ -206,43 +165,6 @@ def _ffmpeg_available() -> bool:
         return False
     matplotlib.rcParams["animation.ffmpeg_path"] = path
     return FFMpegWriter.isAvailable()
-
-
-def _resolve_skeleton(skeleton: Skeleton | str) -> Skeleton:
-    if isinstance(skeleton, Skeleton):
-        return skeleton
-    return _call(get_skeleton, skeleton)
-
-
-def _call(lookup: Callable[[T], Skeleton], arg: T) -> Skeleton:
-    """Turn the skeleton look-ups' ValueError into the user's one-line error."""
-    try:
-        return lookup(arg)
-    except ValueError as error:
-        raise MlctError(str(error)) from None
-
-
-def _check_finite(array: np.ndarray, what: str) -> None:
-    bad = ~np.isfinite(array)
-    if bad.any():
-        frames = np.nonzero(bad.reshape(len(array), -1).any(axis=1))[0]
-        raise MlctError(f"{what} has {int(bad.sum())} NaN/inf values in {len(frames)} frame(s), "
-                        f"first at frame {int(frames[0])}")
-
-
-def _load_npy(path: Path) -> np.ndarray:
-    try:
-        array = np.load(path, allow_pickle=False)
-    except FileNotFoundError:
-        raise MlctError(f"{path}: no such file") from None
-    except (OSError, ValueError, EOFError) as error:
-        reason = first_line(error)
-        raise MlctError(f"cannot read {path} as .npy: {reason}") from None
-    if not isinstance(array, np.ndarray):  # an .npz archive
-        raise MlctError(f"{path} is not a single .npy array")
-    if array.dtype.kind not in "fiu":
-        raise MlctError(f"{path} holds {array.dtype} values, not numbers")
-    return array
 
 
 # --- drawing ------------------------------------------------------------------------------------
