@@ -1,6 +1,7 @@
 """Cold start: wall time of a fresh process to its first motion file, against the 1.0 s goal.
 
     python bench/cold_start.py [--repeat 5] [--model DIR] [--cli PATH] [--source]
+                               [--against OLD/src]
 
 Each case runs as a new process, --repeat times, the cases interleaved so that a busy machine
 slows them alike; one untimed round first fills the OS file cache (a first run after a reboot
@@ -16,7 +17,9 @@ $PYTHONDONTWRITEBYTECODE is set, which would otherwise make every run compile th
   - the same to a rig file, `--out x.bvh` (the rig fit and the BVH writer: their imports too);
   - the Python API's first call: `import mlct; mlct.load().generate([...])`.
 Prints min / median / max seconds per case, the median beside `import numpy`'s, and whether the
-median meets the goal.
+median meets the goal. --against OLD/src also times the three goal cases with another checkout's
+package first on the path (PYTHONPATH; e.g. `git worktree add /tmp/old COMMIT`), taking turns
+with this one's: a change's before and after under the same load.
 """
 
 from __future__ import annotations
@@ -91,16 +94,23 @@ def main() -> None:
     parser.add_argument("--cli", default=None, help="the mlct executable to time")
     parser.add_argument("--source", action="store_true",
                         help="no bytecode cache of the run's own: the environment as it is")
+    parser.add_argument("--against", default=None,
+                        help="another checkout's src/ to time the goal cases of, in turns")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         commands = cases(Path(tmp), args.model, args.cli)
         env = child_env(Path(tmp), args.source)
-        for command in commands.values():  # warm-up: the OS file cache, .pyc files
-            run_once(command, env)
-        times: dict[str, list[float]] = {name: [] for name in commands}
+        runs = [(name, command, env) for name, command in commands.items()]
+        if args.against:
+            old = {**env, "PYTHONPATH": os.pathsep.join(
+                p for p in (str(Path(args.against).resolve()), env.get("PYTHONPATH")) if p)}
+            runs += [(f"{name} (against)", commands[name], old) for name in GOAL_CASES]
+        for _, command, case_env in runs:  # warm-up: the OS file cache, .pyc files
+            run_once(command, case_env)
+        times: dict[str, list[float]] = {name: [] for name, _, _ in runs}
         for _ in range(args.repeat):
-            for name, command in commands.items():
-                times[name].append(run_once(command, env))
+            for name, command, case_env in runs:
+                times[name].append(run_once(command, case_env))
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"cold start, {args.repeat} runs per case; {os.cpu_count()} CPUs, load average "
           f"{load:.2f}, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}")
@@ -109,13 +119,15 @@ def main() -> None:
              f"{os.environ.get('PYTHONDONTWRITEBYTECODE', 'unset')})" if args.source
              else "cached by the warm-up round, as an installed package has it"))
     numpy = statistics.median(times["import numpy"])
-    print(f"{'case':<16} {'min s':>7} {'median s':>9} {'max s':>7} {'- numpy s':>9}")
+    if args.against:
+        print(f"against: {Path(args.against).resolve()}")
+    print(f"{'case':<26} {'min s':>7} {'median s':>9} {'max s':>7} {'- numpy s':>9}")
     for name, walls in times.items():
         median = statistics.median(walls)
         verdict = ""
         if name in GOAL_CASES:
             verdict = f"  {'meets' if median <= GOAL_S else 'MISSES'} the {GOAL_S} s goal"
-        print(f"{name:<16} {min(walls):7.2f} {median:9.2f} {max(walls):7.2f} "
+        print(f"{name:<26} {min(walls):7.2f} {median:9.2f} {max(walls):7.2f} "
               f"{median - numpy:9.2f}{verdict}")
 
 
