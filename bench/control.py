@@ -4,8 +4,8 @@ skating, time, for each way of meeting the controls.
     python -m mlct.cli data synth --out /tmp/synth --num 400 --seed 0 --workers 1
     python bench/control.py --data /tmp/synth [--limit N] [--nfe 5] [--json OUT]
     MLCT_BACKEND=torch python bench/control.py --guidance [--models bundled DIR ...] [--seeds 30]
-    python bench/control.py --speeds [--real DATASET] [--method paced|candidates|guide]
-        [--seeds 5] [--json OUT]
+    python bench/control.py --speeds [--real DATASET] [--synth DATASET]
+        [--methods paced-before paced steer candidates guide] [--seeds 5] [--json OUT]
 
 Each test motion of the benchmark gives its own controls and its first caption the text:
 - path: its root's (x, z) at every second and at its last frame (the path it really walks);
@@ -14,10 +14,11 @@ Each test motion of the benchmark gives its own controls and its first caption t
 Methods: none (plain generation, same seeds), paced (the default: a path walked by the text's
 own motion re-timed to it, then the correction; keyframes by the best of 4), guide (decoder
 guidance only), project (motion-space correction only), both (guidance then correction), best4
-and best8 (candidates then correction). Reported: path
-error at the waypoints (mean, max, cm), keyframe joint error (mean, cm), the read-out pass rate
-of the quality suites' checks (its Tally, on the same labels), the GMD foot-skating ratio
-(the data's in the last row), and ms per motion at batch 1 (the ratio to plain generation).
+and best8 (candidates then correction), steer (projection inside the consistency steps, then
+the correction). Reported: path error at the waypoints (mean, max, cm), keyframe joint error
+(mean, cm), the read-out pass rate of the quality suites' checks (its Tally, on the same
+labels), the GMD foot-skating ratio (the data's in the last row), and ms per motion at batch 1
+(the ratio to plain generation).
 
 --guidance: how far decoder guidance alone brings a walk toward a path, the measure of
 tests/test_control.py over more seeds and several models side by side. For each seed, "a person
@@ -34,8 +35,14 @@ times it, and an arc (a quarter circle) and an S (a 0.5 m sine) at 1 times it, w
 second and at the last frame. Per row, over --seeds seeds: the root's distance from the
 waypoints before the final correction (mean, max, cm) and after it (max), the GMD foot-skating
 ratio, the cadence (steps per second: the lower foot's changes of side) and its stride (m per
-step), and ms per motion at batch 1 against plain generation's. --real DATASET adds the skating
-ratio of its walks (provenance labels that name a walk), the figure a walk is held to.
+step), and ms per motion at batch 1 against plain generation's; each method's table, then the
+methods side by side (default: paced-before, the default method as it was; paced, as it is:
+a source short of the path made again, its time-warp smoothed over 0.75 frames; steer, the
+projection inside the consistency steps, control/steered.py; candidates and guide on request,
+guide on the torch backend). --real
+DATASET adds the skating ratio of its walks (provenance labels that name a walk), the figure a
+walk is held to; --synth DATASET that of a procedural benchmark's one-action walks and jogs
+(the figure for a jog, which the real sets lack).
 """
 
 from __future__ import annotations
@@ -55,6 +62,7 @@ from mlct.eval.judge.action_classifier import read_labels
 from mlct.eval.readouts import evaluate_label
 from mlct.eval.suites.common import MAX_FRAMES, Tally  # the read-outs' tally
 from mlct.generate.control.schema import Control, Keyframe, control_from_dict, part_joints
+from mlct.generate.control.pace import Pacing
 from mlct.generate.control.controlled import (ControlMethod, controlled_motion,
                                               generate_controlled)
 from mlct.motion.features import features_to_joints
@@ -66,7 +74,8 @@ METHODS = {"paced": ControlMethod(),
            "project": ControlMethod(pace=False, guide=False, candidates=1),
            "both": ControlMethod(pace=False, guide=True, candidates=1),
            "best4": ControlMethod(pace=False, guide=False, candidates=4),
-           "best8": ControlMethod(pace=False, guide=False, candidates=8)}
+           "best8": ControlMethod(pace=False, guide=False, candidates=8),
+           "steer": ControlMethod(pace=False, steer=True)}
 
 
 def path_control(joints: np.ndarray) -> tuple[Control, np.ndarray]:
@@ -127,9 +136,15 @@ def guidance_main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> 
 SPEED_PROMPTS = {"walk": "a person walks forward", "jog": "a person jogs forward"}
 SPEED_FRAMES = 120  # 6 s at 20 fps
 SPEED_FACTORS = (0.5, 1.0, 1.5, 2.0)
-SPEED_METHODS = {"paced": ControlMethod(),  # the default: the text's motion re-timed and laid
-                 "candidates": ControlMethod(pace=False),  # best of 4, then the correction
-                 "guide": ControlMethod(pace=False, guide=True, candidates=1)}
+SPEED_METHODS = {
+    "paced": ControlMethod(),  # the default: the text's motion re-timed and laid along the path
+    # the same as it was: a source 3 % short of the path kept, its time-warp smoothed over 1 frame
+    "paced-before": ControlMethod(pacing=Pacing(covers=0.97, smoothing=1.0)),
+    "steer": ControlMethod(pace=False, steer=True),  # projection inside the consistency steps
+    "candidates": ControlMethod(pace=False),  # best of 4, then the correction
+    "guide": ControlMethod(pace=False, guide=True, candidates=1)}  # torch backend
+DEFAULT_SPEED_METHODS = ("paced-before", "paced", "steer")
+SKATING_FAMILIES = ("walk", "jog")  # the benchmark's own motions a controlled one is held to
 
 
 def waypoint_frames(frames: int, fps: float) -> np.ndarray:
@@ -174,18 +189,63 @@ def real_walk_skating(root: Path, skel: Any) -> tuple[float, int]:
         len(names)
 
 
+def synth_skating(root: Path, skel: Any) -> dict[str, tuple[float, int]]:
+    """The GMD skating ratio of a procedural benchmark's one-action walks and jogs (its
+    labels.jsonl), mean and count per family: the figure where no real capture has the gait."""
+    labels = read_labels(root)
+    layout = DatasetLayout.existing(root)
+    out = {}
+    for family in SKATING_FAMILIES:
+        names = [n for n, r in labels.items()
+                 if [a["family"] for a in r.get("actions", [])] == [family]]
+        if names:
+            out[family] = (float(np.mean([foot_skating_ratio(layout.load_joints(n), skel)
+                                          for n in names])), len(names))
+    return out
+
+
+def speed_cases() -> list[tuple[str, str, float]]:
+    """(gait, path kind, factor of the text's speed) of every --speeds row."""
+    return [(k, "straight", f) for k in SPEED_PROMPTS for f in SPEED_FACTORS] \
+        + [(k, c, 1.0) for k in SPEED_PROMPTS for c in ("arc", "S")]
+
+
+def speed_row(pipe: Any, args: argparse.Namespace, method: ControlMethod, key: str,
+              control: Control, speed: float) -> dict[str, float]:
+    """One row of the --speeds table: `method` on `control` over the seeds, each timed next to
+    a plain generation of the same seed (the machine's load alike)."""
+    skel, frames = pipe.skeleton, SPEED_FRAMES
+    before, after, ms, plain_ms = [], [], [], []
+    for seed in range(args.seeds):
+        start = time.perf_counter()
+        pipe.generate(SPEED_PROMPTS[key], lengths=frames, nfe=args.nfe, seed=seed)
+        plain_ms.append(time.perf_counter() - start)
+        start = time.perf_counter()
+        made = controlled_motion(pipe, SPEED_PROMPTS[key], frames, control, args.nfe, seed,
+                                 method)
+        ms.append(time.perf_counter() - start)
+        before.append(made.before)
+        after.append(made.motion.joints)
+    errors = np.concatenate([np.linalg.norm(j[control.path_frames, 0][:, [0, 2]]
+                                            - control.path, axis=1) for j in before])
+    final = max(np.linalg.norm(j[control.path_frames, 0][:, [0, 2]] - control.path,
+                               axis=1).max() for j in after)
+    return {"speed": speed, "error_mean_cm": 100 * float(errors.mean()),
+            "error_max_cm": 100 * float(errors.max()), "final_max_cm": 100 * float(final),
+            "skating": float(np.mean([foot_skating_ratio(j, skel) for j in after])),
+            "cadence": float(np.mean([steps_per_second(j, skel) for j in after])),
+            "ms": 1e3 * float(np.median(ms)), "x_plain": float(np.median(ms) / np.median(plain_ms))}
+
+
 def speeds_main(args: argparse.Namespace) -> None:
     pipe = mlct.load(args.model)
     skel, fps, frames = pipe.skeleton, pipe.skeleton.fps, SPEED_FRAMES
-    seeds = range(args.seeds)
-    method = SPEED_METHODS[args.method]
     pipe.encode_text(list(SPEED_PROMPTS.values()))
     pipe.generate(SPEED_PROMPTS["walk"], lengths=frames, seed=0)  # warm-up
-    rows: dict[str, dict[str, float]] = {}
     plain: dict[str, dict[str, float]] = {}
     for key, text in SPEED_PROMPTS.items():  # the text's own speed: plain generations
         made, ms = [], []
-        for seed in seeds:
+        for seed in range(args.seeds):
             start = time.perf_counter()
             made.append(pipe.generate(text, lengths=frames, nfe=args.nfe, seed=seed)[0].joints)
             ms.append(time.perf_counter() - start)
@@ -194,56 +254,55 @@ def speeds_main(args: argparse.Namespace) -> None:
                       "skating": float(np.mean([foot_skating_ratio(j, skel) for j in made])),
                       "cadence": float(np.mean([steps_per_second(j, skel) for j in made])),
                       "ms": 1e3 * float(np.median(ms))}
-    cases = [(k, "straight", f) for k in SPEED_PROMPTS for f in SPEED_FACTORS] \
-        + [(k, c, 1.0) for k in SPEED_PROMPTS for c in ("arc", "S")]
-    for key, kind, factor in cases:
+    tables: dict[str, dict[str, dict[str, float]]] = {m: {} for m in args.methods}
+    warm = straight_path(plain["walk"]["speed"], frames, fps).check(frames, skel)
+    for name in args.methods:  # each method's first call (its imports, the encoder) untimed
+        controlled_motion(pipe, SPEED_PROMPTS["walk"], frames, warm, args.nfe, 0,
+                          SPEED_METHODS[name])
+    for key, kind, factor in speed_cases():
         speed = factor * plain[key]["speed"]
         control = (straight_path(speed, frames, fps) if kind == "straight"
                    else curved_path(kind, speed, frames, fps)).check(frames, skel)
-        before, after, ms, plain_ms = [], [], [], []
-        for seed in seeds:  # plain generation timed next to each: the machine's load alike
-            start = time.perf_counter()
-            pipe.generate(SPEED_PROMPTS[key], lengths=frames, nfe=args.nfe, seed=seed)
-            plain_ms.append(time.perf_counter() - start)
-            start = time.perf_counter()
-            made = controlled_motion(pipe, SPEED_PROMPTS[key], frames, control, args.nfe, seed,
-                                     method)
-            ms.append(time.perf_counter() - start)
-            before.append(made.before)
-            after.append(made.motion.joints)
-        errors = np.concatenate([np.linalg.norm(j[control.path_frames, 0][:, [0, 2]]
-                                                - control.path, axis=1) for j in before])
-        final = max(np.linalg.norm(j[control.path_frames, 0][:, [0, 2]] - control.path,
-                                   axis=1).max() for j in after)
-        rows[f"{key} {kind} {factor:g}x"] = {
-            "speed": speed, "error_mean_cm": 100 * float(errors.mean()),
-            "error_max_cm": 100 * float(errors.max()), "final_max_cm": 100 * float(final),
-            "skating": float(np.mean([foot_skating_ratio(j, skel) for j in after])),
-            "cadence": float(np.mean([steps_per_second(j, skel) for j in after])),
-            "ms": 1e3 * float(np.median(ms)),
-            "x_plain": float(np.median(ms) / np.median(plain_ms))}
+        for name in args.methods:  # the methods of a row one after the other: the same load
+            tables[name][f"{key} {kind} {factor:g}x"] = speed_row(pipe, args, SPEED_METHODS[name],
+                                                                  key, control, speed)
     real = real_walk_skating(args.real, skel) if args.real is not None else None
+    synth = synth_skating(args.synth, skel) if args.synth is not None else {}
 
-    print(f"method {args.method}, {args.seeds} seeds, {frames} frames, nfe "
-          f"{pipe.check_nfe(args.nfe)}, batch 1; waypoints every second and at the last frame")
+    print(f"{args.seeds} seeds, {frames} frames, nfe {pipe.check_nfe(args.nfe)}, batch 1, backend "
+          f"{pipe.backend}; waypoints every second and at the last frame")
     for key, p in plain.items():
         print(f"plain {key} ({SPEED_PROMPTS[key]!r}): {p['speed']:.2f} m/s, skating "
               f"{p['skating']:.3f}, {p['cadence']:.2f} steps/s, "
               f"{p['speed'] / max(p['cadence'], 1e-9):.2f} m/step, {p['ms']:.0f} ms")
-    print(f"{'path':<18}{'m/s':>6}{'err mean':>9}{'err max':>8}{'final':>7}{'skating':>8}"
-          f"{'steps/s':>8}{'m/step':>7}{'ms':>7}{'x plain':>8}")
-    for name, r in rows.items():
-        print(f"{name:<18}{r['speed']:>6.2f}{r['error_mean_cm']:>9.1f}{r['error_max_cm']:>8.1f}"
-              f"{r['final_max_cm']:>7.1f}{r['skating']:>8.3f}{r['cadence']:>8.2f}"
-              f"{r['speed'] / max(r['cadence'], 1e-9):>7.2f}{r['ms']:>7.0f}{r['x_plain']:>8.2f}")
+    for name, rows in tables.items():
+        print(f"\nmethod {name}")
+        print(f"{'path':<18}{'m/s':>6}{'err mean':>9}{'err max':>8}{'final':>7}{'skating':>8}"
+              f"{'steps/s':>8}{'m/step':>7}{'ms':>7}{'x plain':>8}")
+        for row, r in rows.items():
+            print(f"{row:<18}{r['speed']:>6.2f}{r['error_mean_cm']:>9.1f}"
+                  f"{r['error_max_cm']:>8.1f}{r['final_max_cm']:>7.1f}{r['skating']:>8.3f}"
+                  f"{r['cadence']:>8.2f}{r['speed'] / max(r['cadence'], 1e-9):>7.2f}"
+                  f"{r['ms']:>7.0f}{r['x_plain']:>8.2f}")
+    if len(tables) > 1:  # side by side: error before the correction, skating, time
+        print(f"\n{'path':<18}" + "".join(f"{name + ': err / max, skating, x':>34}"
+                                          for name in tables))
+        for row in next(iter(tables.values())):
+            print(f"{row:<18}" + "".join(
+                f"{t[row]['error_mean_cm']:>14.1f} /{t[row]['error_max_cm']:>6.1f}"
+                f"{t[row]['skating']:>7.3f}{t[row]['x_plain']:>6.2f}" for t in tables.values()))
     if real is not None:
         print(f"real walks ({args.real}, {real[1]} motions): skating {real[0]:.3f}; within 20 %: "
               f"{0.8 * real[0]:.3f}-{1.2 * real[0]:.3f}")
+    for family, (ratio, count) in synth.items():
+        print(f"benchmark {family}s ({args.synth}, {count} one-action motions): skating "
+              f"{ratio:.3f}; within 20 %: {0.8 * ratio:.3f}-{1.2 * ratio:.3f}")
     print("(err: the root's distance from the waypoints before the final correction, cm; final: "
           "after it; skating: GMD foot-skating ratio; steps/s: the lower foot's changes of side)")
     if args.json is not None:
-        report = {"method": args.method, "seeds": args.seeds, "plain": plain, "rows": rows,
-                  "real_walk_skating": None if real is None else real[0]}
+        report = {"methods": list(args.methods), "seeds": args.seeds, "plain": plain,
+                  "rows": tables, "real_walk_skating": None if real is None else real[0],
+                  "synth_skating": {f: v[0] for f, v in synth.items()}}
         args.json.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
 
 
@@ -263,10 +322,14 @@ def main() -> None:
                         help="with --guidance (default 30) or --speeds (default 5)")
     parser.add_argument("--speeds", action="store_true",
                         help="paths at other paces than the text's, and curves (above)")
-    parser.add_argument("--method", choices=sorted(SPEED_METHODS), default="paced",
-                        help="with --speeds")
+    parser.add_argument("--methods", nargs="+", choices=sorted(SPEED_METHODS),
+                        default=list(DEFAULT_SPEED_METHODS),
+                        help="with --speeds: the methods, side by side in one run")
     parser.add_argument("--real", type=Path, default=None,
                         help="with --speeds: a real dataset whose walks' skating is the figure")
+    parser.add_argument("--synth", type=Path, default=None,
+                        help="with --speeds: a procedural benchmark whose walks' and jogs' "
+                             "skating is the figure (its labels.jsonl)")
     args = parser.parse_args()
     if args.guidance:
         args.seeds = 30 if args.seeds is None else args.seeds

@@ -21,7 +21,12 @@ The method, chosen by measurement (bench/control.py, docs/control.md), without t
    holds about as many strides whatever length it is decoded at: a walk asked for twice its
    speed stayed 0.8 m from the path on average even after 60 gradient steps on the last x0),
    and costs 2.5-3.7x plain generation (docs/control.md);
-4. the correction (control/fit.py): root path, heading and the keyframes' root places by one
+4. steering (optional, off by default; PyTorch, steered.py): the last consistency steps' x0
+   moved by what the autoencoder's encoder makes of the decoded motion fitted to the controls
+   (a path re-timed and laid along it, pace.py, then the correction's fits). The encoder gives
+   back a motion re-timed to another pace as one that hardly moves, so it leaves decimetres to
+   metres before the correction (docs/control.md);
+5. the correction (control/fit.py): root path, heading and the keyframes' root places by one
    smooth low-frequency shift; keyframes by eased per-joint offsets with bone lengths restored
    (FABRIK for single joints); feet that stood in the model's motion held in stance (two-bone
    IK); body-part edits by copying the kept joints and re-attaching the edited bones; a motion
@@ -33,13 +38,14 @@ The control's world (where the result starts and faces): world.py.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, replace
+from typing import Any, Callable
 
 import numpy as np
 
 from mlct.errors import MlctError, require_torch
 from mlct.generate.control import pace
+from mlct.generate.control.pace import Pacing
 from mlct.generate.control.fit import (REACH_SECONDS, fit_heading, fit_keyframes, fit_path,
                                        lock_feet, on_floor, reattach)
 from mlct.generate.control.schema import Control
@@ -53,10 +59,11 @@ MotionGenerator = Any
 @dataclass(frozen=True)
 class ControlMethod:
     """How controls are met: a path by the text's own motion re-timed to it (pace), the rest by
-    candidates (best of N, one batch), guidance, projection. The default is the one
-    bench/control.py picked (docs/control.md)."""
+    candidates (best of N, one batch), guidance or steering inside the sampling steps, then the
+    correction (project). The default is the one bench/control.py picked (docs/control.md)."""
 
     pace: bool = True  # a path walked by the text's motion, made as long as it needs, re-timed
+    pacing: Pacing = Pacing()  # how the pace makes its source and re-times it
     guide: bool = False  # decoder guidance inside the sampling steps (PyTorch, torch backend)
     project: bool = True  # the motion-space correction that makes the controls exact
     candidates: int = 4  # motions sampled in one batch; the one nearest the controls is kept
@@ -72,6 +79,12 @@ class ControlMethod:
     step: float = 0.9  # guidance: a Gauss-Newton-like step, a fraction of the way to zero error
     reach_seconds: float = REACH_SECONDS
     lock_feet: bool = True  # feet that stood in the model's motion stand after the correction
+    # steering (steered.py; PyTorch), in place of the pace and the candidates: the last
+    # `steered_steps` consistency steps' x0 moved by the encoder's image of the decoded motion
+    # fitted to the controls. 2 of 5: on a walk and a jog at their own pace (3 seeds) 31 / 187
+    # cm from the path before the correction at 2, 35 / 151 at 1, 98 / 182 at 3, 124 / 268 at 5
+    steer: bool = False
+    steered_steps: int = 2
 
 
 DEFAULT_METHOD = ControlMethod()
@@ -112,7 +125,7 @@ def project(joints: np.ndarray, control: Control, anchor: Anchor, skeleton: Any,
 
 
 def paced(pipe: MotionGenerator, text: str, frames: int, control: Control, nfe: int | None,
-          seed: int) -> pace.Laid | None:
+          seed: int, pacing: Pacing = Pacing()) -> pace.Laid | None:
     """The text's motion as plain generation makes it, long enough to cover the control's path
     at its own pace, laid along the path (pace.py; in the control's world); None when the text's
     motion does not travel (pace.travels) or a prefix or an edit fixes the frames' timing."""
@@ -140,11 +153,33 @@ def paced(pipe: MotionGenerator, text: str, frames: int, control: Control, nfe: 
     sources = [made(pace.frames_to_cover(probe, frames, length))]
     tracks = [pace.track_of(sources[0], fps)]
     for _ in range(pace.REMAKES):  # the distance a length covers is not quite proportional
-        if pace.covers(tracks[-1], length):
+        if pace.covers(tracks[-1], length, pacing.covers):
             break
         sources.append(made(pace.frames_to_cover(tracks[-1], len(sources[-1]), length)))
         tracks.append(pace.track_of(sources[-1], fps))
-    return pace.lay_along(sources[pace.best_cover(tracks, length)], targets, fps)
+    best = pace.best_cover(tracks, length, pacing.covers)
+    return pace.lay_along(sources[best], targets, fps, pacing.smoothing)
+
+
+def steering_fit(control: Control, anchor: Anchor, skeleton: Any, frames: int,
+                 method: ControlMethod) -> Callable[[np.ndarray], np.ndarray]:
+    """What steering (steered.py) fits each decoded motion (network frame) to: a path's pace
+    and curve (pace.lay_along, where the motion travels), then the correction's fits without
+    the stance lock."""
+    fits = replace(method, lock_feet=False)
+    targets = None
+    if control.path is not None and control.prefix is None and control.edit is None:
+        world = pace.path_targets(control.path, control.path_frames, frames)
+        targets = anchor.to_model(np.stack([world[:, 0], np.zeros(frames), world[:, 1]],
+                                           axis=1))[:, [0, 2]]
+        length = float(pace.arc_length(targets)[-1])
+
+    def fit(joints: np.ndarray) -> np.ndarray:
+        if targets is not None and pace.travels(pace.track_of(joints, skeleton.fps), length):
+            joints = pace.lay_along(joints, targets, skeleton.fps,
+                                    method.pacing.smoothing).joints
+        return project(joints, control, anchor, skeleton, fits)
+    return fit
 
 
 @dataclass(frozen=True)
@@ -171,9 +206,17 @@ def controlled_motion(pipe: MotionGenerator, text: str, frames: int, control: Co
 
         guidance_decoder(pipe)
     anchor = anchor_of(control, skeleton)
-    laid = paced(pipe, text, frames, control, nfe, seed) if method.pace else None
+    laid = paced(pipe, text, frames, control, nfe, seed, method.pacing) \
+        if method.pace and not method.steer else None
     stood = None  # the motion whose standing feet the correction holds: the one it corrects
-    if laid is not None:
+    if method.steer:
+        require_torch("steering (ControlMethod(steer=True))")
+        from mlct.generate.control.steered import decode, steered_latent
+
+        fit = steering_fit(control, anchor, skeleton, frames, method)
+        z = steered_latent(pipe, text, frames, seed, nfe, fit, method.steered_steps)
+        joints, feats = decode(pipe, z, frames), None
+    elif laid is not None:
         joints, feats, stood = anchor.to_model(laid.joints), None, laid.retimed
     else:  # sampled: candidates and guidance run the networks through torch
         require_torch("this control (keyframes, an edit, a prefix, or a path for a text that "

@@ -16,6 +16,9 @@ path needs, in three steps:
    follows the pace and a standing foot stays standing), turned and moved as one rigid body so
    that the source's track lies along the path.
 
+Steering the latent inside the consistency steps by this re-timing could not either
+(steered.py): the autoencoder's encoder gives back a re-timed motion as one that hardly moves.
+
 A motion that hardly travels (`travels`: a wave, a jump on the spot) is left to the correction
 (fit.py), which moves it along the path. Pure numpy: no network, any backend.
 """
@@ -37,12 +40,30 @@ MIN_TRAVEL = 0.3
 MIN_SHARE = 0.25
 SPARE = 1.15  # the source is made this much longer than the path needs: its end stops early
 MAX_FACTOR = 3.0  # the source is at most this many times the result's length
-# A source going at least COVERS of the path is re-timed as it is (the correction closes the
-# rest; a longer one has its end cut: the pace is the path's either way); a shorter one is made
-# again at the length its pace says (at most REMAKES times: the distance a motion covers is not
-# quite proportional to its length, and the start from rest and the stop weigh less)
-COVERS = 0.97
+# A source going at least COVERS of the path is re-timed as it is (a longer one has its end
+# cut: the pace is the path's either way); a shorter one is made again at the length its pace
+# says (at most REMAKES times: the distance a motion covers is not quite proportional to its
+# length, and the start from rest and the stop weigh less). 1: a source 3 % short (0.97 before)
+# held its last frame while the correction slid it the last 11 cm (an S-shaped walk's last
+# waypoint); made again, the largest waypoint error before the correction fell from 11.2 to
+# 2.1 cm over 32 seeds (bench/control.py --speeds) at the same median time
+COVERS = 1.0
 REMAKES = 1
+# frames (Gaussian sigma of the time-warp, in the result's frames): a warp smoothed more than a
+# frame or so flattens the stride's own rhythm of progress at a fast pace, and the root's
+# progress, put back on the path's pace by moving the body, then slid the standing feet (a jog
+# at 2x: +-2 cm a frame, skating 0.41 at 1 frame against 0.32 at 0.75 over 48 seeds; at 0.5
+# and 0 the jogs skate less still but a walk at 1.5x or 2x more; docs/control.md)
+RETIME_SMOOTHING = 0.75
+
+
+@dataclass(frozen=True)
+class Pacing:
+    """How a path's source is made long enough and re-timed (controlled.ControlMethod.pacing;
+    the default is the one bench/control.py --speeds measured best)."""
+
+    covers: float = COVERS  # a source going less than this share of the path is made again
+    smoothing: float = RETIME_SMOOTHING  # frames: the time-warp's Gaussian sigma
 
 
 @dataclass(frozen=True)
@@ -111,16 +132,17 @@ def travels(track: Track, path_length: float) -> bool:
     return track.distance >= max(MIN_TRAVEL, MIN_SHARE * path_length)
 
 
-def covers(track: Track, path_length: float) -> bool:
-    """Whether a source going `track` goes far enough for a path of `path_length` m."""
-    return track.distance >= COVERS * path_length
+def covers(track: Track, path_length: float, share: float = COVERS) -> bool:
+    """Whether a source going `track` goes far enough (`share` of it) for a path of
+    `path_length` m."""
+    return track.distance >= share * path_length
 
 
-def best_cover(tracks: list[Track], path_length: float) -> int:
+def best_cover(tracks: list[Track], path_length: float, share: float = COVERS) -> int:
     """Which of several sources' tracks to re-time: the first that covers the path, else the
     one that goes furthest."""
     for k, track in enumerate(tracks):
-        if covers(track, path_length):
+        if covers(track, path_length, share):
             return k
     return int(np.argmax([t.distance for t in tracks]))
 
@@ -167,9 +189,11 @@ class Laid:
     # they stood in the source (laying along a curve turns a standing foot with the body)
 
 
-def lay_along(source: np.ndarray, targets: np.ndarray, fps: float) -> Laid:
+def lay_along(source: np.ndarray, targets: np.ndarray, fps: float,
+              smoothing: float = RETIME_SMOOTHING) -> Laid:
     """The source motion (S, J, 3) re-timed to the root targets (T, 2) (path_targets) and laid
-    along them. Where the source goes less far than the targets, its last frame is held where it
+    along them, the time-warp smoothed by `smoothing` frames (no jerks where the source's root
+    stalls). Where the source goes less far than the targets, its last frame is held where it
     ends (the correction then closes the gap)."""
     source = np.asarray(source, dtype=np.float64)
     track = track_of(source, fps)
@@ -179,7 +203,7 @@ def lay_along(source: np.ndarray, targets: np.ndarray, fps: float) -> Laid:
     # (T,) how far along the path the root is at each frame, as far as the source goes
     wanted = np.minimum(arc_length(targets), gone[-1])
     warp = np.interp(wanted, gone[rising], frame[rising])  # (T,) source frames
-    warp = smooth_track(np.maximum.accumulate(warp)[:, None], 1.0)[:, 0]  # no jerks
+    warp = smooth_track(np.maximum.accumulate(warp)[:, None], smoothing)[:, 0]  # no jerks
     retimed = _frames_at(source, warp)
     out = retimed.copy()
     centre = np.stack([np.interp(warp, frame, track.centre[:, k]) for k in (0, 1)], axis=1)
