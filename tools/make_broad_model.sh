@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The bundled model taught benchmark version 4 (67 families) and the commercial CMU set, on a CPU:
 #   bash tools/make_broad_model.sh WORK_DIR REAL_DATASET [REAL_DATASET ...]
-# INIT: the model it starts from (default: the bundled one). Each REAL_DATASET is a corpus
+# INIT: the model it starts from (default: the bundled one). WITH_V2=1: stage 2 also trains on
+# benchmark version 2's caption sets (4,000 motions of the 21 families, made into WORK/v2), so
+# that those families keep their share of the training items. Each REAL_DATASET is a corpus
 # imported with `mlct data import --corpus NAME DIR --out ...` (docs/real_data.md); for a
 # bundle, only corpora whose license allows commercial use. The steps, each resumable (run it
 # again with the same WORK_DIR):
@@ -24,14 +26,19 @@ export OMP_NUM_THREADS=1 BENCHMARK_VERSION=4
 init="${INIT:-bundled}"
 stamp data
 caption_sets 6000
-[ -f "$work/mixed/provenance.jsonl" ] || mlct data merge "$work/synth_collturns" "$@" \
-    --out "$work/mixed"
 stamp autoencoder
 DATA="$work/synth_collturns" stage run ae --init "$init" ae.freeze_encoder=false \
     "train.ae.max_steps=${AE_STEPS:-5000}" train.ae.lr=3e-4 train.ae.precision=bf16
 stamp autoencoder, second round
 DATA="$work/synth_collturns" stage run2 ae --init "$work/run/ae" ae.freeze_encoder=false \
     "train.ae.max_steps=${AE2_STEPS:-6000}" train.ae.lr=5e-4 train.ae.precision=bf16
+extra=()
+if [ "${WITH_V2:-0}" = 1 ]; then
+    (work="$work/v2"; BENCHMARK_VERSION=2; caption_sets 4000)
+    extra=("$work/v2/synth_collturns")
+fi
+[ -f "$work/mixed/provenance.jsonl" ] || mlct data merge "$work/synth_collturns" "${extra[@]}" \
+    "$@" --out "$work/mixed"
 stamp stage 2
 DATA="$work/mixed" AE="$work/run2" stage run2 cm --init "$init" text.encoder=minilm+sides \
     denoiser.dropout=0.0 "train.cm.max_steps=${CM_STEPS:-22000}" train.cm.lr=2e-4 \
@@ -45,12 +52,13 @@ if [ ! -f "$work/model/text_anchors.safetensors" ]; then
     mlct train anchors --data "$work/mixed" --model "$work/model"
 fi
 python - "$work/model/config.json" "$work/mixed" "$init" <<'PY'
-import json, sys
+import json, os, sys
 from mlct.data.corpora import training_data
 path, mixed, init = sys.argv[1:]
 config = json.load(open(path))
 config["training_data"] = training_data(mixed)
-config["recipe"] = {"script": "tools/make_broad_model.sh", "from": init, "benchmark_version": 4}
+config["recipe"] = {"script": "tools/make_broad_model.sh", "from": init, "benchmark_version": 4,
+                    "with_version_2": os.environ.get("WITH_V2", "0") == "1"}
 json.dump(config, open(path, "w"), indent=2)
 PY
 stamp done
