@@ -15,14 +15,14 @@
 # - stage 2 from INIT's, on the new autoencoder's latents of the procedural set merged with the
 #   real datasets: CM_STEPS (22,000) at lr 2e-4;
 # - the export, the durations, the critic and the text anchors, and the model's training_data.
-# One thread per training. Timed on 2 cores beside other work: 15 + 18 min of autoencoder,
+# One thread per training (THREADS=N: N). Timed on 2 cores beside other work: 15 + 18 min of autoencoder,
 # 7 min of caption encoding, 40 min of stage 2, 15 min of durations, critic and anchors.
 set -euo pipefail
 work="${1:?WORK_DIR}"
 shift
 [ "$#" -ge 1 ] || { echo "give one or more imported real datasets" >&2; exit 2; }
 source "$(dirname "$0")/recipe_stage.sh"
-export OMP_NUM_THREADS=1 BENCHMARK_VERSION=4
+export OMP_NUM_THREADS="${THREADS:-1}" BENCHMARK_VERSION=4
 init="${INIT:-bundled}"
 stamp data
 caption_sets 6000
