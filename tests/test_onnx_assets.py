@@ -149,7 +149,12 @@ def test_the_step_table_holds_the_torch_samplers_coefficients():
     for steps in range(1, sampler.max_steps + 1):
         table = read_steps_table(SHIPPED_DIR / STEPS_TABLE, steps)
         want = step_coefficients(sampler, steps)
-        assert all(np.array_equal(table[k], want[k]) for k in ("times", "coef")), steps
+        # Torch's vectorised trigonometry differs by an ulp or two from one CPU's kernels to
+        # another's (AVX2 against AVX-512), so the table holds the coefficients to float
+        # precision, not bit for bit.
+        for k in ("times", "coef"):
+            np.testing.assert_allclose(table[k], want[k], rtol=1e-6, atol=1e-7,
+                                       err_msg=f"{k} of {steps} steps")
     assert read_steps_table(SHIPPED_DIR / STEPS_TABLE, sampler.max_steps + 1) is None
 
 
