@@ -2,6 +2,7 @@
 
     python bench/quality.py motion --data SYNTH [--model MODEL_DIR] [--ae RUN] [--seeds 5]
         [--classifier CLS] [--limit N] [--json OUT] [--candidates N] [--skip-generation]
+        [--reading-gaps]
 
 Every motion is scored by mlct.eval.readouts: the checks that a benchmark label (family, side,
 count, direction) implies, read from the joints alone. It prints the pass rate, per family and
@@ -13,6 +14,8 @@ overall, of
       "as pipeline" composes the clip as generate() composes a motion (each action of a
       sequence alone, then chained; a concurrent arm action alone, standing, its arms then
       re-attached: mlct/eval/pipeline_recon.py), the best the pipeline's stage 2 could reach;
+      --reading-gaps adds, for each family whose reconstructions pass less often than its
+      truth, the read-outs that moved most (suites/reading_gaps.py);
   (c) generations from the test captions at the real lengths, --nfe, --seeds seeds;
   (d) generations from hand-written paraphrases (bench/data/quality_prompts.json), and from
       held-out ones (quality_prompts_heldout.json: written after the everyday caption
@@ -52,6 +55,7 @@ from mlct.eval.pipeline_recon import pipeline_reconstruction
 from mlct.eval.readouts import evaluate_label, foot_travel, heading_change, pelvis_rise
 from mlct.eval.suites.common import (MAX_FRAMES, Tally, in_order_judge_check, judge_prompt,
                                      print_table, prompt_file)
+from mlct.eval.suites.reading_gaps import ReadingGaps
 from mlct.motion.features import features_to_joints
 from mlct.motion.skeleton import HUMANML3D
 
@@ -66,6 +70,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--limit", type=int, default=None, help="first N motions of the split")
     parser.add_argument("--classifier", type=Path, default=None)
     parser.add_argument("--skip-generation", action="store_true", help="only (a) and (b)")
+    parser.add_argument("--reading-gaps", action="store_true",
+                        help="with --ae: the read-outs each failing family's reconstructions lose")
     parser.add_argument("--whole-prompt", action="store_true",
                         help="(c) and (d) give the model whole prompts: no split into actions")
     parser.add_argument("--json", type=Path, default=None)
@@ -93,11 +99,13 @@ def run(args: argparse.Namespace) -> None:
 
     if args.ae is not None:
         ae = args.load_autoencoder(args.ae)
-        recon, composed = Tally(), Tally()
+        recon, composed, gaps = Tally(), Tally(), ReadingGaps()
         mpjpe, composed_mpjpe, rises, travels, turns = [], [], defaultdict(list), [], []
         for name, joints, feats in zip(names, real_joints, real):
             made = features_to_joints(ae(feats))
             recon.add(labels[name], evaluate_label(made, labels[name]))
+            if args.reading_gaps:
+                gaps.add(labels[name], joints, made)
             mpjpe.append(float(np.linalg.norm(made - joints, axis=-1).mean()))
             # (b'): stage 1 as the pipeline uses it (mlct/eval/pipeline_recon.py)
             whole = pipeline_reconstruction(feats, labels[name],
@@ -114,6 +122,10 @@ def run(args: argparse.Namespace) -> None:
                 turns.append((abs(heading_change(joints)), abs(heading_change(made))))
         columns["AE recon"] = recon.summary()
         columns["as pipeline"] = composed.summary()
+        if args.reading_gaps:
+            truth_rates, recon_rates = truth.summary()["families"], recon.summary()["families"]
+            gaps.print_for([f for f, rate in sorted(recon_rates.items())
+                            if rate < truth_rates.get(f, 0.0)])
         ratios = {f"pelvis_rise_{f}": float(np.mean([m for _, m in v]) / np.mean([t for t, _ in v]))
                   for f, v in rises.items()}
         if travels:
