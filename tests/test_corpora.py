@@ -308,17 +308,26 @@ def test_a_merge_with_the_benchmark_keeps_every_motions_provenance(release, tmp_
 def test_the_real_suite_measures_reconstructions_and_spread(release, tmp_path, capsys):
     import argparse
 
+    from mlct.data.layout import DatasetLayout
     from mlct.eval.suites import real
 
     root, _ = release
     import_corpus("bandai-namco", root, tmp_path / "real", split=(0.0, 0.0, 1.0))
     args = argparse.Namespace(data=tmp_path / "real", ae=Path("identity"), model=None,
-                              split="test", json=tmp_path / "r.json",
+                              split="test", json=tmp_path / "r.json", min_motions=2, labels=None,
                               load_autoencoder=lambda path: (lambda x: x))
     real.run(args)
     recon = json.loads((tmp_path / "r.json").read_text())["reconstruction"]
     assert set(recon) == {"walk", "bow", "wave-left-hand"}
     assert all(r["mpjpe_m"] == 0.0 and r["pose_m"] == 0.0 for r in recon.values())
+    # the three motions as one label: the identity keeps their differences, a mean loses them
+    layout = DatasetLayout.existing(tmp_path / "real")
+    one = {name: "one" for name in real.motion_labels(tmp_path / "real")}
+    kept = real.reconstruction_spread(layout, one, lambda x: x, args)["one"]
+    assert kept["n"] == 3 and kept["data_m"] > 0.05 and kept["ratio"] == 1.0
+    mean = layout.load_features(sorted(one)[0])[:1]
+    lost = real.reconstruction_spread(layout, one, lambda x: np.repeat(mean, len(x), 0), args)
+    assert lost["one"]["ratio"] < 0.5
     still = np.zeros((10, 22, 3))
     assert real.pairwise_distance([still, still + [0.0, 0.0, 0.3], still[:5]]) == \
         pytest.approx((0.3 + 0.0 + 0.3) / 3)

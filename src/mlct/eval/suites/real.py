@@ -7,7 +7,9 @@ REAL is a dataset imported with `mlct data import --corpus ...` (its provenance.
 motion's label: a corpus content such as "wave-left-hand", or CMU's description), or a
 procedural benchmark, whose one-action motions are grouped by their label.
 - (a) with --ae: per label of the split, the reconstruction's mean joint distance (MPJPE, the
-  root's path included) and the pose's alone (each frame's joints relative to its pelvis);
+  root's path included) and the pose's alone (each frame's joints relative to its pelvis); and
+  per label with at least --min-motions motions, the spread of the reconstructions against the
+  data's (the distance of (b) below): the most variety any model on this decoder can draw;
 - (b) with --model (or 'bundled'): for each label with at least --min-motions motions, one
   caption of it generated --seeds times at the label's median length; the variety is the mean
   joint distance between two seeds' motions (every pair, frame by frame over the shorter,
@@ -104,10 +106,48 @@ def run(args: argparse.Namespace) -> None:
         for label, r in sorted(recon.items()):
             print(f"    {label:32s} n={r['n']:3d}  MPJPE {r['mpjpe_m'] * 100:5.1f} cm  "
                   f"pose {r['pose_m'] * 100:5.1f} cm")
+        report["reconstruction_spread"] = reconstruction_spread(layout, labels, ae, args)
     if args.model is not None:
         report["variety"] = _variety(args, layout, labels, ae)
     if args.json is not None:
         args.json.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+
+
+def spread_sets(labels: dict[str, str], args: argparse.Namespace) -> dict[str, list[str]]:
+    """label -> the motions its spread is measured on: labels with at least --min-motions
+    motions (only --labels where given), at most MAX_PER_LABEL each, spread evenly over its
+    takes in name order, so that every style is among them."""
+    by_label: dict[str, list[str]] = defaultdict(list)
+    for name in sorted(labels):
+        by_label[labels[name]].append(name)
+    chosen = sorted(l for l, n in by_label.items() if len(n) >= args.min_motions)
+    if getattr(args, "labels", None):
+        chosen = [l for l in chosen if l in args.labels.split(";")]
+    out = {}
+    for label in chosen:
+        every = by_label[label]  # sorted by name: takes of one style sit together
+        picks = np.linspace(0, len(every) - 1, min(len(every), MAX_PER_LABEL)).astype(int)
+        out[label] = [every[i] for i in picks]
+    return out
+
+
+def reconstruction_spread(layout: DatasetLayout, labels: dict[str, str], ae: Any,
+                          args: argparse.Namespace) -> dict[str, dict[str, float]]:
+    """Per label: the data's spread, the reconstructions' and their ratio (printed)."""
+    rows = {}
+    for label, names in spread_sets(labels, args).items():
+        features = [layout.load_features(n)[:WINDOW] for n in names]
+        data = pairwise_distance([features_to_joints(f) for f in features])
+        made = pairwise_distance([features_to_joints(ae(f)) for f in features])
+        rows[label] = {"n": len(names), "data_m": data, "ae_m": made, "ratio": made / data}
+    if rows:
+        print("    the reconstructions' spread against the data's (cm; ratio):")
+        for label, r in rows.items():
+            print(f"    {label:32s} n={r['n']:3d}  data {r['data_m'] * 100:5.1f}  "
+                  f"AE {r['ae_m'] * 100:5.1f}  {r['ratio']:5.2f}")
+        print(f"    median ratio {np.median([r['ratio'] for r in rows.values()]):.2f} over "
+              f"{len(rows)} labels")
+    return rows
 
 
 def _variety(args: argparse.Namespace, layout: DatasetLayout, labels: dict[str, str],
@@ -115,18 +155,9 @@ def _variety(args: argparse.Namespace, layout: DatasetLayout, labels: dict[str, 
     import mlct
 
     pipe = mlct.load(None if args.model == "bundled" else args.model)
-    by_label: dict[str, list[str]] = defaultdict(list)
-    for name in sorted(labels):
-        by_label[labels[name]].append(name)
-    chosen = sorted(l for l, n in by_label.items() if len(n) >= args.min_motions)
-    if args.labels:
-        chosen = [l for l in chosen if l in args.labels.split(";")]
     rows: dict[str, Any] = {}
     anchors = pipe.text_anchors
-    for label in chosen:
-        every = by_label[label]  # sorted by name: takes of one style sit together
-        names = [every[i] for i in np.linspace(0, len(every) - 1, min(len(every),
-                                                                      MAX_PER_LABEL)).astype(int)]
+    for label, names in spread_sets(labels, args).items():
         real = [features_to_joints(layout.load_features(n)[:WINDOW]) for n in names]
         seconds = float(np.median([len(j) for j in real])) / HUMANML3D.fps
         caption = layout.read_texts(names[0])[0].caption
