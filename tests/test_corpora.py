@@ -397,3 +397,24 @@ def test_provenance_is_read_in_one_place_and_a_broken_line_is_named(tmp_path):
         read_provenance(tmp_path)
     assert provenance_label({"labels": {"description": "Slow Walk"}}) == "slow walk"
     assert provenance_label({"labels": {"content": "bow", "style": "old"}}) == "bow"
+
+
+def test_a_real_corpus_trains_the_action_classifier_on_its_corpus_labels(release, tmp_path):
+    from mlct.eval.judge.action_classifier import (action_records, load_action_classifier,
+                                                   train_action_classifier)
+
+    root, _ = release
+    out = tmp_path / "real"
+    import_corpus("bandai-namco", root, out, split=(1.0, 0.0, 0.0))
+    records = action_records(out)
+    assert {r["actions"][0]["family"] for r in records.values()} == {"walk", "bow",
+                                                                    "wave-left-hand"}
+    summary = train_action_classifier(out, tmp_path / "clf", steps=3, batch_size=3,
+                                      progress=False)
+    assert summary["classes"] == ["bow", "walk", "wave-left-hand"]
+    assert load_action_classifier(tmp_path / "clf").classes == summary["classes"]
+    # a dataset with neither file still says what is missing
+    bare = tmp_path / "bare"
+    bare.mkdir()
+    with pytest.raises(MlctError, match="labels.jsonl: missing"):
+        action_records(bare)

@@ -42,8 +42,8 @@ import torch
 from mlct.data.dataset import MAX_MOTION_LENGTH, Text2MotionEvalDataset
 from mlct.data.layout import DatasetLayout
 from mlct.errors import MlctError
-from mlct.eval.judge.action_classifier import (ActionClassifier, action_targets,
-                                               load_action_classifier, read_labels,
+from mlct.eval.judge.action_classifier import (ActionClassifier, action_records,
+                                               action_targets, load_action_classifier,
                                                semantic_accuracy)
 from mlct.eval.aits import time_inference
 from mlct.eval.judge.evaluator import Evaluator
@@ -422,7 +422,7 @@ def open_protocol(data_dir: str | Path, evaluator_dir: str | Path, split: str = 
     if classifier_dir is not None:
         classifier = load_action_classifier(classifier_dir)
         classifier.check(skel.feature_dim, skel.name)
-        labels = read_labels(data_dir)
+        labels = action_records(data_dir)
     evaluator = load_evaluator_dir(evaluator_dir).to(device)
     dataset = Text2MotionEvalDataset(data_dir, split, skeleton=skel, seed=config.seed)
     if classifier_dir is not None:
@@ -430,7 +430,8 @@ def open_protocol(data_dir: str | Path, evaluator_dir: str | Path, split: str = 
         unlabeled = [n for n in names if n not in labels]
         if unlabeled:
             raise MlctError(f"{len(unlabeled)} items of split {split!r} have no action labels "
-                            f"in {Path(data_dir) / 'labels.jsonl'} (first: {unlabeled[0]})")
+                            f"in {Path(data_dir)} (labels.jsonl or provenance.jsonl; first: "
+                            f"{unlabeled[0]})")
         judge = SemanticJudge(classifier.to(device),
                               [action_targets(labels[n]) for n in names])
     return Protocol(evaluator, dataset, config, log, judge)

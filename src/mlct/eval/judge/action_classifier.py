@@ -1,9 +1,10 @@
-"""An action classifier for the procedural benchmark: does a motion show what its prompt asked?
+"""An action classifier: does a motion show what its prompt asked?
 
 Classes come from labels.jsonl: every action family of a motion (its sequence and its concurrent
 upper-body action), and for families with a side parameter (`side`, `leg`, `hand`) also
 `family:value`, e.g. `kick`, `kick:left`. So "does 'kick with the left leg' produce a left kick?"
-is the recall of class `kick:left` over prompts that ask for one.
+is the recall of class `kick:left` over prompts that ask for one. An imported real corpus has no
+labels.jsonl: each motion's one class is then its corpus label (`action_records`).
 
 The network is a masked 1-D temporal conv net on normalized features (B, T, D): a per-frame
 projection, strided conv blocks (LayerNorm over channels, padded frames zeroed after every
@@ -32,7 +33,8 @@ from safetensors.torch import load_file, save_file
 from torch import Tensor, nn
 
 from mlct.data.labels import LABELS_FILE, read_labels  # noqa: F401 - re-exported
-from mlct.data.layout import DatasetLayout, load_npy
+from mlct.data.layout import (PROVENANCE_FILE, DatasetLayout, load_npy, provenance_label,
+                              read_provenance)
 from mlct.devices import resolve_device
 from mlct.errors import MlctError, first_line
 from mlct.eval.judge.evaluator_dir import prepare_target
@@ -62,6 +64,19 @@ def action_targets(record: Mapping[str, Any]) -> set[str]:
             if key in action.get("params", {}):
                 targets.add(f"{family}:{action['params'][key]}")
     return targets
+
+
+def action_records(data_dir: str | os.PathLike) -> dict[str, dict[str, Any]]:
+    """Each motion's action record, by name: labels.jsonl's for a procedural benchmark; for an
+    imported real corpus (provenance.jsonl and no labels.jsonl), one action whose family is the
+    motion's corpus label (a Bandai Namco content, CMU's description). Why: the semantic
+    judge of a real corpus can only learn what the corpus says each take shows."""
+    root = Path(data_dir)
+    if (root / LABELS_FILE).is_file() or not (root / PROVENANCE_FILE).is_file():
+        return read_labels(root)
+    return {r["name"]: {"name": r["name"], "label": provenance_label(r),
+                        "actions": [{"family": provenance_label(r), "params": {}}]}
+            for r in read_provenance(root)}
 
 
 def derive_classes(records: Iterable[Mapping[str, Any]]) -> list[str]:
@@ -265,7 +280,8 @@ def train_action_classifier(data_dir: str | os.PathLike, out_dir: str | os.PathL
                             progress: bool = True, sizes: ClassifierSizes | None = None,
                             skeleton: str | None = None, overwrite: bool = False
                             ) -> dict[str, Any]:
-    """Train on the train split of a procedural benchmark; write a self-contained `out_dir`.
+    """Train on the train split of a procedural benchmark or an imported real corpus
+    (`action_records`); write a self-contained `out_dir`.
 
     Returns a summary: losses per step, val/test semantic accuracy, seconds, and 'classifier'
     (the ActionClassifier as `load_action_classifier(out_dir)` rebuilds it).
@@ -280,7 +296,7 @@ def train_action_classifier(data_dir: str | os.PathLike, out_dir: str | os.PathL
     out = Path(out_dir)
     prepare_target(out, overwrite)
     layout = DatasetLayout.existing(data_dir)
-    labels = read_labels(layout.root)
+    labels = action_records(layout.root)
     skel = layout.skeleton(skeleton)
     mean, std = layout.load_mean_std(skel)
     classes = derive_classes(labels.values())
