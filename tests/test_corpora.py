@@ -303,6 +303,14 @@ def test_a_merge_with_the_benchmark_keeps_every_motions_provenance(release, tmp_
     assert len(real) == 3 and all(r["corpus"] == "bandai-namco" and r["license"] ==
                                   "CC BY-NC 4.0" and not r["commercial_use"] for r in real)
     assert check_dataset(tmp_path / "mixed") == []
+    # the action classifier's records: the real motions by their corpus labels; the merge kept
+    # no labels.jsonl (the real source has none), so the benchmark's motions have no record
+    from mlct.eval.judge.action_classifier import action_records
+
+    actions = action_records(tmp_path / "mixed")
+    assert set(actions) == {r["name"] for r in real}
+    assert {a["actions"][0]["family"] for a in actions.values()} == {"walk", "bow",
+                                                                      "wave-left-hand"}
 
 
 def test_the_real_suite_measures_reconstructions_and_spread(release, tmp_path, capsys):

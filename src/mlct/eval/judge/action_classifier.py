@@ -67,16 +67,22 @@ def action_targets(record: Mapping[str, Any]) -> set[str]:
 
 
 def action_records(data_dir: str | os.PathLike) -> dict[str, dict[str, Any]]:
-    """Each motion's action record, by name: labels.jsonl's for a procedural benchmark; for an
-    imported real corpus (provenance.jsonl and no labels.jsonl), one action whose family is the
-    motion's corpus label (a Bandai Namco content, CMU's description). Why: the semantic
-    judge of a real corpus can only learn what the corpus says each take shows."""
+    """Each motion's action record, by name: labels.jsonl's where the dataset has one (a
+    procedural benchmark); every other motion whose provenance carries corpus labels (an
+    imported real corpus's, also inside a merge) gets one action whose family is its corpus
+    label (a Bandai Namco content, CMU's description). A merge's procedural motions have
+    neither when its labels.jsonl was dropped, and stay unlabelled. Why: the semantic judge of
+    a real corpus can only learn what the corpus says each take shows."""
     root = Path(data_dir)
-    if (root / LABELS_FILE).is_file() or not (root / PROVENANCE_FILE).is_file():
-        return read_labels(root)
-    return {r["name"]: {"name": r["name"], "label": provenance_label(r),
-                        "actions": [{"family": provenance_label(r), "params": {}}]}
-            for r in read_provenance(root)}
+    if not (root / PROVENANCE_FILE).is_file():
+        return read_labels(root)  # names labels.jsonl when it is missing too
+    records = read_labels(root) if (root / LABELS_FILE).is_file() else {}
+    for record in read_provenance(root):
+        if record.get("labels") and record["name"] not in records:
+            label = provenance_label(record)
+            records[record["name"]] = {"name": record["name"], "label": label,
+                                       "actions": [{"family": label, "params": {}}]}
+    return records
 
 
 def derive_classes(records: Iterable[Mapping[str, Any]]) -> list[str]:
