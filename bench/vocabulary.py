@@ -11,14 +11,15 @@ counts no dataset, only what the list says exists ("listed").
 With --model: each action's prompt generated once per seed (seed s * 100,000, as the quality
 suites do), judged by the read-outs where the procedural labels give some (the actions
 without a family have no read-out yet), and whether the model says it does not know the prompt.
-Prints one table per category and the totals; a few seconds a seed on 2 cores.
+Prints one table per category and the totals; a few seconds a seed on 2 cores. With
+--failures, also each judged action that failed a seed, with the read-outs it missed.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-from collections import defaultdict
+from collections import Counter, defaultdict
 from pathlib import Path
 
 VOCABULARY = Path(__file__).with_name("data") / "vocabulary.json"
@@ -44,11 +45,14 @@ def main() -> None:
     parser.add_argument("--model", default=None, help="a model folder, or 'bundled'")
     parser.add_argument("--seeds", type=int, default=1)
     parser.add_argument("--seconds", type=float, default=4.0)
+    parser.add_argument("--failures", action="store_true",
+                        help="list the failed actions and the read-outs each one missed")
     args = parser.parse_args()
 
     actions = json.loads(VOCABULARY.read_text(encoding="utf-8"))["actions"]
     present = real_labels(args.real)
     rows: dict[str, dict[str, int]] = defaultdict(lambda: defaultdict(int))
+    missed: dict[str, Counter] = defaultdict(Counter)  # action -> read-out -> seeds it failed
     for a in actions:
         real = sum(present.get(label, 0) for label in a["real"])
         a["real_motions"] = real
@@ -76,6 +80,8 @@ def main() -> None:
                                                   motion.joints.shape[0] / pipe.skeleton.fps)
                         rows[key]["judged"] += 1
                         rows[key]["passed"] += all(ok for _, ok in results)
+                    if key == "all" and a["procedural"]:
+                        missed[a["action"]].update(name for name, ok in results if not ok)
 
     print(f"vocabulary: {len(actions)} actions ({VOCABULARY.name}); real data: "
           f"{', '.join(str(p) for p in args.real) or 'none given'}; model: {args.model or '-'}")
@@ -95,6 +101,12 @@ def main() -> None:
         print(line)
     missing = [a["action"] for a in actions if not a["real_motions"] and not a["procedural"]]
     print(f"missing ({len(missing)}): {', '.join(missing)}")
+    if args.failures:
+        failed = [a for a in actions if missed.get(a["action"])]
+        print(f"\nfailed read-outs ({len(failed)} actions; seeds failed of {args.seeds}):")
+        for a in failed:
+            checks = ", ".join(f"{name} {n}" for name, n in missed[a["action"]].most_common())
+            print(f"  {a['action']:28s} {a['prompt']!r}: {checks}")
 
 
 if __name__ == "__main__":

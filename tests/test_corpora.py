@@ -147,6 +147,8 @@ def test_a_release_folder_imports_as_a_clean_dataset_with_provenance(release, tm
     features = len(np.load(out / "new_joints" / f"{wave['name']}.npy"))
     assert wave["window"] == [0, features + 1]  # joint frames of the clip at 20 fps
     assert "arXiv:2306.08861" in wave["citation"]
+    # the floor tilt the import took out (motion/floor.py): these clips stand level
+    assert all(r["floor_tilt_deg"] == 0.0 for r in records)
     # captions from the labels: several distinct wordings, each saying the content and style
     texts = (out / "texts" / "dataset-2_wave-left-hand_elderly_003.txt").read_text().splitlines()
     captions = [line.split("#")[0] for line in texts]

@@ -95,7 +95,7 @@ def run_import(args: argparse.Namespace) -> int:
         summary = import_corpus(name, src, args.out, captions_per_clip=args.captions_per_clip,
                                 contents=contents, split=parse_split(args.split),
                                 seed=args.seed, overwrite=args.overwrite,
-                                progress=not args.quiet)
+                                level=not args.keep_floor_tilt, progress=not args.quiet)
         print(format_summary(summary))
         return 0
     if args.captions is None:
@@ -106,7 +106,7 @@ def run_import(args: argparse.Namespace) -> int:
                              skeleton=args.skeleton, joint_map=args.joint_map, scale=args.scale,
                              fps=args.fps, split=parse_split(args.split), seed=args.seed,
                              skip_uncaptioned=args.skip_uncaptioned, overwrite=args.overwrite,
-                             progress=not args.quiet)
+                             level=not args.keep_floor_tilt, progress=not args.quiet)
     print(format_summary(summary))
     return 0
 
@@ -213,6 +213,9 @@ def add_parser(commands: Commands) -> None:
     imported.add_argument("--seed", type=int, default=0, help="seed of the split shuffle")
     imported.add_argument("--skip-uncaptioned", action="store_true",
                           help="skip motion files without a caption instead of stopping")
+    imported.add_argument("--keep-floor-tilt", action="store_true",
+                          help="keep a floor tilted by a few degrees as captured instead of "
+                               "levelling it")
     imported.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
     imported.add_argument("--quiet", action="store_true", help="no progress bar")
     imported.set_defaults(func=run_import)

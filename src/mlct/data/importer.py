@@ -50,6 +50,7 @@ from mlct.data.stats import standard_mean_std
 from mlct.errors import MlctError
 from mlct.io import atomic_dir, save_npy, write_text
 from mlct.motion.features import features_to_joints, joints_to_features
+from mlct.motion.floor import level_floor
 from mlct.motion.kinematics import forward_kinematics
 from mlct.motion.skeleton import Skeleton
 
@@ -83,6 +84,7 @@ class ImportSummary:
     # motion name -> its [start, stop) joint frames in its clip, resampled
     windows: dict[str, tuple[int, int]] = field(default_factory=dict)
     clip_scales: dict[str, float] = field(default_factory=dict)  # clip -> factor applied
+    clip_tilts: dict[str, float] = field(default_factory=dict)  # clip -> floor tilt removed, deg
 
 
 def _clean_caption(text: Any, path: Path, line: int) -> str:
@@ -462,13 +464,14 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
                    scale: float | str | None = None,
                    fps: float | None = None, split: tuple[float, float, float] = DEFAULT_SPLIT,
                    seed: int = 0, skip_uncaptioned: bool = False, overwrite: bool = False,
-                   progress: bool = False) -> ImportSummary:
+                   level: bool = True, progress: bool = False) -> ImportSummary:
     """Import joints (.npy) or BVH files with their captions as a dataset at `out` (module doc).
 
     `scale` multiplies the input positions into the skeleton's units (m for humanml3d, mm for
     kit); None guesses a power of ten from the body height. `fps` is the input's frame rate;
     None takes the BVH Frame Time, or the skeleton's fps for .npy. `scale="legs"` scales each
-    clip by its leg length instead (`leg_scale`).
+    clip by its leg length instead (`leg_scale`). `level` turns each clip so that the floor its
+    feet stand on is horizontal, where it is tilted by a few degrees (motion/floor.py).
     A corpus importer (mlct.data.corpora) passes its files, captions and joint map as
     mappings, the joints its rig lacks as `between`, and each clip's `provenance` (source,
     license, labels), written per motion to provenance.jsonl; a corpus whose files are neither
@@ -548,7 +551,8 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
         with atomic_dir(out) as work:
             for sub in (FEATURES_DIR, JOINTS_DIR, TEXTS_DIR):
                 (work / sub).mkdir()
-            members = _write_motions(work, files, texts, load, skel, scale, summary, progress)
+            members = _write_motions(work, files, texts, load, skel, scale, summary, level,
+                                     progress)
             _write_splits(work, members, split, seed, summary)
             if provenance is not None:
                 _write_provenance(work, members, provenance, summary)
@@ -576,10 +580,11 @@ def import_dataset(out: str | os.PathLike, captions: str | os.PathLike | dict[st
 
 
 def _write_motions(work: Path, files: dict[str, Path], texts: dict[str, list[str]], load: Any,
-                   skel: Skeleton, scale: float | None, summary: ImportSummary,
+                   skel: Skeleton, scale: float | None, summary: ImportSummary, level: bool,
                    progress: bool) -> dict[str, list[str]]:
     """Process and write every clip; returns clip -> names of its motions. A `scale` of None
-    scales each clip by its legs (`leg_scale`)."""
+    scales each clip by its legs (`leg_scale`); `level` takes a tilted floor out of the whole
+    clip before it is cut into windows (a window may travel too little to show the tilt)."""
     members: dict[str, list[str]] = {}
     taken: dict[str, str] = {}  # motion name -> clip it came from
     for clip, path in tqdm(files.items(), disable=not progress, desc="import", unit="clip"):
@@ -587,6 +592,9 @@ def _write_motions(work: Path, files: dict[str, Path], texts: dict[str, list[str
         factor = leg_scale(positions, skel) if scale is None else scale
         summary.clip_scales[clip] = factor
         positions = resample(positions * factor, file_fps, skel.fps)
+        if level:
+            positions, tilt = level_floor(positions, skel)
+            summary.clip_tilts[clip] = math.degrees(tilt)
         spans = windows(len(positions), skel)
         if not spans:
             summary.skipped_short.append(clip)
@@ -640,6 +648,7 @@ def _write_provenance(work: Path, members: dict[str, list[str]],
         for name in names:
             record = {"name": name, "clip": clip, "window": list(summary.windows[name]),
                       "scale": round(summary.clip_scales[clip], 6),
+                      "floor_tilt_deg": round(summary.clip_tilts.get(clip, 0.0), 3),
                       **provenance.get(clip, {})}
             lines.append(json.dumps(record, sort_keys=True) + "\n")
     write_text(work / PROVENANCE_FILE, "".join(lines))
@@ -658,6 +667,11 @@ def format_summary(summary: ImportSummary) -> str:
                  f"{summary.frames:,} frames at {summary.fps:g} fps ({summary.hours:.3f} hours, "
                  f"{summary.skeleton}) to {summary.path}; splits " +
                  ", ".join(f"{k} {v}" for k, v in summary.splits.items()))
+    tilted = {clip: deg for clip, deg in summary.clip_tilts.items() if deg > 0}
+    if tilted:
+        lines.append(f"levelled the floor of {len(tilted)} clip(s), by up to "
+                     f"{max(tilted.values()):.1f} degrees (floor_tilt_deg in provenance.jsonl "
+                     f"where the dataset has one)")
     if summary.skipped_short:
         lines.append(f"skipped {len(summary.skipped_short)} clip(s) shorter than the length "
                      f"filter: {_short_list(summary.skipped_short)}")

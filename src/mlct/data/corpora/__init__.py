@@ -37,9 +37,10 @@ def corpus(name: str) -> Corpus:
 def import_corpus(name: str, src: str | os.PathLike, out: str | os.PathLike, *,
                   captions_per_clip: int = 4, contents: set[str] | None = None,
                   split: tuple[float, float, float] = DEFAULT_SPLIT, seed: int = 0,
-                  overwrite: bool = False, progress: bool = False) -> ImportSummary:
+                  overwrite: bool = False, level: bool = True,
+                  progress: bool = False) -> ImportSummary:
     """Import corpus `name` from its release folder `src` as a dataset at `out`; `contents`
-    keeps only clips of those content labels."""
+    keeps only clips of those content labels; `level` as for `import_dataset`."""
     chosen = corpus(name)
     root = Path(src)
     if not root.is_dir():
@@ -56,7 +57,7 @@ def import_corpus(name: str, src: str | os.PathLike, out: str | os.PathLike, *,
         out, texts, bvh_dir={c.name: c.path for c in clips}, joint_map=chosen.joint_map,
         between=chosen.between, scale=chosen.scale, reader=chosen.read,
         provenance={c.name: chosen.provenance(c, root) for c in clips},
-        split=split, seed=seed, overwrite=overwrite, progress=progress)
+        split=split, seed=seed, overwrite=overwrite, level=level, progress=progress)
 
 
 def training_data(dataset: str | os.PathLike, split: str = "train") -> dict[str, Any]:
