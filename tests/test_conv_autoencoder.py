@@ -218,8 +218,6 @@ def test_a_short_clip_decodes_only_its_cells_and_the_same_frames(temporal: bool)
     frames are those of the whole grid (the margin covers the receptive field: bitwise on this
     repository's CPUs, float rounding allowed here), and one cell less of margin would change
     them (the check can fail)."""
-    import mlct.nn.conv_autoencoder as conv
-
     torch.manual_seed(0)
     kwargs = {"temporal": True} if temporal else {"arm_tokens": 1, "arm_channels": 16,
                                                   "arm_columns": [3, 4, 5, 10]}
@@ -234,11 +232,30 @@ def test_a_short_clip_decodes_only_its_cells_and_the_same_frames(temporal: bool)
             masked = whole[:, :t].masked_fill(~lengths_to_mask(lengths, t)[..., None], 0.0)
             torch.testing.assert_close(cut, masked, rtol=0, atol=1e-6, msg=str(t))
         seen = []
-        conv.DECODE_MARGIN = 1
-        try:
-            for t in (60, 100):
-                gap = (ae.decode(z, torch.tensor([t, t]), t) - whole[:, :t]).abs().max()
-                seen.append(bool(gap < 1e-6))
-        finally:
-            conv.DECODE_MARGIN = 2
+        assert ae.decode_margin == 2  # DECODE_MARGIN at the default 3 stages
+        ae.decode_margin = 1
+        for t in (60, 100):
+            gap = (ae.decode(z, torch.tensor([t, t]), t) - whole[:, :t]).abs().max()
+            seen.append(bool(gap < 1e-6))
         assert not all(seen)
+
+
+@pytest.mark.parametrize("stages", [2, 4])
+def test_fewer_or_more_stages_change_the_grid_and_keep_the_contract(stages: int) -> None:
+    """ae.stages sets the frames per grid cell (2 ** stages); any clip length round-trips and
+    a short clip decodes the frames of the whole grid over its cells and the margin."""
+    torch.manual_seed(0)
+    ae = ConvMotionAutoencoder(20, "plain", n_tokens=3, latent_dim=8, channels=16, max_len=196,
+                               stages=stages).eval()
+    assert ae.coarse == -(-196 // 2**stages)
+    x = torch.randn(2, 196, 20)
+    with torch.no_grad():
+        z = ae.encode(x, torch.tensor([196, 50])).z
+        assert z.shape == (2, 3, 8)
+        whole = ae.decode(z, torch.tensor([196, 196]), 196)
+        assert whole.shape == (2, 196, 20)
+        for t in (9, 60, 150):
+            cut = ae.decode(z, torch.tensor([t, t]), t)
+            torch.testing.assert_close(cut, whole[:, :t], rtol=0, atol=1e-6, msg=str(t))
+    with pytest.raises(ValueError, match="stages"):
+        ConvMotionAutoencoder(20, n_tokens=3, latent_dim=8, stages=5)

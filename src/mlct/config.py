@@ -92,6 +92,11 @@ class AutoencoderConfig(_Section):
     # conv only: token i encodes and draws the i-th stretch of the clip (a time series of
     # tokens) instead of every token the whole clip (nn/conv_autoencoder.py "temporal")
     temporal: bool = False
+    # conv only: stride-2 stages, each halving the time axis: 3 = a grid cell per 8 frames (0.4 s
+    # at 20 fps), 2 = per 4. Why: a sway, a rope jump's hops or a nod repeat faster than two
+    # cells of 0.4 s, so the coarse grid has to carry each swing inside a cell's channels
+    # (nn/conv_autoencoder.py)
+    stages: int = Field(3, ge=1, le=4)
     velocity_weight: float = Field(0.0, ge=0.0)  # frame-to-frame feature differences
     # The root's heading (radians) and ground path (metres), integrated from the per-frame
     # velocities: a small per-frame bias the feature loss shrugs at sums to a short turn

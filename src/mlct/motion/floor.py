@@ -35,7 +35,7 @@ def support_points(positions: np.ndarray, skeleton: Skeleton) -> np.ndarray:
     heights = positions[:, feet, 1]  # (T, 4)
     lowest = feet[heights.argmin(axis=1)]  # (T,) joint index of the lowest foot joint
     lowest_height = heights.min(axis=1)
-    window = max(2, int(round(WINDOW_SECONDS * skeleton.fps)))
+    window = max(2, round(WINDOW_SECONDS * skeleton.fps))
     points = []
     for start in range(0, max(1, len(positions) - window // 2), window // 2):
         frame = start + int(lowest_height[start:start + window].argmin())

@@ -29,7 +29,7 @@ def build_autoencoder(config: Config, feature_dim: int) -> AnyAutoencoder:
                 arm_channels=ae.arm_channels, bottleneck=ae.bottleneck,
                 decoder_channels=ae.decoder_channels,
                 arm_decoder_channels=ae.arm_decoder_channels,
-                temporal=ae.temporal,
+                temporal=ae.temporal, stages=ae.stages,
                 arm_columns=arm_feature_columns(feature_dim) if ae.arm_tokens else None)
         except ValueError as error:
             raise MlctError(f"ae: {error}") from None

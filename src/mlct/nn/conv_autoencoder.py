@@ -3,10 +3,10 @@
 Same contract as `MotionAutoencoder`: frames (B, T, D) -> n latent tokens (B, n, d), quantized
 (Eq. 8), VAE or plain -> frames, so stage 2 and every sampler are unchanged. Only E and D differ:
 - E: the frames (padding zeroed, the validity mask as one more channel) through a Conv1d stem and
-  three stride-2 stages (T/8 steps of `channels`), flattened over a fixed ``max_len / 8`` grid,
-  then one Linear to the n x d tokens (2n for the VAE);
-- D: one Linear from the flat latent back to that coarse grid, three nearest-upsample x2 stages
-  of two Conv1d each, a Conv1d to D features; frames past the length are set to 0.
+  three stride-2 stages (``ae.stages``; T/8 steps of `channels`), flattened over a fixed
+  ``max_len / 8`` grid, then one Linear to the n x d tokens (2n for the VAE);
+- D: one Linear from the flat latent back to that coarse grid, as many nearest-upsample x2
+  stages of two Conv1d each, a Conv1d to D features; frames past the length are set to 0.
 Time is absolute: frame k of any clip sits at grid cell k // 8, as in the transformer's
 positional embeddings.
 
@@ -49,7 +49,8 @@ from torch import Tensor, nn
 from mlct.nn.autoencoder import Latent, LatentAutoencoder, latent_of_tokens
 from mlct.nn.masks import lengths_to_mask
 
-FACTOR = 8  # three stride-2 stages
+STAGES = 3  # stride-2 stages of the encoder (and 2x upsampling ones of the decoder)
+FACTOR = 2**STAGES  # frames per grid cell at the default stages
 # Grid cells past a clip's last one that still reach its frames through the decoder's
 # convolutions (3 x 2 of kernel 3 after each 2x upsampling, then one more): with 2 more the
 # frames are bitwise those of the whole grid, with 1 they differ by up to 1.1
@@ -132,7 +133,10 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         temporal: bool = False,
         decoder_channels: int = 0,
         arm_decoder_channels: int = 0,
+        stages: int = STAGES,
     ) -> None:
+        if not 1 <= stages <= 4:
+            raise ValueError(f"stages must be 1..4, got {stages}")
         if channels < 1 or arm_channels < 1:
             raise ValueError("channels and arm_channels must be >= 1")
         if arm_tokens and not 0 < arm_tokens < n_tokens:
@@ -148,7 +152,10 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         self.channels = channels
         self.bottleneck = bottleneck
         self.temporal = temporal
-        self.coarse = -(-max_len // FACTOR)  # grid cells covering max_len frames
+        self.stages, self.factor = stages, 2**stages  # frames per grid cell
+        self.coarse = -(-max_len // self.factor)  # grid cells covering max_len frames
+        # the decoder's reach past a clip's last cell, in frames as measured for 3 stages
+        self.decode_margin = -(-DECODE_MARGIN * FACTOR // self.factor)
         self.arm_tokens = arm_tokens
         arm = sorted(set(arm_columns)) if arm_tokens and arm_columns else []
         body = sorted(set(range(feature_dim)) - set(arm))
@@ -186,13 +193,14 @@ class ConvMotionAutoencoder(LatentAutoencoder):
 
     def _encoder(self, features: int, channels: int, tokens: int) -> tuple[nn.Module, nn.Module]:
         stem = [nn.Conv1d(features + 1, channels, 3, padding=1), nn.GELU()]
-        convs = nn.Sequential(*stem, *[m for _ in range(3) for m in _stage(channels, True)])
+        convs = nn.Sequential(*stem, *[m for _ in range(self.stages)
+                                       for m in _stage(channels, True)])
         if self.temporal:
             return convs, _GridToTimeTokens(channels, self.coarse, tokens, self.latent_dim)
         return convs, self._grid_map(self.coarse * channels, tokens * self.latent_dim)
 
     def _decoder(self, tokens: int, channels: int, features: int) -> tuple[nn.Module, nn.Module]:
-        convs = nn.Sequential(*[m for _ in range(3) for m in _stage(channels, False)],
+        convs = nn.Sequential(*[m for _ in range(self.stages) for m in _stage(channels, False)],
                               nn.Conv1d(channels, features, 3, padding=1))
         if self.temporal:
             return _TimeTokensToGrid(channels, self.coarse, tokens, self.latent_dim), convs
@@ -224,7 +232,7 @@ class ConvMotionAutoencoder(LatentAutoencoder):
                      ) -> Tensor:
         """x (B, T, F) zero-padded, valid (B, T, 1) -> tokens (B, k, d)."""
         h = torch.cat([x, valid], dim=-1).transpose(1, 2)  # (B, F + 1, T)
-        h = nn.functional.pad(h, (0, self.coarse * FACTOR - x.shape[1]))  # (B, F + 1, coarse * 8)
+        h = nn.functional.pad(h, (0, self.coarse * self.factor - x.shape[1]))  # (B, F + 1, T')
         h = convs(h)  # (B, channels, coarse)
         return linear(h.flatten(1)).view(x.shape[0], -1, self.latent_dim)
 
@@ -239,7 +247,7 @@ class ConvMotionAutoencoder(LatentAutoencoder):
         # receptive field), not over all of max_len: a 5 s clip costs ~0.6 of a 9.8 s one
         # (t + 7) // 8, not -(-t // 8): traced into a graph, // truncates, and of a negative
         # number that is not the floor
-        cells = min(self.coarse, (t + FACTOR - 1) // FACTOR + DECODE_MARGIN)
+        cells = min(self.coarse, (t + self.factor - 1) // self.factor + self.decode_margin)
         if not self.arm_tokens:
             out = self._decode_part(z, self.from_tokens, self.decoder, cells).transpose(1, 2)
         else:
