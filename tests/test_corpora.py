@@ -327,8 +327,11 @@ def test_the_real_suite_measures_reconstructions_and_spread(release, tmp_path, c
                               split="test", json=tmp_path / "r.json", min_motions=2, labels=None,
                               load_autoencoder=lambda path: (lambda x: x))
     real.run(args)
-    recon = json.loads((tmp_path / "r.json").read_text())["reconstruction"]
+    report = json.loads((tmp_path / "r.json").read_text())
+    recon = report["reconstruction"]
     assert set(recon) == {"walk", "bow", "wave-left-hand"}
+    # (0) the floor: three motions, the one walk among them counted for the flight read-out
+    assert report["floor"]["motions"] == 3 and report["floor"]["walks"] == 1
     assert all(r["mpjpe_m"] == 0.0 and r["pose_m"] == 0.0 for r in recon.values())
     # the three motions as one label: the identity keeps their differences, a mean loses them
     layout = DatasetLayout.existing(tmp_path / "real")

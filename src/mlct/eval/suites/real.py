@@ -6,6 +6,9 @@ model's motions for one label against the real data's, and foot skating against 
 REAL is a dataset imported with `mlct data import --corpus ...` (its provenance.jsonl names each
 motion's label: a corpus content such as "wave-left-hand", or CMU's description), or a
 procedural benchmark, whose one-action motions are grouped by their label.
+- (0) always: the data's floor over all its motions: the floor tilt that can still be read
+  under them (motion/floor.py; the import levels it) and how many of the walks read as in flight
+  (the walk read-out "no_flight": both feet 2 cm off the floor in more than 3 frames);
 - (a) with --ae: per label of the split, the reconstruction's mean joint distance (MPJPE, the
   root's path included) and the pose's alone (each frame's joints relative to its pelvis); and
   per label with at least --min-motions motions, the spread of the reconstructions against the
@@ -93,6 +96,7 @@ def run(args: argparse.Namespace) -> None:
     layout = DatasetLayout.existing(args.data)
     labels = motion_labels(args.data)
     report: dict[str, Any] = {"data": str(args.data)}
+    report["floor"] = floor_report(layout, labels)
     ae = args.load_autoencoder(args.ae) if args.ae is not None else None
     if ae is not None:
         names = [n for n in layout.read_split(args.split) if n in labels]
@@ -111,6 +115,32 @@ def run(args: argparse.Namespace) -> None:
         report["variety"] = _variety(args, layout, labels, report.get("reconstruction_spread"))
     if args.json is not None:
         args.json.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+
+
+def floor_report(layout: DatasetLayout, labels: dict[str, str]) -> dict[str, Any]:
+    """(0): the tilt still under the motions and the walks that read as in flight."""
+    from mlct.eval.readouts import flight_frames
+    from mlct.motion.floor import floor_gradient
+
+    tilts, walks, flying = [], 0, 0
+    for name in sorted(labels):
+        joints = layout.load_joints(name)
+        gradient = floor_gradient(joints, HUMANML3D)
+        if gradient is not None:
+            tilts.append(float(np.degrees(np.arctan(np.linalg.norm(gradient)))))
+        label = labels[name].lower()
+        if "walk" in label and "uneven" not in label:  # uneven ground lifts the feet for real
+            walks += 1
+            flying += flight_frames(joints) > 3
+    report = {"motions": len(labels), "tilt_read": len(tilts),
+              "tilt_median_deg": float(np.median(tilts)) if tilts else None,
+              "tilt_max_deg": max(tilts) if tilts else None, "walks": walks,
+              "walks_in_flight": flying}
+    tilt = (f"median {report['tilt_median_deg']:.2f} deg, max {report['tilt_max_deg']:.2f}"
+            if tilts else "-")
+    print(f"(0) floor of {len(labels)} motions: tilt readable under {len(tilts)}, {tilt}; "
+          f"walks read as in flight (both feet 2 cm up in over 3 frames): {flying} of {walks}")
+    return report
 
 
 def spread_sets(labels: dict[str, str], args: argparse.Namespace) -> dict[str, list[str]]:
