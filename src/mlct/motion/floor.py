@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mlct.motion.rotations import qbetween, quat_to_matrix
 from mlct.motion.skeleton import Skeleton, units_per_metre
 
 MIN_EXTENT = 1.5  # m of travel along a direction before its tilt is read
@@ -46,23 +47,24 @@ def support_points(positions: np.ndarray, skeleton: Skeleton) -> np.ndarray:
 def floor_gradient(positions: np.ndarray, skeleton: Skeleton) -> np.ndarray | None:
     """(2,) the floor's rise per unit of x and of z, from the support points; None when the clip
     does not travel MIN_EXTENT m in any direction or the fitted floor is steeper than MAX_TILT."""
-    points = support_points(positions, skeleton)
+    return _gradient_of(support_points(positions, skeleton), skeleton)
+
+
+def _gradient_of(points: np.ndarray, skeleton: Skeleton) -> np.ndarray | None:
     if len(points) < 4:
         return None
     ground = points[:, [0, 2]] - points[:, [0, 2]].mean(axis=0)
     # principal directions of the travel; only those with enough extent are fitted
     _, _, axes = np.linalg.svd(ground, full_matrices=False)
     along = ground @ axes.T  # (N, 2)
-    extents = np.ptp(along, axis=0)
-    use = extents >= MIN_EXTENT * units_per_metre(skeleton)
+    use = np.ptp(along, axis=0) >= MIN_EXTENT * units_per_metre(skeleton)
     if not use.any():
         return None
+    design = np.column_stack([along[:, use], np.ones(len(points))])
     keep = np.ones(len(points), dtype=bool)
     for _ in range(2):  # fit, drop the points the plane misses by more than OUTLIER, refit
-        design = np.column_stack([along[keep][:, use], np.ones(keep.sum())])
-        coef, *_ = np.linalg.lstsq(design, points[keep, 1], rcond=None)
-        residual = points[:, 1] - np.column_stack([along[:, use], np.ones(len(points))]) @ coef
-        keep = np.abs(residual) <= OUTLIER * units_per_metre(skeleton)
+        coef, *_ = np.linalg.lstsq(design[keep], points[keep, 1], rcond=None)
+        keep = np.abs(points[:, 1] - design @ coef) <= OUTLIER * units_per_metre(skeleton)
         if keep.sum() < 4:
             return None
     slopes = np.zeros(2)
@@ -75,19 +77,13 @@ def floor_gradient(positions: np.ndarray, skeleton: Skeleton) -> np.ndarray | No
 
 def level_floor(positions: np.ndarray, skeleton: Skeleton) -> tuple[np.ndarray, float]:
     """(positions turned so that the floor under them is horizontal, the tilt removed in
-    radians). The turn is about the horizontal axis in the floor, through the clip's mean support
-    point; a clip whose tilt cannot be read (see `floor_gradient`) comes back unchanged, tilt 0."""
-    gradient = floor_gradient(positions, skeleton)
+    radians). The turn takes the floor's normal to +y, about the clip's mean support point; a
+    clip whose tilt cannot be read (see `floor_gradient`) comes back unchanged, tilt 0."""
+    points = support_points(positions, skeleton)
+    gradient = _gradient_of(points, skeleton)
     if gradient is None or not np.any(gradient):
         return positions, 0.0
     normal = np.array([-gradient[0], 1.0, -gradient[1]])
-    normal /= np.linalg.norm(normal)
-    up = np.array([0.0, 1.0, 0.0])
-    axis = np.cross(normal, up)
-    sin, cos = np.linalg.norm(axis), float(normal @ up)
-    axis /= sin
-    # Rodrigues: the rotation of `angle` about `axis`, taking the floor's normal to +y
-    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-    turn = np.eye(3) + sin * k + (1.0 - cos) * (k @ k)
-    centre = support_points(positions, skeleton).mean(axis=0)
-    return (positions - centre) @ turn.T + centre, float(np.arctan2(sin, cos))
+    turn = quat_to_matrix(qbetween(normal, np.array([0.0, 1.0, 0.0])))
+    centre = points.mean(axis=0)
+    return (positions - centre) @ turn.T + centre, float(np.arctan(np.linalg.norm(gradient)))
