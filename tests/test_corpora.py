@@ -333,6 +333,23 @@ def test_the_real_suite_measures_reconstructions_and_spread(release, tmp_path, c
     # (0) the floor: three motions, the one walk among them counted for the flight read-out
     assert report["floor"]["motions"] == 3 and report["floor"]["walks"] == 1
     assert all(r["mpjpe_m"] == 0.0 and r["pose_m"] == 0.0 for r in recon.values())
+    # the identity keeps the walk as it is, off the floor by 5 cm nowhere; a decoder that lifts
+    # the body in the clip's middle third by 10 cm makes it read as in flight at both clearances
+    flight = report["reconstruction_walks_in_flight"]
+    assert flight["walks"] == 1 and flight["made"] == flight["data"] and flight["data"]["5cm"] == 0
+
+    def lifting(x):
+        x = x.copy()
+        middle = slice(len(x) // 3, 2 * len(x) // 3)
+        x[middle, 3] += 0.1  # the root's height
+        x[middle, 5:4 + 21 * 3:3] += 0.1  # the other 21 joints' heights (ric y, not root-relative)
+        return x
+
+    names = DatasetLayout.existing(tmp_path / "real").read_split("test")
+    labels = real.motion_labels(tmp_path / "real")
+    lifted = real.reconstructions(DatasetLayout.existing(tmp_path / "real"), names, labels,
+                                  lifting)["walks_in_flight"]
+    assert lifted["made"] == {"2cm": 1, "5cm": 1} and lifted["data"] == flight["data"]
     # the three motions as one label: the identity keeps their differences, a mean loses them
     layout = DatasetLayout.existing(tmp_path / "real")
     one = {name: "one" for name in real.motion_labels(tmp_path / "real")}

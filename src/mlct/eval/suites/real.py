@@ -13,6 +13,9 @@ procedural benchmark, whose one-action motions are grouped by their label.
   root's path included) and the pose's alone (each frame's joints relative to its pelvis); and
   per label with at least --min-motions motions, the spread of the reconstructions against the
   data's (the distance of (b) below): the most variety any model on this decoder can draw;
+  and the level walks of the split that read as in flight (both feet 2 cm, and 5 cm, up in more
+  than 3 frames) in the data and in their reconstructions: a decoder that lifts the feet makes
+  every model on it float;
 - (b) with --model (or 'bundled'): for each label with at least --min-motions motions, one
   caption of it generated --seeds times at the label's median length; the variety is the mean
   joint distance between two seeds' motions (every pair, frame by frame over the shorter,
@@ -82,14 +85,28 @@ def pairwise_distance(motions: list[np.ndarray]) -> float:
 
 def reconstructions(layout: DatasetLayout, names: list[str], labels: dict[str, str],
                     ae: Any) -> dict[str, dict[str, float]]:
+    """Per label: the reconstructions' MPJPE and pose error; under "walks_in_flight", the level
+    walks among `names` that read as in flight (more than 3 frames with both feet above
+    FLIGHT_CLEARANCES), in the data and in the reconstructions."""
+    from mlct.eval.readouts import airborne_frames
+
     per: dict[str, list[tuple[float, float]]] = defaultdict(list)
+    flying = {who: {f"{c * 100:g}cm": 0 for c in FLIGHT_CLEARANCES} for who in ("data", "made")}
+    walks = 0
     for name in names:
         features = layout.load_features(name)[:WINDOW]
         truth, made = features_to_joints(features), features_to_joints(ae(features))
         pose = np.linalg.norm((truth - truth[:, :1]) - (made - made[:, :1]), axis=-1).mean()
         per[labels[name]].append((float(np.linalg.norm(truth - made, axis=-1).mean()), pose))
-    return {label: {"n": len(v), "mpjpe_m": float(np.mean([m for m, _ in v])),
-                    "pose_m": float(np.mean([p for _, p in v]))} for label, v in per.items()}
+        if is_level_walk(labels[name]):
+            walks += 1
+            for who, joints in (("data", truth), ("made", made)):
+                for c in FLIGHT_CLEARANCES:
+                    flying[who][f"{c * 100:g}cm"] += airborne_frames(joints, c) > 3
+    out: dict[str, Any] = {label: {"n": len(v), "mpjpe_m": float(np.mean([m for m, _ in v])),
+                                   "pose_m": float(np.mean([p for _, p in v]))}
+                           for label, v in per.items()}
+    return out | {"walks_in_flight": {"walks": walks, **flying}}
 
 
 def run(args: argparse.Namespace) -> None:
@@ -101,7 +118,8 @@ def run(args: argparse.Namespace) -> None:
     if ae is not None:
         names = [n for n in layout.read_split(args.split) if n in labels]
         recon = reconstructions(layout, names, labels, ae)
-        report["reconstruction"] = recon
+        flight = recon.pop("walks_in_flight")
+        report["reconstruction"], report["reconstruction_walks_in_flight"] = recon, flight
         allv = [(r["mpjpe_m"], r["pose_m"], r["n"]) for r in recon.values()]
         n = sum(c for _, _, c in allv)
         print(f"(a) {args.ae}: {n} {args.split} motions of {args.data}: MPJPE "
@@ -110,11 +128,26 @@ def run(args: argparse.Namespace) -> None:
         for label, r in sorted(recon.items()):
             print(f"    {label:32s} n={r['n']:3d}  MPJPE {r['mpjpe_m'] * 100:5.1f} cm  "
                   f"pose {r['pose_m'] * 100:5.1f} cm")
+        print(f"    level walks read as in flight, data -> reconstructions (of {flight['walks']}): "
+              + ", ".join(f"{k} up {flight['data'][k]} -> {flight['made'][k]}"
+                          for k in flight["data"]))
         report["reconstruction_spread"] = reconstruction_spread(layout, labels, ae, args)
     if args.model is not None:
         report["variety"] = _variety(args, layout, labels, report.get("reconstruction_spread"))
     if args.json is not None:
         args.json.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+
+
+# both feet this high (m) in more than 3 frames: 2 cm is the walk read-out's no_flight,
+# 5 cm a clear float
+FLIGHT_CLEARANCES = (0.02, 0.05)
+
+
+def is_level_walk(label: str) -> bool:
+    """A walk on a level floor, whose feet never both leave it (uneven or bumpy ground lifts
+    them for real)."""
+    label = label.lower()
+    return "walk" in label and not any(w in label for w in ("uneven", "bump"))
 
 
 def floor_report(layout: DatasetLayout, labels: dict[str, str]) -> dict[str, Any]:
@@ -128,8 +161,7 @@ def floor_report(layout: DatasetLayout, labels: dict[str, str]) -> dict[str, Any
         gradient = floor_gradient(joints, HUMANML3D)
         if gradient is not None:
             tilts.append(float(np.degrees(np.arctan(np.linalg.norm(gradient)))))
-        label = labels[name].lower()
-        if "walk" in label and "uneven" not in label:  # uneven ground lifts the feet for real
+        if is_level_walk(labels[name]):
             walks += 1
             flying += flight_frames(joints) > 3
     report = {"motions": len(labels), "tilt_read": len(tilts),
