@@ -19,11 +19,11 @@ stamp() { echo "[$(date -u +%H:%M:%S)] $*"; }
 # the bundle's stages train on, each made once into $work: synth (MOTIONS, default 4000),
 # synth_rich (everyday captions), synth_focus (single claps, waves and turns listed 3x),
 # synth_short (bare-verb captions), synth_coll (colloquial captions), synth_collturns
-# (one-action turns and spins 3x more)
+# (one-action turns and spins 3x more); WORKERS (default 2): the synth processes
 caption_sets() {
     local num="${1:-4000}"
     [ -f "$work/synth/synth.json" ] || mlct data synth --out "$work/synth" --num "$num" \
-        --seed 0 --workers 2 --quiet --benchmark-version "${BENCHMARK_VERSION:-2}"  # 2: 21 families
+        --seed 0 --workers "${WORKERS:-2}" --quiet --benchmark-version "${BENCHMARK_VERSION:-2}"  # 2: 21 families
     [ -f "$work/synth_rich/synth.json" ] || mlct data rephrase "$work/synth" \
         --out "$work/synth_rich"
     [ -f "$work/synth_focus/synth.json" ] || mlct data oversample "$work/synth_rich" \

