@@ -14,12 +14,14 @@ TOOLS = Path(__file__).resolve().parents[1] / "tools"
 
 @pytest.mark.parametrize("script", ["make_bundled_model.sh", "make_bundled_model_3h.sh",
                                     "make_bundled_model_narrow_decoder.sh",
-                                    "make_real_model.sh", "make_broad_model.sh"])
+                                    "make_real_model.sh", "make_broad_model.sh",
+                                    "make_broad_model_gpu.sh"])
 def test_recipe_parses(script):
     subprocess.run(["bash", "-n", str(TOOLS / script)], check=True)
 
 
-@pytest.mark.parametrize("script", ["make_real_model.sh", "make_broad_model.sh"])
+@pytest.mark.parametrize("script", ["make_real_model.sh", "make_broad_model.sh",
+                                    "make_broad_model_gpu.sh"])
 def test_the_real_data_recipes_need_a_real_dataset(tmp_path, script):
     done = subprocess.run(["bash", str(TOOLS / script), str(tmp_path / "w")],
                           capture_output=True, text=True)
@@ -56,9 +58,62 @@ def test_stage_trains_then_resumes_with_its_data_and_autoencoder(tmp_path):
     assert plain == f"mlct train ae --data {w}/synth --out {w}/run --config small"
 
 
-@pytest.mark.parametrize("script", ["check.sh", "setup.sh", "carry.sh", "train_check.sh"])
+@pytest.mark.parametrize("script", ["check.sh", "setup.sh", "carry.sh", "train_check.sh",
+                                    "slim.sh", "train_broad.sh"])
 def test_gpu_host_scripts_parse(script):
     subprocess.run(["bash", "-n", str(TOOLS.parent / "bench" / "gpu" / script)], check=True)
+
+
+def _gpu_module(name):
+    sys.path.insert(0, str(TOOLS.parent / "bench" / "gpu"))
+    try:
+        return __import__(name)
+    finally:
+        sys.path.pop(0)
+
+
+def test_a_carried_dataset_comes_back_whole(tmp_path):
+    """bench/gpu/dataset_carry.py: the features come back as float32 within float16's rounding,
+    the joints recovered from them, everything else as it was; unpacking twice is the same."""
+    import numpy as np
+    from dataset_factory import make_dataset
+
+    carry = _gpu_module("dataset_carry")
+    features = make_dataset(tmp_path / "real")
+    archive = tmp_path / "real.tar.xz"
+    carry.pack(tmp_path / "real", archive)
+    for _ in range(2):
+        carry.unpack(archive, tmp_path / "there")
+    back = tmp_path / "there" / "real"
+    for name, truth in features.items():
+        got = np.load(back / "new_joint_vecs" / f"{name}.npy")
+        assert got.dtype == np.float32 and got.shape == truth.shape
+        np.testing.assert_allclose(got, truth, rtol=1e-3, atol=1e-3)
+        assert np.load(back / "new_joints" / f"{name}.npy").shape == (truth.shape[0], 22, 3)
+        assert (back / "texts" / f"{name}.txt").read_text() == \
+            (tmp_path / "real" / "texts" / f"{name}.txt").read_text()
+    assert (back / "train.txt").read_text() == (tmp_path / "real" / "train.txt").read_text()
+    assert not (back / carry.PACKED).exists()
+
+
+def test_the_kept_minilm_rows_cover_the_captions_and_their_mirrors(tmp_path):
+    """bench/gpu/minilm_tokens.py: the rows a dataset's captions use include those of the
+    mirrored side words; `check` fails when one is missing."""
+    from tokenizers import Tokenizer
+
+    from dataset_factory import make_dataset
+    from mlct.shipped import MINILM_DIR
+
+    tokens = _gpu_module("minilm_tokens")
+    make_dataset(tmp_path / "d", captions={"000001": ["a person waves the left hand#a/DET#0#0"]})
+    ids = tokens.caption_token_ids([str(tmp_path / "d")])
+    right = Tokenizer.from_file(str(MINILM_DIR / "tokenizer.json")).token_to_id("right")
+    assert right in ids
+    kept = tmp_path / "kept.txt"
+    kept.write_text("\n".join(map(str, sorted(ids))))
+    assert tokens.main(["check", str(kept), str(tmp_path / "d")]) == 0
+    kept.write_text("\n".join(str(i) for i in sorted(ids) if i != right))
+    assert tokens.main(["check", str(kept), str(tmp_path / "d")]) == 1
 
 
 def test_interpolate_models_mixes_what_differs_and_refuses_bad_input(tmp_path):
