@@ -51,15 +51,8 @@ if [ ! -f "$work/model/text_anchors.safetensors" ]; then
     mlct train critic --data "$work/synth_rich" --model "$work/model" --samples 8
     mlct train anchors --data "$work/mixed" --model "$work/model"
 fi
-python - "$work/model/config.json" "$work/mixed" "$init" <<'PY'
-import json, os, sys
-from mlct.data.corpora import training_data
-path, mixed, init = sys.argv[1:]
-config = json.load(open(path))
-config["training_data"] = training_data(mixed)
-config["recipe"] = {"script": "tools/make_broad_model.sh", "from": init, "benchmark_version": 4,
-                    "with_version_2": os.environ.get("WITH_V2", "0") == "1"}
-json.dump(config, open(path, "w"), indent=2)
-PY
+with_v2=$([ "${WITH_V2:-0}" = 1 ] && echo true || echo false)
+record_training_data "$work/model" "$work/mixed" "{\"script\": \"tools/make_broad_model.sh\",
+    \"from\": \"$init\", \"benchmark_version\": 4, \"with_version_2\": $with_v2}"
 stamp done
 echo "$work/model"

@@ -82,7 +82,7 @@ print(max(100, int($ae_rate * b * s) // 100 * 100), max(100, int($cm_rate * b * 
 stamp "autoencoder: $ae_rate steps/s, $ae_steps steps; stage 2 ($graph graph): $cm_rate steps/s, $cm_steps steps"
 limit() {  # steps, rate: a minute more than it should take, and never past END_AT less 30 s
     python3 -c "import time; e = ${END_AT:-0}; l = $1 / $2 + 60
-print(int(min(l, e - time.time() - 30) if e else l))"
+print(max(1, int(min(l, e - time.time() - 30) if e else l)))"
 }
 stamp autoencoder
 command_of ae "$work/run" "$ae_steps" "${ae_args[@]}"
@@ -93,16 +93,8 @@ timeout "$(limit "$cm_steps" "$cm_rate")" "${CMD[@]}" || echo "stage 2 stopped: 
 stamp export
 rm -rf "$work/model"
 mlct export "$work/run" --out "$work/model" --half
-python3 - "$work/model/config.json" "$work/mixed" "$ae_steps" "$cm_steps" <<'PY'
-import json, sys
-from mlct.data.corpora import training_data
-path, mixed, ae_steps, cm_steps = sys.argv[1:]
-config = json.load(open(path))
-config["training_data"] = training_data(mixed)
-config["recipe"] = {"script": "tools/make_broad_model_gpu.sh", "from": "bundled",
-                    "benchmark_version": 4, "with_version_2": True,
-                    "autoencoder_steps": int(ae_steps), "stage_2_steps": int(cm_steps)}
-json.dump(config, open(path, "w"), indent=2)
-PY
+record_training_data "$work/model" "$work/mixed" "{\"script\": \"tools/make_broad_model_gpu.sh\",
+    \"from\": \"bundled\", \"benchmark_version\": 4, \"with_version_2\": true,
+    \"autoencoder_steps\": $ae_steps, \"stage_2_steps\": $cm_steps}"
 stamp done
 echo "$work/model"

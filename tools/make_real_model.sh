@@ -45,16 +45,7 @@ if [ ! -f "$work/model/text_anchors.safetensors" ]; then
     mlct train critic --data "$work/synth_rich" --model "$work/model" --samples 8
     mlct train anchors --data "$work/mixed" --model "$work/model"
 fi
-python - "$work/model/config.json" "$work/mixed" "${INIT:-the bundled model}" \
-    "${BENCHMARK_VERSION:-2}" <<'PY'
-import json, sys
-from mlct.data.corpora import training_data
-path, mixed = sys.argv[1], sys.argv[2]
-config = json.load(open(path))
-config["training_data"] = training_data(mixed)
-config["recipe"] = {"script": "tools/make_real_model.sh", "from": sys.argv[3],
-                    "benchmark_version": int(sys.argv[4])}
-json.dump(config, open(path, "w"), indent=2)
-PY
+record_training_data "$work/model" "$work/mixed" "{\"script\": \"tools/make_real_model.sh\",
+    \"from\": \"${INIT:-the bundled model}\", \"benchmark_version\": ${BENCHMARK_VERSION:-2}}"
 stamp done
 echo "$work/model"

@@ -66,3 +66,16 @@ stage2_on_all() {
         mlct train anchors --data "$work/synth_collturns" --model "$work/model"
     fi
 }
+# record_training_data MODEL_DIR MIXED RECIPE_JSON: write into the model's config.json its
+# training data (each corpus of MIXED, its motions and license: data/corpora.py) and its recipe
+record_training_data() {
+    python3 - "$1/config.json" "$2" "$3" <<'PY'
+import json, sys
+from mlct.data.corpora import training_data
+path, mixed, recipe = sys.argv[1:]
+config = json.load(open(path))
+config["training_data"] = training_data(mixed)
+config["recipe"] = json.loads(recipe)
+json.dump(config, open(path, "w"), indent=2)
+PY
+}
