@@ -2,6 +2,7 @@
 and how a model does on one prompt per action.
 
     python bench/vocabulary.py [--real DATASET ...] [--model MODEL] [--seeds 1] [--seconds 4]
+        [--critic-margin M] [--failures]
 
 Coverage: an action is covered by real capture when a dataset given with --real (imported with
 `mlct data import --corpus ...`, its provenance.jsonl) holds a training motion of one of its
@@ -45,6 +46,8 @@ def main() -> None:
     parser.add_argument("--model", default=None, help="a model folder, or 'bundled'")
     parser.add_argument("--seeds", type=int, default=1)
     parser.add_argument("--seconds", type=float, default=4.0)
+    parser.add_argument("--critic-margin", type=float, default=None,
+                        help="the critic's margin (default: the model's; 0 = the best of N)")
     parser.add_argument("--failures", action="store_true",
                         help="list the failed actions and the read-outs each one missed")
     args = parser.parse_args()
@@ -65,9 +68,10 @@ def main() -> None:
 
     if args.model is not None:
         import mlct
-        from mlct.eval.suites.common import judge_prompt
+        from mlct.eval.suites.common import judge_prompt, set_critic_margin
 
         pipe = mlct.load(None if args.model == "bundled" else args.model)
+        set_critic_margin(pipe, args.critic_margin)
         prompts = [a["prompt"] for a in actions]
         unknown = [bool(p) for p in pipe.unknown_parts(prompts)]
         for seed in range(args.seeds):

@@ -15,14 +15,15 @@ import torch
 
 import mlct
 from mlct.errors import MlctError
-from mlct.generate.compose.critic import FILE, Critic, check_candidates, read_critic, save_critic
+from mlct.generate.compose.critic import (DEFAULT_MARGIN, FILE, Critic, check_candidates,
+                                          check_margin, pick, read_critic, save_critic)
 from mlct.generate.bundle import bundled_model_dir
 from mlct.nn.critic import LatentCritic
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
 
-def test_scores_are_cosines_and_best_is_the_argmax_per_prompt() -> None:
+def test_scores_are_cosines_and_margin_zero_picks_the_argmax_per_prompt() -> None:
     torch.manual_seed(0)
     net = LatentCritic(latent_size=12, text_dim=8, max_frames=196, hidden=32, width=16)
     z, text = torch.randn(6, 3, 4), torch.randn(2, 8)
@@ -30,19 +31,33 @@ def test_scores_are_cosines_and_best_is_the_argmax_per_prompt() -> None:
     rows = text.repeat_interleave(3, dim=0)
     scores = net.score(z, frames, rows)
     assert scores.shape == (6,) and bool((scores.abs() <= 1 + 1e-6).all())
-    best = Critic(net, {"candidates": 3}).best(z, frames[::3], text, candidates=3)
+    best = Critic(net, {"candidates": 3, "margin": 0}).best(z, frames[::3], text, candidates=3)
     assert best.tolist() == scores.view(2, 3).argmax(1).tolist()
+    # with a margin: the first candidate within it of the best, on tensors as on arrays
+    within = Critic(net, {"candidates": 3, "margin": 2}).best(z, frames[::3], text, candidates=3)
+    assert isinstance(within, torch.Tensor) and within.tolist() == [0, 0]
     # a latent's score depends on its length too (the horizon fraction is an input)
     assert not torch.allclose(net.score(z[:1], torch.tensor([20]), text[:1]),
                               net.score(z[:1], torch.tensor([190]), text[:1]))
 
 
+def test_pick_is_the_first_candidate_within_the_margin_of_the_best() -> None:
+    scores = np.array([[0.50, 0.58, 0.60, 0.20],   # 0.50 is 0.10 short: not within 0.05
+                       [0.61, 0.70, 0.64, 0.10],   # 0.64 is within, but 0.70 comes first
+                       [0.40, 0.30, 0.44, 0.10],   # the seed's own sample is within
+                       [0.30, 0.30, 0.10, 0.30]])  # ties: the first
+    assert pick(scores, 0.05).tolist() == [1, 1, 0, 0]
+    assert pick(scores, 0.0).tolist() == [2, 1, 2, 0]
+    assert pick(scores, 2.0).tolist() == [0, 0, 0, 0]  # any margin past the range: the seed's
+
+
 def test_the_file_round_trips_in_float16_and_refuses_what_does_not_fit(tmp_path: Path) -> None:
     net = LatentCritic(192, 384, 196, hidden=64, width=32)
-    path = save_critic(tmp_path, net, {"steps": 1}, "minilm+sides", candidates=4)
+    path = save_critic(tmp_path, net, {"steps": 1}, "minilm+sides", candidates=4, margin=0.02)
     assert path.name == FILE
     critic = read_critic(tmp_path, "minilm+sides", 384, 192)
     assert critic is not None and critic.candidates == 4 and critic.info["training"] == {"steps": 1}
+    assert critic.margin == 0.02
     for name, value in critic.network.state_dict().items():
         torch.testing.assert_close(value, net.state_dict()[name].half().float())
     assert read_critic(tmp_path / "none", "minilm+sides", 384, 192) is None
@@ -53,6 +68,14 @@ def test_the_file_round_trips_in_float16_and_refuses_what_does_not_fit(tmp_path:
     (tmp_path / FILE).write_bytes(b"not safetensors")
     with pytest.raises(MlctError, match="not a critic"):
         read_critic(tmp_path, "minilm+sides", 384, 192)
+
+
+@pytest.mark.parametrize("value", [-0.1, 2.5, "0.05", True, None])
+def test_bad_margins_are_named(value: object) -> None:
+    with pytest.raises(MlctError, match="margin must be a number in 0..2"):
+        check_margin(value)
+    with pytest.raises(MlctError, match="margin must be a number in 0..2"):
+        Critic(None, {"margin": value})
 
 
 @pytest.mark.parametrize("value", [0, -1, 65, 2.5, "8", True, None])
@@ -82,7 +105,7 @@ def trained(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_training_writes_a_critic_the_model_loads(trained: Path) -> None:
     gen = mlct.load(trained, backend="torch")
-    assert gen.critic is not None and gen.candidates == 4
+    assert gen.critic is not None and gen.candidates == 4 and gen.critic.margin == DEFAULT_MARGIN
     info = json.loads((trained / "config.json").read_text())
     assert gen.critic.info["text_encoder"] == info["text_encoder"]
 
@@ -95,7 +118,8 @@ def test_best_of_n_keeps_the_critics_choice_and_replays(trained: Path) -> None:
     again = gen.generate(text, lengths=frames, seed=5, candidates=4)[0]
     np.testing.assert_array_equal(picked.joints, again.joints)
     plain = gen.generate(text, lengths=frames, seed=5, candidates=1)[0]
-    # candidate 0 is the plain sample of the seed; the pick is the critic's argmax of the 4
+    # candidate 0 is the plain sample of the seed; the pick is the first of the 4 within the
+    # critic's margin of the best
     cond = gen.encode_text([text]).repeat(4, 1)
     from mlct.generate.seeds import SEED_STRIDE, MAX_SEED
     seeds = [(5 + k * SEED_STRIDE) % (MAX_SEED + 1) for k in range(4)]
@@ -104,7 +128,12 @@ def test_best_of_n_keeps_the_critics_choice_and_replays(trained: Path) -> None:
                                       torch.full((4,), frames), cond)
     made = gen.decode(z, [frames] * 4)
     np.testing.assert_allclose(made[0], plain.features, atol=1e-4)
-    np.testing.assert_allclose(made[int(scores.argmax())], picked.features, atol=1e-4)
+    chosen = int(pick(scores.detach().numpy()[None], gen.critic.margin)[0])
+    np.testing.assert_allclose(made[chosen], picked.features, atol=1e-4)
+    # margin 0 is the best of the 4
+    gen.critic.margin = 0.0
+    best = gen.generate(text, lengths=frames, seed=5, candidates=4)[0]
+    np.testing.assert_allclose(made[int(scores.argmax())], best.features, atol=1e-4)
 
 
 def test_candidates_need_a_critic(trained: Path, tmp_path: Path) -> None:
@@ -128,6 +157,13 @@ def test_cli_generate_candidates(trained: Path, tmp_path: Path) -> None:
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "candidates must be" in bad.stderr
     assert "Traceback" not in bad.stderr and not (tmp_path / "b.npy").exists()
+    best = subprocess.run(base + ["--critic-margin", "0", "--out", str(tmp_path / "c.npy")],
+                          capture_output=True, text=True)
+    assert best.returncode == 0, best.stderr
+    far = subprocess.run(base + ["--critic-margin", "-1", "--out", str(tmp_path / "d.npy")],
+                         capture_output=True, text=True)
+    assert far.returncode == 2 and "margin must be a number in 0..2" in far.stderr
+    assert "Traceback" not in far.stderr and not (tmp_path / "d.npy").exists()
 
 
 def test_a_bundles_meta_stays_json_and_points_at_its_own_folder(trained: Path,

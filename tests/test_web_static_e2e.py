@@ -519,13 +519,15 @@ def test_the_length_comes_from_the_text_unless_set(page, reference):
 
 def test_best_of_n_picks_what_the_python_critic_picks(page, reference):
     """The page samples the model's 8 candidates in one batch (candidate k's noise from seed +
-    k * SEED_STRIDE mod 2^63, in BigInt) and keeps the one its critic graph rates best: the
-    scores are the torch critic's, the motion Python's; candidates 1 is the plain sample, and a
-    count past the critic's limit is refused with a message."""
+    k * SEED_STRIDE mod 2^63, in BigInt) and keeps the first its critic graph rates within the
+    model's margin of the best: the scores are the torch critic's, the motion Python's;
+    candidates 1 is the plain sample, and a count past the critic's limit is refused with a
+    message."""
     from mlct.generate.seeds import MAX_SEED, SEED_STRIDE
 
     text = "a person kicks with the left leg"
     assert page.evaluate("window.mlct.model.defaultCandidates") == reference.candidates == 8
+    assert page.evaluate("window.mlct.model.config.critic.margin") == reference.critic.margin
     seeds = page.evaluate("(s) => window.mlct.model.candidateSeeds(s, 8).map(String)", 2**40 + 3)
     assert [int(s) for s in seeds] == [(2**40 + 3 + k * SEED_STRIDE) % (MAX_SEED + 1)
                                        for k in range(8)]

@@ -42,12 +42,17 @@ def run(args: argparse.Namespace) -> int:
         from mlct.generate.compose.critic import check_candidates
 
         check_candidates(args.candidates)
+    if args.critic_margin is not None:
+        from mlct.generate.compose.critic import check_margin
+
+        check_margin(args.critic_margin)
     from mlct.generate.load import check_options
 
     check_options(args.device, args.dtype, args.backend)  # a combination no model runs
     request = generate_files.Request(prompts, args.seconds, args.length, args.num, args.nfe,
                                      args.seed, long, split_actions=not args.whole_prompt,
                                      control=_control(args), candidates=args.candidates,
+                                     critic_margin=args.critic_margin,
                                      keep_going=not args.no_keep_going,
                                      plant_feet=not args.no_plant_feet,
                                      text_anchors=not args.no_text_anchors,
@@ -177,8 +182,12 @@ def add_parser(commands: Commands) -> None:
                           help="motion i gets seed + i (default: random)")
     generate.add_argument("--num", type=int, default=1, help="variations per prompt (default 1)")
     generate.add_argument("--candidates", type=int, default=None,
-                          help="sample N motions per prompt and keep the one the model's critic "
-                          "rates best (default: the model's, 8 for the bundled model; 1 = plain)")
+                          help="sample N motions per prompt and keep one the model's critic "
+                          "rates among the best (--critic-margin; default: the model's, 8 for "
+                          "the bundled model; 1 = plain)")
+    generate.add_argument("--critic-margin", type=float, default=None,
+                          help="keep the first candidate, in seed order, within this much of "
+                          "the critic's best score (default: the model's, 0.05; 0 = the best)")
     generate.add_argument("--device", default=None)
     generate.add_argument("--dtype", default="float32", choices=["float32", "bfloat16"],
                           help="precision of the networks' products (docs/performance.md)")

@@ -132,16 +132,18 @@ def run_durations(args: argparse.Namespace) -> int:
 
 def run_critic(args: argparse.Namespace) -> int:
     """Train the best-of-N critic (train/critic.py) and write it beside the model's weights."""
-    from mlct.generate.compose.critic import check_candidates
+    from mlct.generate.compose.critic import DEFAULT_MARGIN, check_candidates, check_margin
     from mlct.generate.bundle import bundled_model_dir
     from mlct.eval.readouts import evaluate_label
     from mlct.train.critic import train_critic
 
     model_dir = bundled_model_dir() if args.model == "bundled" else Path(args.model)
     check_candidates(args.candidates)
+    margin = DEFAULT_MARGIN if args.margin is None else check_margin(args.margin)
     summary = train_critic(args.data, model_dir, split=args.split, steps=args.steps,
                            seed=args.seed, candidates=args.candidates, samples=args.samples,
-                           judge=evaluate_label, log=(lambda _: None) if args.quiet else print)
+                           judge=evaluate_label, log=(lambda _: None) if args.quiet else print,
+                           margin=margin)
     held = summary.get("test")
     print(f"critic: {summary['captions']} captions, {summary['steps']} steps, "
           f"{summary['seconds']:.0f} s" + (f"; test label top-1 {held['label_top1']:.3f}, "
@@ -232,6 +234,10 @@ def add_parser(commands: Commands) -> None:
     critic.add_argument("--seed", type=int, default=0)
     critic.add_argument("--candidates", type=int, default=8,
                         help="the model's default best-of-N (default 8)")
+    critic.add_argument("--margin", type=float, default=None,
+                        help="the model's default margin: the first candidate within it of "
+                        "the critic's best is kept (default: generate/compose/critic.py's "
+                        "DEFAULT_MARGIN; 0 = the best)")
     critic.add_argument("--samples", type=int, default=0, metavar="K",
                         help="also rank the model's own K samples of each one-action training "
                         "motion by the benchmark's read-outs (needs labels.jsonl; 0: off)")

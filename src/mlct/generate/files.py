@@ -47,6 +47,8 @@ class Request:
     split_actions: bool = True  # a prompt naming actions in sequence: one part each, chained
     control: Any = None  # a generate.control.Control: path, keyframes, edit, prefix
     candidates: int | None = None  # best-of-N by the model's critic; None: the model's default
+    # the first candidate this close to the critic's best (compose/critic.py); None: the model's
+    critic_margin: float | None = None
     keep_going: bool = True  # locomotion longer than its natural length: chained takes
     plant_feet: bool = True  # a standing foot held where it stands (motion/foot_lock.py)
     text_anchors: bool = True  # a far prompt pulled towards the training captions' vectors
@@ -55,8 +57,13 @@ class Request:
 
 def _configured(generator: Any, request: Request) -> Any:
     """The generator with the request's pipeline switches set (keep going, planted feet, text
-    anchors)."""
+    anchors, the critic's margin)."""
     generator.keep_going = request.keep_going
+    if request.critic_margin is not None:
+        if generator.critic is None:
+            raise MlctError("--critic-margin: this model has no critic to choose among "
+                            "candidates")
+        generator.critic.margin = request.critic_margin
     if not request.plant_feet:
         generator.foot_lock = None
     if not request.text_anchors:

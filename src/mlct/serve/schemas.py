@@ -81,8 +81,8 @@ def request_model(limits: Limits) -> type[BaseModel]:
         """Texts to motions. Give `texts` (a list) or `text` (one); `lengths` (frames) or
         `seconds`, one per text or one for all (default 5 s, or what the prompt says: "... for
         3 seconds"; "auto": from the text);
-        `candidates`: motions sampled per text, the one the model's critic rates best kept
-        (default: the model's); `seed`: an int s seeds text i with s + i (omitted: random,
+        `candidates`: motions sampled per text, one the model's critic rates among the best
+        kept (its margin; default: the model's); `seed`: an int s seeds text i with s + i (omitted: random,
         returned in the reply); `format`: json for every text, npy/bvh/gif/glb/fbx/vrma/npz
         for one text as a file download; `rig`: a retarget preset for bvh, glb and fbx
         (docs/export.md); `in_place`: the pelvis kept over its start, no travel over the

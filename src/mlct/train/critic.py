@@ -32,7 +32,7 @@ from mlct.data.labels import LABELS_FILE, read_labels
 from mlct.data.layout import DatasetLayout
 from mlct.errors import MlctError
 from mlct.generate.bundle import bundle_autoencoder_state, read_bundle
-from mlct.generate.compose.critic import DEFAULT_CANDIDATES, save_critic
+from mlct.generate.compose.critic import DEFAULT_CANDIDATES, DEFAULT_MARGIN, save_critic
 from mlct.nn.build import build_autoencoder
 from mlct.nn.critic import LatentCritic
 from mlct.text.sides import mirror_sides
@@ -153,7 +153,8 @@ def train_critic(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
                  split: str = "train", steps: int = 3000, batch_size: int = 256, lr: float = 1e-3,
                  seed: int = 0, eval_split: str | None = "test",
                  candidates: int = DEFAULT_CANDIDATES, samples: int = 0,
-                 judge: Any = None, log: Any = print) -> dict[str, Any]:
+                 judge: Any = None, log: Any = print,
+                 margin: float = DEFAULT_MARGIN) -> dict[str, Any]:
     """Train the critic of the model in `model_dir` on `split` and write critic.safetensors
     there; returns what it measured (on `eval_split` when the data has it).
 
@@ -243,5 +244,5 @@ def train_critic(data_dir: str | os.PathLike, model_dir: str | os.PathLike,
                                                                                 held_foils)
             training["samples"][f"{eval_split}_random_passes"] = base_rate(held_foils)
             training["samples"][f"{eval_split}_mixed"] = held_foils.info["mixed"]
-    save_critic(model_dir, critic, training, meta["text_encoder"], candidates)
+    save_critic(model_dir, critic, training, meta["text_encoder"], candidates, margin)
     return training

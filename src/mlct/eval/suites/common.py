@@ -71,6 +71,18 @@ class Tally:
                 "families": {f: self.rate(v) for f, v in sorted(self.family.items())}}
 
 
+def set_critic_margin(pipe: Any, margin: float | None) -> None:
+    """A suite's --critic-margin on a loaded model (None: the model's own)."""
+    if margin is None:
+        return
+    from mlct.errors import MlctError
+    from mlct.generate.compose.critic import check_margin
+
+    if pipe.critic is None:
+        raise MlctError("--critic-margin: this model has no critic")
+    pipe.critic.margin = check_margin(margin)
+
+
 def prompt_label(actions: list[dict[str, Any]], seconds: float) -> dict[str, Any]:
     """A label for a hand-written prompt: its actions share the clip in equal windows."""
     share = seconds / len(actions)

@@ -1,8 +1,8 @@
 """The benchmark suite: does the model do what its text says? Read-outs per family and side.
 
     python bench/quality.py motion --data SYNTH [--model MODEL_DIR] [--ae RUN] [--seeds 5]
-        [--classifier CLS] [--limit N] [--json OUT] [--candidates N] [--skip-generation]
-        [--reading-gaps]
+        [--classifier CLS] [--limit N] [--json OUT] [--candidates N] [--critic-margin M]
+        [--skip-generation] [--reading-gaps]
 
 Every motion is scored by mlct.eval.readouts: the checks that a benchmark label (family, side,
 count, direction) implies, read from the joints alone. It prints the pass rate, per family and
@@ -54,7 +54,7 @@ from mlct.eval.judge.action_classifier import read_labels
 from mlct.eval.pipeline_recon import pipeline_reconstruction
 from mlct.eval.readouts import evaluate_label, foot_travel, heading_change, pelvis_rise
 from mlct.eval.suites.common import (MAX_FRAMES, Tally, in_order_judge_check, judge_prompt,
-                                     print_table, prompt_file)
+                                     print_table, prompt_file, set_critic_margin)
 from mlct.eval.suites.reading_gaps import ReadingGaps
 from mlct.motion.features import features_to_joints
 from mlct.motion.skeleton import HUMANML3D
@@ -78,6 +78,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--backend", default="torch", help="mlct.load's backend (torch, onnx)")
     parser.add_argument("--candidates", type=int, default=None,
                         help="best-of-N by the model's critic (default: the model's; 1 = plain)")
+    parser.add_argument("--critic-margin", type=float, default=None,
+                        help="the first candidate this close to the critic's best (default: the "
+                             "model's; 0 = the best)")
 
 
 def run(args: argparse.Namespace) -> None:
@@ -140,6 +143,7 @@ def run(args: argparse.Namespace) -> None:
 
     if not args.skip_generation:
         pipe = mlct.load(args.model, backend=args.backend)
+        set_critic_margin(pipe, args.critic_margin)
         captions = [layout.read_texts(n)[0].caption for n in names]
         lengths = [min(len(r), pipe.max_frames) for r in real]
         generated, made_features, targets = Tally(), [], []
@@ -189,7 +193,8 @@ def run(args: argparse.Namespace) -> None:
 
     print(f"{len(names)} motions of {args.data} ({args.split}); nfe {args.nfe}, "
           f"{args.seeds} seeds; model {args.model or 'bundled'}; candidates "
-          f"{args.candidates or 'default'}")
+          f"{args.candidates or 'default'}; critic margin "
+          f"{'default' if args.critic_margin is None else args.critic_margin}")
     print_table("read-out pass rates", columns)
     judge = report["in_order_judge"]
     print(f"\nin-order judge on the data's {judge['sequences']} sequences (timing dropped): passes "

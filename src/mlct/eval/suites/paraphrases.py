@@ -3,6 +3,9 @@
     python bench/quality.py paraphrases [--models bundled DIR ...] [--seeds 5] [--failures SET]
         [--sets "held-out 5" ...]
 
+A model given as NAME@MARGIN runs with that critic margin (bundled@0: the best of N), so that
+margins compare side by side.
+
 Sets (bench/data): the seen paraphrases, held-out 1 to 7 (--sets: only those named). Each
 prompt is made at 4 s (as bench/quality.py motion's columns) and at the pipeline's default
 length (what a user gets who gives none), the same seeds for every model, scored by the
@@ -22,13 +25,15 @@ from pathlib import Path
 import numpy as np
 
 import mlct
-from mlct.eval.suites.common import SIDE_KEYS, hand_written_sets, prompt_passes
+from mlct.eval.suites.common import (SIDE_KEYS, hand_written_sets, prompt_passes,
+                                     set_critic_margin)
 
 SECONDS = 4.0
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--models", nargs="+", default=["bundled"])
+    parser.add_argument("--models", nargs="+", default=["bundled"],
+                        help="model folders or 'bundled', each maybe NAME@MARGIN")
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--failures", default="held-out 3")
     parser.add_argument("--sets", nargs="+", default=None,
@@ -45,7 +50,13 @@ def run(args: argparse.Namespace) -> None:
     results: dict[str, dict[str, dict[str, np.ndarray]]] = {}
     print(f"{args.seeds} seeds; pass rate at 4 s | at the default length | named side at 4 s")
     for name in args.models:
-        pipe = mlct.load(None if name == "bundled" else Path(name))
+        model, _, margin = name.rpartition("@") if "@" in name else (name, "", "")
+        try:
+            value = float(margin) if margin else None
+        except ValueError:
+            args.error(f"{name!r}: the margin after '@' must be a number")
+        pipe = mlct.load(None if model == "bundled" else Path(model))
+        set_critic_margin(pipe, value)
         results[name] = {}
         for set_name, items in sets.items():
             texts = [p["text"] for p in items]

@@ -22,8 +22,8 @@ procedural benchmark, whose one-action motions are grouped by their label.
   both starting where the features put them: at the origin, facing +Z); the data's variety is
   the same distance between its motions of the label (all splits, at most 12 spread evenly over
   its takes in name order, so that every style is among them). Measured at the
-  defaults, with one candidate (no critic), and with the text anchors off, so that each pull
-  towards one motion shows. With --ae too, the same distance between the autoencoder's
+  defaults, with one candidate (no critic), with the text anchors off and with the critic's
+  best of N (margin 0), so that each pull towards one motion shows. With --ae too, the same distance between the autoencoder's
   reconstructions of the data's motions: the most spread the model can draw for the label,
   since every motion it makes comes out of that decoder;
 - (c) foot skating (GMD's ratio) of the defaults' motions against the data's for the same labels.
@@ -42,6 +42,7 @@ import numpy as np
 
 from mlct.data.labels import LABELS_FILE, read_labels
 from mlct.data.layout import DatasetLayout, provenance_label, read_provenance
+from mlct.eval.suites.common import set_critic_margin
 from mlct.motion.features import features_to_joints
 from mlct.motion.physics import foot_skating_ratio
 from mlct.motion.skeleton import HUMANML3D
@@ -60,6 +61,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--min-motions", type=int, default=3)
     parser.add_argument("--labels", default=None, help="only these labels, separated by ';' (labels hold commas)")
+    parser.add_argument("--critic-margin", type=float, default=None,
+                        help="the defaults' critic margin (default: the model's)")
     parser.add_argument("--json", type=Path, default=None)
 
 
@@ -218,6 +221,8 @@ def _variety(args: argparse.Namespace, layout: DatasetLayout, labels: dict[str, 
     import mlct
 
     pipe = mlct.load(None if args.model == "bundled" else args.model)
+    set_critic_margin(pipe, args.critic_margin)
+    margin_default = pipe.critic.margin if pipe.critic is not None else None
     rows: dict[str, Any] = {}
     anchors = pipe.text_anchors
     for label, names in spread_sets(labels, args).items():
@@ -228,10 +233,16 @@ def _variety(args: argparse.Namespace, layout: DatasetLayout, labels: dict[str, 
                "data_skating": float(np.mean([foot_skating_ratio(j, HUMANML3D) for j in real]))}
         if ceiling is not None:
             row["ae_m"] = ceiling[label]["ae_m"]
-        for setting, kwargs, with_anchors in (("defaults", {}, True),
-                                              ("one_candidate", {"candidates": 1}, True),
-                                              ("no_anchors", {}, False)):
+        for setting, kwargs, with_anchors, margin in (
+                ("defaults", {}, True, margin_default),
+                ("one_candidate", {"candidates": 1}, True, margin_default),
+                ("no_anchors", {}, False, margin_default),
+                ("best_of_n", {}, True, 0.0)):
+            if setting == "best_of_n" and pipe.critic is None:
+                continue
             pipe.text_anchors = anchors if with_anchors else None
+            if pipe.critic is not None:
+                pipe.critic.margin = margin
             made = pipe.generate([caption] * args.seeds, seconds=seconds, seed=0, **kwargs)
             joints = [m.joints for m in made]
             row[f"{setting}_m"] = pairwise_distance(joints)
@@ -239,18 +250,26 @@ def _variety(args: argparse.Namespace, layout: DatasetLayout, labels: dict[str, 
                 row["skating"] = float(np.mean([foot_skating_ratio(j, HUMANML3D)
                                                 for j in joints]))
         pipe.text_anchors = anchors
+        if pipe.critic is not None:
+            pipe.critic.margin = margin_default
         rows[label] = row
     print(f"(b) variety of {args.seeds} seeds (mean joint distance between seeds, cm) against "
           f"the data's own for the label; (c) foot skating; model {args.model}")
+    print(f"    critic margin at the defaults: {margin_default}; 'best': the best of N (margin 0)")
     print(f"    {'label':26s} {'data':>6s} {'default':>8s} {'ratio':>6s} {'1 cand':>7s} "
-          f"{'no anch':>8s} {'skate':>6s} {'data sk':>7s} {'AE':>5s}")
+          f"{'no anch':>8s} {'best':>6s} {'skate':>6s} {'data sk':>7s} {'AE':>5s}")
     for label, r in rows.items():
         print(f"    {label:26s} {r['data_m'] * 100:6.1f} {r['defaults_m'] * 100:8.1f} "
               f"{r['defaults_m'] / r['data_m']:6.2f} {r['one_candidate_m'] * 100:7.1f} "
-              f"{r['no_anchors_m'] * 100:8.1f} {r['skating']:6.3f} {r['data_skating']:7.3f} "
+              f"{r['no_anchors_m'] * 100:8.1f} {r.get('best_of_n_m', float('nan')) * 100:6.1f} "
+              f"{r['skating']:6.3f} {r['data_skating']:7.3f} "
               f"{r.get('ae_m', float('nan')) * 100:5.1f}")
     if rows:
-        ratios = [r["defaults_m"] / r["data_m"] for r in rows.values()]
-        print(f"    median ratio {np.median(ratios):.2f} over {len(rows)} labels; defaults "
-              f"at least 5 cm in {sum(r['defaults_m'] >= 0.05 for r in rows.values())}")
+        for setting in ("defaults", "one_candidate", "no_anchors", "best_of_n"):
+            if f"{setting}_m" not in next(iter(rows.values())):
+                continue
+            ratios = [r[f"{setting}_m"] / r["data_m"] for r in rows.values()]
+            print(f"    {setting:13s} median ratio {np.median(ratios):.2f} over {len(rows)} "
+                  f"labels; at least 5 cm in "
+                  f"{sum(r[f'{setting}_m'] >= 0.05 for r in rows.values())}")
     return rows

@@ -5,8 +5,14 @@ Their latents differ by seed, and for a given prompt some do what it says and so
 the benchmark's test captions, 84 % of one-action motions pass their read-out checks with one
 sample, 92 % with the best of eight chosen by the read-outs themselves). The critic
 (nn/critic.py, trained by `mlct train critic` on the training split only) scores each latent
-against the text and the pipeline decodes the best: `candidates` per prompt, the model's
-default when it has a critic, 1 (plain sampling) when it does not.
+against the text and the pipeline decodes one of the best: `candidates` per prompt, the
+model's default when it has a critic, 1 (plain sampling) when it does not.
+
+Which one: the first candidate, in seed order, whose score is within `margin` of the best
+(Critic.pick). The best itself pulls every seed of a prompt to the one motion the critic likes
+most, so five seeds gave five copies; the seed's own sample is kept whenever the critic rates it
+nearly as well, and a poor one is still replaced. On the bundled model a margin of 0.05 keeps
+the benchmark's read-outs and doubles the seeds' spread (docs/model_card.md); 0 is the best of N.
 
     MODEL_DIR/critic.safetensors   the critic's weights (float16), its sizes and how it was
                                    trained in the safetensors metadata ("mlct": JSON)
@@ -32,10 +38,13 @@ FILE = "critic.safetensors"
 FORMAT, VERSION = "mlct-critic", 1
 DEFAULT_CANDIDATES = 8  # best of 8: docs/model_card.md measures 1, 4 and 8
 MAX_CANDIDATES = 64
+# the first candidate within this much (cosine) of the best: docs/model_card.md measures 0-0.1
+DEFAULT_MARGIN = 0.05
 
 
 def save_critic(model_dir: str | os.PathLike, critic: LatentCritic, training: dict[str, Any],
-                text_encoder: str, candidates: int = DEFAULT_CANDIDATES) -> Path:
+                text_encoder: str, candidates: int = DEFAULT_CANDIDATES,
+                margin: float = DEFAULT_MARGIN) -> Path:
     """Write MODEL_DIR/critic.safetensors atomically (float16 weights)."""
     import torch
     from safetensors.torch import save
@@ -43,7 +52,7 @@ def save_critic(model_dir: str | os.PathLike, critic: LatentCritic, training: di
     info = {"format": FORMAT, "version": VERSION, "text_encoder": text_encoder,
             "latent_size": critic.latent_size, "text_dim": critic.text_dim,
             "max_frames": critic.max_frames, "hidden": critic.hidden, "width": critic.width,
-            "candidates": candidates, "training": training}
+            "candidates": candidates, "margin": margin, "training": training}
     tensors = {k: v.detach().to(torch.float16).contiguous() for k, v in critic.state_dict().items()}
     path = Path(model_dir) / FILE
     with atomic_path(path) as tmp:  # bytes, so that the file gets atomic_path's permissions
@@ -53,7 +62,8 @@ def save_critic(model_dir: str | os.PathLike, critic: LatentCritic, training: di
 
 class Critic:
     """A loaded critic: the network (torch) or its score as an ONNX graph (the shipped
-    critic.onnx: onnx_assets.py), its info, and the best of N latents."""
+    critic.onnx: onnx_assets.py), its info, and the pick among N latents. `margin` may be
+    set on a loaded model (0: always the best)."""
 
     def __init__(self, network: LatentCritic | None, info: dict[str, Any],
                  session: Any = None) -> None:
@@ -61,12 +71,13 @@ class Critic:
         self.session = session
         self.info = info
         self.candidates = int(info.get("candidates", DEFAULT_CANDIDATES))
+        self.margin = check_margin(info.get("margin", DEFAULT_MARGIN))
 
     def best(self, z: Any, frames: Sequence[int] | Any, text_emb: Any, candidates: int) -> Any:
         """z (B * N, n, d) autoencoder latents, N = candidates consecutive rows per prompt;
-        frames (B,), text_emb (B, c) -> (B,) the index of each prompt's best row within its N.
-        Numpy arrays through the graph, tensors through the network (where the critic has
-        one), the index of the same kind."""
+        frames (B,), text_emb (B, c) -> (B,) the index of each prompt's pick within its N
+        (pick). Numpy arrays through the graph, tensors through the network (where the critic
+        has one), the index of the same kind."""
         rows = z.shape[0] // candidates
         if self.session is not None and (isinstance(z, np.ndarray) or self.network is None):
             array = np.asarray(z, dtype=np.float32) if isinstance(z, np.ndarray) else (
@@ -76,7 +87,7 @@ class Critic:
             (scores,) = self.session.run(None, {
                 "z": array, "frames": np.repeat(np.asarray(frames, np.float32), candidates),
                 "text": np.repeat(np.asarray(text, np.float32), candidates, axis=0)})
-            best = scores.reshape(rows, candidates).argmax(axis=1)
+            best = pick(scores.reshape(rows, candidates), self.margin)
             return best if isinstance(z, np.ndarray) else _tensor(best)
         import torch
 
@@ -86,8 +97,15 @@ class Critic:
                                         frames.repeat_interleave(candidates).float(),
                                         torch.as_tensor(text_emb).float()
                                         .repeat_interleave(candidates, dim=0))
-            best = scores.view(rows, candidates).argmax(dim=1)
-        return best.numpy() if isinstance(z, np.ndarray) else best
+            best = pick(scores.view(rows, candidates).numpy(), self.margin)
+        return best if isinstance(z, np.ndarray) else _tensor(best)
+
+
+def pick(scores: np.ndarray, margin: float) -> np.ndarray:
+    """(B, N) scores, candidates in seed order -> (B,) the first within `margin` of its row's
+    best (0: the best; ties go to the first)."""
+    scores = np.asarray(scores, dtype=np.float32)
+    return np.argmax(scores >= scores.max(axis=1, keepdims=True) - np.float32(margin), axis=1)
 
 
 def _tensor(array: np.ndarray) -> Any:
@@ -134,6 +152,13 @@ def read_critic(model_dir: str | os.PathLike, text_encoder: str, text_dim: int,
 
         return Critic(None, info, session(graph, threads))
     return Critic(network, info)
+
+
+def check_margin(value: object) -> float:
+    """A critic margin (a cosine difference, 0..2), or MlctError naming what is wrong."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value <= 2:
+        raise MlctError(f"the critic's margin must be a number in 0..2, got {value!r}")
+    return float(value)
 
 
 def check_candidates(value: object) -> int:

@@ -172,10 +172,12 @@ def site_description(meta: dict, tensors: dict[str, torch.Tensor], model_dir: Pa
         # a clip's length when the page is not given one (compose.timing.default_seconds)
         "default_seconds": DEFAULT_SECONDS,
         "durations": _portable_durations(model_dir, meta),
-        # best of N by the critic (generate/compose/critic.py, MotionGenerator.sample_best): its graph, the
-        # model's N, and how candidate k's seed comes from the motion's (64-bit: strings)
+        # one of the best of N by the critic (generate/compose/critic.py, MotionGenerator.sample_best):
+        # its graph, the model's N and margin, and how candidate k's seed comes from the
+        # motion's (64-bit: strings)
         "critic": None if critic is None else {
             "graph": (stored or {}).get("critic", CRITIC_GRAPH), "candidates": critic.candidates,
+            "margin": critic.margin,
             "max_candidates": MAX_CANDIDATES, "seed_stride": str(SEED_STRIDE),
             "seed_modulus": str(MAX_SEED + 1)},
     }

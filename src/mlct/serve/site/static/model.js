@@ -201,8 +201,8 @@ export class MotionModel {
     return Array.from({ length: count }, (_, k) => (BigInt(seed) + BigInt(k) * BigInt(stride)) % BigInt(modulus));
   }
 
-  // The clean latent (n * d) of one text: a single sample, or the best of `candidates` by the
-  // critic (generate/compose/critic.py: the cosine of the latent's motion with the text).
+  // The clean latent (n * d) of one text: a single sample, or one of the best of `candidates` by
+  // the critic (generate/compose/critic.py: the cosine of the latent's motion with the text).
   async bestLatent(cond, steps, seed, frames, candidates) {
     if (candidates <= 1 || !this.sessions.critic) return this.sample(cond, steps, [new PortableNoise(seed)]);
     const noises = this.candidateSeeds(seed, candidates).map((s) => new PortableNoise(s));
@@ -214,9 +214,13 @@ export class MotionModel {
       z: new ort.Tensor("float32", latents.map((v) => v / this.config.latent_scale), [candidates, 1, n * d]),
       frames: new ort.Tensor("float32", new Float32Array(candidates).fill(frames), [candidates]),
       text: new ort.Tensor("float32", texts, [candidates, cond.length]) });
-    let best = 0;
-    for (let r = 1; r < candidates; r++) if (score.data[r] > score.data[best]) best = r;
-    return latents.slice(best * n * d, (best + 1) * n * d);
+    // the first candidate within the critic's margin of the best (critic.py pick)
+    let top = score.data[0];
+    for (let r = 1; r < candidates; r++) top = Math.max(top, score.data[r]);
+    const floor = Math.fround(top - Math.fround(this.config.critic.margin ?? 0));
+    let chosen = 0;
+    while (score.data[chosen] < floor) chosen++;
+    return latents.slice(chosen * n * d, (chosen + 1) * n * d);
   }
 
   // Denormalized features (frames * D) of a clean latent.
