@@ -152,6 +152,17 @@ def test_denoise_term_regresses_the_conditional_branch_on_the_guided_latent() ->
     per = (0.6**2 + c**2) ** 0.5 - c
     assert torch.allclose(out["denoise"], torch.tensor(per, dtype=torch.float64))
     assert torch.allclose(out["loss"], plain["loss"] + 0.5 * out["denoise"])
+    # denoise_max_t: only the items drawn at t_i <= it carry the term (over the whole batch)
+    replay = torch.Generator().manual_seed(0)
+    t_i = GRID[torch.randint(1, 50, (8,), generator=replay)]
+    cut = float(t_i.median())
+    low = consistency_training_loss(online, target, x0, cond, null, SCHEDULE, GRID,
+                                    guidance=2.0, huber_c=c, denoise_weight=0.5,
+                                    denoise_max_t=cut, generator=torch.Generator().manual_seed(0))
+    share = float((t_i <= cut).double().mean())
+    assert 0 < share < 1
+    assert torch.allclose(low["denoise"], torch.tensor(per * share, dtype=torch.float64))
+    assert torch.allclose(low["loss"], plain["loss"] + 0.5 * low["denoise"])
 
 
 def test_motion_term_compares_the_decoded_estimate_with_the_decoded_target() -> None:

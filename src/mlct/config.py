@@ -166,6 +166,9 @@ class ConsistencyConfig(_Section):
     # Ours (0 = the paper): weight of the direct term d(S(x_t, t, c), x_phi), see
     # diffusion/losses.py: the conditional branch also regresses the guided clean latent.
     denoise_weight: float = Field(0.0, ge=0.0)
+    # Ours (None = every t): the direct term only where t_i <= this; at large t its best answer
+    # is the text's median latent, which pulls every seed of a prompt to one motion.
+    denoise_max_t: float | None = Field(None, gt=0.0)
     # Ours (0 = off): the same direct term measured on the motion, through the frozen decoder:
     # smooth-L1 between D(S(x_t, t, c)) and D(x_phi). The latent metric weighs every direction
     # alike, so stage 2 drew the mean count of an arm's oscillation (claps, waves: the latent's

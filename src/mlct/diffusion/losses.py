@@ -36,6 +36,7 @@ def consistency_training_loss(
     huber_c: float = 0.001,
     clamp: float | None = 1.0,
     denoise_weight: float = 0.0,
+    denoise_max_t: float | None = None,
     generator: torch.Generator | None = None,
     decode: Callable[[Tensor], Tensor] | None = None,
     motion_weight: float = 0.0,
@@ -53,6 +54,11 @@ def consistency_training_loss(
     text's information up the 50-point grid one interval at a time; a short run (thousands of
     steps, not the authors' ~200k) then samples near the mean latent for every prompt. The
     direct term is the large-interval end of easy consistency tuning (ECT, Geng et al. 2024).
+    denoise_max_t (ours; None = every t): the direct term only on items with t_i at most this
+    (averaged over the whole batch). Why: from an x_t that has forgotten most of x0, the best
+    regression of x_phi is the text's median latent, so at large t the term pulls every noise
+    of a prompt to one latent and the seeds of a prompt to one motion; where x_t still holds
+    x0 it agrees with what a sample should be.
 
     motion_weight > 0 (ours) with `decode` (latents -> motion features, differentiable, the
     frozen decoder) adds the smooth-L1 of D(S(x_t, t_i, c)) against D(x_phi): the direct term
@@ -89,7 +95,10 @@ def consistency_training_loss(
         "unconditional": unconditional.detach(),
     }
     if denoise_weight > 0:
-        denoise = pseudo_huber(s_cond, x_phi, huber_c)
+        denoise = pseudo_huber(s_cond, x_phi, huber_c, per_sample=True)
+        if denoise_max_t is not None:
+            denoise = denoise * (t_i <= denoise_max_t).to(denoise)
+        denoise = denoise.mean()
         out["loss"] = out["loss"] + denoise_weight * denoise
         out["denoise"] = denoise.detach()
     if motion_weight > 0:

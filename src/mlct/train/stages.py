@@ -438,7 +438,7 @@ class ConsistencyStage(LatentStage):
                        self.text.residuals), self.text.null,
             self.schedule, self.grid, guidance=c.guidance, uncond_weight=c.uncond_weight,
             huber_c=c.huber_c, clamp=self.clamp, denoise_weight=c.denoise_weight,
-            generator=generator, decode=self._decoder(batch) if c.motion_weight else None,
+            denoise_max_t=c.denoise_max_t, generator=generator, decode=self._decoder(batch) if c.motion_weight else None,
             motion_weight=c.motion_weight, motion_items=c.motion_items)
 
     def _decoder(self, batch: dict[str, Any]) -> Callable[[Tensor], Tensor]:
