@@ -150,20 +150,20 @@ def test_candidates_need_a_critic(trained: Path, tmp_path: Path) -> None:
 def test_cli_generate_candidates(trained: Path, tmp_path: Path) -> None:
     base = [sys.executable, "-m", "mlct.cli", "generate", "a person bows", "--model", str(trained),
             "--seconds", "2", "--seed", "1", "--backend", "torch"]
-    one = subprocess.run(base + ["--candidates", "1", "--out", str(tmp_path / "a.npy")],
-                         capture_output=True, text=True)
-    assert one.returncode == 0, one.stderr
-    bad = subprocess.run(base + ["--candidates", "0", "--out", str(tmp_path / "b.npy")],
-                         capture_output=True, text=True)
-    assert bad.returncode == 2 and "candidates must be" in bad.stderr
-    assert "Traceback" not in bad.stderr and not (tmp_path / "b.npy").exists()
-    best = subprocess.run(base + ["--critic-margin", "0", "--out", str(tmp_path / "c.npy")],
-                          capture_output=True, text=True)
-    assert best.returncode == 0, best.stderr
-    far = subprocess.run(base + ["--critic-margin", "-1", "--out", str(tmp_path / "d.npy")],
-                         capture_output=True, text=True)
-    assert far.returncode == 2 and "margin must be a number in 0..2" in far.stderr
-    assert "Traceback" not in far.stderr and not (tmp_path / "d.npy").exists()
+
+    def run(option: str, value: str, out: str) -> subprocess.CompletedProcess:
+        return subprocess.run(base + [option, value, "--out", str(tmp_path / out)],
+                              capture_output=True, text=True)
+
+    for option, good, bad, message in (("--candidates", "1", "0", "candidates must be"),
+                                       ("--critic-margin", "0", "-1",
+                                        "margin must be a number in 0..2")):
+        done = run(option, good, f"{option}-good.npy")
+        assert done.returncode == 0, done.stderr
+        refused = run(option, bad, f"{option}-bad.npy")
+        assert refused.returncode == 2 and message in refused.stderr
+        assert "Traceback" not in refused.stderr
+        assert not (tmp_path / f"{option}-bad.npy").exists()
 
 
 def test_a_bundles_meta_stays_json_and_points_at_its_own_folder(trained: Path,
