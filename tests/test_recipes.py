@@ -3,6 +3,7 @@ hosts' scripts (bench/gpu/): they parse, and the recipe's shared `stage` trains 
 resumes it, keeping the data and autoencoder it was given."""
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -229,3 +230,58 @@ def test_stage_two_defaults_to_version_six_denoiser_and_takes_another(tmp_path):
                                    "stage2_on_body 0")
     assert "denoiser.width=256 denoiser.layers=5 text.encoder" in other
     assert "width=192" not in other
+
+
+def test_the_cmu_mirrors_extract_into_cmus_names(tmp_path: Path) -> None:
+    """tools/extract_cmu_mirrors.sh (EXTRACT_ONLY=1): each snapshot's files land where the CMU
+    importers look, motion-out's renamed takes named back to CMU's, the expmap takes the AMC
+    imports hold left out, and a blob the snapshot lacks named and skipped."""
+    from mlct.data.corpora.cmu_expmap import CMU_TAKES
+
+    def repo(name: str, files: list[str]) -> Path:
+        root = tmp_path / name
+        for rel in files:
+            (root / rel).parent.mkdir(parents=True, exist_ok=True)
+            (root / rel).write_text(f"{name}:{rel}\n")
+        git = ["git", "-C", str(root), "-c", "user.name=t", "-c", "user.email=t@t"]
+        subprocess.run(git[:3] + ["init", "-q"], check=True)
+        subprocess.run(git + ["add", "."], check=True)
+        subprocess.run(git + ["commit", "-q", "-m", "snapshot"], check=True)
+        return root / ".git"
+
+    cyun = repo("cyun", ["data/CMU/asfamc/subjects/01/01.asf",
+                         "data/CMU/asfamc/subjects/01/01_02.amc",
+                         "data/CMU/asfamc/subjects/04/04_01.amc"])
+    przestr = repo("przestr", ["data/02/02_01.bvh", "data/02/02_02.bvh", "data/readme.txt"])
+    motion_out = repo("motion_out", ["assets/asf/moderndance.asf",
+                                     "assets/amc/moderndance/md_02.amc",
+                                     "assets/amc/moderndance/md_walk.amc",
+                                     "assets/amc/mjackson/131_04.amc",
+                                     "assets/amc/martialwalk/135_02.amc"])
+    skipped = next(iter(CMU_TAKES))  # e.g. train/walking/walking_1
+    expmap = repo("expmap", [f"data/cmu_mocap/{skipped}.txt",
+                             "data/cmu_mocap/train/soccer/soccer_1.txt"])
+    # a blob the snapshot lacks (as in a partial clone): its object removed
+    blob = subprocess.run(["git", "--git-dir", str(przestr), "rev-parse",
+                           "HEAD:data/02/02_02.bvh"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    (przestr / "objects" / blob[:2] / blob[2:]).unlink()
+    cmu131 = tmp_path / "cmu131"
+    cmu131.mkdir()
+    for take in ("01", "02", "03"):
+        (cmu131 / f"131_{take}.bvh").write_text(take)
+    out = tmp_path / "out"
+    done = subprocess.run(["bash", str(TOOLS / "extract_cmu_mirrors.sh"), str(out),
+                           str(cyun), str(przestr), str(motion_out), str(expmap), str(cmu131)],
+                          capture_output=True, text=True, env={**os.environ, "EXTRACT_ONLY": "1"})
+    assert done.returncode == 0, done.stderr
+    raw = out / "raw"
+    found = sorted(p.relative_to(raw).as_posix() for p in raw.rglob("*") if p.is_file())
+    assert found == ["cmu1/131_01.bvh", "cmu1/131_02.bvh", "cmu1/131_03.bvh",
+                     "cmu1/amc/01/01.asf", "cmu1/amc/01/01_02.amc", "cmu1/bvh/02/02_01.bvh",
+                     "cmu2/05/05.asf", "cmu2/05/05_02.amc", "cmu2/131/131_04.amc",
+                     "cmu2/135/135_02.amc", "expmap/train/soccer/soccer_1.txt"]
+    assert (raw / "cmu2/05/05_02.amc").read_text() == \
+        "motion_out:assets/amc/moderndance/md_02.amc\n"
+    assert "absent from the snapshot: data/02/02_02.bvh" in done.stderr
+    assert not (out / "commercial").exists()  # the imports did not run

@@ -9,7 +9,8 @@
 # chaneyddtt/Convolutional-Sequence-to-Sequence-Model-for-Human-Dynamics; CMU131 a folder with
 # 131_01..03.bvh. Files are read from each snapshot's HEAD; blobs a snapshot lacks are skipped.
 # Makes OUT/raw/{cmu1,cmu2,expmap}, the imports OUT/{cmu1,cmu2,expmap} and their merge
-# OUT/commercial (the real files stay in OUT, never in the repository).
+# OUT/commercial (the real files stay in OUT, never in the repository). EXTRACT_ONLY=1 stops
+# after OUT/raw.
 set -euo pipefail
 [ $# -ge 5 ] || { echo "usage: $0 OUT CYUN PRZESTR MOTION_OUT EXPMAP [CMU131]" >&2; exit 2; }
 out=$1 cyun=$2 przestr=$3 motion_out=$4 expmap=$5 cmu131=${6:-}
@@ -61,6 +62,7 @@ for f in $(files "$expmap" data/cmu_mocap/ | grep '\.txt$'); do
     copy "$expmap" "$f" "$raw/expmap/$rel"
 done
 
+[ -z "${EXTRACT_ONLY:-}" ] || exit 0
 # one import at a time: each uses both cores
 mlct data import --corpus cmu "$raw/cmu1" --out "$out/cmu1"
 mlct data import --corpus cmu "$raw/cmu2" --out "$out/cmu2"
