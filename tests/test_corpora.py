@@ -448,3 +448,15 @@ def test_a_real_corpus_trains_the_action_classifier_on_its_corpus_labels(release
     bare.mkdir()
     with pytest.raises(MlctError, match="labels.jsonl: missing"):
         action_records(bare)
+
+
+def test_the_variety_verdict_names_each_part_of_the_goal():
+    from mlct.eval.suites.real import variety_verdict
+
+    rows = {"walk": {"defaults_m": 0.40, "data_m": 0.50}, "wave": {"defaults_m": 0.03,
+                                                                   "data_m": 0.04}}
+    assert variety_verdict(rows) == ("goal: median ratio >= 0.8 (0.78: not met); every label's "
+                                     "seeds >= 5 cm apart (1 of 2: not met)")
+    rows["wave"]["defaults_m"] = 0.05
+    assert variety_verdict(rows) == ("goal: median ratio >= 0.8 (1.02: met); every label's "
+                                     "seeds >= 5 cm apart (2 of 2: met)")

@@ -23,7 +23,9 @@ procedural benchmark, whose one-action motions are grouped by their label.
   the same distance between its motions of the label (all splits, at most 12 spread evenly over
   its takes in name order, so that every style is among them). Measured at the
   defaults, with one candidate (no critic), with the text anchors off and with the critic's
-  best of N (margin 0), so that each pull towards one motion shows. With --ae too, the same distance between the autoencoder's
+  best of N (margin 0), so that each pull towards one motion shows; then the defaults against
+  the variety goal (VARIETY_RATIO of the data's spread, median over the labels, and every
+  label's seeds VARIETY_DISTANCE apart), each part met or not. With --ae too, the same distance between the autoencoder's
   reconstructions of the data's motions: the most spread the model can draw for the label,
   since every motion it makes comes out of that decoder;
 - (c) foot skating (GMD's ratio) of the defaults' motions against the data's for the same labels.
@@ -272,4 +274,21 @@ def _variety(args: argparse.Namespace, layout: DatasetLayout, labels: dict[str, 
             print(f"    {setting:13s} median ratio {np.median(ratios):.2f} over {len(rows)} "
                   f"labels; at least 5 cm in "
                   f"{sum(r[f'{setting}_m'] >= 0.05 for r in rows.values())}")
+        print("    " + variety_verdict(rows))
     return rows
+
+
+# The variety goal: at the defaults the seeds of one label spread at least this share of the
+# data's own spread for it (median over the labels), and at least this far apart (m) on every
+# label.
+VARIETY_RATIO, VARIETY_DISTANCE = 0.8, 0.05
+
+
+def variety_verdict(rows: dict[str, dict[str, float]]) -> str:
+    """One line: the defaults against the variety goal, and whether each part is met."""
+    ratio = float(np.median([r["defaults_m"] / r["data_m"] for r in rows.values()]))
+    far = sum(r["defaults_m"] >= VARIETY_DISTANCE for r in rows.values())
+    ratio_met = "met" if ratio >= VARIETY_RATIO else "not met"
+    far_met = "met" if far == len(rows) else "not met"
+    return (f"goal: median ratio >= {VARIETY_RATIO} ({ratio:.2f}: {ratio_met}); every label's "
+            f"seeds >= {VARIETY_DISTANCE * 100:g} cm apart ({far} of {len(rows)}: {far_met})")
