@@ -60,10 +60,9 @@ def _configured(generator: Any, request: Request) -> Any:
     anchors, the critic's margin)."""
     generator.keep_going = request.keep_going
     if request.critic_margin is not None:
-        if generator.critic is None:
-            raise MlctError("--critic-margin: this model has no critic to choose among "
-                            "candidates")
-        generator.critic.margin = request.critic_margin
+        from mlct.generate.compose.critic import set_margin
+
+        set_margin(generator, request.critic_margin)
     if not request.plant_feet:
         generator.foot_lock = None
     if not request.text_anchors:

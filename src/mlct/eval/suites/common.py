@@ -73,14 +73,10 @@ class Tally:
 
 def set_critic_margin(pipe: Any, margin: float | None) -> None:
     """A suite's --critic-margin on a loaded model (None: the model's own)."""
-    if margin is None:
-        return
-    from mlct.errors import MlctError
-    from mlct.generate.compose.critic import check_margin
+    if margin is not None:
+        from mlct.generate.compose.critic import set_margin
 
-    if pipe.critic is None:
-        raise MlctError("--critic-margin: this model has no critic")
-    pipe.critic.margin = check_margin(margin)
+        set_margin(pipe, margin)
 
 
 def prompt_label(actions: list[dict[str, Any]], seconds: float) -> dict[str, Any]:

@@ -25,8 +25,8 @@ procedural benchmark, whose one-action motions are grouped by their label.
   defaults, with one candidate (no critic), with the text anchors off and with the critic's
   best of N (margin 0), so that each pull towards one motion shows; then the defaults against
   the variety goal (VARIETY_RATIO of the data's spread, median over the labels, and every
-  label's seeds VARIETY_DISTANCE apart), each part met or not. With --ae too, the same distance between the autoencoder's
-  reconstructions of the data's motions: the most spread the model can draw for the label,
+  label's seeds VARIETY_DISTANCE apart), each part met or not. With --ae too, the same
+  distance between the autoencoder's reconstructions of the data's motions: the most spread the model can draw for the label,
   since every motion it makes comes out of that decoder;
 - (c) foot skating (GMD's ratio) of the defaults' motions against the data's for the same labels.
 """
@@ -225,6 +225,12 @@ def _variety(args: argparse.Namespace, layout: DatasetLayout, labels: dict[str, 
     pipe = mlct.load(None if args.model == "bundled" else args.model)
     set_critic_margin(pipe, args.critic_margin)
     margin_default = pipe.critic.margin if pipe.critic is not None else None
+    # (name, generate()'s options, text anchors on, critic margin); the best of N needs a critic
+    settings = [("defaults", {}, True, margin_default),
+                ("one_candidate", {"candidates": 1}, True, margin_default),
+                ("no_anchors", {}, False, margin_default)]
+    if pipe.critic is not None:
+        settings.append(("best_of_n", {}, True, 0.0))
     rows: dict[str, Any] = {}
     anchors = pipe.text_anchors
     for label, names in spread_sets(labels, args).items():
@@ -235,13 +241,7 @@ def _variety(args: argparse.Namespace, layout: DatasetLayout, labels: dict[str, 
                "data_skating": float(np.mean([foot_skating_ratio(j, HUMANML3D) for j in real]))}
         if ceiling is not None:
             row["ae_m"] = ceiling[label]["ae_m"]
-        for setting, kwargs, with_anchors, margin in (
-                ("defaults", {}, True, margin_default),
-                ("one_candidate", {"candidates": 1}, True, margin_default),
-                ("no_anchors", {}, False, margin_default),
-                ("best_of_n", {}, True, 0.0)):
-            if setting == "best_of_n" and pipe.critic is None:
-                continue
+        for setting, kwargs, with_anchors, margin in settings:
             pipe.text_anchors = anchors if with_anchors else None
             if pipe.critic is not None:
                 pipe.critic.margin = margin
@@ -267,13 +267,11 @@ def _variety(args: argparse.Namespace, layout: DatasetLayout, labels: dict[str, 
               f"{r['skating']:6.3f} {r['data_skating']:7.3f} "
               f"{r.get('ae_m', float('nan')) * 100:5.1f}")
     if rows:
-        for setting in ("defaults", "one_candidate", "no_anchors", "best_of_n"):
-            if f"{setting}_m" not in next(iter(rows.values())):
-                continue
+        for setting, *_ in settings:
             ratios = [r[f"{setting}_m"] / r["data_m"] for r in rows.values()]
             print(f"    {setting:13s} median ratio {np.median(ratios):.2f} over {len(rows)} "
-                  f"labels; at least 5 cm in "
-                  f"{sum(r[f'{setting}_m'] >= 0.05 for r in rows.values())}")
+                  f"labels; at least {VARIETY_DISTANCE * 100:g} cm in "
+                  f"{sum(r[f'{setting}_m'] >= VARIETY_DISTANCE for r in rows.values())}")
         print("    " + variety_verdict(rows))
     return rows
 

@@ -97,7 +97,7 @@ class Critic:
                                         frames.repeat_interleave(candidates).float(),
                                         torch.as_tensor(text_emb).float()
                                         .repeat_interleave(candidates, dim=0))
-            best = pick(scores.view(rows, candidates).numpy(), self.margin)
+            best = pick(scores.view(rows, candidates).float().cpu().numpy(), self.margin)
         return best if isinstance(z, np.ndarray) else _tensor(best)
 
 
@@ -159,6 +159,14 @@ def check_margin(value: object) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value <= 2:
         raise MlctError(f"the critic's margin must be a number in 0..2, got {value!r}")
     return float(value)
+
+
+def set_margin(generator: Any, margin: float) -> None:
+    """A loaded model's critic margin set to `margin` (checked), for the calls that follow;
+    MlctError when the model has no critic."""
+    if generator.critic is None:
+        raise MlctError("--critic-margin: this model has no critic to choose among candidates")
+    generator.critic.margin = check_margin(margin)
 
 
 def check_candidates(value: object) -> int:
